@@ -1,0 +1,37 @@
+# Two entry points for a fresh machine with only Python 3.11:
+#   make reproduce   set up .venv from the lock file, then run `snakemake reproduce-all`
+#   make test        set up .venv from the lock file, then lint and run the test suite
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: setup reproduce test lint lock clean
+
+$(STAMP): pyproject.toml requirements.lock
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -r requirements.lock
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+reproduce: $(STAMP)
+	$(BIN)/snakemake reproduce-all
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/snakefmt --check Snakefile workflow/rules
+
+test: lint
+	$(BIN)/pytest
+
+# Regenerate the lock file from pyproject.toml (needs network access to the registry).
+lock:
+	rm -rf .lockenv && $(PYTHON) -m venv .lockenv
+	.lockenv/bin/python -m pip install --quiet -e '.[test]' snakemake-executor-plugin-slurm snakemake-executor-plugin-cluster-generic
+	.lockenv/bin/python -m pip freeze --exclude-editable | grep -v '^spa' > requirements.lock
+	rm -rf .lockenv
+
+clean:
+	rm -rf results .snakemake

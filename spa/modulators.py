@@ -1,0 +1,229 @@
+"""Digital pulse modulators: PWM, IPFM, inverse IPFM and first-order ΔΣ (MODEL.md section 2).
+
+Every modulator runs at a fixed step ``dt``. ``xi[k]`` is the input fraction sampled at
+``t = k*dt`` and ``u[k]`` the valve command held over ``[k*dt, (k+1)*dt)``. Event times are
+quantised to the step: a pulse of width ``w`` lasts ``round(w/dt)`` steps (at least one).
+
+None of them loops over samples in Python: each has a closed form in terms of cumulative
+sums of the input.
+
+* IPFM: the integrator with reset-by-subtraction fires exactly when the running integral
+  ``C(t) = ∫ xi`` crosses a multiple of the threshold ``G*t_h``, so the firing count is
+  ``floor(C/(G*t_h))``.
+* IIPFM: the same on ``1 - xi`` with low pulses.
+* ΔΣ: with ``v_k = v_{k-1} + xi_k - u_{k-1}``, ``u_k = [v_k >= 1/2]`` from ``v = u = 0``, the
+  number of ones up to tick ``m`` is ``floor(S_m + 1/2)`` with ``S_m = xi_0 + ... + xi_m``
+  (induction on ``m``, valid for ``xi`` in [0, 1]); ``u_m`` is its increment.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["MODULATORS", "modulate", "check_settings"]
+
+#: Modulator kinds and their settings with defaults (``None`` = required).
+MODULATORS: Mapping[str, Mapping[str, float | None]] = {
+    "pwm": {"f_w": None},
+    "ipfm": {"t_h": None, "gain": 1.0},
+    "iipfm": {"t_l": None, "gain": 1.0},
+    "dsm": {"period": None},
+}
+
+# Relative tolerance used when comparing accumulated floating-point times to event times.
+_EPS = 1e-9
+
+
+def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[str, float]:
+    """Validate a modulator's settings and fill in defaults.
+
+    Parameters
+    ----------
+    kind : {"pwm", "ipfm", "iipfm", "dsm"}
+        Modulator type.
+    dt : float, optional
+        Step of the digital modulator in s. When given, settings are also checked against it
+        (a period or pulse must last at least one step).
+    **settings
+        ``f_w`` (Hz) for PWM; ``t_h`` (s) and ``gain`` for IPFM; ``t_l`` (s) and ``gain`` for
+        IIPFM; ``period`` (s) for ΔΣ.
+
+    Returns
+    -------
+    dict
+        The complete settings as floats.
+
+    Raises
+    ------
+    ValueError
+        For an unknown kind, an unknown or missing setting, or a value outside its range; the
+        message names the setting and the allowed range.
+    """
+    if kind not in MODULATORS:
+        raise ValueError(f"unknown modulator kind {kind!r}; expected one of {sorted(MODULATORS)}")
+    spec = MODULATORS[kind]
+    unknown = sorted(set(settings) - set(spec))
+    if unknown:
+        raise ValueError(
+            f"{kind}: unknown setting(s) {unknown}; expected {sorted(spec)}"
+        )
+    out: dict[str, float] = {}
+    for name, default in spec.items():
+        value = settings.get(name, default)
+        if value is None:
+            raise ValueError(f"{kind}: missing setting {name!r}")
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{kind}: setting {name!r} must be a number, got {value!r}") from None
+        if not math.isfinite(number) or number <= 0.0:
+            raise ValueError(f"{kind}: setting {name!r} must be finite and > 0, got {value!r}")
+        out[name] = number
+    if dt is not None:
+        if not math.isfinite(dt) or dt <= 0.0:
+            raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+        if kind == "pwm" and 1.0 / out["f_w"] < dt * (1 - _EPS):
+            raise ValueError(
+                f"pwm: period 1/f_w = {1 / out['f_w']:g} s is shorter than dt = {dt:g} s; "
+                f"f_w must be <= 1/dt = {1 / dt:g} Hz"
+            )
+        width = {"ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}.get(kind)
+        if width is not None and out[width] < dt * (1 - _EPS):
+            raise ValueError(f"{kind}: setting {width!r} = {out[width]:g} s is shorter than dt = {dt:g} s")
+        if kind in ("ipfm", "iipfm") and out["gain"] * out[width] < dt * (1 - _EPS):
+            raise ValueError(
+                f"{kind}: threshold gain*{width} = {out['gain'] * out[width]:g} s is shorter than "
+                f"dt = {dt:g} s; increase 'gain' or {width!r}"
+            )
+    return out
+
+
+def _check_xi(xi: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    x = np.asarray(xi, dtype=np.float64)
+    if x.ndim != 1:
+        raise ValueError(f"xi must be a one-dimensional array, got shape {x.shape}")
+    if not np.all(np.isfinite(x)):
+        bad = int(np.flatnonzero(~np.isfinite(x))[0])
+        raise ValueError(f"xi must be finite; xi[{bad}] = {x[bad]!r}")
+    return np.clip(x, 0.0, 1.0)
+
+
+def _steps(width: float, dt: float) -> int:
+    """Number of steps a pulse of ``width`` seconds lasts (at least one)."""
+    return max(1, int(math.floor(width / dt + 0.5)))
+
+
+def _held_after(fire: npt.NDArray[np.bool_], width: int) -> npt.NDArray[np.bool_]:
+    """True where the most recent firing is fewer than ``width`` steps back (retriggerable)."""
+    n = fire.size
+    idx = np.arange(n)
+    last = np.where(fire, idx, -(width + 1))
+    np.maximum.accumulate(last, out=last)
+    return (idx - last) < width
+
+
+def _pwm(x: npt.NDArray[np.float64], dt: float, f_w: float) -> npt.NDArray[np.int8]:
+    period = 1.0 / f_w
+    t = np.arange(x.size) * dt
+    n = np.floor(t * f_w + _EPS)  # period index of each step
+    start = np.empty(x.size, dtype=bool)
+    start[0] = True
+    start[1:] = n[1:] != n[:-1]
+    first = np.where(start, np.arange(x.size), 0)
+    np.maximum.accumulate(first, out=first)  # step at which this period began
+    phase = t - n * period
+    return (phase < x[first] * period - _EPS * dt).astype(np.int8)
+
+
+def _integral_pulses(
+    x: npt.NDArray[np.float64], dt: float, width: float, gain: float
+) -> npt.NDArray[np.bool_]:
+    """Firing steps of an integrate-and-fire modulator with threshold ``gain*width``."""
+    threshold_steps = gain * width / dt
+    # Integral up to t_k (exclusive) in units of dt; fire when it crosses a multiple.
+    c = np.concatenate(([0.0], np.cumsum(x)[:-1]))
+    count = np.floor(c / threshold_steps + _EPS)
+    fire = np.empty(x.size, dtype=bool)
+    fire[0] = False
+    fire[1:] = count[1:] > count[:-1]
+    return fire
+
+
+def _dsm(x: npt.NDArray[np.float64], dt: float, period: float) -> npt.NDArray[np.int8]:
+    t = np.arange(x.size) * dt
+    tick = np.floor(t / period + _EPS)
+    start = np.empty(x.size, dtype=bool)
+    start[0] = True
+    start[1:] = tick[1:] != tick[:-1]
+    ticks = np.flatnonzero(start)
+    s = np.cumsum(x[ticks])
+    ones = np.floor(s + 0.5 + _EPS)
+    u_tick = np.diff(ones, prepend=0.0).astype(np.int8)
+    lengths = np.diff(np.append(ticks, x.size))
+    return np.repeat(u_tick, lengths)
+
+
+def modulate(kind: str, xi: npt.ArrayLike, dt: float, **settings: float) -> npt.NDArray[np.int8]:
+    """Turn an input fraction into a 0/1 valve command with a digital pulse modulator.
+
+    Parameters
+    ----------
+    kind : {"pwm", "ipfm", "iipfm", "dsm"}
+        ``"pwm"``: pulse-width modulation at ``f_w`` Hz; ``xi`` is sampled at the start of
+        each period and the output is high for ``xi/f_w`` of it.
+        ``"ipfm"``: integral pulse-frequency modulation; an integrator of ``xi`` fires a high
+        pulse of width ``t_h`` s when it reaches ``gain*t_h`` and subtracts that threshold.
+        ``"iipfm"``: inverse IPFM; high by default, an integrator of ``1 - xi`` fires a low
+        pulse of width ``t_l`` s when it reaches ``gain*t_l``.
+        ``"dsm"``: first-order ΔΣ clocked every ``period`` s:
+        ``v_k = v_{k-1} + xi_k - u_{k-1}``, ``u_k = [v_k >= 1/2]``, from ``v = u = 0``.
+    xi : array_like of float, shape (n,)
+        Input fraction at ``t = k*dt``; clipped to [0, 1].
+    dt : float
+        Step of the modulator in s.
+    **settings
+        ``f_w``; ``t_h`` and ``gain`` (default 1); ``t_l`` and ``gain`` (default 1); ``period``.
+
+    Returns
+    -------
+    numpy.ndarray of int8, shape (n,)
+        ``u[k]`` in {0, 1}, the command over ``[k*dt, (k+1)*dt)``.
+
+    Raises
+    ------
+    ValueError
+        If ``xi`` holds NaN or inf, or a setting is missing, unknown or out of range (for
+        example a PWM period or a pulse width shorter than ``dt``).
+
+    Notes
+    -----
+    Steady pulse trains for constant ``xi`` (Appendix A): PWM duty ``xi`` at ``f_w``; IPFM
+    ``t_h`` high and ``t_h*(G/xi - 1)`` low; IIPFM ``t_l*(G/(1-xi) - 1)`` high and ``t_l``
+    low; ΔΣ duty ``xi`` in multiples of ``period``. A firing while a pulse is still running
+    extends it to a full width after the new firing, so with ``G = 1`` IPFM stays high at
+    ``xi = 1`` and IIPFM stays low at ``xi = 0``.
+
+    Examples
+    --------
+    >>> u = modulate("pwm", [0.25] * 8, dt=0.125, f_w=0.5)
+    >>> u.tolist()
+    [1, 1, 0, 0, 0, 0, 0, 0]
+    """
+    s = check_settings(kind, dt, **settings)
+    x = _check_xi(xi)
+    if x.size == 0:
+        return np.zeros(0, dtype=np.int8)
+    if kind == "pwm":
+        return _pwm(x, dt, s["f_w"])
+    if kind == "ipfm":
+        fire = _integral_pulses(x, dt, s["t_h"], s["gain"])
+        return _held_after(fire, _steps(s["t_h"], dt)).astype(np.int8)
+    if kind == "iipfm":
+        fire = _integral_pulses(1.0 - x, dt, s["t_l"], s["gain"])
+        return (~_held_after(fire, _steps(s["t_l"], dt))).astype(np.int8)
+    return _dsm(x, dt, s["period"])
