@@ -1,0 +1,19 @@
+# spa: reproduce Serrano-Balbontín et al., Robotics 2025, 14(12), 177, and characterise new benches.
+from snakemake.utils import min_version
+
+min_version("9.0")
+
+
+configfile: "config/config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/analytic.smk"
+
+
+rule reproduce_all:
+    name:
+        "reproduce-all"
+    default_target: True
+    input:
+        analytic_targets(),
