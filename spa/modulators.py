@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["MODULATORS", "modulate", "check_settings"]
+__all__ = ["MODULATORS", "check_settings", "modulate"]
 
 #: Modulator kinds and their settings with defaults (``None`` = required).
 MODULATORS: Mapping[str, Mapping[str, float | None]] = {
@@ -118,49 +118,53 @@ def _steps(width: float, dt: float) -> int:
     return max(1, int(math.floor(width / dt + 0.5)))
 
 
-def _held_after(fire: npt.NDArray[np.bool_], width: int) -> npt.NDArray[np.bool_]:
-    """True where the most recent firing is fewer than ``width`` steps back (retriggerable)."""
-    n = fire.size
-    idx = np.arange(n)
-    last = np.where(fire, idx, -(width + 1))
-    np.maximum.accumulate(last, out=last)
-    return (idx - last) < width
+def _first_steps(times: npt.NDArray[np.float64], dt: float) -> npt.NDArray[np.int64]:
+    """Index of the first step at or after each event time (to a relative tolerance)."""
+    return np.ceil(times / dt - _EPS).astype(np.int64)
+
+
+def _from_edges(n: int, rise: npt.NDArray[np.int64], fall: npt.NDArray[np.int64]) -> npt.NDArray[np.int8]:
+    """0/1 signal high on the union of the intervals ``[rise[i], fall[i])`` (clipped to n)."""
+    d = np.zeros(n + 1, dtype=np.int32)
+    np.add.at(d, np.minimum(rise, n), 1)
+    np.subtract.at(d, np.minimum(fall, n), 1)
+    return (np.cumsum(d[:-1]) > 0).view(np.int8)
+
+
+def _period_starts(n: int, dt: float, period: float) -> npt.NDArray[np.int64]:
+    """First step of each clock period ``m*period`` that starts within ``n`` steps."""
+    m = np.arange(int(math.floor(n * dt / period)) + 2)
+    starts = _first_steps(m * period, dt)
+    starts = starts[starts < n]
+    return np.unique(starts)
 
 
 def _pwm(x: npt.NDArray[np.float64], dt: float, f_w: float) -> npt.NDArray[np.int8]:
     period = 1.0 / f_w
-    t = np.arange(x.size) * dt
-    n = np.floor(t * f_w + _EPS)  # period index of each step
-    start = np.empty(x.size, dtype=bool)
-    start[0] = True
-    start[1:] = n[1:] != n[:-1]
-    first = np.where(start, np.arange(x.size), 0)
-    np.maximum.accumulate(first, out=first)  # step at which this period began
-    phase = t - n * period
-    return (phase < x[first] * period - _EPS * dt).astype(np.int8)
+    starts = _period_starts(x.size, dt, period)  # xi is sampled at these steps
+    t_start = np.arange(starts.size) * period
+    ends = _first_steps(t_start + x[starts] * period, dt)
+    nxt = np.append(starts[1:], x.size)
+    ends = np.clip(ends, starts, nxt)
+    return _from_edges(x.size, starts, ends)
 
 
-def _integral_pulses(
-    x: npt.NDArray[np.float64], dt: float, width: float, gain: float
-) -> npt.NDArray[np.bool_]:
-    """Firing steps of an integrate-and-fire modulator with threshold ``gain*width``."""
-    threshold_steps = gain * width / dt
-    # Integral up to t_k (exclusive) in units of dt; fire when it crosses a multiple.
-    c = np.concatenate(([0.0], np.cumsum(x)[:-1]))
-    count = np.floor(c / threshold_steps + _EPS)
-    fire = np.empty(x.size, dtype=bool)
-    fire[0] = False
-    fire[1:] = count[1:] > count[:-1]
-    return fire
+def _firings(x: npt.NDArray[np.float64], dt: float, threshold: float) -> npt.NDArray[np.int64]:
+    """Steps at which an integrate-and-fire modulator with reset-by-subtraction fires.
+
+    The integral up to ``t_k`` (exclusive, in units of ``dt``) crosses the m-th multiple of
+    the threshold exactly where the integrator with subtraction reaches the threshold.
+    """
+    steps = threshold / dt
+    c = np.cumsum(x)  # c[k] = integral up to t_{k+1}
+    total = int(math.floor(c[-1] / steps + _EPS)) if c.size else 0
+    targets = (np.arange(1, total + 1) - _EPS) * steps
+    fire = np.searchsorted(c, targets, side="left") + 1  # first k with integral(t_k) >= target
+    return np.unique(fire[fire < x.size])
 
 
 def _dsm(x: npt.NDArray[np.float64], dt: float, period: float) -> npt.NDArray[np.int8]:
-    t = np.arange(x.size) * dt
-    tick = np.floor(t / period + _EPS)
-    start = np.empty(x.size, dtype=bool)
-    start[0] = True
-    start[1:] = tick[1:] != tick[:-1]
-    ticks = np.flatnonzero(start)
+    ticks = _period_starts(x.size, dt, period)
     s = np.cumsum(x[ticks])
     ones = np.floor(s + 0.5 + _EPS)
     u_tick = np.diff(ones, prepend=0.0).astype(np.int8)
@@ -221,9 +225,9 @@ def modulate(kind: str, xi: npt.ArrayLike, dt: float, **settings: float) -> npt.
     if kind == "pwm":
         return _pwm(x, dt, s["f_w"])
     if kind == "ipfm":
-        fire = _integral_pulses(x, dt, s["t_h"], s["gain"])
-        return _held_after(fire, _steps(s["t_h"], dt)).astype(np.int8)
+        fire = _firings(x, dt, s["gain"] * s["t_h"])
+        return _from_edges(x.size, fire, fire + _steps(s["t_h"], dt))
     if kind == "iipfm":
-        fire = _integral_pulses(1.0 - x, dt, s["t_l"], s["gain"])
-        return (~_held_after(fire, _steps(s["t_l"], dt))).astype(np.int8)
+        fire = _firings(1.0 - x, dt, s["gain"] * s["t_l"])
+        return 1 - _from_edges(x.size, fire, fire + _steps(s["t_l"], dt))
     return _dsm(x, dt, s["period"])
