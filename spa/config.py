@@ -71,6 +71,5 @@ def validate_config(config: Mapping[str, Any], schema_path: str | Path) -> None:
     errors = config_errors(config, schema)
     if errors:
         raise ConfigError(
-            "invalid configuration (checked against "
-            f"{schema_path}):\n  " + "\n  ".join(errors)
+            f"invalid configuration (checked against {schema_path}):\n  " + "\n  ".join(errors)
         )

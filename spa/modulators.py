@@ -69,9 +69,7 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
     spec = MODULATORS[kind]
     unknown = sorted(set(settings) - set(spec))
     if unknown:
-        raise ValueError(
-            f"{kind}: unknown setting(s) {unknown}; expected {sorted(spec)}"
-        )
+        raise ValueError(f"{kind}: unknown setting(s) {unknown}; expected {sorted(spec)}")
     out: dict[str, float] = {}
     for name, default in spec.items():
         value = settings.get(name, default)
@@ -94,7 +92,9 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
             )
         width = {"ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}.get(kind)
         if width is not None and out[width] < dt * (1 - _EPS):
-            raise ValueError(f"{kind}: setting {width!r} = {out[width]:g} s is shorter than dt = {dt:g} s")
+            raise ValueError(
+                f"{kind}: setting {width!r} = {out[width]:g} s is shorter than dt = {dt:g} s"
+            )
         if kind in ("ipfm", "iipfm") and out["gain"] * out[width] < dt * (1 - _EPS):
             raise ValueError(
                 f"{kind}: threshold gain*{width} = {out['gain'] * out[width]:g} s is shorter than "
@@ -115,7 +115,7 @@ def _check_xi(xi: npt.ArrayLike) -> npt.NDArray[np.float64]:
 
 def _steps(width: float, dt: float) -> int:
     """Number of steps a pulse of ``width`` seconds lasts (at least one)."""
-    return max(1, int(math.floor(width / dt + 0.5)))
+    return max(1, math.floor(width / dt + 0.5))
 
 
 def _first_steps(times: npt.NDArray[np.float64], dt: float) -> npt.NDArray[np.int64]:
@@ -123,7 +123,9 @@ def _first_steps(times: npt.NDArray[np.float64], dt: float) -> npt.NDArray[np.in
     return np.ceil(times / dt - _EPS).astype(np.int64)
 
 
-def _from_edges(n: int, rise: npt.NDArray[np.int64], fall: npt.NDArray[np.int64]) -> npt.NDArray[np.int8]:
+def _from_edges(
+    n: int, rise: npt.NDArray[np.int64], fall: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int8]:
     """0/1 signal high on the union of the intervals ``[rise[i], fall[i])`` (clipped to n)."""
     d = np.zeros(n + 1, dtype=np.int32)
     np.add.at(d, np.minimum(rise, n), 1)
@@ -133,7 +135,7 @@ def _from_edges(n: int, rise: npt.NDArray[np.int64], fall: npt.NDArray[np.int64]
 
 def _period_starts(n: int, dt: float, period: float) -> npt.NDArray[np.int64]:
     """First step of each clock period ``m*period`` that starts within ``n`` steps."""
-    m = np.arange(int(math.floor(n * dt / period)) + 2)
+    m = np.arange(math.floor(n * dt / period) + 2)
     starts = _first_steps(m * period, dt)
     starts = starts[starts < n]
     return np.unique(starts)
@@ -157,7 +159,7 @@ def _firings(x: npt.NDArray[np.float64], dt: float, threshold: float) -> npt.NDA
     """
     steps = threshold / dt
     c = np.cumsum(x)  # c[k] = integral up to t_{k+1}
-    total = int(math.floor(c[-1] / steps + _EPS)) if c.size else 0
+    total = math.floor(c[-1] / steps + _EPS) if c.size else 0
     targets = (np.arange(1, total + 1) - _EPS) * steps
     fire = np.searchsorted(c, targets, side="left") + 1  # first k with integral(t_k) >= target
     return np.unique(fire[fire < x.size])
@@ -216,7 +218,7 @@ def modulate(kind: str, xi: npt.ArrayLike, dt: float, **settings: float) -> npt.
     --------
     >>> u = modulate("pwm", [0.25] * 8, dt=0.125, f_w=0.5)
     >>> u.tolist()
-    [1, 1, 0, 0, 0, 0, 0, 0]
+    [1, 1, 1, 1, 0, 0, 0, 0]
     """
     s = check_settings(kind, dt, **settings)
     x = _check_xi(xi)

@@ -36,7 +36,9 @@ def charge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np
         ``k2 + (p0 - k2) * exp(-elapsed/tau2)`` (Eq. 2 solved; Appendix B Eq. A2).
     """
     p0 = np.asarray(p0, dtype=np.float64)
-    return params.k2 + (p0 - params.k2) * np.exp(-np.asarray(elapsed, dtype=np.float64) / params.tau2)
+    return params.k2 + (p0 - params.k2) * np.exp(
+        -np.asarray(elapsed, dtype=np.float64) / params.tau2
+    )
 
 
 def discharge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np.ndarray:
