@@ -29,9 +29,9 @@ from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-import reference  # noqa: E402
+from spa import ValveParams, modulate, simulate
 
-from spa import ValveParams, modulate, simulate  # noqa: E402
+import reference
 
 DT = 1e-4
 DURATION = 55.0
@@ -173,7 +173,8 @@ def main() -> None:
         t_ivp = time.perf_counter() - t0
         print(
             f"{kind:10s} spa {t_spa * 1e3:6.1f} ms  solve_ivp {t_ivp:6.1f} s  "
-            f"speed-up {t_ivp / t_spa:7.0f}x  largest |ivp - spa| {np.abs(p_ivp - p_spa).max():.1e} bar"
+            f"speed-up {t_ivp / t_spa:7.0f}x  "
+            f"largest |ivp - spa| {np.abs(p_ivp - p_spa).max():.1e} bar"
         )
     total_spa = sum(r[1] for r in rows)
     total_ivp = sum(r[2] for r in rows)
