@@ -1,0 +1,150 @@
+"""Figures of the analytic stage (paper Figs. 4 and 5), drawn from tidy tables.
+
+Each function takes the exact table that is written as CSV beside the PNG and returns a
+matplotlib Figure built without pyplot (no global state, no backend switch; PNG output goes
+through Agg). Save it with
+:func:`spa.io.save_figure`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullFormatter
+
+__all__ = ["plot_cost_sweeps", "plot_equilibrium"]
+
+#: Display names and colours, in the paper's panel order of Fig. 5.
+_LABELS = {"pwm": "PWM", "ipfm": "IPFM", "dsm": "ΔΣM", "iipfm": "IIPFM"}
+_COLOURS = {"pwm": "tab:blue", "ipfm": "tab:orange", "dsm": "tab:green", "iipfm": "tab:red"}
+_AXIS_NAMES = {"pwm": "T_W = 1/f_W", "ipfm": "t_h", "iipfm": "t_l", "dsm": "T_ΔΣ"}
+_MS_TICKS = [12.5, 20, 30, 50, 100, 200, 500, 1000]
+_HZ_TICKS = [1, 2, 5, 10, 20, 50, 80]
+
+
+def _require(df: pd.DataFrame, columns: list[str], what: str) -> None:
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise ValueError(f"{what}: missing column(s) {missing}; got {list(df.columns)}")
+
+
+def plot_cost_sweeps(sweeps: pd.DataFrame) -> Figure:
+    """Fig. 4: the linearity cost ``J`` of the four modulators on one axis.
+
+    Parameters
+    ----------
+    sweeps : pandas.DataFrame
+        Tidy sweep table (:func:`spa.tuning.sweep_frame`) with columns ``modulator``,
+        ``x_ms`` and ``J`` (NaN points are left out).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        If a column is missing.
+
+    Notes
+    -----
+    As in the paper, the common x axis is a time in ms: the PWM period ``T_W = 1/f_W``, the
+    IPFM pulse width ``t_h``, the IIPFM pulse separation ``t_l`` and the ΔΣM period. The axis
+    is logarithmic (the grids span 12.5–1000 ms and all minima lie near 20–50 ms); a
+    secondary top axis reads the PWM frequency ``f_W = 1000/T_W`` in Hz. Each curve's minimum
+    is marked and given in the legend.
+    """
+    _require(sweeps, ["modulator", "x_ms", "J"], "sweeps")
+    fig = Figure(figsize=(7.0, 4.2), layout="constrained")
+    ax = fig.add_subplot()
+    for kind, label in _LABELS.items():
+        d = sweeps[(sweeps["modulator"] == kind) & np.isfinite(sweeps["J"])]
+        if d.empty:
+            continue
+        d = d.sort_values("x_ms")
+        best = d.loc[d["J"].idxmin()]
+        label = f"{label} ({_AXIS_NAMES[kind]}): min {best['J']:.2f} at {best['x_ms']:.4g} ms"
+        if kind == "pwm":
+            label += f" ({1e3 / best['x_ms']:.4g} Hz)"
+        ax.plot(d["x_ms"], d["J"], color=_COLOURS[kind], lw=1.5, label=label)
+        ax.plot(best["x_ms"], best["J"], "o", color=_COLOURS[kind], ms=5)
+    ax.set_xscale("log")
+    ax.xaxis.set_major_locator(FixedLocator(_MS_TICKS))
+    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel("modulator parameter: T_W, t_h, t_l, T_ΔΣ (ms)")
+    ax.set_ylabel("linearity cost J (bar)")
+    ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    ax.legend(fontsize=8, loc="upper right")
+    top = ax.secondary_xaxis("top", functions=(_inverse_ms, _inverse_ms))
+    top.xaxis.set_major_locator(FixedLocator(_HZ_TICKS))
+    top.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    top.xaxis.set_minor_formatter(NullFormatter())
+    top.set_xlabel("PWM frequency f_W (Hz)")
+    ax.set_title("Linearity cost versus modulator parameter (Eq. 25)", fontsize=10)
+    return fig
+
+
+def _inverse_ms(x: np.ndarray) -> np.ndarray:
+    """``1000/x`` (ms <-> Hz), safe at 0."""
+    x = np.asarray(x, dtype=np.float64)
+    out = np.full(x.shape, np.inf)
+    np.divide(1e3, x, out=out, where=x != 0)
+    return out
+
+
+def plot_equilibrium(curves: pd.DataFrame) -> Figure:
+    """Fig. 5: equilibrium pressure and time constant against the input fraction.
+
+    Parameters
+    ----------
+    curves : pandas.DataFrame
+        Tidy table (:func:`spa.tuning.equilibrium_frame`) with columns ``modulator``,
+        ``parameter``, ``value``, ``gain``, ``xi``, ``p_eq``, ``p_target``, ``tau_m``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two rows by one column per modulator, in the paper's order (PWM, IPFM, ΔΣM, IIPFM):
+        top, ``P_eq`` (Eq. 5) with the linear target ``k2*xi`` dashed; bottom, ``tau_m``
+        (Eq. 9; gaps where it is undefined: dead-zone and past saturation).
+
+    Raises
+    ------
+    ValueError
+        If a column is missing or there is no modulator to plot.
+    """
+    _require(
+        curves,
+        ["modulator", "parameter", "value", "gain", "xi", "p_eq", "p_target", "tau_m"],
+        "curves",
+    )
+    kinds = [k for k in _LABELS if (curves["modulator"] == k).any()]
+    if not kinds:
+        raise ValueError(f"curves: no known modulator in {sorted(set(curves['modulator']))}")
+    fig = Figure(figsize=(3.0 * len(kinds), 5.2), layout="constrained")
+    axes = fig.subplots(2, len(kinds), sharex=True, sharey="row", squeeze=False)
+    for col, kind in enumerate(kinds):
+        d = curves[curves["modulator"] == kind].sort_values("xi")
+        first = d.iloc[0]
+        value = float(first["value"])
+        if first["parameter"] == "f_w":
+            setting = f"f_W = {value:g} Hz"
+        else:
+            setting = f"{_AXIS_NAMES[kind]} = {value * 1e3:g} ms"
+        if np.isfinite(first["gain"]) and first["parameter"] == "t_l":
+            setting += f", G = {float(first['gain']):.3g}"
+        top, bottom = axes[0, col], axes[1, col]
+        top.plot(d["xi"], d["p_target"], "k--", lw=1.0, label="k2·ξ (linear)")
+        top.plot(d["xi"], d["p_eq"], color=_COLOURS[kind], lw=1.6, label="P_eq (Eq. 5)")
+        top.set_title(f"({'abcd'[col]}) {_LABELS[kind]}: {setting}", fontsize=9)
+        bottom.plot(d["xi"], d["tau_m"], color=_COLOURS[kind], lw=1.6)
+        bottom.set_xlabel("input fraction ξ")
+        for ax in (top, bottom):
+            ax.grid(True, lw=0.3, alpha=0.5)
+            ax.set_xlim(0.0, 1.0)
+    axes[0, 0].set_ylabel("equilibrium pressure (bar)")
+    axes[1, 0].set_ylabel("time constant τ_m (s)")
+    axes[0, 0].legend(fontsize=8, loc="upper left")
+    return fig

@@ -1,0 +1,13 @@
+"""Fig. 4: linearity cost J (Eq. 25) swept over each modulator's parameter."""
+
+from spa.io import get_logger, save_figure, write_csv
+from spa.params import ValveParams
+from spa.plots import plot_cost_sweeps
+from spa.tuning import sweep_frame
+
+log = get_logger("analytic.fig4", snakemake.log[0])
+params = ValveParams(**snakemake.params.nominal)
+data = sweep_frame(snakemake.params.sweeps, params, n_xi=snakemake.params.n_xi)
+write_csv(data, snakemake.output.data)
+save_figure(plot_cost_sweeps(data), snakemake.output.figure)
+log.info("fig 4: %d grid points (n_xi = %d)", len(data), snakemake.params.n_xi)

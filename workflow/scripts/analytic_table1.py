@@ -1,0 +1,11 @@
+"""Table 1: dead-zone and saturation thresholds of the selected modulator settings."""
+
+from spa.averaging import threshold_table
+from spa.io import get_logger, write_csv
+from spa.params import ValveParams
+
+log = get_logger("analytic.table1", snakemake.log[0])
+params = ValveParams(**snakemake.params.nominal)
+table = threshold_table(snakemake.params.selected, params)
+write_csv(table, snakemake.output.table)
+log.info("table 1: %d settings -> %s\n%s", len(table), snakemake.output.table, table)
