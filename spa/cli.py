@@ -1,0 +1,104 @@
+"""Command line: ``spa validate raw/<name>`` and ``spa ingest raw/<name> <out_dir>``.
+
+Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import TextIO
+
+__all__ = ["main"]
+
+
+def _validate(args: argparse.Namespace, out: TextIO) -> int:
+    from spa.datasets import check_dataset
+
+    status = 0
+    for folder in args.folders:
+        problems, summaries = check_dataset(folder)
+        errors = [p for p in problems if p.is_error]
+        warnings = [p for p in problems if not p.is_error]
+        for p in problems:
+            print(p, file=out)
+        if errors:
+            print(
+                f"{folder}: INVALID, {len(errors)} error(s), {len(warnings)} warning(s)",
+                file=out,
+            )
+            status = 1
+            continue
+        for s in summaries:
+            print(s, file=out)
+        print(f"{folder}: OK, {len(summaries)} run(s), {len(warnings)} warning(s)", file=out)
+    return status
+
+
+def _ingest(args: argparse.Namespace, out: TextIO) -> int:
+    from spa.datasets import DatasetError, ingest_dataset
+
+    try:
+        paths = ingest_dataset(args.folder, args.out_dir)
+    except DatasetError as exc:
+        for p in exc.problems:
+            print(p, file=out)
+        print(f"{args.folder}: not ingested, {sum(p.is_error for p in exc.problems)} error(s)",
+              file=out)
+        return 1
+    except ValueError as exc:
+        print(f"error: {exc}", file=out)
+        return 1
+    for path in paths:
+        print(path, file=out)
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="spa",
+        description="Soft pneumatic actuator characterisation: dataset tools.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    p = sub.add_parser(
+        "validate",
+        help="check dataset folders against the contract (raw/README.md)",
+        description="Check each dataset folder; print every problem, or one summary line per "
+        "run. Exit 1 if any dataset has an error.",
+    )
+    p.add_argument("folders", nargs="+", metavar="FOLDER", help="dataset folder, raw/<name>")
+    p.set_defaults(func=_validate)
+    p = sub.add_parser(
+        "ingest",
+        help="validate a dataset and write one canonical run table per run",
+        description="Validate FOLDER, then write OUT_DIR/<run id>.parquet for each run.",
+    )
+    p.add_argument("folder", metavar="FOLDER", help="dataset folder, raw/<name>")
+    p.add_argument("out_dir", metavar="OUT_DIR", help="output folder (not inside raw/)")
+    p.set_defaults(func=_ingest)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``spa`` command line; return the exit status.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        0 on success, 1 if a dataset has an error, 2 for a usage error.
+    """
+    parser = _parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse exits on --help and on usage errors
+        return int(exc.code or 0)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return 2
+    return int(args.func(args, sys.stdout))
