@@ -1227,7 +1227,10 @@ def _normalise_meta(meta: Mapping[str, Any], columns: tuple[str, ...]) -> dict[s
     """Check a run table's metadata and fill in defaults; ``ValueError`` naming the key."""
     if not isinstance(meta, Mapping):
         raise ValueError(f"meta must be a mapping, got {type(meta).__name__}")
-    out = _plain(dict(meta))
+    try:
+        out = json.loads(_meta_bytes(meta))  # a deep, JSON-only copy
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"meta must be JSON-serialisable with finite numbers: {exc}") from None
     out.setdefault("format", RUN_TABLE_FORMAT)
     if out["format"] != RUN_TABLE_FORMAT:
         raise ValueError(f"meta['format'] must be {RUN_TABLE_FORMAT!r}, got {out['format']!r}")
@@ -1273,10 +1276,6 @@ def _normalise_meta(meta: Mapping[str, Any], columns: tuple[str, ...]) -> dict[s
     missing = [c for c in REQUIRED_COLUMNS[out["kind"]] if c not in columns]
     if missing:
         raise ValueError(f"a {out['kind']} run table needs column(s) {missing}")
-    try:
-        _meta_bytes(out)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"meta must be JSON-serialisable with finite numbers: {exc}") from None
     return out
 
 
