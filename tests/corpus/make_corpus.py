@@ -1,0 +1,455 @@
+"""Rebuild the dataset corpus used by tests/test_datasets.py.
+
+    .venv/bin/python tests/corpus/make_corpus.py
+
+``good/<name>/`` holds valid datasets. ``bad/<case>/`` holds one malformed dataset per
+problem, with ``expected.txt`` listing (one per line) substrings that the messages of
+``spa validate`` must contain. The files are committed; rerun this script after changing a
+case, and check the diff.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+import scipy.io
+import yaml
+
+HERE = Path(__file__).resolve().parent
+RIG = {
+    "valve": "3/2 on/off solenoid valve",
+    "actuator": "PneuNet bending actuator",
+    "sensors": "gauge pressure transducer 0-2 bar",
+    "controller": "Arduino Due, 1 kHz",
+}
+N = 20
+
+
+def _write_yaml(folder: Path, doc: dict[str, Any]) -> None:
+    text = yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=100)
+    (folder / "dataset.yaml").write_text(text)
+
+
+def _spec(folder_name: str, runs: list[dict[str, Any]], **extra: Any) -> dict[str, Any]:
+    doc: dict[str, Any] = {
+        "name": folder_name,
+        "description": f"corpus case {folder_name}",
+        "origin": "bench",
+        "rig": RIG,
+    }
+    doc.update(extra)
+    doc["runs"] = runs
+    return doc
+
+
+def _frame(n: int = N, u: bool = False) -> pd.DataFrame:
+    t = np.round(np.arange(n) * 0.001, 6)
+    valve = (np.arange(n) // 5 % 2 == 0).astype(int)
+    p = np.round(0.8 * (1 - np.exp(-t / 0.05)), 6)
+    df = pd.DataFrame({"t": t, "p": p, "valve": valve})
+    if u:
+        df["u"] = np.round(np.minimum(np.arange(n) // 5 * 0.25, 1.0), 6)
+    return df
+
+
+def _csv(folder: Path, name: str, df: pd.DataFrame) -> None:
+    df.to_csv(folder / name, index=False, lineterminator="\n")
+
+
+CHARGE = {"id": "charge1", "kind": "charge", "file": "charge1.csv"}
+STAIR = {
+    "id": "stair1",
+    "kind": "staircase",
+    "file": "stair1.csv",
+    "modulator": {"type": "pwm", "f_w": 20},
+}
+
+
+def _case(folder: Path, runs: list[dict[str, Any]] | None = None, df: pd.DataFrame | None = None,
+          **extra: Any) -> None:
+    """A dataset with one charge run (or ``runs``) whose CSV holds ``df``."""
+    runs = [dict(CHARGE)] if runs is None else runs
+    _write_yaml(folder, _spec(folder.name, runs, **extra))
+    for run in runs:
+        name = run.get("file")
+        if isinstance(name, str) and name.endswith(".csv") and "/" not in name:
+            data = df if df is not None else _frame(u=run.get("kind") in ("staircase", "sine"))
+            _csv(folder, name, data)
+
+
+def _raw(folder: Path, yaml_text: str) -> None:
+    (folder / "dataset.yaml").write_text(yaml_text)
+    _csv(folder, "charge1.csv", _frame())
+
+
+def _mat_case(folder: Path, variables: dict[str, Any], kind: str = "sine") -> None:
+    run = {"id": "m1", "kind": kind, "file": "m1.mat", "modulator": {"type": "dsm", "period": 0.02}}
+    _write_yaml(folder, _spec(folder.name, [run]))
+    scipy.io.savemat(folder / "m1.mat", variables)
+
+
+def _good(folder: Path) -> None:
+    """Every kind, every modulator, every reader, renamed columns, ms and kPa."""
+    n = 400
+    t_ms = np.arange(n) * 1.0
+    t = t_ms / 1000
+    xi = np.clip(np.floor(t / 0.1) * 0.25, 0, 1)
+    valve = (np.arange(n) % 20 < 10).astype(np.int8)
+    p_kpa = np.round(60 * (1 - np.exp(-t / 0.08)), 5)
+    runs = [
+        {"id": "charge", "kind": "charge", "file": "csv/charge.csv",
+         "notes": "valve opened at t = 0"},
+        {"id": "discharge", "kind": "discharge", "file": "csv/discharge.csv"},
+        {"id": "pulse-10ms", "kind": "pulse", "file": "csv/pulse.csv"},
+        {"id": "stair_pwm", "kind": "staircase", "file": "stair_pwm.parquet",
+         "modulator": {"type": "pwm", "f_w": 20}},
+        {"id": "sine_ipfm", "kind": "sine", "file": "sine_ipfm.mat",
+         "modulator": {"type": "ipfm", "t_h": 0.02}},
+        {"id": "chirp_iipfm", "kind": "chirp", "file": "chirp_iipfm.csv",
+         "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15}},
+        {"id": "stair_dsm", "kind": "staircase", "file": "stair_dsm.csv",
+         "modulator": {"type": "dsm", "period": 0.02}},
+    ]
+    doc = _spec(folder.name, runs, units={"time": "ms", "pressure": "kPa"},
+                columns={"t": "time_ms", "p": "P_kPa", "valve": "V", "u": "xi"})
+    doc["description"] = "Small valid dataset exercising every kind, modulator and file format."
+    _write_yaml(folder, doc)
+    (folder / "csv").mkdir()
+    frame = pd.DataFrame({"time_ms": t_ms, "P_kPa": p_kpa, "V": valve})
+    _csv(folder, "csv/charge.csv", frame)
+    _csv(folder, "csv/discharge.csv", frame.assign(P_kPa=p_kpa[::-1].copy(), V=0))
+    _csv(folder, "csv/pulse.csv", frame)
+    with_u = frame.assign(xi=xi)
+    table = pa.Table.from_pandas(with_u, preserve_index=False)
+    pq.write_table(table, folder / "stair_pwm.parquet")
+    scipy.io.savemat(folder / "sine_ipfm.mat",
+                     {"time_ms": t_ms, "P_kPa": p_kpa, "V": valve.astype(float), "xi": xi})
+    _csv(folder, "chirp_iipfm.csv", with_u)
+    _csv(folder, "stair_dsm.csv", with_u)
+
+
+def _multi(folder: Path) -> None:
+    runs = [
+        {"id": "charge1", "kind": "charge", "file": "charge1.csv"},
+        {"id": "pulse1", "kind": "pulse", "file": "pulse1.csv"},
+        {"id": "sine1", "kind": "sin", "file": "sine1.csv",
+         "modulator": {"type": "pwm", "f_w": 20}},
+    ]
+    doc = _spec(folder.name, runs)
+    doc["orign"] = doc.pop("origin")
+    _write_yaml(folder, doc)
+    bad = _frame().astype({"p": object})
+    bad.loc[4, "p"] = "abc"
+    _csv(folder, "charge1.csv", bad)
+    back = _frame()
+    back.loc[9, "t"] = 0.002
+    back.loc[3, "valve"] = 3
+    _csv(folder, "pulse1.csv", back)
+    _csv(folder, "sine1.csv", _frame(u=True))
+
+
+def _with(df: pd.DataFrame, col: str, row: int, value: Any) -> pd.DataFrame:
+    """``df`` with ``df[col]`` at data row ``row`` (1-based) set to ``value``."""
+    out = df.astype({col: object})
+    out.loc[row - 1, col] = value
+    return out
+
+
+def _truncated_csv(folder: Path) -> None:
+    _case(folder)
+    path = folder / "charge1.csv"
+    data = path.read_bytes()
+    path.write_bytes(data[: data.rstrip(b"\n").rfind(b",")])  # cut the last line mid-row
+
+
+def _parquet_case(folder: Path, table: pa.Table, truncate: bool = False) -> None:
+    run = {"id": "pq1", "kind": "charge", "file": "pq1.parquet"}
+    _write_yaml(folder, _spec(folder.name, [run]))
+    pq.write_table(table, folder / "pq1.parquet")
+    if truncate:
+        data = (folder / "pq1.parquet").read_bytes()
+        (folder / "pq1.parquet").write_bytes(data[: len(data) // 2])
+
+
+def _symlink(folder: Path) -> None:
+    _case(folder, runs=[{"id": "charge1", "kind": "charge", "file": "charge1.csv"}])
+    (folder / "charge1.csv").unlink()
+    (folder / "charge1.csv").symlink_to("../../good/spa_good/csv/charge.csv")
+
+
+def _v73(folder: Path) -> None:
+    _mat_case(folder, {"t": np.arange(3.0)})
+    header = bytearray(b" " * 128)
+    header[:19] = b"MATLAB 7.3 MAT-file"
+    header[124:128] = b"\x00\x02IM"
+    (folder / "m1.mat").write_bytes(bytes(header) + b"\x89HDF\r\n\x1a\n" + b"\x00" * 64)
+
+
+F = _frame()
+FU = _frame(u=True)
+T = np.arange(N) * 0.001
+
+# case name -> (builder, expected substrings)
+BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
+    "missing_yaml": (lambda d: _csv(d, "charge1.csv", F), ["missing dataset.yaml"]),
+    "unparsable_yaml": (
+        lambda d: _raw(d, "name: unparsable_yaml\nruns: [\n  - {id: a, kind: charge\n"),
+        ["cannot parse YAML at line"],
+    ),
+    "yaml_not_mapping": (lambda d: _raw(d, "- charge1.csv\n"), ["expected a mapping with keys"]),
+    "duplicate_yaml_key": (
+        lambda d: _raw(d, "name: duplicate_yaml_key\nname: again\n"),
+        ["cannot parse YAML", "found duplicate key 'name'"],
+    ),
+    "unknown_key_typo": (
+        lambda d: _write_yaml(d, {("descripton" if k == "description" else k): v
+                                  for k, v in _spec(d.name, [CHARGE]).items()})
+        or _csv(d, "charge1.csv", F),
+        ["unknown key 'descripton' (did you mean 'description'?)",
+         "missing required key 'description'"],
+    ),
+    "missing_required_key": (
+        lambda d: _write_yaml(d, {k: v for k, v in _spec(d.name, [CHARGE]).items()
+                                  if k != "origin"}) or _csv(d, "charge1.csv", F),
+        ["missing required key 'origin'"],
+    ),
+    "name_mismatch": (lambda d: _case(d, name="other_name"),
+                      ["name 'other_name' differs from the folder name 'name_mismatch'"]),
+    "bad_name": (lambda d: _case(d, name="my data!"),
+                 ["name 'my data!' must be a string of letters, digits"]),
+    "bad_origin": (
+        lambda d: _case(d, origin="synthetc"),
+        ["origin 'synthetc' is not one of bench, synthetic (did you mean 'synthetic'?)"],
+    ),
+    "bad_rig": (lambda d: _case(d, rig="an Arduino"), ["rig must be a mapping"]),
+    "bad_units": (
+        lambda d: _case(d, units={"time": "sec", "pressure": "kpa"}),
+        ["units.time: time unit 'sec' is not one of s, ms",
+         "pressure unit 'kpa' is not one of bar, mbar, kPa, psi (did you mean 'kPa'?)"],
+    ),
+    "unknown_units_key": (lambda d: _case(d, units={"presure": "kPa"}),
+                          ["unknown key 'presure' (did you mean 'pressure'?)"]),
+    "bad_columns_key": (lambda d: _case(d, columns={"valv": "V"}),
+                        ["unknown canonical column 'valv' (did you mean 'valve'?)"]),
+    "columns_duplicate": (lambda d: _case(d, columns={"p": "x", "u": "x"}),
+                          ["file column 'x' is used for several canonical columns"]),
+    "unknown_kind": (
+        lambda d: _case(d, runs=[{**CHARGE, "kind": "stair"}]),
+        ["runs[0].kind [run 'charge1']: unknown kind 'stair'", "(did you mean 'staircase'?)"],
+    ),
+    "unknown_modulator_type": (
+        lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "pfm", "f_w": 20}}]),
+        ["runs[0].modulator [run 'stair1']: unknown modulator type 'pfm'",
+         "(did you mean 'ipfm'?)"],
+    ),
+    "bad_modulator_settings": (
+        lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "pwm", "f_w": -5}}]),
+        ["bad modulator settings: pwm: setting 'f_w' must be finite and > 0"],
+    ),
+    "missing_modulator_setting": (
+        lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "ipfm", "gain": 1.2}}]),
+        ["ipfm: missing setting 't_h'"],
+    ),
+    "modulator_setting_typo": (
+        lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "ipfm", "th": 0.02}}]),
+        ["unknown ipfm setting 'th' (did you mean 't_h'?)"],
+    ),
+    "missing_modulator": (
+        lambda d: _case(d, runs=[{k: v for k, v in STAIR.items() if k != "modulator"}]),
+        ["runs[0].modulator [run 'stair1']: a staircase run needs a modulator"],
+    ),
+    "duplicate_run_id": (
+        lambda d: _case(d, runs=[dict(CHARGE), dict(CHARGE)]),
+        ["runs[1].id [run 'charge1']: duplicate run id 'charge1'"],
+    ),
+    "bad_run_id": (
+        lambda d: _case(d, runs=[{**CHARGE, "id": "run 1/a"}]),
+        ["id 'run 1/a' is not filename-safe"],
+    ),
+    "numeric_run_id": (
+        lambda d: _case(d, runs=[{**CHARGE, "id": 7}]),
+        ["runs[0].id: id must be a string (quote it in YAML: id: '7')"],
+    ),
+    "unknown_run_key": (
+        lambda d: _case(d, runs=[{**STAIR, "modulater": STAIR["modulator"]}]),
+        ["unknown key 'modulater' (did you mean 'modulator'?)"],
+    ),
+    "missing_run_keys": (
+        lambda d: _case(d, runs=[{"id": "charge1", "kind": "charge"}]),
+        ["runs[0] [run 'charge1']: missing required key 'file'"],
+    ),
+    "runs_empty": (lambda d: _case(d, runs=[]), ["runs is empty"]),
+    "path_absolute": (
+        lambda d: _case(d, runs=[{**CHARGE, "file": "/etc/hostname.csv"}]),
+        ["file path '/etc/hostname.csv' is absolute"],
+    ),
+    "path_dotdot": (
+        lambda d: _case(d, runs=[{**CHARGE, "file": "../../good/spa_good/csv/charge.csv"}]),
+        ["leaves the dataset folder through '..'"],
+    ),
+    "path_backslash": (
+        lambda d: _case(d, runs=[{**CHARGE, "file": "csv\\charge1.csv"}]),
+        ["use '/' between folders"],
+    ),
+    "path_symlink": (_symlink, ["outside the dataset folder (a symlink pointing out?)"]),
+    "missing_file": (
+        lambda d: _case(d, runs=[{**CHARGE, "file": "nothere.csv"}])
+        or (d / "nothere.csv").unlink(),
+        ["runs[0].file [run 'charge1']: file 'nothere.csv' not found"],
+    ),
+    "unsupported_extension": (
+        lambda d: _case(d, runs=[{**CHARGE, "file": "charge1.xlsx"}])
+        or (d / "charge1.xlsx").write_bytes(b"PK\x03\x04"),
+        ["unsupported file type '.xlsx'", "expected one of .csv, .parquet, .mat"],
+    ),
+    "empty_file": (
+        lambda d: _case(d) or (d / "charge1.csv").write_bytes(b""),
+        ["charge1.csv [run 'charge1']: file is empty (0 bytes)"],
+    ),
+    "header_only": (lambda d: _case(d, df=F.iloc[:0]),
+                    ["0 data row(s); a run needs at least 2 samples"]),
+    "one_row": (lambda d: _case(d, df=F.iloc[:1]),
+                ["1 data row(s); a run needs at least 2 samples"]),
+    "truncated_csv": (
+        _truncated_csv,
+        [f"row {N} (line {N + 1})]: malformed line: expected 3 comma-separated fields, got 2"],
+    ),
+    "unreadable_csv_header": (
+        lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"\xff\xfe\x00t\x00,\n1,2\n"),
+        ["the header line is not UTF-8 text"],
+    ),
+    "truncated_parquet": (
+        lambda d: _parquet_case(d, pa.Table.from_pandas(F, preserve_index=False), truncate=True),
+        ["pq1.parquet [run 'pq1']: unreadable Parquet file (truncated or damaged?)"],
+    ),
+    "parquet_text_column": (
+        lambda d: _parquet_case(d, pa.table({"t": T, "p": ["0.1"] * 5 + ["high"] + ["0.2"] * 14})),
+        ["column 'p', row 6]: non-numeric value; expected a number"],
+    ),
+    "parquet_bad_type": (
+        lambda d: _parquet_case(d, pa.table({"t": T, "p": pa.array([[1.0]] * N)})),
+        ["column 'p']: column has Parquet type list<", "expected numbers"],
+    ),
+    "parquet_missing_column": (
+        lambda d: _parquet_case(d, pa.table({"time": T, "p": np.zeros(N)})),
+        ["missing column 't'", "a charge run needs time (t)", "the file has 'time', 'p'"],
+    ),
+    "unreadable_mat": (
+        lambda d: _mat_case(d, {}) or (d / "m1.mat").write_bytes(b"not a MATLAB file " * 20),
+        ["m1.mat [run 'm1']: unreadable MATLAB file"],
+    ),
+    "mat_v73": (_v73, ["MATLAB v7.3 (HDF5) files are not supported"]),
+    "missing_mat_variable": (
+        lambda d: _mat_case(d, {"t": T, "p": np.zeros(N)}),
+        ["column 'u']: missing MATLAB variable 'u': a sine run needs input fraction u (u)"],
+    ),
+    "mat_not_vector": (
+        lambda d: _mat_case(d, {"t": T, "p": np.zeros((N, 2)), "u": np.zeros(N)}),
+        ["MATLAB variable has shape (20, 2); expected a vector"],
+    ),
+    "mat_lengths": (
+        lambda d: _mat_case(d, {"t": T, "p": np.zeros(N - 1), "u": np.zeros(N)}),
+        ["MATLAB variables have different lengths (t: 20, p: 19, u: 20)"],
+    ),
+    "mat_text_variable": (
+        lambda d: _mat_case(d, {"t": T, "p": "high", "u": np.zeros(N)}),
+        ["column 'p']: MATLAB variable holds <U4, not real numbers"],
+    ),
+    "missing_column": (
+        lambda d: _case(d, df=F.rename(columns={"p": "pressure"})),
+        ["column 'p']: missing column 'p': a charge run needs pressure (p)",
+         "map names under columns: in dataset.yaml"],
+    ),
+    "missing_column_mapped": (
+        lambda d: _case(d, columns={"p": "P_kPa"}, units={"pressure": "kPa"},
+                        df=F.rename(columns={"p": "P_kpa"})),
+        ["missing column 'P_kPa' (mapped from 'p' under columns:)", "(did you mean 'P_kpa'?)"],
+    ),
+    "duplicate_csv_column": (
+        lambda d: _case(d) or (d / "charge1.csv").write_text("t,p,p\n0,0,0\n0.001,0,0\n"),
+        ["column 'p']: column 'p' appears more than once"],
+    ),
+    "pulse_missing_valve": (
+        lambda d: _case(d, runs=[{**CHARGE, "kind": "pulse"}], df=F.drop(columns="valve")),
+        ["missing column 'valve': a pulse run needs valve command (valve)"],
+    ),
+    "staircase_missing_u": (
+        lambda d: _case(d, runs=[STAIR], df=F),
+        ["missing column 'u': a staircase run needs input fraction u (u)"],
+    ),
+    "non_numeric": (
+        lambda d: _case(d, df=_with(F, "p", 5, "abc")),
+        ["[run 'charge1', column 'p', row 5 (line 6)]: non-numeric value; expected a number"],
+    ),
+    "nan_inf": (
+        lambda d: _case(d, df=_with(_with(F, "p", 3, "NaN"), "t", 7, "inf")),
+        ["column 'p', row 3 (line 4)]: missing value (empty cell or NaN)",
+         "column 't', row 7 (line 8)]: infinite value (inf)"],
+    ),
+    "empty_cells": (
+        lambda d: _case(d, df=_with(_with(F, "valve", 4, ""), "valve", 9, "")),
+        ["column 'valve', row 4 (line 5)]: missing value (empty cell or NaN)",
+         "(2 rows in all: 4, 9)"],
+    ),
+    "time_backwards": (
+        lambda d: _case(d, df=_with(F, "t", 10, 0.002)),
+        ["column 't', row 10 (line 11)]: time goes backwards: t = 0.002 s after 0.008 s"],
+    ),
+    "time_duplicated": (
+        lambda d: _case(d, df=_with(F, "t", 8, 0.006)),
+        ["column 't', row 8 (line 9)]: duplicated time stamp t = 0.006 s"],
+    ),
+    "valve_not_binary": (
+        lambda d: _case(d, df=_with(F, "valve", 4, 2)),
+        ["column 'valve', row 4 (line 5)]: valve = 2; expected the command 0 or 1"],
+    ),
+    "u_out_of_range": (
+        lambda d: _case(d, runs=[STAIR], df=_with(FU, "u", 12, 1.5)),
+        ["column 'u', row 12 (line 13)]: u = 1.5 is outside [0, 1]"],
+    ),
+    "pressure_looks_kpa": (
+        lambda d: _case(d, df=F.assign(p=F["p"] * 100)),
+        ["is outside the plausible gauge range -1.1 to 20 bar",
+         "the values look like kPa (0 to 0.2529 bar); or psi", "set units: {pressure: kPa}"],
+    ),
+    "pressure_looks_mbar": (
+        lambda d: _case(d, units={"pressure": "kPa"}, df=F.assign(p=F["p"] * 10_000)),
+        ["the values look like mbar"],
+    ),
+    "many_problems": (
+        _multi,
+        ["unknown key 'orign' (did you mean 'origin'?)",
+         "unknown kind 'sin'",
+         "charge1.csv [run 'charge1', column 'p', row 5 (line 6)]: non-numeric value",
+         "pulse1.csv [run 'pulse1', column 't', row 10 (line 11)]: time goes backwards",
+         "pulse1.csv [run 'pulse1', column 'valve', row 4 (line 5)]: valve = 3"],
+    ),
+}
+
+GOOD: dict[str, Callable[[Path], None]] = {"spa_good": _good}
+
+
+def build(root: Path = HERE) -> None:
+    """Recreate ``root/good`` and ``root/bad`` from the definitions above."""
+    for sub in ("good", "bad"):
+        shutil.rmtree(root / sub, ignore_errors=True)
+    for name, make in GOOD.items():
+        folder = root / "good" / name
+        folder.mkdir(parents=True)
+        make(folder)
+    for name, (make, expected) in BAD.items():
+        folder = root / "bad" / name
+        folder.mkdir(parents=True)
+        make(folder)
+        (folder / "expected.txt").write_text("\n".join(expected) + "\n")
+
+
+if __name__ == "__main__":
+    build()
