@@ -74,16 +74,14 @@ def _time(t: Any) -> np.ndarray:
     return tt
 
 
-def _fraction(name: str, value: Any, *, closed_low: bool = False) -> float:
-    """A number in (0, 1] (or [0, 1] with ``closed_low``), or ValueError naming it."""
+def _fraction(name: str, value: Any) -> float:
+    """A number in (0, 1], or ValueError naming it."""
     try:
         v = float(value)
     except (TypeError, ValueError):
         v = math.nan
-    ok = (0.0 <= v <= 1.0) if closed_low else (0.0 < v <= 1.0)
-    if not ok:
-        interval = "[0, 1]" if closed_low else "(0, 1]"
-        raise ValueError(f"{name} must be a fraction in {interval}, got {value!r}")
+    if not (0.0 < v <= 1.0):
+        raise ValueError(f"{name} must be a fraction in (0, 1], got {value!r}")
     return v
 
 
