@@ -2,19 +2,49 @@
 
 Implements Serrano-Balbontín et al., "Open-Loop Characterisation of Soft Actuator Pressure
 Regulated by Pulse-Driven Solenoid Valve", Robotics 2025, 14(12), 177.
+
+The top level re-exports the public API; the modules hold one concept each:
+``params`` (ValveParams), ``modulators`` (modulate), ``plant`` (simulate), ``averaging``
+(Section 4 of the paper), ``tuning`` (Section 5), ``synthetic`` (simulated datasets).
 """
 
+from spa.averaging import (
+    chattering_estimate,
+    equilibrium,
+    equilibrium_pressure,
+    pseudo_steady_mean,
+    pseudo_steady_state,
+    pulse_times,
+    thresholds,
+    time_constant,
+    time_fractions,
+)
 from spa.modulators import MODULATORS, check_settings, modulate
 from spa.params import ValveParams
 from spa.plant import charge, discharge, simulate
+from spa.tuning import iipfm_optimal_t_l, linearity_cost, modulator_settings, optimum, sweep
 
 __all__ = [
     "MODULATORS",
     "ValveParams",
     "charge",
+    "chattering_estimate",
     "check_settings",
     "discharge",
+    "equilibrium",
+    "equilibrium_pressure",
+    "iipfm_optimal_t_l",
+    "linearity_cost",
     "modulate",
+    "modulator_settings",
+    "optimum",
+    "pseudo_steady_mean",
+    "pseudo_steady_state",
+    "pulse_times",
     "simulate",
+    "sweep",
+    "thresholds",
+    "time_constant",
+    "time_fractions",
 ]
 __version__ = "0.1.0"
