@@ -19,29 +19,45 @@ from spa.averaging import (
     time_constant,
     time_fractions,
 )
+from spa.linearity import (
+    compensate_lag,
+    linear_fit_metrics,
+    sine_linearity,
+    staircase_levels,
+    step_time_constants,
+)
 from spa.modulators import MODULATORS, check_settings, modulate
 from spa.params import ValveParams
 from spa.plant import charge, discharge, simulate
+from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask
 from spa.tuning import iipfm_optimal_t_l, linearity_cost, modulator_settings, optimum, sweep
 
 __all__ = [
     "MODULATORS",
     "ValveParams",
+    "bicoherence",
     "charge",
     "chattering_estimate",
     "check_settings",
+    "compensate_lag",
     "discharge",
     "equilibrium",
     "equilibrium_pressure",
     "iipfm_optimal_t_l",
+    "linear_fit_metrics",
     "linearity_cost",
+    "mean_bicoherence",
     "modulate",
     "modulator_settings",
     "optimum",
+    "principal_domain_mask",
     "pseudo_steady_mean",
     "pseudo_steady_state",
     "pulse_times",
     "simulate",
+    "sine_linearity",
+    "staircase_levels",
+    "step_time_constants",
     "sweep",
     "thresholds",
     "time_constant",
