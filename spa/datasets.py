@@ -27,7 +27,7 @@ import math
 import os
 import re
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
@@ -147,13 +147,14 @@ class Problem:
     column : str or None
         Column (or MATLAB variable) name as written in the file.
     row : int or None
-        Data row, counted from 1 at the first row after the header (in a CSV file with its
-        single header line, row ``n`` is on line ``n + 1``). The first row where the problem
-        shows; the message counts the others.
+        Data row, counted from 1 at the first row after the header: the first row where the
+        problem shows (the message counts the others).
     message : str
         What is wrong and what was expected.
     key : str or None
         Location inside ``dataset.yaml``, such as ``runs[2].kind``.
+    line : int or None
+        Line of a CSV file (the header is line 1), when known.
     level : {"error", "warning"}
         Warnings are reported but do not make a dataset invalid.
     """
@@ -164,6 +165,7 @@ class Problem:
     row: int | None
     message: str
     key: str | None = None
+    line: int | None = None
     level: str = "error"
 
     def __str__(self) -> str:
@@ -176,12 +178,9 @@ class Problem:
         if self.column is not None:
             details.append(f"column {self.column!r}")
         if self.row is not None:
-            line = (
-                f" (line {self.row + 1})"
-                if self.file and self.file.lower().endswith(".csv")
-                else ""
-            )
-            details.append(f"row {self.row}{line}")
+            details.append(f"row {self.row}" + (f" (line {self.line})" if self.line else ""))
+        elif self.line is not None:
+            details.append(f"line {self.line}")
         if details:
             where += f" [{', '.join(details)}]"
         return f"{self.level}: {where}: {self.message}"
@@ -744,13 +743,21 @@ def _text_to_float(
 
 
 class _CsvSource:
-    """Comma-separated text with one header line, read in blocks by ``pyarrow.csv``."""
+    """Comma-separated text with one header line, parsed by ``pyarrow.csv`` block by block.
+
+    The file is cut at line ends into blocks of about ``_CSV_BLOCK`` bytes, read one at a time
+    (``pyarrow.csv.open_csv`` reads ahead without bound on a fast disk), so memory stays flat
+    whatever the length of the file. Quoted fields must not hold line breaks.
+    """
 
     def __init__(self, path: Path) -> None:
         self.path = path
         self.invalid: list[tuple[int | None, str, int, int]] = []
+        # (first data row, first line, rows map one-to-one onto lines) of each block read
+        self.blocks: list[tuple[int, int, bool]] = []
         with path.open("rb") as fh:
             first = fh.readline(1 << 20)
+        self.header_size = len(first)
         try:
             text = first.decode("utf-8-sig")
         except UnicodeDecodeError:
@@ -762,42 +769,85 @@ class _CsvSource:
             raise _ReadError("the first line is empty; expected a header line naming the columns")
         self.columns = names
 
-    def _handler(self, row: Any) -> str:
-        self.invalid.append((row.number, row.text, row.expected_columns, row.actual_columns))
-        return "skip"
+    def _blocks(self) -> Iterator[bytes]:
+        with self.path.open("rb") as fh:
+            fh.seek(self.header_size)
+            carry = b""
+            while True:
+                data = fh.read(_CSV_BLOCK)
+                if not data:
+                    if carry:
+                        yield carry
+                    return
+                data = carry + data
+                cut = data.rfind(b"\n") + 1
+                carry = data[cut:]
+                if cut:
+                    yield data[:cut]
+
+    def _parse(self, block: bytes, names: list[str], kind: pa.DataType, threads: bool,
+               invalid: list[Any]) -> pa.Table:
+        def handler(row: Any) -> str:
+            invalid.append(row)
+            return "skip"
+
+        keys = [f"c{i}" for i in range(len(self.columns))]  # names in files may repeat
+        include = [keys[self.columns.index(n)] for n in names]
+        table = pacsv.read_csv(
+            pa.py_buffer(block),
+            read_options=pacsv.ReadOptions(column_names=keys, use_threads=threads),
+            parse_options=pacsv.ParseOptions(invalid_row_handler=handler),
+            convert_options=pacsv.ConvertOptions(
+                include_columns=include,
+                column_types=dict.fromkeys(include, kind),
+                strings_can_be_null=False,
+            ),
+        )
+        return table.rename_columns(names)
 
     def chunks(self, names: list[str], as_text: bool = False) -> Iterator[_Chunk]:
         self.invalid = []
+        self.blocks = []
         kind = pa.string() if as_text else pa.float64()
+        offset, line = 0, 2
         try:
-            reader = pacsv.open_csv(
-                self.path,
-                read_options=pacsv.ReadOptions(block_size=_CSV_BLOCK, use_threads=False),
-                parse_options=pacsv.ParseOptions(invalid_row_handler=self._handler),
-                convert_options=pacsv.ConvertOptions(
-                    include_columns=names,
-                    column_types=dict.fromkeys(names, kind),
-                    strings_can_be_null=False,
-                ),
-            )
-            offset = 0
-            for batch in reader:
+            for block in self._blocks():
+                invalid: list[Any] = []
+                table = self._parse(block, names, kind, True, invalid)
+                if invalid:  # parse again on one thread, which numbers the bad lines
+                    invalid = []
+                    table = self._parse(block, names, kind, False, invalid)
+                lines = block.count(b"\n") + (not block.endswith(b"\n"))
+                for row in invalid:
+                    number = None if row.number is None else line + row.number - 1
+                    self.invalid.append(
+                        (number, row.text, row.expected_columns, row.actual_columns)
+                    )
+                self.blocks.append((offset + 1, line, table.num_rows == lines))
                 values: dict[str, npt.NDArray[np.float64]] = {}
                 bad: dict[str, npt.NDArray[np.bool_]] = {}
                 for name in names:
-                    col = batch.column(name)
+                    col = table.column(name)
                     if as_text:
                         values[name], bad[name] = _text_to_float(col)
                     else:
-                        values[name] = col.to_numpy(zero_copy_only=False).astype(
-                            np.float64, copy=False
-                        )
+                        values[name] = col.to_numpy().astype(np.float64, copy=False)
                 yield offset, values, bad
-                offset += batch.num_rows
+                offset += table.num_rows
+                line += lines
         except pa.ArrowInvalid as exc:
             if not as_text and "conversion error" in str(exc):
                 raise _Retry from exc
             raise _ReadError(f"cannot parse the CSV file: {exc}") from exc
+
+    def line_of(self, row: int | None) -> int | None:
+        """Line of data row ``row`` (1-based), when blank or malformed lines do not blur it."""
+        if row is None:
+            return None
+        for first_row, first_line, exact in reversed(self.blocks):
+            if row >= first_row:
+                return first_line + row - first_row if exact else None
+        return None
 
 
 def _numeric_type(kind: pa.DataType) -> bool:
@@ -1411,8 +1461,8 @@ def _scan_run(parsed: _Parsed, run: RunSpec, out: Path | None) -> tuple[
     what = {"csv": "column", "parquet": "column", "mat": "MATLAB variable"}[fmt]
 
     def problem(message: str, column: str | None = None, row: int | None = None,
-                level: str = "error") -> Problem:
-        return Problem(run.file, run.id, column, row, message, level=level)
+                level: str = "error", line: int | None = None) -> Problem:
+        return Problem(run.file, run.id, column, row, message, line=line, level=level)
 
     if path.stat().st_size == 0:
         return [problem("file is empty (0 bytes)")], None
@@ -1514,9 +1564,13 @@ def _scan_run(parsed: _Parsed, run: RunSpec, out: Path | None) -> tuple[
         problems.append(problem(
             f"malformed line: expected {expected} comma-separated fields, got {actual}: "
             f"{text[:80]!r} (truncated file? ';' separators or decimal commas?){more}",
-            row=None if line is None else line - 1,
+            line=line,
         ))
-    problems += check.problems(run.file, run.id) + check.warnings(run.file, run.id)
+    found = check.problems(run.file, run.id) + check.warnings(run.file, run.id)
+    line_of = getattr(source, "line_of", None)
+    if line_of is not None:
+        found = [replace(p, line=line_of(p.row)) for p in found]
+    problems += found
     if any(p.is_error for p in problems):
         if out is not None:
             out.unlink(missing_ok=True)

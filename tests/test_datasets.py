@@ -203,7 +203,7 @@ def test_run_ids_differing_in_case_collide(tmp_path: Path) -> None:
 
 
 def test_problem_str_names_every_location() -> None:
-    p = Problem("data/a.csv", "a", "P_kPa", 12, "bad value")
+    p = Problem("data/a.csv", "a", "P_kPa", 12, "bad value", line=13)
     assert str(p) == "error: data/a.csv [run 'a', column 'P_kPa', row 12 (line 13)]: bad value"
     q = Problem("a.parquet", "a", "p", 3, "x", level="warning")
     assert str(q) == "warning: a.parquet [run 'a', column 'p', row 3]: x"
@@ -271,6 +271,28 @@ def test_checks_carry_across_chunks(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     (problem,) = validate_dataset(folder)
     assert (problem.column, problem.row) == ("t", 300)
     assert "duplicated time stamp" in problem.message
+
+
+def test_malformed_line_is_numbered_across_blocks(tmp_path: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(ds, "_CSV_BLOCK", 200)
+    lines = frame(400).to_csv(index=False).splitlines()
+    lines[149] = "0.5,0.1"  # line 150 of the file: two fields instead of three
+    lines[301] = lines[301].replace(",", ",x", 1)  # line 302: text in p
+    folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": ("\n".join(lines) + "\n").encode()})
+    messages = [str(p) for p in validate_dataset(folder)]
+    assert any("[run 'c1', line 150]: malformed line: expected 3 comma-separated fields, got 2"
+               in m for m in messages), messages
+    # the malformed line blurs the row -> line mapping of its own block only
+    assert any("column 'p', row 300 (line 302)]: non-numeric value" in m for m in messages)
+
+
+def test_blank_lines_are_skipped(tmp_path: Path) -> None:
+    text = "t,p\n0,0.1\n\n0.001,0.2\n0.002,0.2\n0.002,0.3\n\n"
+    folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": text.encode()})
+    (problem,) = validate_dataset(folder)
+    assert (problem.row, problem.line) == (4, None)  # the blank line makes the line uncertain
+    assert str(problem).startswith("error: c1.csv [run 'c1', column 't', row 4]: duplicated")
 
 
 def test_chunking_does_not_change_the_output(tmp_path: Path,

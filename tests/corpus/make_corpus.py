@@ -319,7 +319,8 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
                 ["1 data row(s); a run needs at least 2 samples"]),
     "truncated_csv": (
         _truncated_csv,
-        [f"row {N} (line {N + 1})]: malformed line: expected 3 comma-separated fields, got 2"],
+        [f"[run 'charge1', line {N + 1}]: malformed line",
+         "expected 3 comma-separated fields, got 2"],
     ),
     "unreadable_csv_header": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"\xff\xfe\x00t\x00,\n1,2\n"),
