@@ -9,6 +9,7 @@ configfile: "config/config.yaml"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/analytic.smk"
+include: "workflow/rules/datasets.smk"
 
 
 rule reproduce_all:
@@ -17,3 +18,4 @@ rule reproduce_all:
     default_target: True
     input:
         analytic_targets(),
+        dataset_targets(),

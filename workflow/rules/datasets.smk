@@ -1,0 +1,38 @@
+# Every dataset becomes results/<name>/runs/<run id>.parquet in the canonical form:
+# simulated ones from the model, bench ones from raw/<name>/ (never written).
+
+
+rule simulate_dataset:
+    output:
+        runs=directory(f"{RESULTS}/{{dataset}}/runs"),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/simulate.log",
+    wildcard_constraints:
+        dataset=_one_of(SIM_DATASETS),
+    resources:
+        mem_mb=2000,
+        runtime=15,
+    params:
+        cfg=lambda w: config["simulated"][w.dataset],
+        experiments=config["experiments"],
+        seed=config["seed"],
+    script:
+        "../scripts/simulate_dataset.py"
+
+
+rule ingest_dataset:
+    input:
+        raw_files,
+    output:
+        runs=directory(f"{RESULTS}/{{dataset}}/runs"),
+    log:
+        f"{RESULTS}/logs/{{dataset}}/ingest.log",
+    wildcard_constraints:
+        dataset=_one_of(RAW_DATASETS),
+    resources:
+        mem_mb=2500,
+        runtime=30,
+    params:
+        folder=lambda w: str(RAW_DIR / w.dataset),
+    script:
+        "../scripts/ingest_dataset.py"

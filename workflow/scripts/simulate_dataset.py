@@ -1,0 +1,16 @@
+"""Simulate one configured dataset into canonical run tables."""
+
+from spa.io import get_logger
+from spa.synthetic import generate_dataset
+
+log = get_logger("simulate_dataset", snakemake.log[0])
+name = snakemake.wildcards.dataset
+paths = generate_dataset(
+    name,
+    snakemake.params.cfg,
+    snakemake.params.experiments,
+    snakemake.params.seed,
+    snakemake.output.runs,
+    progress=log.info,
+)
+log.info("%s: %d runs written to %s", name, len(paths), snakemake.output.runs)
