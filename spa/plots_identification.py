@@ -1,0 +1,292 @@
+"""Figures of the identification (paper Fig. 2) and of the model validation.
+
+Every figure comes in two steps: ``*_data`` builds a tidy DataFrame (save it as CSV beside
+the PNG) and the plotting function draws exactly that table and returns a
+:class:`matplotlib.figure.Figure`. The figures are built with the object-oriented API (no
+pyplot state, no GUI backend), so they render headless; save them with
+:func:`spa.io.save_figure`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from spa.identification import ChargeFit, DischargeFit
+from spa.validation import ValidationResult
+
+__all__ = [
+    "fig2a",
+    "fig2a_data",
+    "fig2b",
+    "fig2b_data",
+    "fig2c",
+    "fig2c_data",
+    "validation_data",
+    "validation_figure",
+]
+
+
+def _check_columns(data: pd.DataFrame, columns: list[str], name: str = "data") -> None:
+    if not isinstance(data, pd.DataFrame):
+        raise ValueError(f"{name} must be a pandas DataFrame, got {type(data).__name__}")
+    missing = [c for c in columns if c not in data.columns]
+    if missing:
+        raise ValueError(f"{name} lacks column(s) {missing}; it has {list(data.columns)}")
+
+
+def fig2a_data(fit: ChargeFit, n_line: int = 50) -> pd.DataFrame:
+    """Tidy data of Fig. 2a: ``dP/dt`` against ``P`` while charging, and the fitted line.
+
+    Parameters
+    ----------
+    fit : ChargeFit
+        Result of :func:`spa.identification.fit_charge`.
+    n_line : int, optional
+        Points of the fitted line.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``series`` (``"measured"``: points in the fit; ``"excluded"``: points after the edge
+        left out by the window; ``"fit"``: the line), ``run``, ``p`` (bar), ``dpdt`` (bar/s).
+    """
+    pts = fit.points
+    series = np.where(pts["used"].to_numpy(), "measured", "excluded")
+    meas = pd.DataFrame({"series": series, "run": pts["run"], "p": pts["p"], "dpdt": pts["dpdt"]})
+    p_line = np.linspace(0.0, max(float(pts["p"].max()), fit.k2.value), n_line)
+    line = pd.DataFrame(
+        {"series": "fit", "run": "", "p": p_line, "dpdt": fit.slope * p_line + fit.intercept}
+    )
+    return pd.concat([meas, line], ignore_index=True)
+
+
+def fig2a(data: pd.DataFrame) -> Figure:
+    """Fig. 2a: pressure rate against pressure while charging, with the fitted line.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        Output of :func:`fig2a_data`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_columns(data, ["series", "p", "dpdt"])
+    fig = Figure(figsize=(5.0, 3.6), layout="constrained")
+    ax = fig.add_subplot()
+    for name, style in (
+        ("excluded", {"color": "0.75", "s": 2}),
+        ("measured", {"color": "k", "s": 2}),
+    ):
+        d = data[data["series"] == name]
+        ax.scatter(d["p"], d["dpdt"], label=name, rasterized=True, **style)
+    d = data[data["series"] == "fit"]
+    ax.plot(d["p"], d["dpdt"], color="tab:red", lw=1.5, label="fit")
+    ax.set_xlabel("P (bar)")
+    ax.set_ylabel("dP/dt (bar/s)")
+    ax.set_title("(a) charging")
+    ax.legend(frameon=False)
+    return fig
+
+
+def fig2b_data(fit: DischargeFit, n_line: int = 100) -> pd.DataFrame:
+    """Tidy data of Fig. 2b: ``dP/dt`` against ``P`` while exhausting, and the power laws.
+
+    Parameters
+    ----------
+    fit : DischargeFit
+        Result of :func:`spa.identification.fit_discharge`.
+    n_line : int, optional
+        Points of each curve.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``series`` (``"measured"``, ``"excluded"``, ``"power law"``: ``-a*P**b``,
+        ``"b = 0.5"``: ``-sqrt(P)/c1``), ``run``, ``p`` (bar), ``dpdt`` (bar/s).
+    """
+    pts = fit.points
+    series = np.where(pts["used"].to_numpy(), "measured", "excluded")
+    meas = pd.DataFrame({"series": series, "run": pts["run"], "p": pts["p"], "dpdt": pts["dpdt"]})
+    p_line = np.linspace(0.0, max(float(pts["p"].max()), 0.0), n_line)
+    power = pd.DataFrame(
+        {"series": "power law", "run": "", "p": p_line, "dpdt": -fit.a * p_line**fit.b}
+    )
+    half = pd.DataFrame(
+        {"series": "b = 0.5", "run": "", "p": p_line, "dpdt": -np.sqrt(p_line) / fit.c1.value}
+    )
+    return pd.concat([meas, power, half], ignore_index=True)
+
+
+def fig2b(data: pd.DataFrame) -> Figure:
+    """Fig. 2b: pressure rate against pressure while exhausting, with the power law.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        Output of :func:`fig2b_data`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_columns(data, ["series", "p", "dpdt"])
+    fig = Figure(figsize=(5.0, 3.6), layout="constrained")
+    ax = fig.add_subplot()
+    for name, style in (
+        ("excluded", {"color": "0.75", "s": 2}),
+        ("measured", {"color": "k", "s": 2}),
+    ):
+        d = data[data["series"] == name]
+        ax.scatter(d["p"], d["dpdt"], label=name, rasterized=True, **style)
+    for name, style in (
+        ("power law", {"color": "tab:red", "lw": 1.5}),
+        ("b = 0.5", {"color": "tab:blue", "lw": 1.0, "ls": "--"}),
+    ):
+        d = data[data["series"] == name]
+        ax.plot(d["p"], d["dpdt"], label=name, **style)
+    ax.set_xlabel("P (bar)")
+    ax.set_ylabel("dP/dt (bar/s)")
+    ax.set_title("(b) discharging")
+    ax.legend(frameon=False)
+    return fig
+
+
+def fig2c_data(trace: pd.DataFrame) -> pd.DataFrame:
+    """Tidy data of Fig. 2c from a model trace of the pulse run.
+
+    Parameters
+    ----------
+    trace : pandas.DataFrame
+        ``t``, ``p``, ``valve``, ``p_model``: a trace of
+        :attr:`spa.identification.DelayFit.traces` or :attr:`ValidationResult.trace`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t`` (s), ``valve`` (0/1), ``p`` (measured, bar), ``p_model`` (bar).
+    """
+    _check_columns(trace, ["t", "p", "valve", "p_model"], "trace")
+    return trace[["t", "valve", "p", "p_model"]].reset_index(drop=True)
+
+
+def _zoom_edge(data: pd.DataFrame) -> float:
+    """A rising edge near the middle of the run (the paper zooms on one at 3 s)."""
+    t = data["t"].to_numpy()
+    v = data["valve"].to_numpy()
+    rising = np.flatnonzero((v[1:] == 1) & (v[:-1] == 0)) + 1
+    if rising.size == 0:
+        return float(t[t.size // 2])
+    mid = 0.5 * (t[0] + t[-1])
+    return float(t[rising[np.argmin(np.abs(t[rising] - mid))]])
+
+
+def fig2c(
+    data: pd.DataFrame,
+    zoom_at: float | None = None,
+    zoom_span: tuple[float, float] = (-0.01, 0.03),
+) -> Figure:
+    """Fig. 2c: the pulse run, command and measured vs model pressure, with a zoom on an edge.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        Output of :func:`fig2c_data`.
+    zoom_at : float, optional
+        Time (s) of the edge to zoom on; by default the rising edge nearest the middle.
+    zoom_span : (float, float), optional
+        Zoom window relative to ``zoom_at``, s.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: the whole run (command on the right axis). Bottom: the zoom, showing the pressure
+        holding for ``t_on`` after the edge.
+    """
+    _check_columns(data, ["t", "valve", "p", "p_model"])
+    if zoom_span[0] >= zoom_span[1]:
+        raise ValueError(f"zoom_span must be increasing, got {zoom_span!r}")
+    at = _zoom_edge(data) if zoom_at is None else float(zoom_at)
+    fig = Figure(figsize=(7.0, 5.0), layout="constrained")
+    ax, az = fig.subplots(2, 1, height_ratios=[2, 1])
+    for a, marker in ((ax, ""), (az, ".")):
+        a.plot(data["t"], data["p"], color="tab:red", lw=1.0, marker=marker, ms=3, label="measured")
+        a.plot(data["t"], data["p_model"], color="tab:blue", lw=1.0, ls="--", label="model")
+        a.set_ylabel("P (bar)")
+        cmd = a.twinx()
+        cmd.step(data["t"], data["valve"], where="post", color="k", lw=0.8)
+        cmd.set_ylim(-0.05, 3.0)
+        cmd.set_yticks([0, 1])
+        cmd.set_ylabel("command")
+    ax.legend(frameon=False, loc="upper left")
+    ax.set_title("(c) pulse response")
+    ax.axvspan(at + zoom_span[0], at + zoom_span[1], color="0.9")
+    sel = (data["t"] >= at + zoom_span[0]) & (data["t"] <= at + zoom_span[1])
+    if sel.any():
+        lo = float(min(data.loc[sel, "p"].min(), data.loc[sel, "p_model"].min()))
+        hi = float(max(data.loc[sel, "p"].max(), data.loc[sel, "p_model"].max()))
+        pad = 0.1 * (hi - lo) + 1e-3
+        az.set_ylim(lo - pad, hi + pad)
+    az.set_xlim(at + zoom_span[0], at + zoom_span[1])
+    az.axvline(at, color="0.5", lw=0.8, ls=":")
+    az.set_xlabel("t (s)")
+    return fig
+
+
+def validation_data(result: ValidationResult) -> pd.DataFrame:
+    """Tidy data of a validation overlay.
+
+    Parameters
+    ----------
+    result : ValidationResult
+        Output of :func:`spa.validation.validate_run`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t``, ``valve``, ``p``, ``p_model``, ``error`` (``p - p_model``, bar).
+    """
+    tr = result.trace
+    return pd.DataFrame(
+        {
+            "t": tr["t"],
+            "valve": tr["valve"],
+            "p": tr["p"],
+            "p_model": tr["p_model"],
+            "error": tr["p"] - tr["p_model"],
+        }
+    )
+
+
+def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
+    """Measured against model pressure for one run, with the error below.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        Output of :func:`validation_data`.
+    title : str, optional
+        Title, e.g. the run kind and FIT %.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check_columns(data, ["t", "p", "p_model"])
+    fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+    ax, ae = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
+    ax.plot(data["t"], data["p"], color="tab:red", lw=0.8, label="measured")
+    ax.plot(data["t"], data["p_model"], color="tab:blue", lw=1.0, ls="--", label="model")
+    ax.set_ylabel("P (bar)")
+    ax.legend(frameon=False, loc="upper left")
+    if title:
+        ax.set_title(title)
+    err = data["error"] if "error" in data.columns else data["p"] - data["p_model"]
+    ae.plot(data["t"], err, color="k", lw=0.6)
+    ae.axhline(0.0, color="0.5", lw=0.6)
+    ae.set_ylabel("error (bar)")
+    ae.set_xlabel("t (s)")
+    return fig
