@@ -1271,8 +1271,8 @@ def fit_delays(
         v = float(x[i])
         ests[name] = Estimate(
             v,
-            max(v - _Z95 * se[i], 0.0),
-            v + _Z95 * se[i],
+            max(v - _Z95 * float(se[i]), 0.0),
+            v + _Z95 * float(se[i]),
             UNITS[name],
             rids,
             method,
