@@ -217,6 +217,11 @@ def _unknown_key(key: Any, allowed: Any) -> str:
     return f"unknown key {key!r}{_suggest(key, allowed)}; allowed keys: {_one_of(allowed)}"
 
 
+def _is_one_of(value: Any, choices: Any) -> bool:
+    """``value in choices`` for string choices, False for any other (even unhashable) value."""
+    return isinstance(value, str) and value in choices
+
+
 def _one_of(choices: Any) -> str:
     return ", ".join(str(c) for c in choices)
 
@@ -372,7 +377,7 @@ def _check_modulator(value: Any) -> tuple[dict[str, Any] | None, list[str]]:
     kind = value.get("type")
     if kind is None:
         return None, [f"modulator has no 'type'; expected one of {_one_of(MODULATORS)}, {example}"]
-    if kind not in MODULATORS:
+    if not _is_one_of(kind, MODULATORS):
         return None, [
             f"unknown modulator type {kind!r}; expected one of {_one_of(MODULATORS)}"
             f"{_suggest(kind, MODULATORS)}"
@@ -496,7 +501,7 @@ def _parse_spec(folder: Path) -> _Parsed:
             parsed.description = desc.strip()
     if "origin" in doc:
         origin = doc["origin"]
-        if origin not in ORIGINS:
+        if not _is_one_of(origin, ORIGINS):
             parsed.error(
                 f"origin {origin!r} is not one of {_one_of(ORIGINS)}{_suggest(origin, ORIGINS)}",
                 key="origin",
@@ -540,7 +545,7 @@ def _parse_units(parsed: _Parsed, units: Any) -> None:
         if key not in units:
             continue
         value = units[key]
-        if value not in table:
+        if not _is_one_of(value, table):
             parsed.error(
                 f"{key} unit {value!r} is not one of {_one_of(table)}{_suggest(value, table)}",
                 key=f"units.{key}",
@@ -634,7 +639,7 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
             else:
                 seen[rid.casefold()] = rid
         kind = entry.get("kind")
-        if "kind" in entry and kind not in KINDS:
+        if "kind" in entry and not _is_one_of(kind, KINDS):
             err(f"unknown kind {kind!r}; expected one of {_one_of(KINDS)}{_suggest(kind, KINDS)}",
                 "kind")
         modulator = None
@@ -642,7 +647,7 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
             modulator, problems = _check_modulator(entry["modulator"])
             for message in problems:
                 err(message, "modulator")
-        elif kind in MODULATED_KINDS:
+        elif _is_one_of(kind, MODULATED_KINDS):
             err(
                 f"a {kind} run needs a modulator, one of {{type: pwm, f_w: <Hz>}}, "
                 "{type: ipfm, t_h: <s>, gain: <G>}, {type: iipfm, t_l: <s>, gain: <G>}, "

@@ -16,6 +16,8 @@ import pyarrow.parquet as pq
 import pytest
 import scipy.io
 import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import spa.datasets as ds
 from spa.cli import main
@@ -200,6 +202,30 @@ def test_run_ids_differing_in_case_collide(tmp_path: Path) -> None:
     runs = [dict(CHARGE, id="Run1"), dict(CHARGE, id="run1")]
     problems = validate_dataset(make_dataset(tmp_path, runs, {"c1.csv": frame()}))
     assert "duplicate run id 'run1' ('Run1' differs only in case)" in str(problems[0])
+
+
+_KEYS = st.sampled_from(["name", "description", "origin", "rig", "units", "columns", "runs",
+                         "id", "kind", "file", "modulator", "notes", "type", "f_w", "gain",
+                         "time", "pressure", "t", "p", "valve", "u", "x"])
+_LEAVES = st.one_of(st.none(), st.booleans(), st.integers(-3, 3), st.floats(), st.text(max_size=5),
+                    st.sampled_from(["charge", "pwm", "kPa", "bench", "c1.csv", "../c1.csv"]))
+_YAML = st.dictionaries(_KEYS, st.recursive(
+    _LEAVES, lambda c: st.one_of(st.lists(c, max_size=3), st.dictionaries(_KEYS, c, max_size=4)),
+    max_leaves=10), max_size=7)
+
+
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(doc=_YAML)
+def test_any_yaml_gives_problems_not_exceptions(tmp_path: Path, doc: dict[str, Any]) -> None:
+    folder = tmp_path / "ds"
+    folder.mkdir(exist_ok=True)
+    (folder / "c1.csv").write_text("t,p\n0,0\n0.001,0.1\n")
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc))
+    for problem in validate_dataset(folder):  # never an exception
+        assert problem.level in ("error", "warning")
+        assert problem.file in ("dataset.yaml", "c1.csv")
+        assert str(problem).startswith(f"{problem.level}: {problem.file}")
 
 
 def test_problem_str_names_every_location() -> None:
@@ -506,23 +532,31 @@ def test_cli_validate_good_prints_one_line_per_run(capsys) -> None:
     )
 
 
-def test_cli_exit_codes_in_a_subprocess(tmp_path: Path) -> None:
+def test_cli_exit_codes_in_a_subprocess() -> None:
     def run(*args: str) -> subprocess.CompletedProcess[str]:
         return subprocess.run([sys.executable, "-m", "spa", *args], capture_output=True,
                               text=True, cwd=REPO, check=False)
 
-    ok = run("validate", str(GOOD.relative_to(REPO)))
+    good = str(GOOD.relative_to(REPO))
+    ok = run("validate", good)
     assert ok.returncode == 0, ok.stdout + ok.stderr
     assert "stair_pwm: staircase, pwm f_w=20 Hz, 0.399 s at 1000 Hz" in ok.stdout
-    bad = run("validate", str(GOOD.relative_to(REPO)), str(CORPUS / "bad" / "many_problems"))
+    bad = run("validate", good, str(CORPUS / "bad" / "many_problems"))
     assert bad.returncode == 1
+    assert f"{good}: OK, 7 run(s)" in bad.stdout  # every folder is reported
     assert "many_problems: INVALID, 6 error(s)" in bad.stdout
     assert "Traceback" not in bad.stdout + bad.stderr
-    assert run().returncode == 2
-    assert run("validate").returncode == 2
-    ingest = run("ingest", str(GOOD), str(tmp_path / "out"))
-    assert ingest.returncode == 0, ingest.stdout + ingest.stderr
-    assert len(list((tmp_path / "out").glob("*.parquet"))) == 7
+
+
+def test_cli_usage_errors_and_ingest(tmp_path: Path, capsys) -> None:
+    assert main([]) == 2
+    assert main(["validate"]) == 2
+    assert main(["frobnicate"]) == 2
+    assert main(["ingest", str(GOOD), str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed == [str(tmp_path / "out" / f"{r}.parquet") for r in load_spec(GOOD).run_ids]
+    assert main(["ingest", str(GOOD), str(GOOD / "out")]) == 1
+    assert "ingest never writes into raw/" in capsys.readouterr().out
 
 
 def test_cli_ingest_reports_problems(tmp_path: Path, capsys) -> None:
