@@ -514,8 +514,9 @@ def pseudo_steady_state(
     c = p.k2 + e * beta * beta / one_minus_e
     s = c / (a + np.sqrt(a * a + c))
     empties = s < beta
-    p_plus = np.where(empties, p.k2 * one_minus_e, s * s)
-    p_minus = np.where(empties, 0.0, (s - beta) ** 2)
+    # P+ <= k2 holds exactly; clamp the last-ulp rounding of s*s so the bound survives floats.
+    p_plus = np.where(empties, p.k2 * one_minus_e, np.minimum(s * s, p.k2))
+    p_minus = np.where(empties, 0.0, np.minimum((s - beta) ** 2, p_plus))
     saturated = charges & ~discharges
     p_plus = np.where(both, p_plus, np.where(saturated, p.k2, 0.0))
     p_minus = np.where(both, p_minus, np.where(saturated, p.k2, 0.0))

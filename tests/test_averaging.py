@@ -490,3 +490,12 @@ def test_bad_arguments_raise_value_error_naming_them(call, match):
 def test_xi_is_clipped_like_the_modulators():
     assert equilibrium("pwm", 1.5, P, f_w=20.0) == equilibrium("pwm", 1.0, P, f_w=20.0)
     assert equilibrium("pwm", -0.5, P, f_w=20.0) == 0.0
+
+
+def test_appendix_b_upper_level_never_exceeds_supply_even_in_the_last_ulp():
+    # found by hypothesis on a fresh machine: s*s rounded one ulp above k2
+    params = ValveParams(c1=1.0, k2=0.203125, tau2=1.0, t_on=0.015625, t_off=0.0001)
+    for t_h in np.linspace(0.02, 0.5, 50):
+        for t_l in np.linspace(0.0002, 0.5, 50):
+            hi, lo = pseudo_steady_state(t_h, t_l, params)
+            assert 0.0 <= lo <= hi <= params.k2
