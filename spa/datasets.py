@@ -10,8 +10,8 @@ The canonical run table has the columns ``t`` (s, float64), ``p`` (bar gauge, fl
 recorded), in that order, and the run's description as JSON under the Parquet key-value
 metadata key ``b"spa"``.
 
-Recordings are read in chunks (CSV through the streaming ``pyarrow.csv`` reader, Parquet by
-record batches), checked chunk by chunk (carrying the last time stamp across chunks) and
+Recordings are read in chunks (CSV in line-aligned blocks parsed by ``pyarrow.csv``, Parquet
+by record batches), checked chunk by chunk (carrying the last time stamp across chunks) and
 written batch by batch, so the memory needed does not grow with the length of a recording.
 MATLAB files are loaded whole by ``scipy.io.loadmat``.
 """
@@ -1152,7 +1152,7 @@ class _RunCheck:
                                f"{self.rows} data row(s); a run needs at least 2 samples"))
         return out
 
-    def warnings(self, file: str | None, run: str | None) -> list[Problem]:
+    def warnings(self, file: str | None, run: str | None, kind: str) -> list[Problem]:
         out = []
         if self.failed or self.rows < 2:
             return out
@@ -1170,7 +1170,7 @@ class _RunCheck:
                                f"is time really in {self.time_unit}?", level="warning"))
         peak = max(abs(_to_bar(self.p_lo, self.pressure_unit)),
                    abs(_to_bar(self.p_hi, self.pressure_unit)))
-        if peak < 0.01:
+        if peak < 0.01 and kind != "pulse":  # short pulses may stay below 0.01 bar
             out.append(Problem(file, run, self.columns["p"], None,
                                f"pressure never exceeds {peak:.3g} bar in magnitude; are the "
                                f"units right (declared {self.pressure_unit})?", level="warning"))
@@ -1571,7 +1571,7 @@ def _scan_run(parsed: _Parsed, run: RunSpec, out: Path | None) -> tuple[
             f"{text[:80]!r} (truncated file? ';' separators or decimal commas?){more}",
             line=line,
         ))
-    found = check.problems(run.file, run.id) + check.warnings(run.file, run.id)
+    found = check.problems(run.file, run.id) + check.warnings(run.file, run.id, run.kind)
     line_of = getattr(source, "line_of", None)
     if line_of is not None:
         found = [replace(p, line=line_of(p.row)) for p in found]

@@ -259,6 +259,17 @@ def test_warning_when_time_looks_like_ms(tmp_path: Path) -> None:
     assert "is time in ms? (set units: {time: ms})" in problems[0].message
 
 
+@pytest.mark.parametrize(("kind", "warned"), [("charge", True), ("pulse", False)])
+def test_warning_when_pressure_is_tiny(tmp_path: Path, kind: str, warned: bool) -> None:
+    df = frame()  # in bar, up to 0.481, but declared as kPa
+    runs = [dict(CHARGE, kind=kind)]
+    problems = validate_dataset(make_dataset(tmp_path, runs, {"c1.csv": df},
+                                             units={"pressure": "kPa"}))
+    assert [p.level for p in problems] == (["warning"] if warned else [])
+    if warned:
+        assert "pressure never exceeds 0.00481 bar in magnitude" in problems[0].message
+
+
 def test_many_bad_rows_are_counted_once(tmp_path: Path) -> None:
     df = frame(200)
     df.loc[100:, "valve"] = 5
