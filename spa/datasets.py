@@ -57,9 +57,10 @@ __all__ = [
     "DatasetError",
     "DatasetSpec",
     "Problem",
-    "RunSpec",
+    "RunEntry",
     "RunSummary",
     "check_dataset",
+    "find_datasets",
     "ingest_dataset",
     "load_spec",
     "read_run_meta",
@@ -230,7 +231,7 @@ def _one_of(choices: Any) -> str:
 
 
 @dataclass(frozen=True, slots=True)
-class RunSpec:
+class RunEntry:
     """One entry of ``runs:`` in ``dataset.yaml``, checked.
 
     Attributes
@@ -271,7 +272,7 @@ class DatasetSpec:
         Units of the files (keys of :data:`TIME_UNITS` and :data:`PRESSURE_UNITS`).
     columns : dict
         Column name in the files for each canonical name in :data:`CANONICAL_COLUMNS`.
-    runs : tuple of RunSpec
+    runs : tuple of RunEntry
         The runs, in file order.
     """
 
@@ -283,14 +284,14 @@ class DatasetSpec:
     time_unit: str
     pressure_unit: str
     columns: dict[str, str]
-    runs: tuple[RunSpec, ...]
+    runs: tuple[RunEntry, ...]
 
-    def run_path(self, run: RunSpec | str) -> Path:
+    def run_path(self, run: RunEntry | str) -> Path:
         """Absolute path of a run's file."""
-        spec = run if isinstance(run, RunSpec) else self.run(run)
+        spec = run if isinstance(run, RunEntry) else self.run(run)
         return self.folder / spec.file
 
-    def run(self, run_id: str) -> RunSpec:
+    def run(self, run_id: str) -> RunEntry:
         """The run with id ``run_id``; ``KeyError`` naming the known ids if absent."""
         for r in self.runs:
             if r.id == run_id:
@@ -316,7 +317,7 @@ class _Parsed:
     time_unit: str = "s"
     pressure_unit: str = "bar"
     columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
-    runs: list[RunSpec] = field(default_factory=list)
+    runs: list[RunEntry] = field(default_factory=list)
     data_ok: bool = True  # units and columns are usable for checking the data
 
     def error(self, message: str, *, key: str | None = None, run: str | None = None,
@@ -663,7 +664,29 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
             if message:
                 err(message, "file")
         if len(parsed.problems) == before and rel is not None:
-            parsed.runs.append(RunSpec(rid, kind, rel, modulator, notes))
+            parsed.runs.append(RunEntry(rid, kind, rel, modulator, notes))
+
+
+def find_datasets(raw_dir: str | Path) -> list[str]:
+    """Names of the dataset folders in ``raw_dir``: its sub-folders holding a ``dataset.yaml``.
+
+    Parameters
+    ----------
+    raw_dir : str or path-like
+        The folder of datasets, usually ``raw``. A missing folder holds no datasets.
+
+    Returns
+    -------
+    list of str
+        Sorted folder names (hidden folders, starting with ``.``, are skipped).
+    """
+    root = Path(raw_dir)
+    if not root.is_dir():
+        return []
+    return sorted(
+        p.name for p in root.iterdir()
+        if p.is_dir() and not p.name.startswith(".") and (p / SPEC_FILE).is_file()
+    )
 
 
 def load_spec(folder: str | Path) -> DatasetSpec:
@@ -1176,7 +1199,7 @@ class _RunCheck:
                                f"units right (declared {self.pressure_unit})?", level="warning"))
         return out
 
-    def summary(self, run: RunSpec) -> RunSummary:
+    def summary(self, run: RunEntry) -> RunSummary:
         t0 = float(_to_seconds(np.float64(self.t_first), self.time_unit))
         t1 = float(_to_seconds(np.float64(self.t_prev), self.time_unit))
         return RunSummary(
@@ -1458,7 +1481,7 @@ def read_run_table(path: str | Path) -> tuple[pd.DataFrame, dict[str, Any]]:
 # --------------------------------------------------------------------------- scanning
 
 
-def _scan_run(parsed: _Parsed, run: RunSpec, out: Path | None) -> tuple[
+def _scan_run(parsed: _Parsed, run: RunEntry, out: Path | None) -> tuple[
         list[Problem], RunSummary | None]:
     """Check one run's file; with ``out``, also write its run table there (if clean)."""
     path = parsed.folder / run.file

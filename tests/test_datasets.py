@@ -172,8 +172,17 @@ def test_load_spec_fills_defaults(tmp_path: Path) -> None:
     assert spec.name == "bench1" and spec.origin == "bench"
     assert (spec.time_unit, spec.pressure_unit) == ("s", "bar")
     assert spec.columns == {"t": "t", "p": "p", "valve": "valve", "u": "u"}
-    assert spec.runs == (ds.RunSpec("c1", "charge", "c1.csv", None, "first"),)
+    assert spec.runs == (ds.RunEntry("c1", "charge", "c1.csv", None, "first"),)
     assert spec.run_path("c1") == folder / "c1.csv"
+
+
+def test_find_datasets_lists_folders_with_a_description(tmp_path: Path) -> None:
+    make_dataset(tmp_path, [CHARGE], {"c1.csv": frame()}, name="b_bench")
+    make_dataset(tmp_path, [CHARGE], {"c1.csv": frame()}, name="a_bench")
+    (tmp_path / "raw" / "notes").mkdir()
+    (tmp_path / "raw" / "README.md").write_text("x")
+    assert ds.find_datasets(tmp_path / "raw") == ["a_bench", "b_bench"]
+    assert ds.find_datasets(tmp_path / "nowhere") == []
 
 
 def test_load_spec_completes_modulator_settings(tmp_path: Path) -> None:
