@@ -10,6 +10,7 @@ configfile: "config/config.yaml"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/analytic.smk"
 include: "workflow/rules/datasets.smk"
+include: "workflow/rules/identify.smk"
 
 
 rule reproduce_all:

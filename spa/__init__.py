@@ -19,6 +19,13 @@ from spa.averaging import (
     time_constant,
     time_fractions,
 )
+from spa.identification import (
+    IdentificationError,
+    IdentificationResult,
+    identify,
+    identify_runs,
+    load_params,
+)
 from spa.linearity import (
     compensate_lag,
     linear_fit_metrics,
@@ -31,9 +38,13 @@ from spa.params import ValveParams
 from spa.plant import charge, discharge, simulate
 from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask
 from spa.tuning import iipfm_optimal_t_l, linearity_cost, modulator_settings, optimum, sweep
+from spa.validation import ValidationResult, validate_run, validate_runs
 
 __all__ = [
     "MODULATORS",
+    "IdentificationError",
+    "IdentificationResult",
+    "ValidationResult",
     "ValveParams",
     "bicoherence",
     "charge",
@@ -43,9 +54,12 @@ __all__ = [
     "discharge",
     "equilibrium",
     "equilibrium_pressure",
+    "identify",
+    "identify_runs",
     "iipfm_optimal_t_l",
     "linear_fit_metrics",
     "linearity_cost",
+    "load_params",
     "mean_bicoherence",
     "modulate",
     "modulator_settings",
@@ -62,5 +76,7 @@ __all__ = [
     "thresholds",
     "time_constant",
     "time_fractions",
+    "validate_run",
+    "validate_runs",
 ]
 __version__ = "0.1.0"

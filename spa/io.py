@@ -40,3 +40,26 @@ def save_figure(fig: Any, path: str | Path, dpi: int = 120) -> None:
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi, metadata={"Software": None})
     plt.close(fig)
+
+
+def read_runs(run_dir: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, dict[str, Any]]]:
+    """Read every run table of a dataset's ``runs/`` folder, in run-id order.
+
+    Returns
+    -------
+    runs : dict
+        Run id → canonical table (``t``, ``p``, ``valve``, ``u``).
+    metas : dict
+        Run id → the run's metadata (``kind``, ``modulator``, ...).
+    """
+    from spa.datasets import read_run_table
+
+    runs: dict[str, pd.DataFrame] = {}
+    metas: dict[str, dict[str, Any]] = {}
+    for path in sorted(Path(run_dir).glob("*.parquet")):
+        table, meta = read_run_table(path)
+        runs[meta["run"]] = table
+        metas[meta["run"]] = meta
+    if not runs:
+        raise ValueError(f"{run_dir}: no run tables (*.parquet) found")
+    return runs, metas

@@ -56,4 +56,13 @@ def analytic_targets():
 
 
 def dataset_targets():
-    return [f"{RESULTS}/{d}/runs" for d in DATASETS]
+    per_dataset = [
+        "runs",
+        "identification/params.yaml",
+        "identification/fig2a.png",
+        "identification/fig2b.png",
+        "identification/fig2c.png",
+        "validation/fit.csv",
+        "validation/figures",
+    ]
+    return [f"{RESULTS}/{d}/{name}" for d in DATASETS for name in per_dataset]
