@@ -1,4 +1,4 @@
-"""Command line: ``spa validate raw/<name>`` and ``spa ingest raw/<name> <out_dir>``.
+"""Command line: ``spa validate raw/<name>``, ``spa ingest raw/<name> <out_dir>``, ``spa example <folder>``.
 
 Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error.
 """
@@ -55,6 +55,14 @@ def _ingest(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _example(args: argparse.Namespace, out: TextIO) -> int:
+    from spa.synthetic import write_example_dataset
+
+    for path in write_example_dataset(args.folder, seed=args.seed):
+        print(path, file=out)
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="spa",
@@ -77,6 +85,15 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("folder", metavar="FOLDER", help="dataset folder, raw/<name>")
     p.add_argument("out_dir", metavar="OUT_DIR", help="output folder (not inside raw/)")
     p.set_defaults(func=_ingest)
+    p = sub.add_parser(
+        "example",
+        help="write the example bench export (what raw/example holds)",
+        description="Simulate a small dataset laid out like a real bench export (CSV in ms "
+        "and kPa with renamed columns, a MATLAB .mat run, a Parquet run) into FOLDER.",
+    )
+    p.add_argument("folder", metavar="FOLDER", help="destination, e.g. raw/example")
+    p.add_argument("--seed", type=int, default=2025, help="noise seed (default 2025)")
+    p.set_defaults(func=_example)
     return parser
 
 
