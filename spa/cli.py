@@ -1,4 +1,4 @@
-"""Command line: ``spa validate raw/<name>``, ``spa ingest raw/<name> <out_dir>``, ``spa example <folder>``.
+"""Command line: ``spa validate``, ``spa ingest`` and ``spa example`` (see ``spa --help``).
 
 Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error.
 """
