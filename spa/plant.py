@@ -15,7 +15,7 @@ import numpy.typing as npt
 
 from spa.params import ValveParams
 
-__all__ = ["charge", "discharge", "simulate"]
+__all__ = ["charge", "discharge", "run_start_pressures", "simulate"]
 
 
 def charge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np.ndarray:
@@ -145,9 +145,7 @@ def simulate(
 
     # Pressure at the start of every run: a recurrence over edges with precomputed factors.
     active = np.maximum(lengths * dt - hold, 0.0)
-    decay = np.exp(-active / params.tau2)  # used on charging runs
-    drop = active / (2.0 * params.c1)  # used on exhausting runs (in sqrt(P))
-    p_start = _run_starts(level.tolist(), decay.tolist(), drop.tolist(), float(p0), params.k2)
+    p_start = run_start_pressures(level, active, p0, params)
 
     # Closed form at every sample of every run, in one pass over the samples:
     # charging runs: p = k2 + a*exp(-e/tau2) (b = r = 0); exhausting runs: p = max(b - r*e, 0)^2
@@ -173,14 +171,34 @@ def simulate(
     return p
 
 
-def _run_starts(
-    level: list[bool], decay: list[float], drop: list[float], p0: float, k2: float
-) -> np.ndarray:
-    """Pressure at the start of each run (one scalar step per edge)."""
-    out = [0.0] * len(level)
-    p = p0
+def run_start_pressures(
+    level: npt.NDArray[np.bool_], active: npt.NDArray[np.float64], p0: float, params: ValveParams
+) -> npt.NDArray[np.float64]:
+    """Pressure at the start of every run of constant command (one scalar step per edge).
+
+    Parameters
+    ----------
+    level : numpy.ndarray of bool
+        Command of each run (True: valve open).
+    active : numpy.ndarray of float
+        Time each run spends charging or exhausting after its hold, s (>= 0).
+    p0 : float
+        Pressure at the start of the first run, bar.
+    params : ValveParams
+        Model parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``p_start[j]``; run ``j + 1`` starts where the closed form of run ``j`` ends.
+    """
+    decay = np.exp(-active / params.tau2).tolist()
+    drop = (active / (2.0 * params.c1)).tolist()
+    out = [0.0] * level.size
+    p = float(p0)
+    k2 = params.k2
     sqrt = math.sqrt
-    for j, on in enumerate(level):
+    for j, on in enumerate(level.tolist()):
         out[j] = p
         if on:
             p = k2 + (p - k2) * decay[j]

@@ -22,6 +22,7 @@ import pandas as pd
 
 from spa.modulators import modulate
 from spa.params import ValveParams
+from spa.plant import run_start_pressures
 
 __all__ = [
     "ValidationResult",
@@ -32,26 +33,6 @@ __all__ = [
     "validate_run",
     "validate_runs",
 ]
-
-
-def _run_start_pressures(
-    level: npt.NDArray[np.bool_], active: npt.NDArray[np.float64], p0: float, params: ValveParams
-) -> npt.NDArray[np.float64]:
-    """Pressure at the start of every run of constant command (one scalar step per edge)."""
-    decay = np.exp(-active / params.tau2).tolist()
-    drop = (active / (2.0 * params.c1)).tolist()
-    out = [0.0] * level.size
-    p = p0
-    k2 = params.k2
-    sqrt = math.sqrt
-    for j, on in enumerate(level.tolist()):
-        out[j] = p
-        if on:
-            p = k2 + (p - k2) * decay[j]
-        else:
-            r = sqrt(p) - drop[j]
-            p = r * r if r > 0.0 else 0.0
-    return np.asarray(out, dtype=np.float64)
 
 
 def _evaluate(
@@ -69,7 +50,7 @@ def _evaluate(
     """
     ends = np.append(starts[1:], np.inf)
     active = np.maximum(ends - starts - hold, 0.0)
-    p_start = _run_start_pressures(level, active, p0, params)
+    p_start = run_start_pressures(level, active, p0, params)
     j = np.searchsorted(starts, t, side="right") - 1
     np.maximum(j, 0, out=j)
     elapsed = np.maximum(t - starts[j] - hold[j], 0.0)
