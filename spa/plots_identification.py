@@ -9,6 +9,8 @@ pyplot state, no GUI backend), so they render headless; save them with
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
@@ -34,6 +36,27 @@ def _check_columns(data: pd.DataFrame, columns: list[str], name: str = "data") -
     missing = [c for c in columns if c not in data.columns]
     if missing:
         raise ValueError(f"{name} lacks column(s) {missing}; it has {list(data.columns)}")
+
+
+def _rate_figure(data: pd.DataFrame, lines: dict[str, dict[str, Any]], title: str) -> Figure:
+    """dP/dt against P: excluded and measured points, then the named fitted lines."""
+    _check_columns(data, ["series", "p", "dpdt"])
+    fig = Figure(figsize=(5.0, 3.6), layout="constrained")
+    ax = fig.add_subplot()
+    for name, style in (
+        ("excluded", {"color": "0.75", "s": 2}),
+        ("measured", {"color": "k", "s": 2}),
+    ):
+        d = data[data["series"] == name]
+        ax.scatter(d["p"], d["dpdt"], label=name, rasterized=True, **style)
+    for name, style in lines.items():
+        d = data[data["series"] == name]
+        ax.plot(d["p"], d["dpdt"], label=name, **style)
+    ax.set_xlabel("P (bar)")
+    ax.set_ylabel("dP/dt (bar/s)")
+    ax.set_title(title)
+    ax.legend(frameon=False)
+    return fig
 
 
 def fig2a_data(fit: ChargeFit, n_line: int = 50) -> pd.DataFrame:
@@ -74,22 +97,7 @@ def fig2a(data: pd.DataFrame) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    _check_columns(data, ["series", "p", "dpdt"])
-    fig = Figure(figsize=(5.0, 3.6), layout="constrained")
-    ax = fig.add_subplot()
-    for name, style in (
-        ("excluded", {"color": "0.75", "s": 2}),
-        ("measured", {"color": "k", "s": 2}),
-    ):
-        d = data[data["series"] == name]
-        ax.scatter(d["p"], d["dpdt"], label=name, rasterized=True, **style)
-    d = data[data["series"] == "fit"]
-    ax.plot(d["p"], d["dpdt"], color="tab:red", lw=1.5, label="fit")
-    ax.set_xlabel("P (bar)")
-    ax.set_ylabel("dP/dt (bar/s)")
-    ax.set_title("(a) charging")
-    ax.legend(frameon=False)
-    return fig
+    return _rate_figure(data, {"fit": {"color": "tab:red", "lw": 1.5}}, "(a) charging")
 
 
 def fig2b_data(fit: DischargeFit, n_line: int = 100) -> pd.DataFrame:
@@ -133,26 +141,11 @@ def fig2b(data: pd.DataFrame) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    _check_columns(data, ["series", "p", "dpdt"])
-    fig = Figure(figsize=(5.0, 3.6), layout="constrained")
-    ax = fig.add_subplot()
-    for name, style in (
-        ("excluded", {"color": "0.75", "s": 2}),
-        ("measured", {"color": "k", "s": 2}),
-    ):
-        d = data[data["series"] == name]
-        ax.scatter(d["p"], d["dpdt"], label=name, rasterized=True, **style)
-    for name, style in (
-        ("power law", {"color": "tab:red", "lw": 1.5}),
-        ("b = 0.5", {"color": "tab:blue", "lw": 1.0, "ls": "--"}),
-    ):
-        d = data[data["series"] == name]
-        ax.plot(d["p"], d["dpdt"], label=name, **style)
-    ax.set_xlabel("P (bar)")
-    ax.set_ylabel("dP/dt (bar/s)")
-    ax.set_title("(b) discharging")
-    ax.legend(frameon=False)
-    return fig
+    lines = {
+        "power law": {"color": "tab:red", "lw": 1.5},
+        "b = 0.5": {"color": "tab:blue", "lw": 1.0, "ls": "--"},
+    }
+    return _rate_figure(data, lines, "(b) discharging")
 
 
 def fig2c_data(trace: pd.DataFrame) -> pd.DataFrame:
