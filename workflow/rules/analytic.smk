@@ -9,6 +9,7 @@ rule analytic_table1:
         table=str(ANALYTIC / "table1.csv"),
     log:
         str(ANALYTIC_LOGS / "table1.log"),
+    threads: 1
     resources:
         mem_mb=500,
         runtime=5,
@@ -25,6 +26,7 @@ rule analytic_fig4:
         data=str(ANALYTIC / "fig4.csv"),
     log:
         str(ANALYTIC_LOGS / "fig4.log"),
+    threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
@@ -41,6 +43,7 @@ rule analytic_table2:
         table=str(ANALYTIC / "table2.csv"),
     log:
         str(ANALYTIC_LOGS / "table2.log"),
+    threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
@@ -60,6 +63,7 @@ rule analytic_fig5:
         data=str(ANALYTIC / "fig5.csv"),
     log:
         str(ANALYTIC_LOGS / "fig5.log"),
+    threads: 1
     resources:
         mem_mb=500,
         runtime=5,

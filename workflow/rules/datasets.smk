@@ -9,6 +9,7 @@ rule simulate_dataset:
         f"{RESULTS}/logs/{{dataset}}/simulate.log",
     wildcard_constraints:
         dataset=_one_of(SIM_DATASETS),
+    threads: 1
     resources:
         mem_mb=2000,
         runtime=15,
@@ -29,6 +30,7 @@ rule ingest_dataset:
         f"{RESULTS}/logs/{{dataset}}/ingest.log",
     wildcard_constraints:
         dataset=_one_of(RAW_DATASETS),
+    threads: 1
     resources:
         mem_mb=2500,
         runtime=30,

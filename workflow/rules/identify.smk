@@ -15,6 +15,7 @@ rule identify:
         fig2c_csv=f"{RESULTS}/{{dataset}}/identification/fig2c.csv",
     log:
         f"{RESULTS}/logs/{{dataset}}/identify.log",
+    threads: 1
     resources:
         mem_mb=2000,
         runtime=20,
@@ -35,6 +36,7 @@ rule validate_model:
         figures=directory(f"{RESULTS}/{{dataset}}/validation/figures"),
     log:
         f"{RESULTS}/logs/{{dataset}}/validate_model.log",
+    threads: 1
     resources:
         mem_mb=2000,
         runtime=20,
