@@ -133,6 +133,17 @@ def _staircase(t, p, u, settle, atol):
     dev2 = (p - p_eq[label]) ** 2
     p_std = np.sqrt(_segment_sums(np.add, dev2, first, ends) / count)
     p_pp = _segment_sums(np.maximum, p, first, ends) - _segment_sums(np.minimum, p, first, ends)
+    # Ripple about the window's least-squares line: the chattering without the slow tail of
+    # the step response still settling inside the window.
+    t_mid = _segment_sums(np.add, t, first, ends) / count
+    dt_ = np.where(in_window, t - t_mid[label], 0.0)
+    sxx = _segment_sums(np.add, dt_ * dt_, first, ends)
+    sxy = _segment_sums(np.add, dt_ * (p - p_eq[label]), first, ends)
+    slope = np.divide(sxy, sxx, out=np.zeros_like(sxy), where=sxx > 0.0)
+    resid = p - p_eq[label] - slope[label] * dt_
+    p_ripple = _segment_sums(np.maximum, resid, first, ends) - _segment_sums(
+        np.minimum, resid, first, ends
+    )
     return {
         "starts": starts,
         "ends": ends,
@@ -144,6 +155,7 @@ def _staircase(t, p, u, settle, atol):
         "p_eq": p_eq,
         "p_std": p_std,
         "p_pp": p_pp,
+        "p_ripple": p_ripple,
         "n_window": count,
     }
 
@@ -194,7 +206,11 @@ def staircase_levels(
         ``p_std``
             Standard deviation of ``p`` over the window (bar, population: ``ddof = 0``).
         ``p_pp``
-            Chattering: peak-to-peak ``max(p) - min(p)`` over the window (bar).
+            Peak-to-peak ``max(p) - min(p)`` over the window (bar).
+        ``p_ripple``
+            Chattering: peak-to-peak of ``p`` about the window's least-squares straight
+            line (bar), so that the tail of a response still settling in the window does
+            not count as chattering.
         ``switching_rate``
             Valve edges (rising and falling) per second over the window: the number of
             changes between consecutive window samples divided by the time from the
@@ -254,6 +270,7 @@ def staircase_levels(
             "p_eq": lv["p_eq"],
             "p_std": lv["p_std"],
             "p_pp": lv["p_pp"],
+            "p_ripple": lv["p_ripple"],
             "switching_rate": rate,
             "n_window": lv["n_window"],
         }

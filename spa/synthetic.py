@@ -35,6 +35,7 @@ __all__ = [
     "identification_runs",
     "modulated_runs",
     "run_seed",
+    "setting_label",
     "simulate_run",
     "sine_input",
     "staircase_input",
@@ -354,7 +355,16 @@ def identification_runs(
     return [charge, discharge, pulse]
 
 
-def _setting_label(mod: Mapping[str, Any]) -> str:
+def setting_label(mod: Mapping[str, Any]) -> str:
+    """Short file-safe name of a modulator setting, used in run ids.
+
+    Examples
+    --------
+    >>> setting_label({"type": "pwm", "f_w": 20})
+    'pwm-20Hz'
+    >>> setting_label({"type": "iipfm", "t_l": 0.02, "gain": 1.15})
+    'iipfm-20ms-G1.15'
+    """
     kind = mod["type"]
     s = check_settings(kind, **{k: v for k, v in mod.items() if k != "type"})
     if kind == "pwm":
@@ -391,7 +401,7 @@ def modulated_runs(
     """
     runs: list[RunSpec] = []
     for mod in modulators:
-        label = _setting_label(mod)
+        label = setting_label(mod)
         if "staircase" in experiments:
             cfg = experiments["staircase"]
             step, hold = float(cfg["step"]), float(cfg["hold"])

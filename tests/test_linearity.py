@@ -47,12 +47,23 @@ def staircase_run(levels_p, tau, dt=DT, step=STEP, p0=0.0):
 # ---------------------------------------------------------------- staircase_levels
 
 
+def test_ripple_is_the_chattering_without_the_settling_tail():
+    t = np.arange(0, 10, 1e-4)
+    u = np.where(t < 5, 0.2, 0.4)
+    square = 0.01 * np.sign(np.sin(2 * np.pi * 20 * t + 0.1))
+    p = 0.3 + 0.05 * t + square  # a level still drifting by 0.1 bar over its window
+    lv = staircase_levels(t, p, u, settle=0.4)
+    np.testing.assert_allclose(lv["p_ripple"], 0.02, atol=1e-3)
+    assert (lv["p_pp"] > 0.1).all()  # the drift of 0.05 bar/s over the 2 s window counts
+
+
 def test_levels_of_a_settled_staircase():
     p_levels = 0.837 * XI
     run = staircase_run(p_levels, tau=0.2)
     lv = staircase_levels(run["t"], run["p"], run["u"])
     assert list(lv.columns) == [
-        "level", "xi", "t_start", "t_end", "p_eq", "p_std", "p_pp", "switching_rate", "n_window",
+        "level", "xi", "t_start", "t_end", "p_eq", "p_std", "p_pp", "p_ripple", "switching_rate",
+        "n_window",
     ]
     np.testing.assert_array_equal(lv["level"], np.arange(11))
     np.testing.assert_array_equal(lv["xi"], XI)
