@@ -64,5 +64,15 @@ def dataset_targets():
         "identification/fig2c.png",
         "validation/fit.csv",
         "validation/figures",
+        "staircase/table3.csv",
+        "staircase/levels.csv",
+        "staircase/time_constants.csv",
+        "staircase/fig6.png",
+        "staircase/fig7a.png",
+        "staircase/fig7b.png",
+        "sine/linearity.csv",
+        "sine/fig8.png",
+        "chirp/bicoherence.csv",
+        "chirp/fig9.png",
     ]
     return [f"{RESULTS}/{d}/{name}" for d in DATASETS for name in per_dataset]
