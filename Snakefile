@@ -11,6 +11,7 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/analytic.smk"
 include: "workflow/rules/datasets.smk"
 include: "workflow/rules/identify.smk"
+include: "workflow/rules/linearity.smk"
 
 
 rule reproduce_all:
