@@ -2,6 +2,7 @@ import os
 import sys
 from pathlib import Path
 
+import pytest
 from hypothesis import settings
 
 # Make tests/reference.py importable as `reference`.
@@ -12,3 +13,155 @@ sys.path.insert(0, str(Path(__file__).parent))
 settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")
+
+
+# --- The HTML report (tests/test_report.py, tests/test_report_browser.py) -------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# A tiny results folder laid out like reproduce-all's: dataset "sim" has every optional output
+# (Table 3, Figs. 6-9, sine and chirp tables), dataset "a<b&c" only the required ones, and
+# HTML special characters in its name, a validation figure's name and a table cell.
+FAKE_DATASETS = ["sim", "a<b&c"]
+FAKE_NASTY = "<script>alert(\"x\")</script> & 'y'"
+
+
+def _fake_params(fallback: str | None) -> dict:
+    units = {"c1": "s*bar^-0.5", "k2": "bar", "tau2": "s", "t_on": "s", "t_off": "s"}
+    nominal = {"c1": 0.533, "k2": 0.837, "tau2": 0.826, "t_on": 0.003, "t_off": 0.010}
+    params = {
+        name: {
+            "value": value * 1.0012345,
+            "lo": value * 0.98,
+            "hi": value * 1.02,
+            "unit": units[name],
+            "runs": ["pulse"],
+            "method": f"fit of {name} & friends",
+            "fallback": fallback if name == "t_off" else None,
+        }
+        for name, value in nominal.items()
+    }
+    params["fits"] = {"charge": {"r2": 0.96247}, "discharge": {"r2": 0.98534}}
+    return params
+
+
+@pytest.fixture(scope="session")
+def fake_results(tmp_path_factory):
+    """A fabricated run: ``.root`` (results folder), ``.datasets``, ``.pngs`` and ``.tables``
+    (the files the report must show), ``.nasty`` (the table cell full of HTML specials)."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+    import yaml
+    from matplotlib.figure import Figure
+
+    from spa.io import save_figure, write_csv
+
+    root = tmp_path_factory.mktemp("fake_results")
+    pngs: list[Path] = []
+    tables: list[Path] = []
+
+    def png(path: Path) -> None:
+        fig = Figure(figsize=(1.2, 0.6))
+        fig.set_facecolor((len(pngs) / 40, 0.5, 0.5))  # a different image in every file
+        save_figure(fig, path, dpi=40)
+        pngs.append(path)
+
+    def csv(path: Path, df: pd.DataFrame) -> None:
+        write_csv(df, path)
+        tables.append(path)
+
+    an = root / "analytic"
+    csv(an / "table1.csv", pd.DataFrame({"modulator": ["pwm"], "dead_zone": [0.06913708487]}))
+    csv(
+        an / "table2.csv",
+        pd.DataFrame(
+            {
+                "modulator": ["pwm", "iipfm"],
+                "J_min": [5.405415736, 1.8253],
+                "unit": ["Hz", "ms"],
+                "paper_J_min": [10.5, 4.8],
+                "analytic_optimum": [None, 19.3153286],
+            }
+        ),
+    )
+    for name in ("fig4", "fig5"):
+        png(an / f"{name}.png")
+        write_csv(pd.DataFrame({"x": [1.0]}), an / f"{name}.csv")  # beside the figure: not shown
+
+    for dataset, full in zip(FAKE_DATASETS, (True, False), strict=True):
+        d = root / dataset
+        (d / "identification").mkdir(parents=True)
+        params = _fake_params(None if full else "no pulse run <none>")
+        (d / "identification" / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
+        tables.append(d / "identification" / "params.yaml")
+        for name in ("fig2a", "fig2b", "fig2c"):
+            png(d / "identification" / f"{name}.png")
+        fit = pd.DataFrame(
+            {
+                "run": ["charge", FAKE_NASTY],
+                "kind": ["charge", "pulse"],
+                "fit_percent": [97.45077085, 12.0],
+                "n": [5000, 20000],
+            }
+        )
+        csv(d / "validation" / "fit.csv", fit)
+        kinds = ["charge", "pulse"] if full else ["odd<kind>"]
+        for kind in kinds:
+            png(d / "validation" / "figures" / f"{kind}.png")
+        if not full:
+            continue
+        csv(
+            d / "staircase" / "table3.csv",
+            pd.DataFrame(
+                {
+                    "run": ["staircase_pwm-20Hz"],
+                    "mse": [0.007952038316],
+                    "fit": [73.56569481],
+                    "paper_mse": [0.0073],
+                    "paper_fit": [75.23],
+                }
+            ),
+        )
+        for name in ("levels", "time_constants"):  # long: mentioned, not shown
+            write_csv(pd.DataFrame({"xi": [0.1, 0.2]}), d / "staircase" / f"{name}.csv")
+        for name in ("fig6", "fig7a", "fig7b"):
+            png(d / "staircase" / f"{name}.png")
+        csv(d / "sine" / "linearity.csv", pd.DataFrame({"run": ["sine_pwm"], "rms": [0.0804]}))
+        png(d / "sine" / "fig8.png")
+        csv(d / "chirp" / "bicoherence.csv", pd.DataFrame({"run": ["chirp_pwm"], "mean": [0.05]}))
+        png(d / "chirp" / "fig9.png")
+    return SimpleNamespace(
+        root=root, datasets=list(FAKE_DATASETS), pngs=pngs, tables=tables, nasty=FAKE_NASTY
+    )
+
+
+@pytest.fixture(scope="session")
+def small_run(tmp_path_factory):
+    """Results folder of `snakemake reproduce-all` with config/small.yaml, run once a session.
+
+    tests/test_workflow.py still has its own module-scoped ``small_run``, which takes
+    precedence there; deleting it would let the whole suite share this one run.
+    """
+    import subprocess
+
+    out = tmp_path_factory.mktemp("small_run")
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "reproduce-all",
+            "--configfile",
+            "config/small.yaml",
+            "--config",
+            f"results={out}",
+            "-c2",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert res.returncode == 0, res.stderr[-3000:]
+    return out
