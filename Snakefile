@@ -12,6 +12,7 @@ include: "workflow/rules/analytic.smk"
 include: "workflow/rules/datasets.smk"
 include: "workflow/rules/identify.smk"
 include: "workflow/rules/linearity.smk"
+include: "workflow/rules/report.smk"
 
 
 rule reproduce_all:
@@ -21,3 +22,4 @@ rule reproduce_all:
     input:
         analytic_targets(),
         dataset_targets(),
+        rules.report.output.report,
