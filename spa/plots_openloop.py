@@ -150,7 +150,7 @@ def fig7b(steps: pd.DataFrame) -> Figure:
     ax.set_xlabel("input fraction after the step ξ")
     ax.set_ylabel("time constant (s), 63.2 % of the step")
     ax.grid(True, lw=0.3, alpha=0.5)
-    ax.legend(fontsize=8, loc="upper right", title="mean ± sd", title_fontsize=8)
+    ax.legend(fontsize=8, loc="lower right", title="mean ± sd", title_fontsize=8)
     ax.set_title(f"Step time constants (paper, bench: {paper})", fontsize=9)
     return fig
 
