@@ -1,0 +1,209 @@
+"""Beyond one machine: the SLURM profile's plan, and real runs through a local stand-in cluster.
+
+profiles/local-cluster drives the cluster-generic executor exactly as it would drive a real
+scheduler, but its submit command (profiles/local-cluster/submit.sh) runs each job script on
+this machine and logs what it was asked for. The tests check that every job of a run went
+through it with the threads, mem_mb and runtime Snakemake planned for that job, so a new rule
+is covered without editing this file.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = [sys.executable, "-m", "snakemake"]
+
+
+def run(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [*SNAKEMAKE, *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env={**os.environ, **(env or {})},
+    )
+
+
+def planned_jobs(log: str) -> dict[str, dict[str, str]]:
+    """Every job block of a Snakemake log: jobid -> rule, threads, mem_mb, runtime.
+
+    Jobs of local rules (`localrule ...:`) are left out: they never reach the executor.
+    """
+    jobs = {}
+    for block in re.split(r"\n(?=\[[^\]]+\]\n)", log):
+        head = re.search(r"^rule (\S+):$", block, re.M)
+        jobid = re.search(r"^\s+jobid: (\d+)$", block, re.M)
+        if not (head and jobid):
+            continue
+        resources = re.search(r"^\s+resources: (.*)$", block, re.M)
+        res = dict(kv.split("=", 1) for kv in resources.group(1).split(", ")) if resources else {}
+        threads = re.search(r"^\s+threads: (\d+)$", block, re.M)  # printed only when > 1
+        jobs[jobid.group(1)] = {
+            "rule": head.group(1),
+            "threads": threads.group(1) if threads else "1",
+            "mem_mb": res.get("mem_mb"),
+            "runtime": res.get("runtime"),
+        }
+    return jobs
+
+
+def submissions(cluster_dir: Path) -> dict[str, dict[str, str]]:
+    """submit.sh's log: external job id -> the fields it recorded."""
+    out = {}
+    for line in (cluster_dir / "submissions.log").read_text().splitlines():
+        fields = dict(kv.split("=", 1) for kv in line.split(" "))
+        out[fields["id"]] = fields
+    return out
+
+
+def assert_every_job_went_through_submit(log: str, cluster_dir: Path) -> dict[str, dict]:
+    """Each planned job was submitted once, via submit.sh, with its own resources."""
+    jobs = planned_jobs(log)
+    assert jobs, log[-3000:]
+    submitted = dict(re.findall(r"Submitted job (\d+) with external jobid '([^']+)'", log))
+    recorded = submissions(cluster_dir)
+    assert sorted(submitted) == sorted(jobs), (sorted(submitted), sorted(jobs))
+    assert sorted(recorded) == sorted(submitted.values())
+    for jobid, job in jobs.items():
+        got = recorded[submitted[jobid]]
+        assert got["jobid"] == jobid
+        for key in ["rule", "threads", "mem_mb", "runtime"]:
+            assert got[key] == job[key], (jobid, key, got, job)
+    return {submitted[j]: job for j, job in jobs.items()}
+
+
+def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path):
+    # A dry run uses Snakemake's dry-run executor: the SLURM plugin only checks its settings
+    # and calls no sbatch/sinfo/sacct, so this works on a machine without SLURM. (A real run
+    # there fails at the first submission: the plugin asks sacct for a default account.)
+    res = run(
+        "reproduce-all",
+        "--profile",
+        "profiles/slurm",
+        "--dry-run",
+        "--configfile",
+        "config/small.yaml",
+        "--config",
+        f"results={tmp_path}",
+    )
+    text = res.stdout + res.stderr
+    assert res.returncode == 0, text[-3000:]
+    assert "Using profiles profiles/slurm" in text
+    jobs = planned_jobs(text)
+    rules = {job["rule"] for job in jobs.values()}
+    assert {"analytic_table1", "simulate_dataset", "ingest_dataset", "identify"} <= rules
+    for job in jobs.values():  # every job carries explicit memory and runtime for sbatch
+        assert job["mem_mb"] and job["runtime"], job
+    assert "This was a dry-run" in text
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.fixture(scope="module")
+def cluster_run(tmp_path_factory):
+    """A real run of the small config through profiles/local-cluster.
+
+    Three targets, one per stage (analytic, simulated dataset, bench dataset), rather than
+    reproduce-all: every job through the stand-in cluster starts its own Snakemake, which
+    roughly doubles the run time, and tests/test_workflow.py already runs the whole DAG.
+    """
+    base = tmp_path_factory.mktemp("cluster")
+    out, cluster_dir = base / "results", base / "cluster"
+    targets = [
+        out / "analytic" / "table1.csv",
+        out / "sim" / "identification" / "params.yaml",
+        out / "example" / "validation" / "fit.csv",
+    ]
+    res = run(
+        *map(str, targets),
+        "--profile",
+        "profiles/local-cluster",
+        "--configfile",
+        "config/small.yaml",
+        "--config",
+        f"results={out}",
+        # A non-default size for one rule, to show the values are the job's, not defaults.
+        # --cores caps a job's threads (not the number of jobs) with a cluster executor.
+        "--cores",
+        "2",
+        "--set-threads",
+        "analytic_table1=2",
+        "--set-resources",
+        "analytic_table1:mem_mb=700",
+        env={"LOCAL_CLUSTER_DIR": str(cluster_dir)},
+    )
+    return res, out, cluster_dir, targets
+
+
+def test_cluster_run_succeeds_and_writes_outputs(cluster_run):
+    res, _, _, targets = cluster_run
+    assert res.returncode == 0, res.stderr[-3000:]
+    for target in targets:
+        assert target.stat().st_size > 0, target
+
+
+def test_every_cluster_job_went_through_submit_with_its_resources(cluster_run):
+    res, _, cluster_dir, _ = cluster_run
+    assert res.returncode == 0, res.stderr[-3000:]
+    jobs = assert_every_job_went_through_submit(res.stdout + res.stderr, cluster_dir)
+    by_rule = {job["rule"]: job for job in jobs.values()}
+    assert {
+        "analytic_table1",
+        "simulate_dataset",
+        "ingest_dataset",
+        "identify",
+        "validate_model",
+    } <= set(by_rule)
+    assert by_rule["analytic_table1"]["threads"] == "2"
+    assert by_rule["analytic_table1"]["mem_mb"] == "700"
+    assert by_rule["ingest_dataset"]["mem_mb"] == "2500"
+    assert by_rule["ingest_dataset"]["runtime"] == "30"
+    # submit.sh recorded each job's exit status: all ran to the end and succeeded
+    for ext_id in jobs:
+        assert (cluster_dir / f"{ext_id}.exit").read_text().strip() == "0"
+
+
+def test_keep_going_on_the_cluster_finishes_good_datasets(tmp_path):
+    """A broken bench dataset fails its own job; with --keep-going the others still finish."""
+    raw = tmp_path / "raw"
+    shutil.copytree(ROOT / "raw" / "example", raw / "example")
+    shutil.copytree(ROOT / "raw" / "example", raw / "broken")
+    spec = raw / "broken" / "dataset.yaml"
+    spec.write_text(spec.read_text().replace("name: example", "name: broken"))
+    charge = raw / "broken" / "charge.csv"
+    lines = charge.read_text().splitlines(keepends=True)
+    t, _, valve = lines[3].split(",")
+    lines[3] = f"{t},abc,{valve}"  # a non-numeric pressure on line 4
+    charge.write_text("".join(lines))
+    cfg = tmp_path / "datasets.yaml"
+    cfg.write_text(f"datasets:\n  raw_dir: {raw}\n  include: []\n  exclude: []\n")
+    out, cluster_dir = tmp_path / "results", tmp_path / "cluster"
+    res = run(
+        *(f"{out}/{d}/identification/params.yaml" for d in ["example", "broken"]),
+        "--profile",
+        "profiles/local-cluster",
+        "--configfile",
+        "config/small.yaml",
+        str(cfg),
+        "--config",
+        f"results={out}",
+        "--keep-going",
+        env={"LOCAL_CLUSTER_DIR": str(cluster_dir)},
+    )
+    assert res.returncode != 0
+    log = (out / "logs" / "broken" / "ingest.log").read_text()
+    assert "charge.csv" in log and "non-numeric value" in log and "line 4" in log, log
+    assert (out / "example" / "identification" / "params.yaml").stat().st_size > 0
+    assert not (out / "broken" / "identification" / "params.yaml").exists()
+    # the failure was seen through status.sh, and every job still went through submit.sh
+    jobs = assert_every_job_went_through_submit(res.stdout + res.stderr, cluster_dir)
+    failed = [i for i in jobs if (cluster_dir / f"{i}.exit").read_text().strip() != "0"]
+    assert [jobs[i]["rule"] for i in failed] == ["ingest_dataset"]
