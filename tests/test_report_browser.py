@@ -1,0 +1,156 @@
+"""The HTML report in a real browser: headless Chromium shows every figure and table, and
+logs nothing to the console.
+
+Needs Debian's ``chromium`` and ``chromium-driver`` (``/usr/bin/chromium``,
+``/usr/bin/chromedriver``; ``.ci/run`` installs them) and selenium. Without them the tests
+skip, except under CI (``CI=true``), where they fail.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+import yaml
+
+import spa
+from spa.report import build_report
+
+ROOT = Path(__file__).resolve().parents[1]
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMEDRIVER = Path("/usr/bin/chromedriver")
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-quic",
+]
+
+# What the page shows, measured by the browser (the report itself has no script).
+PAGE_STATS = """
+const shown = e => { const r = e.getBoundingClientRect(); return r.width > 0 && r.height > 0; };
+const imgs = Array.from(document.images);
+const tables = Array.from(document.querySelectorAll('table'));
+const links = Array.from(document.querySelectorAll('a[href^="#"]'));
+return {
+  images: imgs.length,
+  images_shown: imgs.filter(i => i.complete && i.naturalWidth > 0 && shown(i)).length,
+  tables: tables.length,
+  tables_shown: tables.filter(t => t.rows.length > 1 && shown(t)).length,
+  scripts: document.scripts.length,
+  resources: performance.getEntriesByType('resource').map(e => e.name),
+  dangling_links: links.filter(a => !document.getElementById(a.hash.slice(1))).length,
+  title: document.title,
+};
+"""
+
+
+def _in_ci() -> bool:
+    return os.environ.get("CI", "").lower() not in ("", "0", "false", "no")
+
+
+def _unavailable() -> str | None:
+    """Why the browser tests cannot run here, or None."""
+    missing = [str(p) for p in (CHROMIUM, CHROMEDRIVER) if not p.is_file()]
+    if missing:
+        return (
+            f"{' and '.join(missing)} not found: install Debian's chromium and chromium-driver "
+            "(apt-get install chromium chromium-driver; .ci/run does)"
+        )
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return "selenium is not installed (pip install -e '.[test]')"
+    return None
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    reason = _unavailable()
+    if reason:
+        if _in_ci():
+            pytest.fail(f"CI=true but the browser test cannot run: {reason}")
+        pytest.skip(reason)
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for flag in FLAGS:
+        options.add_argument(flag)
+    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    # The driver's path is given, so selenium never looks for (or downloads) one.
+    driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
+    driver.set_page_load_timeout(60)
+    yield driver
+    driver.quit()
+
+
+def open_report(driver, path: Path) -> tuple[dict, list[dict]]:
+    """Load ``path``; return the page's statistics and the console messages it logged."""
+    driver.get_log("browser")  # drop anything logged before this page
+    driver.get(path.as_uri())
+    return driver.execute_script(PAGE_STATS), driver.get_log("browser")
+
+
+def expected_counts(results: Path) -> tuple[list[str], int, int]:
+    """(datasets, figures, tables) that the report of ``results`` must show, from its files."""
+    datasets = sorted(p.parent.parent.name for p in results.glob("*/identification/params.yaml"))
+    figures = list(results.glob("analytic/*.png"))
+    tables = list(results.glob("analytic/table*.csv"))
+    for d in datasets:
+        for pattern in (
+            "identification/*.png",
+            "validation/figures/*.png",
+            "staircase/fig*.png",
+            "sine/fig*.png",
+            "chirp/fig*.png",
+        ):
+            figures += (results / d).glob(pattern)
+        for name in (
+            "identification/params.yaml",
+            "validation/fit.csv",
+            "staircase/table3.csv",
+            "sine/linearity.csv",
+            "chirp/bicoherence.csv",
+        ):
+            tables += [results / d / name] if (results / d / name).is_file() else []
+    return datasets, len(figures), len(tables)
+
+
+def check_page(stats: dict, console: list[dict], n_figures: int, n_tables: int) -> None:
+    assert [m for m in console if m["level"] in ("SEVERE", "WARNING")] == [], console
+    assert stats["scripts"] == 0
+    assert stats["resources"] == []  # nothing fetched: images are data: URIs
+    assert stats["images"] == stats["images_shown"] == n_figures
+    assert stats["tables"] == stats["tables_shown"] == n_tables
+    assert stats["dangling_links"] == 0
+
+
+def test_fabricated_report_shows_every_figure_and_table(browser, fake_results, tmp_path):
+    path = tmp_path / "report.html"
+    meta = {"seed": 1, "spa version": spa.__version__}
+    path.write_text(build_report(fake_results.root, fake_results.datasets, meta), encoding="utf-8")
+    stats, console = open_report(browser, path)
+    check_page(stats, console, len(fake_results.pngs), len(fake_results.tables))
+    assert stats["title"] == "spa: reproduction report"
+
+
+def test_small_config_report_in_the_browser(browser, request):
+    # the browser first, so that a missing Chromium skips before the ~1 min pipeline run
+    small_run = request.getfixturevalue("small_run")  # session-scoped, in conftest.py
+    path = small_run / "report.html"
+    text = path.read_text(encoding="utf-8")
+    datasets, n_figures, n_tables = expected_counts(small_run)
+    assert datasets == ["example", "sim"]
+    seed = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["seed"]
+    assert f"<dt>seed</dt><dd>{seed}</dd>" in text
+    assert f"<dt>spa version</dt><dd>{spa.__version__}</dd>" in text
+    stats, console = open_report(browser, path)
+    check_page(stats, console, n_figures, n_tables)
