@@ -118,8 +118,11 @@ ANALYTIC_ITEMS = (
 _TABLE3 = Item(
     "staircase/table3.csv",
     "Table 3: static linearity of the staircase",
-    "Line fit P = m ξ + n to the equilibrium pressure of each staircase level, per modulator: "
-    "MSE, MD (largest deviation from the line) and FIT %, with the paper's values beside.",
+    "One row per modulator setting: line P = m ξ + n through the equilibrium pressure of each "
+    "staircase level, MSE, MD (largest residual), MAD (mean absolute residual) and FIT %, with "
+    "the paper's values (paper_*, shaded) beside its five cases; then the measured against the "
+    "averaged-model equilibrium, dead-zone and saturation brackets, step time constants and "
+    "switching rate.",
     required=False,
 )
 
@@ -154,46 +157,49 @@ DATASET_ITEMS = (
     Item(
         "staircase/fig6.png",
         "Fig. 6: staircase responses",
-        "Pressure response to the staircase input fraction (0 to 1 in steps of 0.1), "
-        "per modulator.",
+        "Pressure against time for the staircase input fraction, one panel per modulator "
+        "(every setting).",
         required=False,
     ),
     Item(
         "staircase/fig7a.png",
         "Fig. 7a: equilibrium pressure",
-        "Equilibrium pressure of each staircase level against the input fraction.",
+        "Equilibrium pressure against ξ for the best setting of each modulator plus IIPFM "
+        "with gain, with the ideal line k2·ξ.",
         required=False,
     ),
     Item(
         "staircase/fig7b.png",
         "Fig. 7b: time constants",
-        "Time to 63.2 % of each staircase step's change against the step.",
+        "Time constant of each staircase step (time to 63.2 % of the step's change).",
         required=False,
     ),
     Item(
         "sine/linearity.csv",
         "Sine linearity",
-        "Deviation from the line (0, 0) to (1, 1) of the pressure normalised to its maximum "
-        "against the input fraction, after compensating the phase lag, per run.",
+        "Per setting: lag found by cross-correlation, RMS and largest deviation of P/max(P) "
+        "from the line (0, 0)–(1, 1).",
         required=False,
     ),
     Item(
         "sine/fig8.png",
         "Fig. 8: sine linearity",
-        "Input fraction against normalised pressure for the sine runs, with the line from "
-        "(0, 0) to (1, 1).",
+        "Lag-compensated P/max(P) against the input fraction of the sine runs, one panel per "
+        "modulator, with the line (0, 0)–(1, 1).",
         required=False,
     ),
     Item(
         "chirp/bicoherence.csv",
         "Chirp bicoherence",
-        "Bicoherence of the pressure response to the chirp input, per run.",
+        "Per setting: mean (and largest) bicoherence of the pressure response to the chirp "
+        "over the principal domain.",
         required=False,
     ),
     Item(
         "chirp/fig9.png",
         "Fig. 9: bicoherence",
-        "Bicoherence of the pressure response to the chirp input over (f1, f2).",
+        "Bicoherence maps over (f1, f2) of the pressure response to the chirp, for the "
+        "lowest-mean setting of each modulator.",
         required=False,
     ),
 )
