@@ -7,6 +7,11 @@ min_version("9.0")
 configfile: "config/config.yaml"
 
 
+# `snakemake --lint` has one finding, "Specify a conda environment or container for each
+# rule", for every rule; it is deliberately not followed. Every rule runs the same pinned
+# Python environment (requirements.lock, installed by `make setup`; on a cluster, the same
+# .venv on the shared file system), so a per-rule conda env would duplicate the lock file and
+# could drift from it. tests/test_workflow.py checks that no other lint finding appears.
 include: "workflow/rules/common.smk"
 include: "workflow/rules/analytic.smk"
 include: "workflow/rules/datasets.smk"

@@ -8,7 +8,7 @@ from typing import Any
 
 import pandas as pd
 
-__all__ = ["get_logger", "save_figure", "write_csv"]
+__all__ = ["get_logger", "package_digest", "read_runs", "save_figure", "write_csv"]
 
 
 def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:
@@ -25,6 +25,21 @@ def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:
         h.setFormatter(fmt)
         logger.addHandler(h)
     return logger
+
+
+def package_digest() -> str:
+    """SHA-256 (first 16 hex digits) of the source of every module of the ``spa`` package.
+
+    The workflow passes it to every rule as a parameter, so that a change to the science
+    in ``spa/`` reruns the jobs it may affect (Snakemake reruns a job whose parameters
+    changed), while a change to comments or docs elsewhere in the repository does not.
+    """
+    import hashlib
+
+    h = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
 
 
 def write_csv(df: pd.DataFrame, path: str | Path) -> None:

@@ -90,6 +90,14 @@ def test_second_run_has_nothing_to_do(small_run):
     assert "Nothing to be done" in res.stdout + res.stderr
 
 
+def test_lint_finds_nothing_but_the_explained_conda_advice():
+    res = run("--lint", "--configfile", "config/small.yaml")
+    findings = {
+        line.strip() for line in (res.stdout + res.stderr).splitlines() if line.startswith("    * ")
+    }
+    assert findings == {"* Specify a conda environment or container for each rule.:"}, findings
+
+
 def test_typo_in_config_names_the_key(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("analytic:\n  n_xy: 3\n")

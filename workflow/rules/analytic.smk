@@ -14,6 +14,7 @@ rule analytic_table1:
         mem_mb=500,
         runtime=5,
     params:
+        code=SPA_CODE,
         nominal=lookup(dpath="nominal", within=config),
         selected=lookup(dpath="analytic/selected", within=config),
     script:
@@ -31,6 +32,7 @@ rule analytic_fig4:
         mem_mb=1000,
         runtime=5,
     params:
+        code=SPA_CODE,
         nominal=lookup(dpath="nominal", within=config),
         sweeps=lookup(dpath="analytic/sweeps", within=config),
         n_xi=lookup(dpath="analytic/n_xi", within=config),
@@ -48,6 +50,7 @@ rule analytic_table2:
         mem_mb=1000,
         runtime=5,
     params:
+        code=SPA_CODE,
         nominal=lookup(dpath="nominal", within=config),
         sweeps=lookup(dpath="analytic/sweeps", within=config),
         n_xi=lookup(dpath="analytic/n_xi", within=config),
@@ -68,6 +71,7 @@ rule analytic_fig5:
         mem_mb=500,
         runtime=5,
     params:
+        code=SPA_CODE,
         nominal=lookup(dpath="nominal", within=config),
         n_xi=lookup(dpath="analytic/n_xi", within=config),
     script:

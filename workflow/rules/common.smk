@@ -3,12 +3,15 @@ import re
 from pathlib import Path
 
 from spa.config import validate_config
+from spa.io import package_digest
 
 validate_config(
     config, Path(workflow.basedir) / "workflow" / "schemas" / "config.schema.yaml"
 )
 
 RESULTS = config.get("results", "results")
+# Passed to every job as `params: code=...`: editing spa/ reruns the jobs (a params change).
+SPA_CODE = package_digest()
 RAW_DIR = Path(config["datasets"]["raw_dir"])
 
 

@@ -14,6 +14,7 @@ rule simulate_dataset:
         mem_mb=2000,
         runtime=15,
     params:
+        code=SPA_CODE,
         cfg=lambda w: config["simulated"][w.dataset],
         experiments=config["experiments"],
         seed=config["seed"],
@@ -35,6 +36,7 @@ rule ingest_dataset:
         mem_mb=2500,
         runtime=30,
     params:
+        code=SPA_CODE,
         folder=lambda w: str(RAW_DIR / w.dataset),
     script:
         "../scripts/ingest_dataset.py"

@@ -20,6 +20,7 @@ rule identify:
         mem_mb=2000,
         runtime=20,
     params:
+        code=SPA_CODE,
         cfg=config["identification"],
         nominal=config["nominal"],
         seed=config["seed"],
@@ -40,5 +41,7 @@ rule validate_model:
     resources:
         mem_mb=2000,
         runtime=20,
+    params:
+        code=SPA_CODE,
     script:
         "../scripts/validate_model.py"

@@ -21,6 +21,7 @@ rule staircase:
         mem_mb=2000,
         runtime=20,
     params:
+        code=SPA_CODE,
         cfg=config["linearity"]["staircase"],
     script:
         "../scripts/staircase.py"
@@ -39,6 +40,7 @@ rule sine:
         mem_mb=2000,
         runtime=20,
     params:
+        code=SPA_CODE,
         cfg=config["linearity"]["sine"],
     script:
         "../scripts/sine.py"
@@ -57,6 +59,7 @@ rule chirp:
         mem_mb=2000,
         runtime=20,
     params:
+        code=SPA_CODE,
         cfg=config["linearity"]["chirp"],
     script:
         "../scripts/chirp.py"
