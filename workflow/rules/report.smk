@@ -17,5 +17,6 @@ rule report:
     params:
         datasets=DATASETS,
         seed=lookup(dpath="seed", within=config),
+        code=SPA_CODE,
     script:
         "../scripts/report.py"
