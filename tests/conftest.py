@@ -138,11 +138,7 @@ def fake_results(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def small_run(tmp_path_factory):
-    """Results folder of `snakemake reproduce-all` with config/small.yaml, run once a session.
-
-    tests/test_workflow.py still has its own module-scoped ``small_run``, which takes
-    precedence there; deleting it would let the whole suite share this one run.
-    """
+    """Results folder of `snakemake reproduce-all` with config/small.yaml, run once a session."""
     import subprocess
 
     out = tmp_path_factory.mktemp("small_run")

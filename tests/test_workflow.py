@@ -7,8 +7,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
 
@@ -17,14 +15,8 @@ def run(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True, timeout=900)
 
 
-@pytest.fixture(scope="module")
-def small_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("results")
-    res = run(
-        "reproduce-all", "--configfile", "config/small.yaml", "--config", f"results={out}", "-c2"
-    )
-    assert res.returncode == 0, res.stderr[-3000:]
-    return out
+# `small_run` (tests/conftest.py): the small config run once per session, shared with
+# the report tests.
 
 
 def test_small_config_produces_every_target(small_run):
