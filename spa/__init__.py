@@ -5,7 +5,9 @@ Regulated by Pulse-Driven Solenoid Valve", Robotics 2025, 14(12), 177.
 
 The top level re-exports the public API; the modules hold one concept each:
 ``params`` (ValveParams), ``modulators`` (modulate), ``plant`` (simulate), ``averaging``
-(Section 4 of the paper), ``tuning`` (Section 5), ``synthetic`` (simulated datasets).
+(Section 4 of the paper), ``tuning`` (Section 5), ``synthetic`` (simulated datasets),
+``identification`` and ``validation`` (Section 3.2), ``linearity``, ``spectra`` and
+``openloop`` (Section 6: Table 3, Figs. 6-9), ``report`` (the HTML report).
 """
 
 from spa.averaging import (
@@ -34,6 +36,7 @@ from spa.linearity import (
     step_time_constants,
 )
 from spa.modulators import MODULATORS, check_settings, modulate
+from spa.openloop import chirp_analysis, predicted_levels, sine_analysis, staircase_analysis
 from spa.params import ValveParams
 from spa.plant import charge, discharge, simulate
 from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask
@@ -50,6 +53,7 @@ __all__ = [
     "charge",
     "chattering_estimate",
     "check_settings",
+    "chirp_analysis",
     "compensate_lag",
     "discharge",
     "equilibrium",
@@ -64,12 +68,15 @@ __all__ = [
     "modulate",
     "modulator_settings",
     "optimum",
+    "predicted_levels",
     "principal_domain_mask",
     "pseudo_steady_mean",
     "pseudo_steady_state",
     "pulse_times",
     "simulate",
+    "sine_analysis",
     "sine_linearity",
+    "staircase_analysis",
     "staircase_levels",
     "step_time_constants",
     "sweep",
