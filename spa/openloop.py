@@ -45,7 +45,7 @@ from spa.linearity import (
 )
 from spa.modulators import check_settings
 from spa.params import ValveParams
-from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask
+from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask, segment_count
 from spa.synthetic import setting_label
 
 __all__ = [
@@ -57,7 +57,7 @@ __all__ = [
     "measured_thresholds",
     "paper_case",
     "predicted_levels",
-    "run_labels",
+    "run_tags",
     "runs_of_kind",
     "sine_analysis",
     "staircase_analysis",
@@ -313,12 +313,12 @@ def staircase_analysis(
 
 
 def best_settings(table: pd.DataFrame, score: str = "fit", higher: bool = True) -> pd.DataFrame:
-    """The best row of each modulator, plus every IIPFM row with a gain other than 1.
+    """The best row of each modulator, with the settings of gain other than 1 apart.
 
     Parameters
     ----------
     table : pandas.DataFrame
-        Rows with columns ``modulator``, ``setting`` and ``score``.
+        Rows with columns ``modulator``, ``setting``, ``gain`` and ``score``.
     score : str, default "fit"
         Column ranking the settings of one modulator.
     higher : bool, default True
@@ -327,17 +327,17 @@ def best_settings(table: pd.DataFrame, score: str = "fit", higher: bool = True) 
     Returns
     -------
     pandas.DataFrame
-        The chosen rows, in the paper's order PWM, IPFM, IIPFM, IIPFM with gain, ΔΣM.
-        Settings whose label carries a gain (``-G1.15``) compete only among themselves, so
-        Fig. 7a shows IIPFM with G = 1 and with G = 1.15 as the paper does.
+        The chosen rows, in the paper's order PWM, IPFM, IIPFM, IIPFM with gain, ΔΣM
+        (a modulator's settings with ``gain != 1`` compete only among themselves, so that
+        Fig. 7a shows IIPFM with G = 1 and with G = 1.15, as the paper does).
     """
-    for c in ("modulator", "setting", score):
+    for c in ("modulator", "setting", "gain", score):
         if c not in table.columns:
             raise ValueError(f"table lacks column {c!r}; has {list(table.columns)}")
     if table.empty:
         return table.copy()
-    group = table["modulator"] + np.where(table["setting"].str.contains("-G"), "+G", "")
-    order = {"pwm": 0, "ipfm": 1, "iipfm": 2, "iipfm+G": 3, "dsm": 4}
+    group = table["modulator"] + np.where(table["gain"] != 1.0, "+G", "")
+    order = {"pwm": 0, "ipfm": 1, "ipfm+G": 1.5, "iipfm": 2, "iipfm+G": 3, "dsm": 4}
     keyed = table.assign(_group=group, _score=table[score] if higher else -table[score])
     keyed = keyed[keyed["_score"].notna()]
     best = keyed.sort_values(["_score", "setting"], ascending=[False, True]).drop_duplicates(
@@ -427,14 +427,13 @@ def chirp_analysis(
     f, bic = bicoherence(p, fs, nfft=nfft, overlap=overlap)
     fmin = fs / nfft
     mask = principal_domain_mask(f, fmin=fmin)
-    advance = nfft - min(math.floor(nfft * overlap + 1e-9), nfft - 1)
     return (
         f,
         bic,
         {
             "fs": fs,
             "nfft": int(nfft),
-            "n_segments": int((p.size - (nfft - advance)) // advance),
+            "n_segments": segment_count(p.size, nfft, overlap),
             "mean_bicoherence": mean_bicoherence(f, bic, fmin=fmin),
             "median_bicoherence": float(np.median(bic[mask])),
             "max_bicoherence": float(bic[mask].max()),
@@ -460,17 +459,38 @@ def runs_of_kind(metas: Mapping[str, Mapping[str, Any]], kind: str) -> list[str]
     return sorted(ids, key=lambda r: (rank.get(metas[r]["modulator"].get("type"), 9), r))
 
 
-def run_labels(metas: Mapping[str, Mapping[str, Any]], ids: Sequence[str]) -> dict[str, str]:
-    """A distinct legend label per run: its setting label, or the run id when two runs share it.
+def run_tags(metas: Mapping[str, Mapping[str, Any]], ids: Sequence[str]) -> pd.DataFrame:
+    """What tells runs apart in tables and legends: modulator, setting label and gain.
+
+    Parameters
+    ----------
+    metas : mapping
+        Run id -> run metadata with a ``modulator`` mapping.
+    ids : sequence of str
+        The runs, in the order wanted.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by run id, with ``modulator`` (type), ``setting`` (its label, or the run id
+        when two runs share a label) and ``gain`` (the IPFM/IIPFM gain, 1 for the others).
 
     Examples
     --------
     >>> m = {"a": {"modulator": {"type": "pwm", "f_w": 20}},
     ...      "b": {"modulator": {"type": "pwm", "f_w": 20}},
-    ...      "c": {"modulator": {"type": "pwm", "f_w": 10}}}
-    >>> run_labels(m, ["a", "b", "c"])
-    {'a': 'a', 'b': 'b', 'c': 'pwm-10Hz'}
+    ...      "c": {"modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15}}}
+    >>> run_tags(m, ["a", "b", "c"])
+      modulator           setting  gain
+    a       pwm                 a  1.00
+    b       pwm                 b  1.00
+    c     iipfm  iipfm-20ms-G1.15  1.15
     """
-    labels = {r: setting_label(metas[r]["modulator"]) for r in ids}
-    count = pd.Series(list(labels.values()), dtype=object).value_counts()
-    return {r: (r if count[lab] > 1 else lab) for r, lab in labels.items()}
+    rows = {}
+    for r in ids:
+        kind, settings = _settings(metas[r]["modulator"])
+        rows[r] = (kind, setting_label(metas[r]["modulator"]), float(settings.get("gain", 1.0)))
+    tags = pd.DataFrame.from_dict(rows, orient="index", columns=["modulator", "setting", "gain"])
+    shared = tags["setting"].duplicated(keep=False)
+    tags.loc[shared, "setting"] = tags.index[shared]
+    return tags

@@ -87,26 +87,26 @@ def fig7a(levels: pd.DataFrame, k2: float) -> Figure:
     Parameters
     ----------
     levels : pandas.DataFrame
-        Columns ``modulator``, ``setting``, ``xi``, ``p_eq`` (bar) and ``fit`` (% of the
-        setting's line fit, shown in the legend).
+        Columns ``modulator``, ``setting``, ``gain`` (IPFM/IIPFM gain: other than 1 is drawn
+        with squares), ``xi``, ``p_eq`` (bar) and ``fit`` (% of the setting's line fit, shown
+        in the legend).
     k2 : float
         Supply (saturation) pressure in bar, the slope of the ideal line.
     """
-    _require(levels, ["modulator", "setting", "xi", "p_eq", "fit"], "levels")
+    _require(levels, ["modulator", "setting", "gain", "xi", "p_eq", "fit"], "levels")
     fig = Figure(figsize=(6.0, 4.5), layout="constrained")
     ax = fig.add_subplot()
     ax.plot([0.0, 1.0], [0.0, k2], "k--", lw=1.0, label=f"ideal: k2·ξ (k2 = {k2:.3f} bar)")
     for setting, g in levels.groupby("setting", sort=False):
-        kind = g["modulator"].iloc[0]
-        style = "s-" if "-G" in setting else "o-"
+        kind, gained = g["modulator"].iloc[0], g["gain"].iloc[0] != 1.0
         ax.plot(
             g["xi"],
             g["p_eq"],
-            style,
+            "s-" if gained else "o-",
             ms=4,
             lw=1.2,
             color=_COLOURS.get(kind),
-            alpha=0.6 if "-G" in setting else 1.0,
+            alpha=0.6 if gained else 1.0,
             label=f"{setting} (FIT {g['fit'].iloc[0]:.1f} %)",
         )
     ax.set_xlabel("input fraction ξ")
@@ -124,13 +124,14 @@ def fig7b(steps: pd.DataFrame) -> Figure:
     Parameters
     ----------
     steps : pandas.DataFrame
-        Columns ``modulator``, ``setting``, ``xi_to`` and ``tau`` (s, NaN skipped).
+        Columns ``modulator``, ``setting``, ``gain`` (as in `fig7a`), ``xi_to`` and ``tau``
+        (s, NaN skipped).
     """
-    _require(steps, ["modulator", "setting", "xi_to", "tau"], "steps")
+    _require(steps, ["modulator", "setting", "gain", "xi_to", "tau"], "steps")
     fig = Figure(figsize=(6.0, 4.5), layout="constrained")
     ax = fig.add_subplot()
     for setting, g in steps.groupby("setting", sort=False):
-        kind = g["modulator"].iloc[0]
+        kind, gained = g["modulator"].iloc[0], g["gain"].iloc[0] != 1.0
         g = g[np.isfinite(g["tau"])]
         if g.empty:
             continue
@@ -138,10 +139,10 @@ def fig7b(steps: pd.DataFrame) -> Figure:
         ax.plot(
             g["xi_to"],
             g["tau"],
-            "s-" if "-G" in setting else "o-",
+            "s-" if gained else "o-",
             ms=4,
             color=_COLOURS.get(kind),
-            alpha=0.6 if "-G" in setting else 1.0,
+            alpha=0.6 if gained else 1.0,
             label=label,
         )
     paper = ", ".join(

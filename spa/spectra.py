@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
 
-__all__ = ["bicoherence", "mean_bicoherence", "principal_domain_mask"]
+__all__ = ["bicoherence", "mean_bicoherence", "principal_domain_mask", "segment_count"]
 
 
 def _hanning(n: int) -> npt.NDArray[np.float64]:
@@ -65,6 +65,24 @@ def _orbits(n: int) -> tuple[npt.NDArray[np.intp], ...]:
     for arr in out:
         arr.setflags(write=False)
     return out
+
+
+def _advance(nfft: int, overlap: float) -> int:
+    """Samples from one segment's start to the next's (``nfft - noverlap``, as bicoher.m)."""
+    # 1e-9 absorbs representation error, e.g. 10*0.3.
+    return nfft - min(math.floor(nfft * overlap + 1e-9), nfft - 1)
+
+
+def segment_count(n_samples: int, nfft: int, overlap: float) -> int:
+    """Number of segments `bicoherence` averages over for a signal of ``n_samples``.
+
+    Examples
+    --------
+    >>> segment_count(60000, 256, 0.5)
+    467
+    """
+    advance = _advance(nfft, overlap)
+    return (n_samples - (nfft - advance)) // advance
 
 
 def _check_nfft(nfft: object, length: int) -> int:
@@ -176,9 +194,8 @@ def bicoherence(
     if not (0.0 <= ov < 1.0):
         raise ValueError(f"overlap must be a fraction in [0, 1), got {overlap!r}")
 
-    # Segmentation as in bicoher.m (1e-9 absorbs representation error, e.g. 10*0.3).
-    noverlap = min(math.floor(n * ov + 1e-9), n - 1)
-    advance = n - noverlap
+    # Segmentation as in bicoher.m.
+    advance = _advance(n, ov)
     segments = sliding_window_view(y, n)[::advance]
     n_seg = segments.shape[0]  # == (len(x) - noverlap) // advance
     segments = (segments - segments.mean(axis=1, keepdims=True)) * _hanning(n)

@@ -17,7 +17,7 @@ from spa.openloop import (
     measured_thresholds,
     paper_case,
     predicted_levels,
-    run_labels,
+    run_tags,
     runs_of_kind,
     sine_analysis,
     staircase_analysis,
@@ -193,6 +193,7 @@ def test_best_settings_keeps_the_best_of_each_modulator_and_gains_apart():
             "modulator": ["dsm", "pwm", "pwm", "iipfm", "iipfm", "iipfm"],
             "setting": ["dsm-20ms", "pwm-5Hz", "pwm-20Hz", "iipfm-10ms", "iipfm-20ms",
                         "iipfm-20ms-G1.15"],
+            "gain": [1.0, 1.0, 1.0, 1.0, 1.0, 1.15],
             "fit": [70.0, 60.0, 65.0, 80.0, 79.0, 50.0],
         }
     )  # fmt: skip
@@ -209,7 +210,9 @@ def test_run_labels_and_kinds():
         "c": {"kind": "charge"},
     }
     assert runs_of_kind(metas, "sine") == ["s1", "s2"]  # paper order: PWM before ΔΣM
-    assert run_labels(metas, ["s1", "s2"]) == {"s1": "pwm-20Hz", "s2": "dsm-20ms"}
+    tags = run_tags(metas, ["s1", "s2"])
+    assert tags["setting"].to_dict() == {"s1": "pwm-20Hz", "s2": "dsm-20ms"}
+    assert tags["gain"].tolist() == [1.0, 1.0]
 
 
 # ------------------------------------------------------------------------------- sine
@@ -274,14 +277,17 @@ def test_chirp_analysis_rejects_irregular_sampling_and_bad_factor():
 
 def test_figures_have_one_panel_per_modulator(paper_staircases):
     tags = [(r["modulator"], r["setting"], lv, st, r) for lv, st, r in paper_staircases.values()]
+    gain = {r["setting"]: (1.15 if "G = 1.15" in r["paper_case"] else 1.0) for *_, r in tags}
     traces = pd.concat(
         pd.DataFrame({"t": lv["t_start"], "p": lv["p_eq"], "modulator": m, "setting": s})
         for m, s, lv, _, _ in tags
     )
     assert len(fig6(traces).axes) == 4
-    levels = pd.concat(lv.assign(modulator=m, setting=s, fit=r["fit"]) for m, s, lv, _, r in tags)
+    levels = pd.concat(
+        lv.assign(modulator=m, setting=s, gain=gain[s], fit=r["fit"]) for m, s, lv, _, r in tags
+    )
     assert isinstance(fig7a(levels, NOMINAL.k2), Figure)
-    steps = pd.concat(st.assign(modulator=m, setting=s) for m, s, _, st, _ in tags)
+    steps = pd.concat(st.assign(modulator=m, setting=s, gain=gain[s]) for m, s, _, st, _ in tags)
     assert isinstance(fig7b(steps), Figure)
     aligned = pd.DataFrame(
         {"modulator": ["pwm", "dsm"], "setting": ["a", "b"], "xi": [0.1, 0.2],

@@ -3,18 +3,17 @@
 import pandas as pd
 
 from spa.io import get_logger, read_runs, save_figure, write_csv
-from spa.openloop import best_settings, chirp_analysis, run_labels, runs_of_kind
+from spa.openloop import best_settings, chirp_analysis, run_tags, runs_of_kind
 from spa.plots_openloop import fig9, no_data_figure
 
 log = get_logger("chirp", snakemake.log[0])
 runs, metas = read_runs(snakemake.input.runs)
 ids = runs_of_kind(metas, "chirp")
-labels = run_labels(metas, ids)
+tags = run_tags(metas, ids)
 rows, maps = [], {}
 for i, rid in enumerate(ids, 1):
     f, bic, summary = chirp_analysis(runs[rid], **snakemake.params.cfg)
-    kind = metas[rid]["modulator"]["type"]
-    rows.append({"run": rid, "modulator": kind, "setting": labels[rid], **summary})
+    rows.append({"run": rid, **tags.loc[rid], **summary})
     maps[rid] = (f, bic)
     log.info("[%d/%d] %s: mean bicoherence %.4f", i, len(ids), rid, summary["mean_bicoherence"])
 
@@ -28,6 +27,6 @@ if ids:
     save_figure(fig9(panels), snakemake.output.fig9)
 else:
     log.info("no chirp runs in this dataset: empty table, placeholder figure")
-    write_csv(pd.DataFrame(columns=["run", "modulator", "setting"]), snakemake.output.table)
+    write_csv(pd.DataFrame(columns=["run", "modulator", "setting", "gain"]), snakemake.output.table)
     message = f"{snakemake.wildcards.dataset}: no chirp runs"
     save_figure(no_data_figure(message), snakemake.output.fig9)

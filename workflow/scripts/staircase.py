@@ -5,7 +5,7 @@ import yaml
 
 from spa.identification import load_params
 from spa.io import get_logger, read_runs, save_figure, write_csv
-from spa.openloop import best_settings, run_labels, runs_of_kind, staircase_analysis
+from spa.openloop import best_settings, run_tags, runs_of_kind, staircase_analysis
 from spa.plots_openloop import fig6, fig7a, fig7b, no_data_figure, thin
 
 log = get_logger("staircase", snakemake.log[0])
@@ -14,13 +14,13 @@ runs, metas = read_runs(snakemake.input.runs)
 with open(snakemake.input.params) as fh:
     params = load_params(yaml.safe_load(fh))
 ids = runs_of_kind(metas, "staircase")
-labels = run_labels(metas, ids)
+tags = run_tags(metas, ids)
 rows, levels, steps, traces = [], [], [], []
 for i, rid in enumerate(ids, 1):
     lv, st, summary = staircase_analysis(
         runs[rid], metas[rid]["modulator"], params, **snakemake.params.cfg
     )
-    tag = {"run": rid, "modulator": summary["modulator"], "setting": labels[rid]}
+    tag = {"run": rid, **tags.loc[rid]}
     rows.append({**summary, **tag})
     levels.append(lv.assign(**tag))
     steps.append(st.assign(**tag))
@@ -32,14 +32,14 @@ for i, rid in enumerate(ids, 1):
 
 if not ids:
     log.info("no staircase runs in this dataset: empty tables, placeholder figures")
-    empty = pd.DataFrame(columns=["run", "modulator", "setting"])
+    empty = pd.DataFrame(columns=["run", "modulator", "setting", "gain"])
     for path in (out.table3, out.levels, out.time_constants):
         write_csv(empty, path)
     for path in (out.fig6, out.fig7a, out.fig7b):
         save_figure(no_data_figure(f"{snakemake.wildcards.dataset}: no staircase runs"), path)
 else:
     table3 = pd.DataFrame(rows)
-    first = ["run", "modulator", "setting", "paper_case"]
+    first = ["run", "modulator", "setting", "gain", "paper_case"]
     table3 = table3[first + [c for c in table3.columns if c not in first]]
     levels, steps = pd.concat(levels), pd.concat(steps)
     write_csv(table3, out.table3)
