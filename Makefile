@@ -1,12 +1,12 @@
 # Two entry points for a fresh machine with only Python 3.11:
 #   make reproduce   set up .venv from the lock file, then run `snakemake reproduce-all`
-#   make test        set up .venv from the lock file, then lint and run the test suite
+#   make test        set up .venv from the lock file and Chromium (apt-get), lint, run the tests
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup reproduce test lint lock clean
+.PHONY: setup reproduce test lint browser lock clean
 
 $(STAMP): pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -23,7 +23,16 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/snakefmt --check Snakefile workflow/rules
 
-test: lint
+# Debian's Chromium and its driver, for the browser test of the HTML report
+# (tests/test_report_browser.py); installed with apt-get only when missing.
+browser:
+	@if [ ! -x /usr/bin/chromium ] || [ ! -x /usr/bin/chromedriver ]; then \
+		sudo=""; [ "$$(id -u)" -eq 0 ] || sudo="sudo"; \
+		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null; \
+	fi
+
+test: lint browser
 	$(BIN)/pytest
 
 # Regenerate the lock file from pyproject.toml (needs network access to the registry).
