@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["MODULATORS", "check_settings", "modulate"]
+__all__ = ["MODULATORS", "check_settings", "modulate", "parse_modulator"]
 
 #: Modulator kinds and their settings with defaults (``None`` = required).
 MODULATORS: Mapping[str, Mapping[str, float | None]] = {
@@ -37,6 +37,32 @@ MODULATORS: Mapping[str, Mapping[str, float | None]] = {
 
 # Relative tolerance used when comparing accumulated floating-point times to event times.
 _EPS = 1e-9
+
+
+def parse_modulator(mod: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
+    """Split a modulator mapping such as ``{"type": "pwm", "f_w": 20}`` into kind and settings.
+
+    Returns
+    -------
+    kind : str
+        ``mod["type"]``.
+    settings : dict
+        :func:`check_settings` of the other keys: complete, validated, as floats.
+
+    Raises
+    ------
+    ValueError
+        If ``mod`` is not a mapping with a ``type``, or as :func:`check_settings`.
+
+    Examples
+    --------
+    >>> parse_modulator({"type": "iipfm", "t_l": 0.02})
+    ('iipfm', {'t_l': 0.02, 'gain': 1.0})
+    """
+    if not isinstance(mod, Mapping) or "type" not in mod:
+        raise ValueError(f"modulator must be a mapping with a 'type', got {mod!r}")
+    kind = str(mod["type"])
+    return kind, check_settings(kind, **{k: v for k, v in mod.items() if k != "type"})
 
 
 def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[str, float]:

@@ -43,7 +43,7 @@ from spa.linearity import (
     staircase_levels,
     step_time_constants,
 )
-from spa.modulators import check_settings
+from spa.modulators import parse_modulator
 from spa.params import ValveParams
 from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask, segment_count
 from spa.synthetic import setting_label
@@ -81,14 +81,6 @@ PAPER_TIME_CONSTANTS: Mapping[str, tuple[float, float]] = {
 _RUN_COLUMNS = ("t", "p", "valve", "u")
 
 
-def _settings(mod: Mapping[str, Any]) -> tuple[str, dict[str, Any]]:
-    """``(kind, full settings)`` of a modulator mapping, or ValueError naming the problem."""
-    if not isinstance(mod, Mapping) or "type" not in mod:
-        raise ValueError(f"modulator must be a mapping with a 'type', got {mod!r}")
-    kind = str(mod["type"])
-    return kind, check_settings(kind, **{k: v for k, v in mod.items() if k != "type"})
-
-
 def _columns(run: pd.DataFrame, what: str) -> tuple[np.ndarray, ...]:
     missing = [c for c in _RUN_COLUMNS if c not in run.columns]
     if missing:
@@ -106,9 +98,9 @@ def paper_case(mod: Mapping[str, Any]) -> str | None:
     >>> paper_case({"type": "pwm", "f_w": 10}) is None
     True
     """
-    kind, settings = _settings(mod)
+    kind, settings = parse_modulator(mod)
     for name, (case, *_) in PAPER_TABLE3.items():
-        ckind, csettings = _settings(case)
+        ckind, csettings = parse_modulator(case)
         if ckind == kind and all(
             math.isclose(float(settings[k]), float(v), rel_tol=1e-9)
             for k, v in csettings.items()
@@ -146,7 +138,7 @@ def predicted_levels(
     >>> df["switching_rate_model"].tolist()
     [0.0, 40.0, 0.0]
     """
-    kind, settings = _settings(mod)
+    kind, settings = parse_modulator(mod)
     x = np.asarray(xi, dtype=np.float64)
     p_eq = np.asarray(equilibrium(kind, x, params, **settings), dtype=np.float64)
     t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, x, **settings))
@@ -271,7 +263,7 @@ def staircase_analysis(
         ``switching_rate_mean`` (edges/s over all levels) and ``noise_pp`` (``p_pp`` of the
         first level, the sensor's floor when that level is a dead-zone).
     """
-    kind, settings = _settings(mod)
+    kind, settings = parse_modulator(mod)
     t, p, valve, u = _columns(run, "staircase_analysis")
     lv = staircase_levels(t, p, u, valve, settle=settle)
     steps = step_time_constants(t, p, u, settle=settle, min_change=min_change, smooth=smooth)
@@ -488,7 +480,7 @@ def run_tags(metas: Mapping[str, Mapping[str, Any]], ids: Sequence[str]) -> pd.D
     """
     rows = {}
     for r in ids:
-        kind, settings = _settings(metas[r]["modulator"])
+        kind, settings = parse_modulator(metas[r]["modulator"])
         rows[r] = (kind, setting_label(metas[r]["modulator"]), float(settings.get("gain", 1.0)))
     tags = pd.DataFrame.from_dict(rows, orient="index", columns=["modulator", "setting", "gain"])
     shared = tags["setting"].duplicated(keep=False)

@@ -13,23 +13,15 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from spa.openloop import PAPER_TIME_CONSTANTS
+from spa.openloop import MODULATOR_ORDER, PAPER_TIME_CONSTANTS
+from spa.plots import _COLOURS, _LABELS, _require
 from spa.spectra import principal_domain_mask
 
 __all__ = ["fig6", "fig7a", "fig7b", "fig8", "fig9", "no_data_figure", "thin"]
 
-_LABELS = {"pwm": "PWM", "ipfm": "IPFM", "iipfm": "IIPFM", "dsm": "ΔΣM"}
-_COLOURS = {"pwm": "tab:blue", "ipfm": "tab:orange", "iipfm": "tab:red", "dsm": "tab:green"}
-
-
-def _require(df: pd.DataFrame, columns: list[str], what: str) -> None:
-    missing = [c for c in columns if c not in df.columns]
-    if missing:
-        raise ValueError(f"{what}: missing column(s) {missing}; got {list(df.columns)}")
-
-
 def _kinds(df: pd.DataFrame) -> list[str]:
-    return [k for k in _LABELS if (df["modulator"] == k).any()]
+    """The modulators present, in the paper's Table 3 order."""
+    return [k for k in MODULATOR_ORDER if (df["modulator"] == k).any()]
 
 
 def thin(df: pd.DataFrame, max_points: int) -> pd.DataFrame:

@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.modulators import check_settings, modulate
+from spa.modulators import modulate, parse_modulator
 from spa.params import ValveParams
 from spa.plant import simulate
 
@@ -365,8 +365,7 @@ def setting_label(mod: Mapping[str, Any]) -> str:
     >>> setting_label({"type": "iipfm", "t_l": 0.02, "gain": 1.15})
     'iipfm-20ms-G1.15'
     """
-    kind = mod["type"]
-    s = check_settings(kind, **{k: v for k, v in mod.items() if k != "type"})
+    kind, s = parse_modulator(mod)
     if kind == "pwm":
         return f"pwm-{s['f_w']:g}Hz"
     name = {"ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}[kind]
