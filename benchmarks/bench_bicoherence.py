@@ -5,7 +5,7 @@ Signal: the paper's chirp experiment (MODEL.md section 5), simulated. Input frac
 exact plant, pressure sampled at 1 kHz: 60,000 samples. Bicoherence with nfft = 256 and 50 %
 overlap (468 segments).
 
-* spa: ``spa.spectra.bicoherence`` (numerator once per symmetry orbit, vectorised over
+* spa: ``spa.openloop.spectra.bicoherence`` (numerator once per symmetry orbit, vectorised over
   segments and f2, one einsum per f1 row). Timed cold (first call in the process, which
   builds the cached orbit table for this nfft) and warm (best of several repeats).
 * loop: ``bicoher_loop`` from tests/test_spectra.py, HOSA's ``bicoher`` written literally:
@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_spectra import bicoher_loop
 
 from spa import ValveParams, modulate, simulate
-from spa.spectra import bicoherence, mean_bicoherence
+from spa.openloop.spectra import bicoherence, mean_bicoherence
 
 FS = 1000.0
 DURATION = 60.0

@@ -10,7 +10,14 @@ The top level re-exports the public API; the modules hold one concept each:
 ``openloop`` (Section 6: Table 3, Figs. 6-9), ``report`` (the HTML report).
 """
 
-from spa.averaging import (
+from spa.identification import (
+    IdentificationError,
+    IdentificationResult,
+    identify,
+    identify_runs,
+    load_params,
+)
+from spa.model.averaging import (
     chattering_estimate,
     equilibrium,
     equilibrium_pressure,
@@ -21,25 +28,18 @@ from spa.averaging import (
     time_constant,
     time_fractions,
 )
-from spa.identification import (
-    IdentificationError,
-    IdentificationResult,
-    identify,
-    identify_runs,
-    load_params,
-)
-from spa.linearity import (
+from spa.model.modulators import MODULATORS, check_settings, modulate
+from spa.model.params import ValveParams
+from spa.model.plant import charge, discharge, simulate
+from spa.openloop import chirp_analysis, predicted_levels, sine_analysis, staircase_analysis
+from spa.openloop.linearity import (
     compensate_lag,
     linear_fit_metrics,
     sine_linearity,
     staircase_levels,
     step_time_constants,
 )
-from spa.modulators import MODULATORS, check_settings, modulate
-from spa.openloop import chirp_analysis, predicted_levels, sine_analysis, staircase_analysis
-from spa.params import ValveParams
-from spa.plant import charge, discharge, simulate
-from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask
+from spa.openloop.spectra import bicoherence, mean_bicoherence, principal_domain_mask
 from spa.tuning import iipfm_optimal_t_l, linearity_cost, modulator_settings, optimum, sweep
 from spa.validation import ValidationResult, validate_run, validate_runs
 

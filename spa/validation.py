@@ -20,9 +20,9 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.modulators import modulate
-from spa.params import ValveParams
-from spa.plant import run_start_pressures
+from spa.model.modulators import modulate
+from spa.model.params import ValveParams
+from spa.model.plant import run_start_pressures
 
 __all__ = [
     "ValidationResult",

@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from spa import ValveParams, modulate, simulate
-from spa.averaging import (
+from spa.model.averaging import (
     chattering_estimate,
     equilibrium,
     equilibrium_pressure,

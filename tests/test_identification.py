@@ -351,7 +351,7 @@ def test_simulate_identification_starts():
 
 def test_figures_build(case, tmp_path):
     from spa.io import save_figure
-    from spa.plots_identification import (
+    from spa.plots.identification import (
         fig2a,
         fig2a_data,
         fig2b,

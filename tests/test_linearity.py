@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spa.linearity import (
+from spa.openloop.linearity import (
     TAU_FRACTION,
     compensate_lag,
     linear_fit_metrics,

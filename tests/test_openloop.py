@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 from matplotlib.figure import Figure
 
-from spa.averaging import thresholds
+from spa.model.averaging import thresholds
+from spa.model.params import ValveParams
 from spa.openloop import (
     PAPER_TABLE3,
     best_settings,
@@ -22,8 +23,7 @@ from spa.openloop import (
     sine_analysis,
     staircase_analysis,
 )
-from spa.params import ValveParams
-from spa.plots_openloop import fig6, fig7a, fig7b, fig8, fig9, no_data_figure, thin
+from spa.plots.openloop import fig6, fig7a, fig7b, fig8, fig9, no_data_figure, thin
 from spa.synthetic import RunSpec, Sensor, simulate_run, staircase_input
 
 NOMINAL = ValveParams()

@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask
+from spa.openloop.spectra import bicoherence, mean_bicoherence, principal_domain_mask
 
 
 def bicoher_loop(x, fs, nfft, overlap):

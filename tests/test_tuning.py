@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 from spa import ValveParams
-from spa.averaging import equilibrium
-from spa.plots import plot_cost_sweeps, plot_equilibrium
+from spa.model.averaging import equilibrium
+from spa.plots.analytic import plot_cost_sweeps, plot_equilibrium
 from spa.tuning import (
     PAPER_TABLE2,
     equilibrium_frame,

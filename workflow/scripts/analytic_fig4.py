@@ -1,8 +1,8 @@
 """Fig. 4: linearity cost J (Eq. 25) swept over each modulator's parameter."""
 
 from spa.io import get_logger, save_figure, write_csv
-from spa.params import ValveParams
-from spa.plots import plot_cost_sweeps
+from spa.model.params import ValveParams
+from spa.plots.analytic import plot_cost_sweeps
 from spa.tuning import sweep_frame
 
 log = get_logger("analytic.fig4", snakemake.log[0])

@@ -3,8 +3,8 @@
 import pandas as pd
 
 from spa.io import get_logger, save_figure, write_csv
-from spa.params import ValveParams
-from spa.plots import plot_equilibrium
+from spa.model.params import ValveParams
+from spa.plots.analytic import plot_equilibrium
 from spa.tuning import equilibrium_frame
 
 log = get_logger("analytic.fig5", snakemake.log[0])

@@ -1,8 +1,8 @@
 """Table 1: dead-zone and saturation thresholds of the selected modulator settings."""
 
-from spa.averaging import threshold_table
 from spa.io import get_logger, write_csv
-from spa.params import ValveParams
+from spa.model.averaging import threshold_table
+from spa.model.params import ValveParams
 
 log = get_logger("analytic.table1", snakemake.log[0])
 params = ValveParams(**snakemake.params.nominal)

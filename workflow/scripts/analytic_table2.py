@@ -1,7 +1,7 @@
 """Table 2: optimum of each linearity sweep, beside the paper's printed values."""
 
 from spa.io import get_logger, write_csv
-from spa.params import ValveParams
+from spa.model.params import ValveParams
 from spa.tuning import optimum_table
 
 log = get_logger("analytic.table2", snakemake.log[0])

@@ -4,7 +4,7 @@ import pandas as pd
 
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import best_settings, chirp_analysis, run_tags, runs_of_kind
-from spa.plots_openloop import fig9, no_data_figure
+from spa.plots.openloop import fig9, no_data_figure
 
 log = get_logger("chirp", snakemake.log[0])
 runs, metas = read_runs(snakemake.input.runs)

@@ -7,7 +7,7 @@ import yaml
 from spa import ValveParams
 from spa.identification import IdentificationError, identify_runs
 from spa.io import get_logger, read_runs, save_figure, write_csv
-from spa.plots_identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
+from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
 from spa.validation import validate_run
 
 log = get_logger("identify", snakemake.log[0])

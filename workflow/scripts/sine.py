@@ -4,7 +4,7 @@ import pandas as pd
 
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import run_tags, runs_of_kind, sine_analysis
-from spa.plots_openloop import fig8, no_data_figure, thin
+from spa.plots.openloop import fig8, no_data_figure, thin
 
 log = get_logger("sine", snakemake.log[0])
 cfg = snakemake.params.cfg

@@ -6,7 +6,7 @@ import yaml
 from spa.identification import load_params
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import best_settings, run_tags, runs_of_kind, staircase_analysis
-from spa.plots_openloop import fig6, fig7a, fig7b, no_data_figure, thin
+from spa.plots.openloop import fig6, fig7a, fig7b, no_data_figure, thin
 
 log = get_logger("staircase", snakemake.log[0])
 out = snakemake.output

@@ -7,7 +7,7 @@ import yaml
 
 from spa.identification import load_params
 from spa.io import get_logger, read_runs, save_figure, write_csv
-from spa.plots_identification import validation_data, validation_figure
+from spa.plots.identification import validation_data, validation_figure
 from spa.validation import validate_run
 
 log = get_logger("validate_model", snakemake.log[0])

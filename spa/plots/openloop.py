@@ -14,8 +14,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from spa.openloop import MODULATOR_ORDER, PAPER_TIME_CONSTANTS
-from spa.plots import _COLOURS, _LABELS, _require
-from spa.spectra import principal_domain_mask
+from spa.openloop.spectra import principal_domain_mask
+from spa.plots.analytic import _COLOURS, _LABELS, _require
 
 __all__ = ["fig6", "fig7a", "fig7b", "fig8", "fig9", "no_data_figure", "thin"]
 
@@ -184,7 +184,7 @@ def fig9(maps: Sequence[tuple[str, np.ndarray, np.ndarray]], vmax: float | None 
     Parameters
     ----------
     maps : sequence of (title, f, bic)
-        Frequency axis (Hz) and map as returned by `spa.spectra.bicoherence`.
+        Frequency axis (Hz) and map as returned by `spa.openloop.spectra.bicoherence`.
     vmax : float, optional
         Top of the common colour scale (default: the largest value in the panels' domains,
         capped at 1 so a few near-empty bins do not wash out the maps).

@@ -20,9 +20,9 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.modulators import modulate, parse_modulator
-from spa.params import ValveParams
-from spa.plant import simulate
+from spa.model.modulators import modulate, parse_modulator
+from spa.model.params import ValveParams
+from spa.model.plant import simulate
 
 __all__ = [
     "EXAMPLE_PARAMS",

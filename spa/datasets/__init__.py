@@ -40,7 +40,7 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 import yaml
 
-from spa.modulators import MODULATORS, check_settings
+from spa.model.modulators import MODULATORS, check_settings
 
 __all__ = [
     "CANONICAL_COLUMNS",
@@ -244,7 +244,7 @@ class RunEntry:
         Path of the run's file, relative to the dataset folder.
     modulator : dict or None
         ``{"type": kind, **settings}`` with every setting filled in (see
-        :func:`spa.modulators.check_settings`), or None.
+        :func:`spa.model.modulators.check_settings`), or None.
     notes : str or None
         Free text.
     """

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from spa.params import ValveParams
+from spa.model.params import ValveParams
 
 __all__ = ["charge", "discharge", "run_start_pressures", "simulate"]
 

@@ -27,8 +27,8 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.modulators import MODULATORS, check_settings
-from spa.params import ValveParams
+from spa.model.modulators import MODULATORS, check_settings
+from spa.model.params import ValveParams
 
 __all__ = [
     "THRESHOLD_FORMULAS",
@@ -77,7 +77,7 @@ def _xi(xi: npt.ArrayLike) -> npt.NDArray[np.float64]:
 
 
 def _settings(kind: str, settings: Mapping[str, Any]) -> dict[str, Any]:
-    """Validate settings like :func:`spa.modulators.check_settings`, allowing arrays.
+    """Validate settings like :func:`spa.model.modulators.check_settings`, allowing arrays.
 
     Scalar settings go through ``check_settings`` unchanged (same messages); array-valued
     ones must be finite and > 0 everywhere.
@@ -209,7 +209,7 @@ def time_fractions(
     ------
     ValueError
         For an unknown ``kind``, a bad setting (named in the message), a non-finite ``xi`` or
-        ``params`` that is not a :class:`~spa.params.ValveParams`.
+        ``params`` that is not a :class:`~spa.model.params.ValveParams`.
 
     Notes
     -----

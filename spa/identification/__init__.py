@@ -35,8 +35,8 @@ import pandas as pd
 from scipy.optimize import curve_fit, least_squares
 from scipy.signal import fftconvolve, savgol_coeffs, savgol_filter
 
-from spa.params import ValveParams
-from spa.plant import simulate
+from spa.model.params import ValveParams
+from spa.model.plant import simulate
 from spa.validation import _edges, _evaluate
 
 __all__ = [
@@ -294,7 +294,7 @@ class IdentificationResult:
     settings: Mapping[str, Any] = field(default_factory=dict)
 
     def to_valve_params(self) -> ValveParams:
-        """The point estimates as :class:`~spa.params.ValveParams`."""
+        """The point estimates as :class:`~spa.model.params.ValveParams`."""
         return ValveParams(
             c1=self.c1.value,
             k2=self.k2.value,
@@ -331,7 +331,7 @@ class IdentificationResult:
 
 
 def load_params(mapping: Mapping[str, Any]) -> ValveParams:
-    """Build :class:`~spa.params.ValveParams` from ``params.yaml`` content or a flat mapping.
+    """Build :class:`~spa.model.params.ValveParams` from ``params.yaml`` content or a flat mapping.
 
     Parameters
     ----------

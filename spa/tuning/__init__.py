@@ -16,9 +16,9 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.averaging import Floats, equilibrium_pressure, time_constant, time_fractions
-from spa.modulators import MODULATORS
-from spa.params import ValveParams
+from spa.model.averaging import Floats, equilibrium_pressure, time_constant, time_fractions
+from spa.model.modulators import MODULATORS
+from spa.model.params import ValveParams
 
 __all__ = [
     "PAPER_TABLE2",
@@ -105,8 +105,9 @@ def modulator_settings(
     Returns
     -------
     dict
-        Keyword settings for :mod:`spa.averaging` and :func:`spa.modulators.modulate`: IPFM
-        uses ``gain = 1`` (the paper's choice), IIPFM ``gain = 1 + t_on/t_l`` (Eq. 17).
+        Keyword settings for :mod:`spa.model.averaging` and
+        :func:`spa.model.modulators.modulate`: IPFM uses ``gain = 1`` (the paper's choice),
+        IIPFM ``gain = 1 + t_on/t_l`` (Eq. 17).
         Scalars in give floats out.
 
     Raises

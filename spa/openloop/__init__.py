@@ -2,8 +2,8 @@
 
 Each function takes one canonical run table (``t`` s, ``p`` bar, ``valve`` 0/1, ``u`` input
 fraction) and the run's modulator setting, calls the array functions of
-:mod:`spa.linearity`, :mod:`spa.spectra` and :mod:`spa.averaging`, and returns tables ready
-to be written:
+:mod:`spa.openloop.linearity`, :mod:`spa.openloop.spectra` and
+:mod:`spa.model.averaging`, and returns tables ready to be written:
 
 * `staircase_analysis`: per level the measured equilibrium, chattering and switching rate
   beside the averaged model's predictions (Eqs. 5–10, Appendix B); per step the time
@@ -29,23 +29,23 @@ import numpy.typing as npt
 import pandas as pd
 from scipy import signal
 
-from spa.averaging import (
+from spa.model.averaging import (
     chattering_estimate,
     equilibrium,
     pseudo_steady_state,
     pulse_times,
     thresholds,
 )
-from spa.linearity import (
+from spa.model.modulators import parse_modulator
+from spa.model.params import ValveParams
+from spa.openloop.linearity import (
     compensate_lag,
     linear_fit_metrics,
     sine_linearity,
     staircase_levels,
     step_time_constants,
 )
-from spa.modulators import parse_modulator
-from spa.params import ValveParams
-from spa.spectra import bicoherence, mean_bicoherence, principal_domain_mask, segment_count
+from spa.openloop.spectra import bicoherence, mean_bicoherence, principal_domain_mask, segment_count
 from spa.synthetic import setting_label
 
 __all__ = [
@@ -233,7 +233,7 @@ def staircase_analysis(
         Valve parameters for the predictions (the dataset's identified ones).
     settle : float, default 0.4
         Settled window of each level, as the fraction of its duration at its end
-        (`spa.linearity.staircase_levels`).
+        (`spa.openloop.linearity.staircase_levels`).
     zone_fraction : float, default 0.02
         Dead-zone/saturation tolerance (`measured_thresholds`).
     min_change : float, default 0.01
@@ -244,10 +244,10 @@ def staircase_analysis(
     Returns
     -------
     levels : pandas.DataFrame
-        `spa.linearity.staircase_levels` joined with `predicted_levels` at each level's
+        `spa.openloop.linearity.staircase_levels` joined with `predicted_levels` at each level's
         ``xi``, plus ``p_fit`` (the fitted line) and ``residual`` (``p_eq - p_fit``).
     steps : pandas.DataFrame
-        `spa.linearity.step_time_constants`.
+        `spa.openloop.linearity.step_time_constants`.
     summary : dict
         One row of Table 3: the line ``m``, ``n``, ``mse``, ``md`` (largest residual),
         ``mad`` (mean absolute residual), ``fit`` (%); the paper's values
@@ -383,7 +383,7 @@ def chirp_analysis(
     run : pandas.DataFrame
         Canonical run table, uniformly sampled.
     nfft : int, default 256
-        Segment and FFT length (`spa.spectra.bicoherence`).
+        Segment and FFT length (`spa.openloop.spectra.bicoherence`).
     overlap : float, default 0.5
         Segment overlap fraction.
     decimate : int, default 1
