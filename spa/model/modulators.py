@@ -20,12 +20,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["MODULATORS", "check_settings", "modulate", "parse_modulator"]
+__all__ = [
+    "MODULATORS",
+    "MODULATOR_ORDER",
+    "Modulator",
+    "check_settings",
+    "modulate",
+    "parse_modulator",
+]
 
 #: Modulator kinds and their settings with defaults (``None`` = required).
 MODULATORS: Mapping[str, Mapping[str, float | None]] = {
@@ -34,6 +42,20 @@ MODULATORS: Mapping[str, Mapping[str, float | None]] = {
     "iipfm": {"t_l": None, "gain": 1.0},
     "dsm": {"period": None},
 }
+
+#: The order in which modulators are listed in tables and legends.
+MODULATOR_ORDER: tuple[str, ...] = ("pwm", "ipfm", "iipfm", "dsm")
+
+#: The setting that characterises each modulator (its swept parameter) and its unit.
+PARAMETER: Mapping[str, tuple[str, str]] = {
+    "pwm": ("f_w", "Hz"),
+    "ipfm": ("t_h", "s"),
+    "iipfm": ("t_l", "s"),
+    "dsm": ("period", "s"),
+}
+
+_NAMES = {"pwm": "PWM", "ipfm": "IPFM", "iipfm": "IIPFM", "dsm": "ΔΣM"}
+_SYMBOLS = {"f_w": "f_W", "t_h": "t_h", "t_l": "t_l", "period": "T_ΔΣ"}
 
 # Relative tolerance used when comparing accumulated floating-point times to event times.
 _EPS = 1e-9
@@ -63,6 +85,16 @@ def parse_modulator(mod: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
         raise ValueError(f"modulator must be a mapping with a 'type', got {mod!r}")
     kind = str(mod["type"])
     return kind, check_settings(kind, **{k: v for k, v in mod.items() if k != "type"})
+
+
+def _number(kind: str, name: str, value: Any) -> float:
+    """A setting as a float; booleans and strings are refused (YAML ``true`` is not 1 Hz)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{kind}: setting {name!r} must be a number, got {value!r}")
+    number = float(value)
+    if not math.isfinite(number) or number <= 0.0:
+        raise ValueError(f"{kind}: setting {name!r} must be finite and > 0, got {value!r}")
+    return number
 
 
 def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[str, float]:
@@ -101,13 +133,7 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
         value = settings.get(name, default)
         if value is None:
             raise ValueError(f"{kind}: missing setting {name!r}")
-        try:
-            number = float(value)
-        except (TypeError, ValueError):
-            raise ValueError(f"{kind}: setting {name!r} must be a number, got {value!r}") from None
-        if not math.isfinite(number) or number <= 0.0:
-            raise ValueError(f"{kind}: setting {name!r} must be finite and > 0, got {value!r}")
-        out[name] = number
+        out[name] = _number(kind, name, value)
     if dt is not None:
         if not math.isfinite(dt) or dt <= 0.0:
             raise ValueError(f"dt must be finite and > 0, got {dt!r}")
@@ -127,6 +153,117 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
                 f"dt = {dt:g} s; increase 'gain' or {width!r}"
             )
     return out
+
+
+@dataclass(frozen=True)
+class Modulator:
+    """One modulator setting: the type and its complete, validated settings.
+
+    Built once where a setting enters (the config, a ``dataset.yaml``, a notebook) with
+    :meth:`from_mapping`; every later stage passes this value around and never re-parses a
+    mapping. ``label`` is the one name used in run ids, file names, tables, legends and the
+    report.
+
+    Parameters
+    ----------
+    kind : {"pwm", "ipfm", "iipfm", "dsm"}
+        Modulator type.
+    settings : mapping
+        As :func:`check_settings` (missing defaults are filled in, values checked).
+
+    Examples
+    --------
+    >>> m = Modulator.from_mapping({"type": "iipfm", "t_l": 0.02, "gain": 1.15})
+    >>> m.label, m.description
+    ('iipfm-20ms-G1.15', 'IIPFM, t_l = 20 ms, G = 1.15')
+    >>> m.to_mapping()
+    {'type': 'iipfm', 't_l': 0.02, 'gain': 1.15}
+    >>> sorted(Modulator.from_mapping({"type": "ipfm", "t_h": t}).label for t in (0.1, 0.01))
+    ['ipfm-100ms', 'ipfm-10ms']
+    >>> [m.label for m in sorted(Modulator.from_mapping({"type": "ipfm", "t_h": t})
+    ...                          for t in (0.1, 0.01))]
+    ['ipfm-10ms', 'ipfm-100ms']
+    """
+
+    kind: str
+    settings: Mapping[str, float] = field(compare=False)
+    _key: tuple[Any, ...] = field(init=False, repr=False, compare=True)
+
+    def __post_init__(self) -> None:
+        full = check_settings(self.kind, **dict(self.settings))
+        object.__setattr__(self, "settings", full)
+        object.__setattr__(self, "_key", self.sort_key)
+
+    @classmethod
+    def from_mapping(cls, mod: Mapping[str, Any] | Modulator) -> Modulator:
+        """The value of a mapping such as ``{"type": "pwm", "f_w": 20}`` (or a Modulator)."""
+        if isinstance(mod, Modulator):
+            return mod
+        kind, settings = parse_modulator(mod)
+        return cls(kind, settings)
+
+    def to_mapping(self) -> dict[str, Any]:
+        """The mapping form, as a ``dataset.yaml`` or the config writes it (gain 1 omitted)."""
+        out: dict[str, Any] = {"type": self.kind}
+        for name, value in self.settings.items():
+            if name == "gain" and value == 1.0:
+                continue
+            out[name] = value
+        return out
+
+    @property
+    def parameter(self) -> str:
+        """Name of the characteristic setting: ``f_w``, ``t_h``, ``t_l`` or ``period``."""
+        return PARAMETER[self.kind][0]
+
+    @property
+    def value(self) -> float:
+        """Value of the characteristic setting, in Hz (PWM) or s."""
+        return self.settings[self.parameter]
+
+    @property
+    def gain(self) -> float:
+        """Threshold gain G (1 for PWM and ΔΣM)."""
+        return self.settings.get("gain", 1.0)
+
+    @property
+    def name(self) -> str:
+        """Display name of the type: PWM, IPFM, IIPFM or ΔΣM."""
+        return _NAMES[self.kind]
+
+    @property
+    def label(self) -> str:
+        """Short file-safe name, e.g. ``pwm-20Hz``, ``ipfm-20ms``, ``iipfm-20ms-G1.15``."""
+        if self.kind == "pwm":
+            return f"pwm-{self.value:g}Hz"
+        label = f"{self.kind}-{self.value * 1e3:g}ms"
+        if not math.isclose(self.gain, 1.0):
+            label += f"-G{self.gain:g}"
+        return label
+
+    @property
+    def description(self) -> str:
+        """Human description, e.g. ``PWM, f_W = 20 Hz`` or ``IIPFM, t_l = 20 ms, G = 1.15``."""
+        symbol = _SYMBOLS[self.parameter]
+        if self.kind == "pwm":
+            text = f"{self.name}, {symbol} = {self.value:g} Hz"
+        else:
+            text = f"{self.name}, {symbol} = {self.value * 1e3:g} ms"
+        if self.kind in ("ipfm", "iipfm") and not math.isclose(self.gain, 1.0):
+            text += f", G = {self.gain:g}"
+        return text
+
+    @property
+    def sort_key(self) -> tuple[int, float, float]:
+        """Numeric order: by type (PWM, IPFM, IIPFM, ΔΣM), then setting value, then gain."""
+        return (MODULATOR_ORDER.index(self.kind), self.value, self.gain)
+
+    def __lt__(self, other: Modulator) -> bool:
+        return self.sort_key < other.sort_key
+
+    def modulate(self, xi: npt.ArrayLike, dt: float) -> npt.NDArray[np.int8]:
+        """:func:`modulate` with this setting."""
+        return modulate(self.kind, xi, dt, **self.settings)
 
 
 def _check_xi(xi: npt.ArrayLike) -> npt.NDArray[np.float64]:
