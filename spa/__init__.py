@@ -3,87 +3,89 @@
 Implements Serrano-Balbontín et al., "Open-Loop Characterisation of Soft Actuator Pressure
 Regulated by Pulse-Driven Solenoid Valve", Robotics 2025, 14(12), 177.
 
-The top level re-exports the public API; the modules hold one concept each:
-``params`` (ValveParams), ``modulators`` (modulate), ``plant`` (simulate), ``averaging``
-(Section 4 of the paper), ``tuning`` (Section 5), ``synthetic`` (simulated datasets),
-``identification`` and ``validation`` (Section 3.2), ``linearity``, ``spectra`` and
-``openloop`` (Section 6: Table 3, Figs. 6-9), ``report`` (the HTML report).
+The subpackages follow the pipeline's stages: ``model`` (ValveParams, the exact plant, the
+modulators, the averaged analysis of Section 4), ``datasets`` (the dataset contract, readers,
+checks, ingest), ``synthetic`` (simulated datasets), ``identification`` (Section 3.2),
+``validation`` (the identified model replayed on every run), ``tuning`` (Section 5),
+``openloop`` (Section 6: Table 3, Figs. 6-9), ``plots`` and ``report``.
+
+The top level re-exports the public API. Names are imported on first use (PEP 562), so that
+``import spa`` and ``import spa.io`` stay cheap in a workflow job that needs one stage only.
 """
 
-from spa.identification import (
-    IdentificationError,
-    IdentificationResult,
-    identify,
-    identify_runs,
-    load_params,
-)
-from spa.model.averaging import (
-    chattering_estimate,
-    equilibrium,
-    equilibrium_pressure,
-    pseudo_steady_mean,
-    pseudo_steady_state,
-    pulse_times,
-    thresholds,
-    time_constant,
-    time_fractions,
-)
-from spa.model.modulators import MODULATORS, check_settings, modulate
-from spa.model.params import ValveParams
-from spa.model.plant import charge, discharge, simulate
-from spa.openloop import chirp_analysis, predicted_levels, sine_analysis, staircase_analysis
-from spa.openloop.linearity import (
-    compensate_lag,
-    linear_fit_metrics,
-    sine_linearity,
-    staircase_levels,
-    step_time_constants,
-)
-from spa.openloop.spectra import bicoherence, mean_bicoherence, principal_domain_mask
-from spa.tuning import iipfm_optimal_t_l, linearity_cost, modulator_settings, optimum, sweep
-from spa.validation import ValidationResult, validate_run, validate_runs
+from __future__ import annotations
 
-__all__ = [
-    "MODULATORS",
-    "IdentificationError",
-    "IdentificationResult",
-    "ValidationResult",
-    "ValveParams",
-    "bicoherence",
-    "charge",
-    "chattering_estimate",
-    "check_settings",
-    "chirp_analysis",
-    "compensate_lag",
-    "discharge",
-    "equilibrium",
-    "equilibrium_pressure",
-    "identify",
-    "identify_runs",
-    "iipfm_optimal_t_l",
-    "linear_fit_metrics",
-    "linearity_cost",
-    "load_params",
-    "mean_bicoherence",
-    "modulate",
-    "modulator_settings",
-    "optimum",
-    "predicted_levels",
-    "principal_domain_mask",
-    "pseudo_steady_mean",
-    "pseudo_steady_state",
-    "pulse_times",
-    "simulate",
-    "sine_analysis",
-    "sine_linearity",
-    "staircase_analysis",
-    "staircase_levels",
-    "step_time_constants",
-    "sweep",
-    "thresholds",
-    "time_constant",
-    "time_fractions",
-    "validate_run",
-    "validate_runs",
-]
+import importlib
+from typing import Any
+
 __version__ = "0.1.0"
+
+#: Public name -> the module that defines it.
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(
+        (
+            "chattering_estimate",
+            "equilibrium",
+            "equilibrium_pressure",
+            "pseudo_steady_mean",
+            "pseudo_steady_state",
+            "pulse_times",
+            "thresholds",
+            "time_constant",
+            "time_fractions",
+        ),
+        "spa.model.averaging",
+    ),
+    **dict.fromkeys(
+        (
+            "IdentificationError",
+            "IdentificationResult",
+            "identify",
+            "identify_runs",
+            "load_params",
+        ),
+        "spa.identification",
+    ),
+    **dict.fromkeys(
+        (
+            "compensate_lag",
+            "linear_fit_metrics",
+            "sine_linearity",
+            "staircase_levels",
+            "step_time_constants",
+        ),
+        "spa.openloop.linearity",
+    ),
+    **dict.fromkeys(
+        ("MODULATORS", "Modulator", "check_settings", "modulate"), "spa.model.modulators"
+    ),
+    **dict.fromkeys(
+        ("chirp_analysis", "predicted_levels", "sine_analysis", "staircase_analysis"),
+        "spa.openloop",
+    ),
+    "ValveParams": "spa.model.params",
+    **dict.fromkeys(("charge", "discharge", "simulate"), "spa.model.plant"),
+    **dict.fromkeys(
+        ("bicoherence", "mean_bicoherence", "principal_domain_mask"), "spa.openloop.spectra"
+    ),
+    **dict.fromkeys(
+        ("iipfm_optimal_t_l", "linearity_cost", "modulator_settings", "optimum", "sweep"),
+        "spa.tuning",
+    ),
+    **dict.fromkeys(("ValidationResult", "validate_run", "validate_runs"), "spa.validation"),
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'spa' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS])
