@@ -1,0 +1,141 @@
+"""How `snakemake reproduce-all` grows with the number of bench datasets.
+
+Run from the repository root (nothing is written to results/ or raw/):
+
+    .venv/bin/python benchmarks/bench_growth.py                  # 1, 10, 50, 100 datasets
+    .venv/bin/python benchmarks/bench_growth.py --counts 1 10    # a quicker look
+
+For each count N, N copies of raw/example go into a temporary raw folder, and the small
+configuration (`config/small.yaml`, so the simulated dataset `sim` as well) runs with `-c2`
+into a temporary results folder:
+
+- DAG build: wall time of `snakemake reproduce-all --dry-run` before the first run;
+- cold run: wall time from an empty results folder, and the number of jobs it ran;
+- no-op: wall time of a second run with nothing changed ("Nothing to be done");
+- peak memory: the largest resident set of any process of the cold run (the Snakemake
+  process itself or a job), from the kernel's accounting of the waited-for children.
+
+The slope (time per added dataset) is the least-squares line through the cold times. The
+table goes to stdout as Markdown, the figures to `benchmarks/out/growth.csv` and
+`benchmarks/out/growth.png` (copy them beside benchmarks/README.md to publish them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(args: list[str], cwd: Path) -> tuple[float, str, float]:
+    """Wall time, output and peak RSS (MiB) of one command and everything it waited for."""
+    with tempfile.TemporaryFile("w+") as log:
+        start = time.perf_counter()
+        proc = subprocess.Popen(args, cwd=cwd, stdout=log, stderr=subprocess.STDOUT, text=True)
+        # wait4's ru_maxrss is the largest resident set in the child's process tree.
+        _, status, usage = os.wait4(proc.pid, 0)
+        elapsed = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        log.seek(0)
+        text = log.read()
+    if proc.returncode != 0:
+        sys.exit(f"{' '.join(args)} failed:\n{text[-4000:]}")
+    return elapsed, text, usage.ru_maxrss / 1024.0
+
+
+def make_raw(raw: Path, n: int) -> None:
+    for i in range(n):
+        name = f"bench{i:03d}"
+        shutil.copytree(ROOT / "raw" / "example", raw / name)
+        spec = raw / name / "dataset.yaml"
+        spec.write_text(spec.read_text().replace("name: example", f"name: {name}", 1))
+
+
+def measure(n: int, tmp: Path) -> dict[str, float]:
+    raw = tmp / "raw"
+    make_raw(raw, n)
+    out = tmp / "results"
+    cmd = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "reproduce-all",
+        "--configfile",
+        "config/small.yaml",
+        "--config",
+        f"results={out}",
+        f"datasets={{'raw_dir': '{raw}'}}",
+        "-c2",
+    ]
+    t_dag, _, _ = run([*cmd, "--dry-run", "--quiet"], ROOT)
+    t_cold, log, peak = run(cmd, ROOT)
+    jobs = len(re.findall(r"^Finished jobid", log, flags=re.M))
+    t_noop, log_noop, _ = run(cmd, ROOT)
+    if "Nothing to be done" not in log_noop:
+        sys.exit(f"the second run with {n} datasets was not a no-op:\n{log_noop[-2000:]}")
+    return {
+        "datasets": n,
+        "jobs": jobs,
+        "cold_s": t_cold,
+        "noop_s": t_noop,
+        "dag_s": t_dag,
+        "peak_mib": peak,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--counts", type=int, nargs="+", default=[1, 10, 50, 100])
+    args = ap.parse_args()
+    rows = []
+    for n in args.counts:
+        with tempfile.TemporaryDirectory(prefix="spa-growth-") as tmp:
+            rows.append(measure(n, Path(tmp)))
+        print(f"measured {n} datasets: {rows[-1]}", file=sys.stderr, flush=True)
+    n = np.array([r["datasets"] for r in rows], dtype=float)
+    cold = np.array([r["cold_s"] for r in rows])
+    slope = float(np.polyfit(n, cold, 1)[0]) if len(rows) > 1 else float("nan")
+
+    print("| bench datasets | jobs | cold run (s) | no-op (s) | DAG build (s) | peak RSS (MiB) |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        print(
+            f"| {r['datasets']} | {r['jobs']} | {r['cold_s']:.1f} | {r['noop_s']:.1f} | "
+            f"{r['dag_s']:.1f} | {r['peak_mib']:.0f} |"
+        )
+    print(f"\nslope: {slope:.2f} s per added dataset (least squares over the cold runs)")
+
+    out = ROOT / "benchmarks" / "out"
+    out.mkdir(parents=True, exist_ok=True)
+    import pandas as pd
+
+    pd.DataFrame(rows).to_csv(out / "growth.csv", index=False)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(n, cold, "o-", label=f"cold run ({slope:.2f} s per dataset)")
+    ax.plot(n, [r["noop_s"] for r in rows], "s-", label="no-op rerun")
+    ax.plot(n, [r["dag_s"] for r in rows], "^-", label="DAG build (dry run)")
+    ax.set_xlabel("bench datasets (copies of raw/example) + sim")
+    ax.set_ylabel("wall time (s), 2 cores")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "growth.png", dpi=150)
+
+
+if __name__ == "__main__":
+    main()
