@@ -146,15 +146,6 @@ class Stage:
     logs: dict[str, str] = field(default_factory=dict)
     section: str | None = None
 
-    def output(self, key: str) -> Output:
-        """The output named ``key``."""
-        for out in self.outputs:
-            if out.key == key:
-                return out
-        raise KeyError(
-            f"stage {self.name!r} has no output {key!r}: {[o.key for o in self.outputs]}"
-        )
-
 
 def _analytic(name: str, *outputs: Output) -> Stage:
     """An analytic step: rule ``analytic_<name>``, log ``logs/analytic/<name>.log``."""
@@ -168,8 +159,6 @@ def _per_dataset(name: str, *outputs: Output, logs: dict[str, str] | None = None
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     return Stage(name, True, outputs, logs, section="dataset")
 
-
-_OPTIONAL = {"required": False}
 
 STAGES: tuple[Stage, ...] = (
     _analytic(
@@ -291,7 +280,7 @@ STAGES: tuple[Stage, ...] = (
             "the measured against the averaged-model equilibrium, dead-zone and saturation "
             "brackets, step time constants and switching rate.",
             key_item=True,
-            **_OPTIONAL,
+            required=False,
         ),
         Output("levels", "staircase/levels.csv", DATA, mention=True),
         Output("time_constants", "staircase/time_constants.csv", DATA, mention=True),
@@ -302,7 +291,7 @@ STAGES: tuple[Stage, ...] = (
             "Fig. 6: staircase responses",
             "Pressure against time for the staircase input fraction, one panel per modulator "
             "(every setting).",
-            **_OPTIONAL,
+            required=False,
         ),
         Output(
             "fig7a",
@@ -311,7 +300,7 @@ STAGES: tuple[Stage, ...] = (
             "Fig. 7a: equilibrium pressure",
             "Equilibrium pressure against ξ for the best setting of each modulator plus IIPFM "
             "with gain, with the ideal line k2·ξ.",
-            **_OPTIONAL,
+            required=False,
         ),
         Output(
             "fig7b",
@@ -319,7 +308,7 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 7b: time constants",
             "Time constant of each staircase step (time to 63.2 % of the step's change).",
-            **_OPTIONAL,
+            required=False,
         ),
     ),
     _per_dataset(
@@ -331,7 +320,7 @@ STAGES: tuple[Stage, ...] = (
             "Sine linearity",
             "Per setting: lag found by cross-correlation, RMS and largest deviation of "
             "P/max(P) from the line (0, 0)–(1, 1).",
-            **_OPTIONAL,
+            required=False,
         ),
         Output(
             "fig8",
@@ -340,7 +329,7 @@ STAGES: tuple[Stage, ...] = (
             "Fig. 8: sine linearity",
             "Lag-compensated P/max(P) against the input fraction of the sine runs, one panel "
             "per modulator, with the line (0, 0)–(1, 1).",
-            **_OPTIONAL,
+            required=False,
         ),
     ),
     _per_dataset(
@@ -352,7 +341,7 @@ STAGES: tuple[Stage, ...] = (
             "Chirp bicoherence",
             "Per setting: mean (and largest) bicoherence of the pressure response to the chirp "
             "over the principal domain.",
-            **_OPTIONAL,
+            required=False,
         ),
         Output(
             "fig9",
@@ -361,7 +350,7 @@ STAGES: tuple[Stage, ...] = (
             "Fig. 9: bicoherence",
             "Bicoherence maps over (f1, f2) of the pressure response to the chirp, for the "
             "lowest-mean setting of each modulator.",
-            **_OPTIONAL,
+            required=False,
         ),
     ),
     Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
