@@ -25,6 +25,4 @@ rule reproduce_all:
         "reproduce-all"
     default_target: True
     input:
-        analytic_targets(),
-        dataset_targets(),
-        rules.report.output.report,
+        all_targets(RESULTS, DATASETS),

@@ -8,7 +8,7 @@ from typing import Any
 
 import yaml
 
-__all__ = ["ConfigError", "config_errors", "validate_config"]
+__all__ = ["ConfigError", "config_errors", "dataset_files", "discover_datasets", "validate_config"]
 
 
 class ConfigError(ValueError):
@@ -73,3 +73,57 @@ def validate_config(config: Mapping[str, Any], schema_path: str | Path) -> None:
         raise ConfigError(
             f"invalid configuration (checked against {schema_path}):\n  " + "\n  ".join(errors)
         )
+
+
+def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
+    """The datasets of a run: the simulated ones and the bench ones chosen from ``raw_dir``.
+
+    Parameters
+    ----------
+    config : mapping
+        The validated configuration: ``simulated`` (name -> settings) and ``datasets``
+        (``raw_dir``, optional ``include`` and ``exclude`` lists of folder names).
+
+    Returns
+    -------
+    simulated : list of str
+        The names under ``simulated``, sorted.
+    raw : list of str
+        The folders of ``raw_dir`` holding a ``dataset.yaml`` (hidden folders, starting with
+        ``.``, are skipped), sorted; only those of ``include`` when it is not empty (in its
+        order), minus those of ``exclude``.
+
+    Raises
+    ------
+    ConfigError
+        If ``include`` names a folder that is not a dataset, or a name is both simulated and a
+        bench dataset.
+    """
+    from spa.datasets import find_datasets  # TODO(merge): spa.datasets.select_datasets
+
+    datasets = config["datasets"]
+    raw_dir = Path(datasets["raw_dir"])
+    found = find_datasets(raw_dir)
+    wanted = list(datasets.get("include") or [])
+    exclude = set(datasets.get("exclude") or [])
+    missing = [d for d in wanted if d not in found]
+    if missing:
+        raise ConfigError(
+            f"config datasets.include names {missing}, but {raw_dir}/ has no such folder "
+            f"with a dataset.yaml (found: {found})"
+        )
+    raw = [d for d in wanted or found if d not in exclude]
+    simulated = sorted(config["simulated"])
+    clash = sorted(set(raw) & set(simulated))
+    if clash:
+        raise ConfigError(
+            f"dataset name(s) {clash} are both simulated (config simulated:) and in {raw_dir}/; "
+            "rename one or list it under datasets.exclude"
+        )
+    return simulated, raw
+
+
+def dataset_files(raw_dir: str | Path, name: str) -> list[str]:
+    """Every file of the bench dataset folder ``raw_dir/name``, sorted: the inputs of its
+    ingest, so that a change to any of them reruns its jobs."""
+    return sorted(str(p) for p in (Path(raw_dir) / name).rglob("*") if p.is_file())

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import pandas as pd
+if TYPE_CHECKING:
+    import pandas as pd
 
-__all__ = ["get_logger", "package_digest", "read_runs", "save_figure", "write_csv"]
+    from spa.model.params import ValveParams
+
+__all__ = ["get_logger", "package_digest", "read_params", "read_runs", "save_figure", "write_csv"]
 
 
 def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:
@@ -79,3 +82,25 @@ def read_runs(run_dir: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, d
     if not runs:
         raise ValueError(f"{run_dir}: no run tables (*.parquet) found")
     return runs, metas
+
+
+def read_params(path: str | Path) -> ValveParams:
+    """The valve parameters of a ``params.yaml`` written by the identify stage.
+
+    Raises
+    ------
+    ValueError
+        If a parameter is missing or invalid; the message names the file and the parameter.
+    """
+    import yaml
+
+    from spa.identification import load_params
+
+    with open(path, encoding="utf-8") as fh:
+        content = yaml.safe_load(fh)
+    if not isinstance(content, dict):
+        raise ValueError(f"{path}: expected a mapping of parameters, got {type(content).__name__}")
+    try:
+        return load_params(content)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None

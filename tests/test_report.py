@@ -100,6 +100,18 @@ def test_optional_outputs_are_skipped_when_missing(report):
     assert full.lstrip().startswith('<h2>Dataset sim</h2>\n<div class="key">')
 
 
+def test_sections_show_what_the_registry_of_outputs_lists(fake_results, report):
+    from spa.outputs import FIGURES, section_outputs
+
+    secs = sections(report)
+    for section, html in (("analytic", secs["analytic"]), ("dataset", secs["dataset-sim"])):
+        shown = [o for o in section_outputs(section) if o.shown and o.kind != FIGURES]
+        titles = re.findall(r"<h3>(.*?)</h3>", html)
+        assert [t for t in titles if not t.startswith("Validation: ")] == [o.title for o in shown]
+        for out in shown:
+            assert f"<figcaption>{out.caption}" in html.replace("&#x27;", "'")
+
+
 def test_missing_required_output_is_an_error(fake_results, tmp_path):
     root = tmp_path / "results"
     shutil.copytree(fake_results.root, root)

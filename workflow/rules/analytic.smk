@@ -1,14 +1,12 @@
 # Analytic stage (paper Sections 4-5): Table 1, the linearity sweeps of Fig. 4, Table 2 and
 # the equilibrium curves of Fig. 5, all from the averaged model at the nominal parameters.
-ANALYTIC = Path(RESULTS) / "analytic"
-ANALYTIC_LOGS = Path(RESULTS) / "logs" / "analytic"
 
 
 rule analytic_table1:
     output:
-        table=str(ANALYTIC / "table1.csv"),
+        **outputs("analytic_table1"),
     log:
-        str(ANALYTIC_LOGS / "table1.log"),
+        logfile("analytic_table1"),
     threads: 1
     resources:
         mem_mb=500,
@@ -23,10 +21,9 @@ rule analytic_table1:
 
 rule analytic_fig4:
     output:
-        figure=str(ANALYTIC / "fig4.png"),
-        data=str(ANALYTIC / "fig4.csv"),
+        **outputs("analytic_fig4"),
     log:
-        str(ANALYTIC_LOGS / "fig4.log"),
+        logfile("analytic_fig4"),
     threads: 1
     resources:
         mem_mb=1000,
@@ -42,9 +39,9 @@ rule analytic_fig4:
 
 rule analytic_table2:
     output:
-        table=str(ANALYTIC / "table2.csv"),
+        **outputs("analytic_table2"),
     log:
-        str(ANALYTIC_LOGS / "table2.log"),
+        logfile("analytic_table2"),
     threads: 1
     resources:
         mem_mb=1000,
@@ -62,10 +59,9 @@ rule analytic_fig5:
     input:
         table2=rules.analytic_table2.output.table,
     output:
-        figure=str(ANALYTIC / "fig5.png"),
-        data=str(ANALYTIC / "fig5.csv"),
+        **outputs("analytic_fig5"),
     log:
-        str(ANALYTIC_LOGS / "fig5.log"),
+        logfile("analytic_fig5"),
     threads: 1
     resources:
         mem_mb=500,

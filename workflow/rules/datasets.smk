@@ -4,11 +4,11 @@
 
 rule simulate_dataset:
     output:
-        runs=directory(f"{RESULTS}/{{dataset}}/runs"),
+        **outputs("runs"),
     log:
-        f"{RESULTS}/logs/{{dataset}}/simulate.log",
+        logfile("simulate_dataset"),
     wildcard_constraints:
-        dataset=_one_of(SIM_DATASETS),
+        dataset=wildcard_choice(SIM_DATASETS),
     threads: 1
     resources:
         mem_mb=2000,
@@ -26,11 +26,11 @@ rule ingest_dataset:
     input:
         raw_files,
     output:
-        runs=directory(f"{RESULTS}/{{dataset}}/runs"),
+        **outputs("runs"),
     log:
-        f"{RESULTS}/logs/{{dataset}}/ingest.log",
+        logfile("ingest_dataset"),
     wildcard_constraints:
-        dataset=_one_of(RAW_DATASETS),
+        dataset=wildcard_choice(RAW_DATASETS),
     threads: 1
     resources:
         mem_mb=2500,

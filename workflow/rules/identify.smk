@@ -4,17 +4,11 @@
 
 rule identify:
     input:
-        runs=f"{RESULTS}/{{dataset}}/runs",
+        **inputs_from("runs"),
     output:
-        params=f"{RESULTS}/{{dataset}}/identification/params.yaml",
-        fig2a=f"{RESULTS}/{{dataset}}/identification/fig2a.png",
-        fig2a_csv=f"{RESULTS}/{{dataset}}/identification/fig2a.csv",
-        fig2b=f"{RESULTS}/{{dataset}}/identification/fig2b.png",
-        fig2b_csv=f"{RESULTS}/{{dataset}}/identification/fig2b.csv",
-        fig2c=f"{RESULTS}/{{dataset}}/identification/fig2c.png",
-        fig2c_csv=f"{RESULTS}/{{dataset}}/identification/fig2c.csv",
+        **outputs("identify"),
     log:
-        f"{RESULTS}/logs/{{dataset}}/identify.log",
+        logfile("identify"),
     threads: 1
     resources:
         mem_mb=2000,
@@ -30,13 +24,12 @@ rule identify:
 
 rule validate_model:
     input:
-        runs=f"{RESULTS}/{{dataset}}/runs",
+        **inputs_from("runs"),
         params=rules.identify.output.params,
     output:
-        fit=f"{RESULTS}/{{dataset}}/validation/fit.csv",
-        figures=directory(f"{RESULTS}/{{dataset}}/validation/figures"),
+        **outputs("validate_model"),
     log:
-        f"{RESULTS}/logs/{{dataset}}/validate_model.log",
+        logfile("validate_model"),
     threads: 1
     resources:
         mem_mb=2000,

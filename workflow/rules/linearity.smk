@@ -5,17 +5,12 @@
 
 rule staircase:
     input:
-        runs=f"{RESULTS}/{{dataset}}/runs",
+        **inputs_from("runs"),
         params=rules.identify.output.params,
     output:
-        table3=f"{RESULTS}/{{dataset}}/staircase/table3.csv",
-        levels=f"{RESULTS}/{{dataset}}/staircase/levels.csv",
-        time_constants=f"{RESULTS}/{{dataset}}/staircase/time_constants.csv",
-        fig6=f"{RESULTS}/{{dataset}}/staircase/fig6.png",
-        fig7a=f"{RESULTS}/{{dataset}}/staircase/fig7a.png",
-        fig7b=f"{RESULTS}/{{dataset}}/staircase/fig7b.png",
+        **outputs("staircase"),
     log:
-        f"{RESULTS}/logs/{{dataset}}/staircase.log",
+        logfile("staircase"),
     threads: 1
     resources:
         mem_mb=2000,
@@ -29,12 +24,11 @@ rule staircase:
 
 rule sine:
     input:
-        runs=f"{RESULTS}/{{dataset}}/runs",
+        **inputs_from("runs"),
     output:
-        table=f"{RESULTS}/{{dataset}}/sine/linearity.csv",
-        fig8=f"{RESULTS}/{{dataset}}/sine/fig8.png",
+        **outputs("sine"),
     log:
-        f"{RESULTS}/logs/{{dataset}}/sine.log",
+        logfile("sine"),
     threads: 1
     resources:
         mem_mb=2000,
@@ -48,12 +42,11 @@ rule sine:
 
 rule chirp:
     input:
-        runs=f"{RESULTS}/{{dataset}}/runs",
+        **inputs_from("runs"),
     output:
-        table=f"{RESULTS}/{{dataset}}/chirp/bicoherence.csv",
-        fig9=f"{RESULTS}/{{dataset}}/chirp/fig9.png",
+        **outputs("chirp"),
     log:
-        f"{RESULTS}/logs/{{dataset}}/chirp.log",
+        logfile("chirp"),
     threads: 1
     resources:
         mem_mb=2000,

@@ -4,12 +4,11 @@
 
 rule report:
     input:
-        analytic_targets(),
-        dataset_targets(),
+        all_targets(RESULTS, DATASETS, exclude=["report"]),
     output:
-        report=f"{RESULTS}/report.html",
+        **outputs("report"),
     log:
-        f"{RESULTS}/logs/report.log",
+        logfile("report"),
     threads: 1
     resources:
         mem_mb=1000,

@@ -2,45 +2,30 @@
 
 from pathlib import Path
 
-import pandas as pd
-import yaml
-
-from spa.identification import load_params
-from spa.io import get_logger, read_runs, save_figure, write_csv
+from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
 from spa.plots.identification import validation_data, validation_figure
-from spa.validation import validate_run
+from spa.validation import validate_run, validate_runs
 
 log = get_logger("validate_model", snakemake.log[0])
 runs, metas = read_runs(snakemake.input.runs)
-with open(snakemake.input.params) as fh:
-    params = load_params(yaml.safe_load(fh))
-rows, worst = [], {}
-for rid, table in runs.items():
-    meta = metas[rid]
-    mod = meta.get("modulator")
-    res = validate_run(table, params, mod)
-    setting = "" if not mod else " ".join(f"{k}={v:g}" for k, v in mod.items() if k != "type")
-    rows.append(
-        {
-            "run": rid,
-            "kind": meta["kind"],
-            "modulator": mod["type"] if mod else "",
-            "setting": setting,
-            "fit_percent": res.fit_percent,
-            "rmse": res.rmse,
-            "max_abs_error": res.max_abs_error,
-            "n": res.n,
-        }
-    )
-    log.info("%s: FIT %.2f %%", rid, res.fit_percent)
-    kind = meta["kind"]
-    if kind not in worst or res.fit_percent < worst[kind][0]:
-        worst[kind] = (res.fit_percent, rid, res)
-write_csv(pd.DataFrame(rows), snakemake.output.fit)
+params = read_params(snakemake.input.params)
+modulators = {rid: meta.get("modulator") for rid, meta in metas.items()}
+table = validate_runs(runs, params, modulators, {rid: meta["kind"] for rid, meta in metas.items()})
+# The modulator columns of fit.csv, as written so far (to become Modulator.label).
+mods = [m or {} for m in modulators.values()]
+table.insert(2, "modulator", [m.get("type", "") for m in mods])
+table.insert(
+    3, "setting", [" ".join(f"{k}={v:g}" for k, v in m.items() if k != "type") for m in mods]
+)
+write_csv(table.drop(columns="p0"), snakemake.output.fit)
+for row in table.itertuples():
+    log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
+
 figures = Path(snakemake.output.figures)
 figures.mkdir(parents=True, exist_ok=True)
-for kind, (fit, rid, res) in sorted(worst.items()):
-    data = validation_data(res)
-    write_csv(data, figures / f"{kind}.csv")
-    title = f"{kind}: run {rid} (lowest FIT of its kind, {fit:.1f} %)"
-    save_figure(validation_figure(data, title=title), figures / f"{kind}.png")
+worst = table.loc[table.groupby("kind")["fit_percent"].idxmin()]  # the lowest FIT of each kind
+for row in worst.itertuples():
+    data = validation_data(validate_run(runs[row.run], params, modulators[row.run]))
+    write_csv(data, figures / f"{row.kind}.csv")
+    title = f"{row.kind}: run {row.run} (lowest FIT of its kind, {row.fit_percent:.1f} %)"
+    save_figure(validation_figure(data, title=title), figures / f"{row.kind}.png")

@@ -1,0 +1,482 @@
+"""The one registry of what every stage of the pipeline writes, and where.
+
+Each :class:`Stage` names its outputs (:class:`Output`): a key, a path relative to the results
+folder (``results/``) or to a dataset's folder (``results/<dataset>/``), what kind of file it
+is, and how the HTML report shows it (heading and caption, or not at all). The workflow's rules
+take their ``output:`` from here (:func:`stage_outputs`), the ``reproduce-all`` target and the
+report rule their inputs (:func:`all_targets`), and :mod:`spa.report` its sections, in the
+order of :data:`STAGES`. Logs are named here too (:func:`log_path`).
+
+A new stage is one more :class:`Stage` in :data:`STAGES`, at its place in the pipeline (the
+report shows a section's items in this order), and a rule whose ``output:`` is
+``**outputs("<stage>")``.
+
+This module imports nothing heavy: the workflow imports it to parse the Snakefile.
+
+>>> stage_outputs("sine", "results")
+{'table': 'results/{dataset}/sine/linearity.csv', 'fig8': 'results/{dataset}/sine/fig8.png'}
+>>> log_path("identify", "results", "sim")
+'results/logs/sim/identify.log'
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Final, Literal
+
+__all__ = [
+    "DATA",
+    "FIGURE",
+    "FIGURES",
+    "PAGE",
+    "PARAMS",
+    "RUNS",
+    "STAGES",
+    "TABLE",
+    "Output",
+    "Stage",
+    "all_targets",
+    "get_stage",
+    "log_path",
+    "section_outputs",
+    "stage_outputs",
+    "wildcard_choice",
+]
+
+TABLE: Final = "table"
+"""A CSV table the report shows (``paper_*`` columns beside their own)."""
+FIGURE: Final = "figure"
+"""A PNG figure the report embeds."""
+DATA: Final = "data"
+"""A CSV of numbers (a figure's data, a long table): written, not shown in the report."""
+PARAMS: Final = "params"
+"""The identified parameters (``params.yaml``), shown as a table of the five parameters."""
+FIGURES: Final = "figures"
+"""A folder of PNG figures (with their CSV data), each embedded in the report."""
+RUNS: Final = "runs"
+"""A folder of canonical run tables (``<run id>.parquet``)."""
+PAGE: Final = "page"
+"""The HTML report itself."""
+
+Kind = Literal["table", "figure", "data", "params", "figures", "runs", "page"]
+_KINDS = (TABLE, FIGURE, DATA, PARAMS, FIGURES, RUNS, PAGE)
+
+
+@dataclass(frozen=True)
+class Output:
+    """One output of a stage.
+
+    Parameters
+    ----------
+    key : str
+        Its name in the rule's ``output:`` (``rules.<rule>.output.<key>``).
+    path : str
+        Relative to the results folder, or to ``results/<dataset>`` for a per-dataset stage.
+    kind : str
+        One of :data:`TABLE`, :data:`FIGURE`, :data:`DATA`, :data:`PARAMS`, :data:`FIGURES`,
+        :data:`RUNS`, :data:`PAGE`.
+    title : str, optional
+        Heading in the report, also its entry in the table of contents; ``None`` (default):
+        the report does not show it. For a :data:`FIGURES` folder, ``{name}`` in the title and
+        caption stands for each figure's file name without ``.png``.
+    caption : str, optional
+        What the table or figure shows, printed under it in the report.
+    required : bool, optional
+        The report fails when a required output it shows is missing and skips a missing
+        optional one.
+    key_item : bool, optional
+        Shown first in its report section, highlighted (Table 3 of a dataset).
+    mention : bool, optional
+        A long table the report names (where to find it) without reproducing it.
+    """
+
+    key: str
+    path: str
+    kind: Kind
+    title: str | None = None
+    caption: str = ""
+    required: bool = True
+    key_item: bool = False
+    mention: bool = False
+
+    def __post_init__(self) -> None:
+        if self.kind not in _KINDS:
+            raise ValueError(f"output {self.key!r}: kind {self.kind!r} is not one of {_KINDS}")
+        if self.title is not None and not self.caption:
+            raise ValueError(f"output {self.key!r} is shown in the report but has no caption")
+
+    @property
+    def directory(self) -> bool:
+        """True for a folder of files (:data:`RUNS`, :data:`FIGURES`)."""
+        return self.kind in (RUNS, FIGURES)
+
+    @property
+    def shown(self) -> bool:
+        """True when the report shows it."""
+        return self.title is not None
+
+
+@dataclass(frozen=True)
+class Stage:
+    """A step of the pipeline and the outputs it writes.
+
+    Parameters
+    ----------
+    name : str
+        What rules call it by (``outputs("<name>")``); the rule's name where one rule writes it.
+    per_dataset : bool
+        True: one set of outputs per dataset, under ``results/<dataset>``; False: one set under
+        ``results``.
+    outputs : tuple of Output
+        In the order the report shows them.
+    logs : mapping of str to str
+        Rule name -> its log file, relative to ``results/logs`` (``{dataset}`` for the
+        dataset). Several rules may write one stage's outputs (simulated and bench runs).
+    section : str or None
+        The report section its outputs belong to: ``"analytic"`` (paths relative to the
+        results folder) or ``"dataset"`` (one section per dataset); ``None``: none.
+    """
+
+    name: str
+    per_dataset: bool
+    outputs: tuple[Output, ...]
+    logs: dict[str, str] = field(default_factory=dict)
+    section: str | None = None
+
+
+def _analytic(name: str, *outputs: Output) -> Stage:
+    """An analytic step: rule ``analytic_<name>``, log ``logs/analytic/<name>.log``."""
+    rule = f"analytic_{name}"
+    return Stage(rule, False, outputs, {rule: f"analytic/{name}.log"}, section="analytic")
+
+
+def _per_dataset(name: str, *outputs: Output, logs: dict[str, str] | None = None) -> Stage:
+    """A per-dataset step: by default written by the rule ``name``, which logs to
+    ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
+    logs = logs or {name: f"{{dataset}}/{name}.log"}
+    return Stage(name, True, outputs, logs, section="dataset")
+
+
+STAGES: tuple[Stage, ...] = (
+    _analytic(
+        "table1",
+        Output(
+            "table",
+            "analytic/table1.csv",
+            TABLE,
+            "Table 1: dead-zone and saturation",
+            "Dead-zone and saturation thresholds of the input fraction for each selected "
+            "modulator setting, from the averaged model at the nominal parameters.",
+        ),
+    ),
+    _analytic(
+        "table2",
+        Output(
+            "table",
+            "analytic/table2.csv",
+            TABLE,
+            "Table 2: optimal modulator parameters",
+            "Minimum linearity cost J_min and optimal parameter per modulator, the paper's "
+            "printed values beside them, and the analytic IIPFM optimum t_l* (Eq. 29).",
+        ),
+    ),
+    _analytic(
+        "fig4",
+        Output(
+            "figure",
+            "analytic/fig4.png",
+            FIGURE,
+            "Fig. 4: linearity cost",
+            "Linearity cost J against the modulator parameter, all four modulators on one axis.",
+        ),
+        Output("data", "analytic/fig4.csv", DATA),
+    ),
+    _analytic(
+        "fig5",
+        Output(
+            "figure",
+            "analytic/fig5.png",
+            FIGURE,
+            "Fig. 5: equilibrium pressure and time constant",
+            "Equilibrium pressure and time constant against the input fraction ξ at each "
+            "modulator's optimum, with the linear target.",
+        ),
+        Output("data", "analytic/fig5.csv", DATA),
+    ),
+    _per_dataset(
+        "runs",
+        Output("runs", "runs", RUNS),
+        logs={
+            "simulate_dataset": "{dataset}/simulate.log",
+            "ingest_dataset": "{dataset}/ingest.log",
+        },
+    ),
+    _per_dataset(
+        "identify",
+        Output(
+            "params",
+            "identification/params.yaml",
+            PARAMS,
+            "Identified valve parameters",
+            "c1, k2, tau2, t_on and t_off identified from this dataset, each with its 95 % "
+            "interval, unit, method and any fallback to the nominal value.",
+        ),
+        Output(
+            "fig2a",
+            "identification/fig2a.png",
+            FIGURE,
+            "Fig. 2a: charging",
+            "dP/dt against P while charging, with the line fit that gives k2 and tau2.",
+        ),
+        Output("fig2a_csv", "identification/fig2a.csv", DATA),
+        Output(
+            "fig2b",
+            "identification/fig2b.png",
+            FIGURE,
+            "Fig. 2b: discharging",
+            "dP/dt against P while discharging, with the power-law fit that gives c1.",
+        ),
+        Output("fig2b_csv", "identification/fig2b.csv", DATA),
+        Output(
+            "fig2c",
+            "identification/fig2c.png",
+            FIGURE,
+            "Fig. 2c: pulse run",
+            "The pulse run: command, measured and model pressure, with a zoom on one edge.",
+        ),
+        Output("fig2c_csv", "identification/fig2c.csv", DATA),
+    ),
+    _per_dataset(
+        "validate_model",
+        Output(
+            "fit",
+            "validation/fit.csv",
+            TABLE,
+            "Model validation: FIT per run",
+            "Every run re-simulated with the identified parameters: FIT %, RMSE and largest "
+            "error (bar).",
+        ),
+        Output(
+            "figures",
+            "validation/figures",
+            FIGURES,
+            "Validation: {name}",
+            "Measured against model pressure for the lowest-FIT {name} run.",
+        ),
+    ),
+    _per_dataset(
+        "staircase",
+        Output(
+            "table3",
+            "staircase/table3.csv",
+            TABLE,
+            "Table 3: static linearity of the staircase",
+            "One row per modulator setting: line P = m ξ + n through the equilibrium pressure "
+            "of each staircase level, MSE, MD (largest residual), MAD (mean absolute residual) "
+            "and FIT %, with the paper's values (paper_*, shaded) beside its five cases; then "
+            "the measured against the averaged-model equilibrium, dead-zone and saturation "
+            "brackets, step time constants and switching rate.",
+            key_item=True,
+            required=False,
+        ),
+        Output("levels", "staircase/levels.csv", DATA, mention=True),
+        Output("time_constants", "staircase/time_constants.csv", DATA, mention=True),
+        Output(
+            "fig6",
+            "staircase/fig6.png",
+            FIGURE,
+            "Fig. 6: staircase responses",
+            "Pressure against time for the staircase input fraction, one panel per modulator "
+            "(every setting).",
+            required=False,
+        ),
+        Output(
+            "fig7a",
+            "staircase/fig7a.png",
+            FIGURE,
+            "Fig. 7a: equilibrium pressure",
+            "Equilibrium pressure against ξ for the best setting of each modulator plus IIPFM "
+            "with gain, with the ideal line k2·ξ.",
+            required=False,
+        ),
+        Output(
+            "fig7b",
+            "staircase/fig7b.png",
+            FIGURE,
+            "Fig. 7b: time constants",
+            "Time constant of each staircase step (time to 63.2 % of the step's change).",
+            required=False,
+        ),
+    ),
+    _per_dataset(
+        "sine",
+        Output(
+            "table",
+            "sine/linearity.csv",
+            TABLE,
+            "Sine linearity",
+            "Per setting: lag found by cross-correlation, RMS and largest deviation of "
+            "P/max(P) from the line (0, 0)–(1, 1).",
+            required=False,
+        ),
+        Output(
+            "fig8",
+            "sine/fig8.png",
+            FIGURE,
+            "Fig. 8: sine linearity",
+            "Lag-compensated P/max(P) against the input fraction of the sine runs, one panel "
+            "per modulator, with the line (0, 0)–(1, 1).",
+            required=False,
+        ),
+    ),
+    _per_dataset(
+        "chirp",
+        Output(
+            "table",
+            "chirp/bicoherence.csv",
+            TABLE,
+            "Chirp bicoherence",
+            "Per setting: mean (and largest) bicoherence of the pressure response to the chirp "
+            "over the principal domain.",
+            required=False,
+        ),
+        Output(
+            "fig9",
+            "chirp/fig9.png",
+            FIGURE,
+            "Fig. 9: bicoherence",
+            "Bicoherence maps over (f1, f2) of the pressure response to the chirp, for the "
+            "lowest-mean setting of each modulator.",
+            required=False,
+        ),
+    ),
+    Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
+)
+"""Every stage, in pipeline order; the report shows each section's outputs in this order."""
+
+
+def get_stage(name: str) -> Stage:
+    """The stage called ``name``.
+
+    Raises
+    ------
+    KeyError
+        If there is none; the message lists the stages.
+    """
+    for stage in STAGES:
+        if stage.name == name:
+            return stage
+    raise KeyError(f"no stage {name!r}; the stages are {[s.name for s in STAGES]}")
+
+
+def _root(stage: Stage, results: str | Path, dataset: str) -> Path:
+    return Path(results) / dataset if stage.per_dataset else Path(results)
+
+
+def stage_outputs(
+    name: str,
+    results: str | Path,
+    dataset: str = "{dataset}",
+    mark_directory: Callable[[str], object] | None = None,
+) -> dict[str, object]:
+    """The outputs of a stage: key -> path, for a rule's ``output:`` or input.
+
+    Parameters
+    ----------
+    name : str
+        The stage.
+    results : str or Path
+        The results folder.
+    dataset : str, optional
+        The dataset of a per-dataset stage; default the wildcard ``{dataset}``.
+    mark_directory : callable, optional
+        Applied to the path of each folder output (Snakemake's ``directory``).
+
+    Returns
+    -------
+    dict
+        Output key -> path (as a string, or as ``mark_directory`` returns it), in order.
+    """
+    stage = get_stage(name)
+    root = _root(stage, results, dataset)
+    paths: dict[str, object] = {}
+    for out in stage.outputs:
+        path = str(root / out.path)
+        paths[out.key] = mark_directory(path) if mark_directory and out.directory else path
+    return paths
+
+
+def log_path(rule: str, results: str | Path, dataset: str = "{dataset}") -> str:
+    """The log file of a rule: ``results/logs/...``, as :data:`STAGES` names it.
+
+    Raises
+    ------
+    KeyError
+        If no stage names a log for ``rule``.
+    """
+    for stage in STAGES:
+        if rule in stage.logs:
+            return str(Path(results) / "logs" / stage.logs[rule].format(dataset=dataset))
+    raise KeyError(f"no stage has a log for rule {rule!r}")
+
+
+def all_targets(
+    results: str | Path, datasets: Iterable[str], exclude: Iterable[str] = ()
+) -> list[str]:
+    """Every output of every stage, for every dataset: what ``reproduce-all`` makes.
+
+    Parameters
+    ----------
+    results : str or Path
+        The results folder.
+    datasets : iterable of str
+        The datasets.
+    exclude : iterable of str, optional
+        Stages to leave out (the report rule's inputs are everything but the report).
+
+    Returns
+    -------
+    list of str
+        Paths: the stages that are not per dataset first, then each dataset's outputs.
+    """
+    skip = set(exclude)
+    stages = [s for s in STAGES if s.name not in skip]
+    once = [s for s in stages if not s.per_dataset]
+    each = [s for s in stages if s.per_dataset]
+    paths = [p for s in once for p in stage_outputs(s.name, results).values()]
+    for d in datasets:
+        paths += [p for s in each for p in stage_outputs(s.name, results, d).values()]
+    return [str(p) for p in paths]
+
+
+def section_outputs(section: str) -> list[Output]:
+    """The outputs of a report section (``"analytic"`` or ``"dataset"``), in report order.
+
+    The section's key item (if any) comes first, then the others in the order of
+    :data:`STAGES`. Paths are relative to the results folder (``"analytic"``) or to the
+    dataset's folder (``"dataset"``).
+
+    Examples
+    --------
+    >>> [o.path for o in section_outputs("analytic") if o.shown]
+    ['analytic/table1.csv', 'analytic/table2.csv', 'analytic/fig4.png', 'analytic/fig5.png']
+    """
+    outs = [o for s in STAGES if s.section == section for o in s.outputs]
+    return [o for o in outs if o.key_item] + [o for o in outs if not o.key_item]
+
+
+def wildcard_choice(names: Iterable[str]) -> str:
+    """A wildcard constraint (regular expression) matching exactly these names, or nothing.
+
+    Examples
+    --------
+    >>> print(wildcard_choice(["sim", "a.b"]))
+    sim|a\\.b
+    >>> wildcard_choice([])
+    '(?!x)x'
+    """
+    names = list(names)
+    return "|".join(re.escape(n) for n in names) if names else "(?!x)x"

@@ -1,0 +1,205 @@
+"""The report page: its sections and items come from the registry of outputs (spa.outputs)."""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import yaml
+
+from spa.outputs import FIGURE, FIGURES, PARAMS, Output, section_outputs
+from spa.report.html import (
+    STYLE,
+    embed_png,
+    format_value,
+    html_table,
+    pair_paper_columns,
+    png_size,
+    unique_anchor,
+)
+from spa.report.params import fits_note, params_table
+
+__all__ = ["build_report", "section_items"]
+
+_PAPER = (
+    "Serrano-Balbontín et al., Open-Loop Characterisation of Soft Actuator Pressure Regulated "
+    "by Pulse-Driven Solenoid Valve, Robotics 2025, 14(12), 177."
+)
+
+
+def section_items(section: str, folder: str | Path) -> list[Output]:
+    """The tables and figures a report section shows, in order.
+
+    Parameters
+    ----------
+    section : str
+        ``"analytic"`` or ``"dataset"`` (see :func:`spa.outputs.section_outputs`).
+    folder : str or Path
+        The folder the section's paths are relative to: the results folder for
+        ``"analytic"``, ``results/<dataset>`` for ``"dataset"``.
+
+    Returns
+    -------
+    list of Output
+        The shown outputs of the section; a folder of figures is replaced by one figure per
+        PNG file in it (sorted by name), ``{name}`` in its title and caption filled in.
+    """
+    items: list[Output] = []
+    for out in section_outputs(section):
+        if not out.shown:
+            continue
+        if out.kind != FIGURES:
+            items.append(out)
+            continue
+        title = out.title or ""
+        for png in sorted((Path(folder) / out.path).glob("*.png")):
+            items.append(
+                replace(
+                    out,
+                    path=f"{out.path}/{png.name}",
+                    kind=FIGURE,
+                    title=title.format(name=png.stem),
+                    caption=out.caption.format(name=png.stem),
+                )
+            )
+    return items
+
+
+def _render_item(path: Path, item: Output, anchor: str) -> str:
+    """``<figure>`` with the table or image of ``path``, its heading and its caption."""
+    title = item.title or ""
+    caption = item.caption
+    attrs = ""
+    if item.kind == FIGURE:
+        width, height = png_size(path.read_bytes())
+        alt = html.escape(title)
+        body = f'<img src="{embed_png(path)}" alt="{alt}" width="{width}" height="{height}">'
+        attrs = f' class="fig" style="max-width:{width + 2}px"'
+    elif item.kind == PARAMS:
+        params = yaml.safe_load(path.read_text(encoding="utf-8"))
+        body = f'<div class="scroll">{html_table(params_table(params))}</div>'
+        caption += fits_note(params)
+    else:
+        body = f'<div class="scroll">{html_table(pair_paper_columns(pd.read_csv(path)))}</div>'
+    return (
+        f'<figure id="{anchor}"{attrs}>\n<h3>{html.escape(title)}</h3>\n{body}\n'
+        f"<figcaption>{html.escape(caption)}</figcaption>\n</figure>\n"
+    )
+
+
+def _section(
+    folder: Path, section: str, prefix: str, taken: set[str]
+) -> tuple[str, list[tuple[str, str]]]:
+    """The HTML of one section's items that exist and its table-of-contents entries."""
+    parts: list[str] = []
+    toc: list[tuple[str, str]] = []
+    for item in section_items(section, folder):
+        path = folder / item.path
+        if not path.is_file():
+            if item.required:
+                raise FileNotFoundError(f"{path}: required by the report but missing")
+            continue
+        anchor = unique_anchor(f"{prefix}-{Path(item.path).stem}", taken)
+        block = _render_item(path, item, anchor)
+        if item.key_item:
+            block = f'<div class="key">\n{block}</div>\n'
+        parts.append(block)
+        toc.append((anchor, item.title or ""))
+    return "".join(parts), toc
+
+
+def _mentions(folder: Path, name: str) -> str:
+    """A note naming the long tables of a dataset that the report does not reproduce."""
+    present = [o.path for o in section_outputs("dataset") if o.mention]
+    present = [p for p in present if (folder / p).is_file()]
+    if not present:
+        return ""
+    listed = " and ".join(f"{name}/{p}" for p in present)
+    return (
+        f'<p class="note">Per-level and per-step values: {html.escape(listed)} in the '
+        "results folder (not reproduced here).</p>\n"
+    )
+
+
+def build_report(
+    results_dir: str | Path,
+    datasets: Sequence[str],
+    meta: Mapping[str, Any],
+    title: str = "spa: reproduction report",
+) -> str:
+    """The whole HTML report of a results folder, as a string.
+
+    Parameters
+    ----------
+    results_dir : str or Path
+        The run's results folder, holding ``analytic/`` and one folder per dataset.
+    datasets : sequence of str
+        The datasets to report, in this order (the workflow's ``DATASETS``).
+    meta : mapping
+        Shown in the header, in this order (e.g. ``{"seed": 20251128, "spa version":
+        "0.1.0"}``); keys and values are HTML-escaped.
+    title : str
+        The page's title and main heading.
+
+    Returns
+    -------
+    str
+        A complete HTML5 document. It references nothing outside itself (figures are
+        ``data:`` URIs), has no script, and depends only on the files read and the arguments:
+        the same inputs give the same string.
+
+    Raises
+    ------
+    FileNotFoundError
+        If a required table or figure (see :data:`spa.outputs.STAGES`: Tables 1-2, Figs. 4-5,
+        and per dataset ``params.yaml``, Fig. 2a-c and ``validation/fit.csv``) is missing.
+        Optional outputs (Table 3, Figs. 6-9, sine and chirp tables) are skipped when absent.
+    ValueError
+        If ``datasets`` is a string or names a dataset twice.
+    """
+    if isinstance(datasets, str):
+        raise ValueError("datasets must be a sequence of dataset names, not one string")
+    if len(set(datasets)) != len(datasets):
+        raise ValueError(f"datasets names a dataset twice: {list(datasets)}")
+    results = Path(results_dir)
+    taken: set[str] = {"contents", "analytic"}
+    sections: list[tuple[str, str, str, list[tuple[str, str]]]] = []
+
+    body, toc = _section(results, "analytic", "analytic", taken)
+    sections.append(("analytic", "Analytic (averaged model)", body, toc))
+    for name in datasets:
+        folder = results / name
+        anchor = unique_anchor(f"dataset-{name}", taken)
+        body, toc = _section(folder, "dataset", anchor, taken)
+        sections.append((anchor, f"Dataset {name}", body + _mentions(folder, name), toc))
+
+    e = html.escape
+    meta_html = "".join(
+        f"<dt>{e(str(k))}</dt><dd>{e(format_value(v))}</dd>" for k, v in meta.items()
+    )
+    meta_html += f"<dt>datasets</dt><dd>{e(', '.join(datasets))}</dd>"
+    nav = "".join(
+        f'<li><a href="#{a}">{e(heading)}</a><ol>'
+        + "".join(f'<li><a href="#{ia}">{e(it)}</a></li>' for ia, it in toc)
+        + "</ol></li>\n"
+        for a, heading, _, toc in sections
+    )
+    content = "".join(
+        f'<section id="{a}">\n<h2>{e(heading)}</h2>\n{body}</section>\n'
+        for a, heading, body, _ in sections
+    )
+    return (
+        "<!DOCTYPE html>\n"
+        '<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        '<link rel="icon" href="data:,">\n'
+        f"<title>{e(title)}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n"
+        f"<header>\n<h1>{e(title)}</h1>\n<p>Tables and figures of one run reproducing "
+        f'{e(_PAPER)}</p>\n<dl class="meta">{meta_html}</dl>\n</header>\n'
+        f'<nav id="contents">\n<strong>Contents</strong>\n<ol>\n{nav}</ol>\n</nav>\n'
+        f"<main>\n{content}</main>\n</body>\n</html>\n"
+    )

@@ -1,0 +1,81 @@
+"""The identified parameters (``identification/params.yaml``) as a report table."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import pandas as pd
+
+from spa.report.html import format_value
+
+__all__ = ["PARAM_NAMES", "fits_note", "params_table"]
+
+PARAM_NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
+"""The identified valve parameters, in the order of the paper (Section 3.2)."""
+
+
+def params_table(params: Mapping[str, Any]) -> pd.DataFrame:
+    """The identified parameters of a ``params.yaml`` as a table, one row per parameter.
+
+    Parameters
+    ----------
+    params : mapping
+        The content of ``identification/params.yaml``: for each of :data:`PARAM_NAMES` a
+        mapping with ``value``, ``lo``, ``hi`` (the 95 % interval), ``unit``, ``method`` and
+        ``fallback`` (``None``, or why the nominal value was used).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``parameter``, ``value``, ``95 % lo``, ``95 % hi``, ``unit``, ``method``,
+        ``fallback`` (``"no"`` or the reason), in the order of :data:`PARAM_NAMES`.
+
+    Raises
+    ------
+    ValueError
+        If a parameter or one of its fields is missing.
+
+    Examples
+    --------
+    >>> entry = {"value": 0.5, "lo": 0.4, "hi": 0.6, "unit": "s", "method": "fit",
+    ...          "fallback": None}
+    >>> print(params_table({n: entry for n in PARAM_NAMES}).head(2).to_string(index=False))
+    parameter  value  95 % lo  95 % hi unit method fallback
+           c1    0.5      0.4      0.6    s    fit       no
+           k2    0.5      0.4      0.6    s    fit       no
+    """
+    if not isinstance(params, Mapping):
+        raise ValueError(f"params must be a mapping, got {type(params).__name__}")
+    rows = []
+    for name in PARAM_NAMES:
+        entry = params.get(name)
+        if not isinstance(entry, Mapping):
+            raise ValueError(f"params lacks the parameter {name!r}")
+        missing = [k for k in ("value", "lo", "hi", "unit", "method") if k not in entry]
+        if missing:
+            raise ValueError(f"params[{name!r}] lacks {missing}")
+        fallback = entry.get("fallback")
+        rows.append(
+            {
+                "parameter": name,
+                "value": float(entry["value"]),
+                "95 % lo": float(entry["lo"]),
+                "95 % hi": float(entry["hi"]),
+                "unit": str(entry["unit"]),
+                "method": str(entry["method"]),
+                "fallback": "no" if fallback in (None, False, "") else str(fallback),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def fits_note(params: Mapping[str, Any]) -> str:
+    """`` R² of the fits: charge 0.9625, discharge 0.9853.`` or ``""``."""
+    fits = params.get("fits") or {}
+    parts = [
+        f"{name} {format_value(fit['r2'])}"
+        for name, fit in fits.items()
+        if isinstance(fit, Mapping) and "r2" in fit
+    ]
+    return f" R² of the fits: {', '.join(parts)}." if parts else ""

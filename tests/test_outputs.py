@@ -1,0 +1,154 @@
+"""The registry of outputs (spa.outputs) and the choice of datasets (spa.config)."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from spa.config import ConfigError, discover_datasets
+from spa.outputs import (
+    FIGURES,
+    RUNS,
+    STAGES,
+    Output,
+    all_targets,
+    get_stage,
+    log_path,
+    section_outputs,
+    stage_outputs,
+    wildcard_choice,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_output_and_log_has_one_path():
+    paths = all_targets("res", ["d1", "d2"])
+    assert len(paths) == len(set(paths))
+    logs = [log_path(rule, "res", "d1") for s in STAGES for rule in s.logs]
+    assert len(logs) == len(set(logs))
+    assert all(p.startswith("res/logs/") for p in logs)
+    keys = [(s.name, o.key) for s in STAGES for o in s.outputs]
+    assert len(keys) == len(set(keys))
+
+
+def test_paths_are_relative_and_inside_their_folder():
+    for stage in STAGES:
+        for out in stage.outputs:
+            assert not Path(out.path).is_absolute() and ".." not in Path(out.path).parts, out
+            if stage.section == "analytic":
+                assert out.path.startswith("analytic/"), out
+
+
+def test_stage_outputs_for_a_rule_and_for_one_dataset():
+    assert stage_outputs("identify", "results")["params"] == (
+        "results/{dataset}/identification/params.yaml"
+    )
+    assert stage_outputs("validate_model", "r", "sim") == {
+        "fit": "r/sim/validation/fit.csv",
+        "figures": "r/sim/validation/figures",
+    }
+    marked = stage_outputs("runs", "r", mark_directory=lambda p: ("dir", p))
+    assert marked == {"runs": ("dir", "r/{dataset}/runs")}
+    assert stage_outputs("analytic_fig4", "r", "ignored") == {
+        "figure": "r/analytic/fig4.png",
+        "data": "r/analytic/fig4.csv",
+    }
+    with pytest.raises(KeyError, match=r"'tables'.*'analytic_table1'"):
+        stage_outputs("tables", "r")
+
+
+def test_folders_are_the_runs_and_figure_folders():
+    folders = {o.path for s in STAGES for o in s.outputs if o.directory}
+    assert folders == {"runs", "validation/figures"}
+    assert {o.kind for s in STAGES for o in s.outputs if o.directory} == {RUNS, FIGURES}
+
+
+def test_logs_as_the_workflow_writes_them():
+    assert log_path("ingest_dataset", "r", "broken") == "r/logs/broken/ingest.log"
+    assert log_path("simulate_dataset", "r") == "r/logs/{dataset}/simulate.log"
+    assert log_path("analytic_fig5", "r") == "r/logs/analytic/fig5.log"
+    assert log_path("report", "r") == "r/logs/report.log"
+    with pytest.raises(KeyError, match="'tune'"):
+        log_path("tune", "r")
+
+
+def test_report_sections_in_pipeline_order_key_item_first():
+    titles = [o.title for o in section_outputs("dataset") if o.shown]
+    assert titles[0].startswith("Table 3")
+    assert titles.index("Identified valve parameters") < titles.index("Fig. 2a: charging")
+    assert titles.index("Model validation: FIT per run") < titles.index(
+        "Fig. 6: staircase responses"
+    )
+    assert titles[-1] == "Fig. 9: bicoherence"
+    assert [o.path for o in section_outputs("dataset") if o.mention] == [
+        "staircase/levels.csv",
+        "staircase/time_constants.csv",
+    ]
+    assert get_stage("report").section is None
+
+
+def test_an_output_shown_in_the_report_needs_a_caption_and_a_known_kind():
+    with pytest.raises(ValueError, match="'fig' is shown in the report but has no caption"):
+        Output("fig", "x/fig.png", "figure", "Fig. X")
+    with pytest.raises(ValueError, match="kind 'png' is not one of"):
+        Output("fig", "x/fig.png", "png")
+
+
+def test_wildcard_choice_matches_exactly_the_names():
+    pattern = wildcard_choice(["sim", "a.b"])
+    assert [n for n in ["sim", "a.b", "axb", "sim2"] if re.fullmatch(pattern, n)] == ["sim", "a.b"]
+    assert re.fullmatch(wildcard_choice([]), "") is None
+
+
+def test_the_registry_imports_without_pandas_or_matplotlib():
+    code = (
+        "import sys, spa.outputs, spa.config\n"
+        "print(sorted({'pandas', 'matplotlib'} & set(sys.modules)))"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.strip() == "[]"
+
+
+# --- spa.config.discover_datasets ------------------------------------------------------------
+
+
+def _raw(tmp_path: Path, *names: str) -> Path:
+    raw = tmp_path / "raw"
+    for name in names:
+        (raw / name).mkdir(parents=True)
+        (raw / name / "dataset.yaml").write_text(f"name: {name}\n")
+    (raw / "no_spec").mkdir(parents=True)
+    return raw
+
+
+def _config(raw: Path, include=(), exclude=(), simulated=("sim",)) -> dict:
+    return {
+        "datasets": {"raw_dir": str(raw), "include": list(include), "exclude": list(exclude)},
+        "simulated": {name: {} for name in simulated},
+    }
+
+
+def test_discovery_skips_hidden_folders_and_folders_without_a_spec(tmp_path):
+    raw = _raw(tmp_path, "b", "a", ".hidden", ".git")
+    assert discover_datasets(_config(raw)) == (["sim"], ["a", "b"])
+    assert discover_datasets(_config(tmp_path / "missing")) == (["sim"], [])
+
+
+def test_include_and_exclude_choose_the_bench_datasets(tmp_path):
+    raw = _raw(tmp_path, "a", "b", "c")
+    assert discover_datasets(_config(raw, include=["c", "a"])) == (["sim"], ["c", "a"])
+    assert discover_datasets(_config(raw, exclude=["b"])) == (["sim"], ["a", "c"])
+    with pytest.raises(ConfigError, match=r"include names \['x'\].*found: \['a', 'b', 'c'\]"):
+        discover_datasets(_config(raw, include=["a", "x"]))
+
+
+def test_a_name_both_simulated_and_bench_is_refused(tmp_path):
+    raw = _raw(tmp_path, "sim", "a")
+    with pytest.raises(ConfigError, match=r"\['sim'\] are both simulated.*datasets.exclude"):
+        discover_datasets(_config(raw))
+    assert discover_datasets(_config(raw, exclude=["sim"])) == (["sim"], ["a"])
