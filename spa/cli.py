@@ -38,8 +38,10 @@ def _validate(args: argparse.Namespace, out: TextIO) -> int:
 
 def _ingest(args: argparse.Namespace, out: TextIO) -> int:
     from spa.datasets import DatasetError, ingest_dataset
+    from spa.safety import INGEST_MARKER, check_ingest_output
 
     try:
+        target = check_ingest_output(args.out_dir, args.folder)
         paths = ingest_dataset(args.folder, args.out_dir)
     except DatasetError as exc:
         for p in exc.problems:
@@ -50,6 +52,7 @@ def _ingest(args: argparse.Namespace, out: TextIO) -> int:
     except ValueError as exc:
         print(f"error: {exc}", file=out)
         return 1
+    (target / INGEST_MARKER).write_text(f"run tables of {args.folder}, written by spa ingest\n")
     for path in paths:
         print(path, file=out)
     return 0

@@ -8,7 +8,7 @@ from typing import Any
 
 import yaml
 
-__all__ = ["ConfigError", "config_errors", "dataset_files", "discover_datasets", "validate_config"]
+__all__ = ["ConfigError", "config_errors", "discover_datasets", "validate_config"]
 
 
 class ConfigError(ValueError):
@@ -98,8 +98,12 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
     ConfigError
         If ``include`` names a folder that is not a dataset, or a name is both simulated and a
         bench dataset.
+    spa.safety.UnsafePathError
+        If a dataset is named like an entry of the results folder (``logs``, ``analytic``,
+        ``report.html``).
     """
     from spa.datasets import find_datasets  # TODO(merge): spa.datasets.select_datasets
+    from spa.safety import check_dataset_names
 
     datasets = config["datasets"]
     raw_dir = Path(datasets["raw_dir"])
@@ -114,6 +118,7 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
         )
     raw = [d for d in wanted or found if d not in exclude]
     simulated = sorted(config["simulated"])
+    check_dataset_names([*simulated, *raw])
     clash = sorted(set(raw) & set(simulated))
     if clash:
         raise ConfigError(
@@ -121,9 +126,3 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
             "rename one or list it under datasets.exclude"
         )
     return simulated, raw
-
-
-def dataset_files(raw_dir: str | Path, name: str) -> list[str]:
-    """Every file of the bench dataset folder ``raw_dir/name``, sorted: the inputs of its
-    ingest, so that a change to any of them reruns its jobs."""
-    return sorted(str(p) for p in (Path(raw_dir) / name).rglob("*") if p.is_file())

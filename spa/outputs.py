@@ -138,6 +138,9 @@ class Stage:
     section : str or None
         The report section its outputs belong to: ``"analytic"`` (paths relative to the
         results folder) or ``"dataset"`` (one section per dataset); ``None``: none.
+    target : bool
+        False for an intermediate step that only some datasets have (the raw-data manifest
+        of bench datasets): ``reproduce-all`` gets it through the stages that read it.
     """
 
     name: str
@@ -145,6 +148,7 @@ class Stage:
     outputs: tuple[Output, ...]
     logs: dict[str, str] = field(default_factory=dict)
     section: str | None = None
+    target: bool = True
 
 
 def _analytic(name: str, *outputs: Output) -> Stage:
@@ -205,6 +209,13 @@ STAGES: tuple[Stage, ...] = (
             "modulator's optimum, with the linear target.",
         ),
         Output("data", "analytic/fig5.csv", DATA),
+    ),
+    Stage(
+        "raw_manifest",
+        True,
+        (Output("manifest", "provenance/raw.json", DATA),),
+        {"raw_manifest": "{dataset}/raw_manifest.log"},
+        target=False,
     ),
     _per_dataset(
         "runs",
@@ -443,7 +454,7 @@ def all_targets(
         Paths: the stages that are not per dataset first, then each dataset's outputs.
     """
     skip = set(exclude)
-    stages = [s for s in STAGES if s.name not in skip]
+    stages = [s for s in STAGES if s.name not in skip and s.target]
     once = [s for s in stages if not s.per_dataset]
     each = [s for s in stages if s.per_dataset]
     paths = [p for s in once for p in stage_outputs(s.name, results).values()]

@@ -2,15 +2,21 @@
 # output and log files (spa.outputs), the digest of spa's code. No logic and no paths here.
 from pathlib import Path
 
-from spa.config import dataset_files, discover_datasets, validate_config
+from snakemake.logging import logger
+
+from spa.config import discover_datasets, validate_config
 from spa.io import package_digest
+from spa.provenance import dataset_digest, remove_damaged_run_folders
 from spa.outputs import all_targets, log_path, stage_outputs, wildcard_choice
+from spa.safety import check_results_dir
 
 validate_config(
     config, Path(workflow.basedir) / "workflow" / "schemas" / "config.schema.yaml"
 )
 
 RESULTS = config.get("results", "results")
+# Refuse, before anything runs, a results folder that overlaps raw data (spa.safety).
+check_results_dir(RESULTS, config["datasets"]["raw_dir"])
 # Passed to every job as `params: code=...`: editing spa/ reruns the jobs (a params change).
 SPA_CODE = package_digest()
 RAW_DIR = Path(config["datasets"]["raw_dir"])
@@ -33,6 +39,17 @@ def logfile(rule):
     return log_path(rule, RESULTS)
 
 
-def raw_files(wildcards):
-    """Every file of a raw dataset folder, so that a change to any of them reruns its jobs."""
-    return dataset_files(RAW_DIR, wildcards.dataset)
+# Digests of raw files, remembered by stat between runs (spa.provenance).
+DIGEST_CACHE = str(Path(".snakemake") / "spa" / "raw-digests.json")
+
+
+def raw_digest(wildcards):
+    """The content digest of a bench dataset folder (a parameter: reruns on content only)."""
+    return dataset_digest(RAW_DIR / wildcards.dataset, cache=DIGEST_CACHE)
+
+
+# A folder of run tables that lost or changed a member is removed, so that it is rebuilt.
+for _folder, _why in remove_damaged_run_folders(
+    RESULTS, [stage_outputs("runs", RESULTS, d)["runs"] for d in DATASETS]
+).items():
+    logger.warning(f"{_folder}: {_why}; the folder is rebuilt")

@@ -1,6 +1,7 @@
 """Simulate one configured dataset into canonical run tables."""
 
 from spa.io import get_logger
+from spa.provenance import write_run_index
 from spa.synthetic import generate_dataset
 
 log = get_logger("simulate_dataset", snakemake.log[0])
@@ -13,4 +14,5 @@ paths = generate_dataset(
     snakemake.output.runs,
     progress=log.info,
 )
+write_run_index(snakemake.output.runs, paths)
 log.info("%s: %d runs written to %s", name, len(paths), snakemake.output.runs)

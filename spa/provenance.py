@@ -1,0 +1,239 @@
+"""What a result was made from: content digests of raw datasets and indexes of run tables.
+
+Snakemake decides what to rerun from modification times. A recording whose content changes
+while its modification time goes back (restored from a backup, ``rsync -t``, copied from a
+logger's card) would then never be re-ingested, and a file merely touched would be re-ingested
+for nothing. The workflow therefore reads raw data through a per-dataset *manifest*
+(:func:`write_manifest`): a small file listing every file of the dataset with its sha256,
+rewritten only when a digest changed (:func:`dataset_digest` is a parameter of the rule that
+writes it, so Snakemake reruns that rule exactly when the content changed).
+
+Hashing every recording at every start would be slow for large datasets, so digests are
+cached by (size, modification time, status-change time, inode): a file whose ``stat`` is
+unchanged is not read again. The status-change time (``ctime``) cannot be set back by any
+copy tool, so restored content is always re-hashed.
+
+A folder of run tables is indexed (:func:`write_run_index`); :func:`damaged_run_folders` finds
+folders that lost or changed a member since, so that the workflow rebuilds them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "RUN_INDEX",
+    "damaged_run_folders",
+    "dataset_digest",
+    "file_digests",
+    "remove_damaged_run_folders",
+    "write_manifest",
+    "write_run_index",
+]
+
+#: File name of the index written into every folder of run tables.
+RUN_INDEX = "index.json"
+
+_CHUNK = 1 << 20
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as fh:
+        while chunk := fh.read(_CHUNK):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _stat_key(st: os.stat_result) -> list[int]:
+    return [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
+
+
+def _load_cache(cache: Path | None) -> dict[str, Any]:
+    if cache is None or not cache.is_file():
+        return {}
+    try:
+        data = json.loads(cache.read_text())
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _save_cache(cache: Path, data: Mapping[str, Any]) -> None:
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    tmp = cache.with_name(f".{cache.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(data, sort_keys=True))
+    os.replace(tmp, cache)
+
+
+def file_digests(folder: str | os.PathLike[str], cache: str | os.PathLike[str] | None = None):
+    """The sha256 of every file under ``folder`` (hidden files and folders skipped).
+
+    Parameters
+    ----------
+    folder : path-like
+        A dataset folder; only read.
+    cache : path-like, optional
+        A JSON file remembering digests by path and ``stat`` (size, mtime, ctime, inode);
+        created or updated when a digest had to be computed. Never inside ``folder``.
+
+    Returns
+    -------
+    dict
+        Path relative to ``folder`` (POSIX form) -> sha256 hex digest, sorted by path.
+    """
+    root = Path(folder)
+    cache_path = Path(cache) if cache is not None else None
+    if cache_path is not None and cache_path.resolve().is_relative_to(root.resolve()):
+        raise ValueError(f"cache {cache_path} must not be inside the dataset folder {root}")
+    known = _load_cache(cache_path)
+    out: dict[str, str] = {}
+    changed = False
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        for name in sorted(filenames):
+            if name.startswith("."):
+                continue
+            path = Path(dirpath) / name
+            rel = path.relative_to(root).as_posix()
+            key = str(path.resolve())
+            stat = _stat_key(path.stat())
+            hit = known.get(key)
+            if isinstance(hit, dict) and hit.get("stat") == stat:
+                out[rel] = str(hit["sha256"])
+                continue
+            digest = _sha256(path)
+            known[key] = {"stat": stat, "sha256": digest}
+            out[rel] = digest
+            changed = True
+    if changed and cache_path is not None:
+        _save_cache(cache_path, known)
+    return dict(sorted(out.items()))
+
+
+def dataset_digest(
+    folder: str | os.PathLike[str], cache: str | os.PathLike[str] | None = None
+) -> str:
+    """One sha256 over the names and contents of every file of a dataset folder.
+
+    It changes exactly when a file is added, removed, renamed or its content changes; not
+    when a modification time alone moves. See :func:`file_digests` for ``cache``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.csv").write_text("t,p\\n0,1\\n")
+    >>> before = dataset_digest(d)
+    >>> os.utime(d / "a.csv", ns=(0, 0))                # only the time moves
+    >>> dataset_digest(d) == before
+    True
+    >>> _ = (d / "a.csv").write_text("t,p\\n0,2\\n")
+    >>> os.utime(d / "a.csv", ns=(0, 0))                # new content, old time
+    >>> dataset_digest(d) == before
+    False
+    """
+    h = hashlib.sha256()
+    for rel, digest in file_digests(folder, cache).items():
+        h.update(rel.encode() + b"\0" + digest.encode() + b"\0")
+    return h.hexdigest()
+
+
+def write_manifest(
+    folder: str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    cache: str | os.PathLike[str] | None = None,
+) -> dict[str, Any]:
+    """Write the manifest of a dataset folder: its digest and every file's sha256 (JSON).
+
+    Returns
+    -------
+    dict
+        What was written: ``{"folder", "digest", "files": {relative path: sha256}}``.
+    """
+    files = file_digests(folder, cache)
+    h = hashlib.sha256()
+    for rel, digest in files.items():
+        h.update(rel.encode() + b"\0" + digest.encode() + b"\0")
+    manifest = {"folder": str(folder), "digest": h.hexdigest(), "files": files}
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    return manifest
+
+
+def write_run_index(folder: str | os.PathLike[str], paths: Iterable[str | os.PathLike[str]]):
+    """Record the run tables of a folder (name and size of each) in :data:`RUN_INDEX`."""
+    root = Path(folder)
+    members = {Path(p).name: Path(p).stat().st_size for p in paths}
+    index = {"members": dict(sorted(members.items()))}
+    (root / RUN_INDEX).write_text(json.dumps(index, indent=1, sort_keys=True) + "\n")
+    return index
+
+
+def damaged_run_folders(folders: Iterable[str | os.PathLike[str]]) -> dict[str, str]:
+    """Folders of run tables that lost, changed or gained a member since they were written.
+
+    Parameters
+    ----------
+    folders : iterable of path-like
+        Folders written with :func:`write_run_index`; folders that do not exist, or have no
+        index (an older results folder), are skipped.
+
+    Returns
+    -------
+    dict
+        Folder -> what is wrong with it (first problem found).
+    """
+    damaged: dict[str, str] = {}
+    for folder in folders:
+        root = Path(folder)
+        index_path = root / RUN_INDEX
+        if not index_path.is_file():
+            continue
+        try:
+            members = json.loads(index_path.read_text())["members"]
+        except (OSError, ValueError, KeyError, TypeError):
+            damaged[str(root)] = f"unreadable {RUN_INDEX}"
+            continue
+        for name, size in members.items():
+            member = root / name
+            if not member.is_file():
+                damaged[str(root)] = f"run table {name} is missing"
+                break
+            if member.stat().st_size != size:
+                damaged[str(root)] = f"run table {name} changed size"
+                break
+        else:
+            extra = sorted({p.name for p in root.glob("*.parquet")} - set(members))
+            if extra:
+                damaged[str(root)] = f"run table {extra[0]} was not written by this run"
+    return damaged
+
+
+def remove_damaged_run_folders(
+    results: str | os.PathLike[str], folders: Iterable[str | os.PathLike[str]]
+) -> dict[str, str]:
+    """Delete the damaged folders of run tables under ``results`` so that they are rebuilt.
+
+    Only folders inside ``results`` that carry a :data:`RUN_INDEX` are ever removed: this is
+    the pipeline's own output, which Snakemake would delete before rebuilding it anyway.
+
+    Returns
+    -------
+    dict
+        The folders removed -> why.
+    """
+    root = Path(results).resolve()
+    damaged = damaged_run_folders(folders)
+    for folder in damaged:
+        path = Path(folder).resolve()
+        if path.is_relative_to(root) and path != root and (path / RUN_INDEX).exists():
+            shutil.rmtree(path)
+    return damaged
