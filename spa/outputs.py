@@ -13,8 +13,10 @@ report shows a section's items in this order), and a rule whose ``output:`` is
 
 This module imports nothing heavy: the workflow imports it to parse the Snakefile.
 
->>> stage_outputs("sine", "results")
-{'table': 'results/{dataset}/sine/linearity.csv', 'fig8': 'results/{dataset}/sine/fig8.png'}
+>>> stage_outputs("sine", "results")["table"]
+'results/{dataset}/sine/linearity.csv'
+>>> stage_outputs("sine", "results")["status"]  # every dataset stage: worked or failed
+'results/{dataset}/status/sine.json'
 >>> log_path("identify", "results", "sim")
 'results/logs/sim/identify.log'
 """
@@ -161,7 +163,8 @@ def _per_dataset(name: str, *outputs: Output, logs: dict[str, str] | None = None
     """A per-dataset step: by default written by the rule ``name``, which logs to
     ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
-    return Stage(name, True, outputs, logs, section="dataset")
+    status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
+    return Stage(name, True, (*outputs, status), logs, section="dataset")
 
 
 STAGES: tuple[Stage, ...] = (
@@ -365,6 +368,8 @@ STAGES: tuple[Stage, ...] = (
         ),
     ),
     Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
+    # Last: fails the run, naming them, when any dataset failed (spa.status).
+    Stage("check", False, (Output("status", "status.yaml", DATA),), {"check": "check.log"}),
 )
 """Every stage, in pipeline order; the report shows each section's outputs in this order."""
 

@@ -51,9 +51,10 @@ def test_stage_outputs_for_a_rule_and_for_one_dataset():
     assert stage_outputs("validate_model", "r", "sim") == {
         "fit": "r/sim/validation/fit.csv",
         "figures": "r/sim/validation/figures",
+        "status": "r/sim/status/validate_model.json",
     }
     marked = stage_outputs("runs", "r", mark_directory=lambda p: ("dir", p))
-    assert marked == {"runs": ("dir", "r/{dataset}/runs")}
+    assert marked == {"runs": ("dir", "r/{dataset}/runs"), "status": "r/{dataset}/status/runs.json"}
     assert stage_outputs("analytic_fig4", "r", "ignored") == {
         "figure": "r/analytic/fig4.png",
         "data": "r/analytic/fig4.csv",

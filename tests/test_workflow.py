@@ -31,10 +31,12 @@ def test_small_config_produces_every_target(small_run):
         assert len(list((small_run / dataset / "runs").glob("*.parquet"))) >= 5
     assert sorted(p.name for p in (small_run / "logs").iterdir()) == [
         "analytic",
+        "check.log",
         "example",
         "report.log",
         "sim",
     ]
+    assert (small_run / "status.yaml").is_file()  # the check found no failed dataset
 
 
 def test_small_config_produces_the_open_loop_analyses(small_run):
@@ -104,8 +106,11 @@ def test_typo_in_config_names_the_key(tmp_path):
     assert "analytic: Additional properties are not allowed ('n_xy' was unexpected)" in text
 
 
-def test_bad_raw_dataset_stops_with_its_message(tmp_path):
+def test_bad_raw_dataset_fails_alone_and_the_report_names_it(tmp_path):
+    """A broken bench dataset costs only itself: the others and the report are built, the
+    report lists it with its first error, and the run's exit status is non-zero."""
     raw = tmp_path / "raw"
+    shutil.copytree(ROOT / "raw" / "example", raw / "example")
     shutil.copytree(ROOT / "raw" / "example", raw / "broken")
     spec = raw / "broken" / "dataset.yaml"
     spec.write_text(
@@ -115,18 +120,37 @@ def test_bad_raw_dataset_stops_with_its_message(tmp_path):
     )
     out = tmp_path / "results"
     res = run(
-        f"{out}/broken/runs",
+        "reproduce-all",
         "--configfile",
         "config/small.yaml",
         "--config",
         f"results={out}",
         f"datasets={{'raw_dir': '{raw}'}}",
-        "-c1",
+        "-c2",
     )
     assert res.returncode != 0
+    assert "dataset broken: stage runs failed" in res.stderr
     log = (out / "logs" / "broken" / "ingest.log").read_text()
-    assert "pulsed" in log
-    assert "broken/dataset.yaml" in log or "dataset.yaml" in log
+    assert "pulsed" in log and "dataset.yaml" in log
+    # the good datasets are complete, the report is written and names the failure
+    assert (out / "example" / "staircase" / "table3.csv").stat().st_size > 100
+    assert (out / "sim" / "chirp" / "bicoherence.csv").stat().st_size > 100
+    page = (out / "report.html").read_text()
+    assert "Failed datasets" in page and "pulsed" in page
+    assert "Dataset broken (failed)" in page
+    assert not (out / "status.yaml").exists()
+    # a second run does nothing new and still fails, naming the dataset
+    again = run(
+        "reproduce-all",
+        "--configfile",
+        "config/small.yaml",
+        "--config",
+        f"results={out}",
+        f"datasets={{'raw_dir': '{raw}'}}",
+        "-c2",
+    )
+    assert again.returncode != 0 and "dataset broken" in again.stderr
+    assert "rule ingest_dataset" not in again.stdout + again.stderr
 
 
 def test_hidden_and_spec_less_folders_of_raw_are_not_datasets(tmp_path):

@@ -22,6 +22,7 @@ from spa.report.html import (
     unique_anchor,
 )
 from spa.report.params import fits_note, params_table
+from spa.status import dataset_failures
 
 __all__ = ["build_report", "section_items"]
 
@@ -125,6 +126,27 @@ def _mentions(folder: Path, name: str) -> str:
     )
 
 
+def _failures_html(failures: Mapping[str, list[dict[str, Any]]]) -> str:
+    """A framed list of failed datasets: the stage that failed and its first errors."""
+    e = html.escape
+    items = []
+    for name, records in failures.items():
+        first = next((r for r in records if not r.get("upstream")), records[0])
+        errors = "".join(f"<li><code>{e(str(x))}</code></li>" for x in first["errors"][:5])
+        skipped = [r["stage"] for r in records if r.get("upstream")]
+        note = f" Not run because of it: {e(', '.join(skipped))}." if skipped else ""
+        items.append(
+            f"<li><strong>{e(name)}</strong>: stage <code>{e(str(first['stage']))}</code> "
+            f"failed; its log is logs/{e(name)}/.{note}<ul>{errors}</ul></li>"
+        )
+    return (
+        '<div class="key" style="border-color:#a33;background:#fdf3f3">\n<p>These datasets produced no results; the other datasets '
+        "are complete. Fix the data (check a bench dataset with <code>spa validate "
+        "raw/&lt;name&gt;</code>) and run <code>snakemake reproduce-all</code> again.</p>\n"
+        f"<ul>{''.join(items)}</ul>\n</div>\n"
+    )
+
+
 def build_report(
     results_dir: str | Path,
     datasets: Sequence[str],
@@ -169,11 +191,19 @@ def build_report(
     taken: set[str] = {"contents", "analytic"}
     sections: list[tuple[str, str, str, list[tuple[str, str]]]] = []
 
+    failures = dataset_failures(results, datasets)
+    if failures:
+        sections.append(("failed", "Failed datasets", _failures_html(failures), []))
+        taken.add("failed")
     body, toc = _section(results, "analytic", "analytic", taken)
     sections.append(("analytic", "Analytic (averaged model)", body, toc))
     for name in datasets:
         folder = results / name
         anchor = unique_anchor(f"dataset-{name}", taken)
+        if name in failures:
+            body = _failures_html({name: failures[name]})
+            sections.append((anchor, f"Dataset {name} (failed)", body, []))
+            continue
         body, toc = _section(folder, "dataset", anchor, taken)
         sections.append((anchor, f"Dataset {name}", body + _mentions(folder, name), toc))
 

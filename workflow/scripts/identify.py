@@ -1,48 +1,52 @@
 """Identify c1, k2, tau2, t_on, t_off of one dataset; write params.yaml and Fig. 2."""
 
-import sys
-
 import yaml
 
 from spa import ValveParams
-from spa.identification import IdentificationError, identify_runs
+from spa.identification import identify_runs
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
+from spa.status import run_stage
 from spa.validation import validate_run
 
 log = get_logger("identify", snakemake.log[0])
-out = snakemake.output
-cfg = dict(snakemake.params.cfg)
-runs, metas = read_runs(snakemake.input.runs)
-kinds = {rid: m["kind"] for rid, m in metas.items()}
-use_fallback = cfg.pop("use_fallback", False)
-savgol = cfg.pop("savgol", {})
-fallback = ValveParams(**snakemake.params.nominal) if use_fallback else None
-try:
+
+
+def main() -> None:
+    out = snakemake.output
+    cfg = dict(snakemake.params.cfg)
+    runs, metas = read_runs(snakemake.input.runs)
+    kinds = {rid: m["kind"] for rid, m in metas.items()}
+    use_fallback = cfg.pop("use_fallback", False)
+    savgol = cfg.pop("savgol", {})
+    fallback = ValveParams(**snakemake.params.nominal) if use_fallback else None
     result = identify_runs(
         runs, kinds, **savgol, **cfg, seed=snakemake.params.seed, fallback=fallback
     )
-except IdentificationError as exc:
-    log.error("%s: %s", snakemake.wildcards.dataset, exc)
-    sys.exit(1)
-for name, reason in result.fallback.items():
-    log.warning(
-        "%s: FALLBACK to the nominal value for %s: %s", snakemake.wildcards.dataset, name, reason
-    )
-with open(out.params, "w") as fh:
-    yaml.safe_dump(result.to_dict(), fh, sort_keys=False)
-log.info("identified %s", result.to_valve_params())
+    for name, reason in result.fallback.items():
+        log.warning(
+            "%s: FALLBACK to the nominal value for %s: %s",
+            snakemake.wildcards.dataset,
+            name,
+            reason,
+        )
+    with open(out.params, "w") as fh:
+        yaml.safe_dump(result.to_dict(), fh, sort_keys=False)
+    log.info("identified %s", result.to_valve_params())
 
-for data_fn, fig_fn, fit, png, csv in (
-    (fig2a_data, fig2a, result.charge, out.fig2a, out.fig2a_csv),
-    (fig2b_data, fig2b, result.discharge, out.fig2b, out.fig2b_csv),
-):
-    data = data_fn(fit)
-    write_csv(data, csv)
-    save_figure(fig_fn(data), png)
+    for data_fn, fig_fn, fit, png, csv in (
+        (fig2a_data, fig2a, result.charge, out.fig2a, out.fig2a_csv),
+        (fig2b_data, fig2b, result.discharge, out.fig2b, out.fig2b_csv),
+    ):
+        data = data_fn(fit)
+        write_csv(data, csv)
+        save_figure(fig_fn(data), png)
 
-pulse_id = sorted(r for r, k in kinds.items() if k == "pulse")[0]
-trace = validate_run(runs[pulse_id], result.to_valve_params()).trace
-data = fig2c_data(trace)
-write_csv(data, out.fig2c_csv)
-save_figure(fig2c(data), out.fig2c)
+    pulse_id = sorted(r for r, k in kinds.items() if k == "pulse")[0]
+    trace = validate_run(runs[pulse_id], result.to_valve_params()).trace
+    data = fig2c_data(trace)
+    write_csv(data, out.fig2c_csv)
+    save_figure(fig2c(data), out.fig2c)
+
+
+run_stage(snakemake, "identify", main, log)

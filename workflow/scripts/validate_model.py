@@ -4,28 +4,37 @@ from pathlib import Path
 
 from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
 from spa.plots.identification import validation_data, validation_figure
+from spa.status import run_stage
 from spa.validation import validate_run, validate_runs
 
 log = get_logger("validate_model", snakemake.log[0])
-runs, metas = read_runs(snakemake.input.runs)
-params = read_params(snakemake.input.params)
-modulators = {rid: meta.get("modulator") for rid, meta in metas.items()}
-table = validate_runs(runs, params, modulators, {rid: meta["kind"] for rid, meta in metas.items()})
-# The modulator columns of fit.csv, as written so far (to become Modulator.label).
-mods = [m or {} for m in modulators.values()]
-table.insert(2, "modulator", [m.get("type", "") for m in mods])
-table.insert(
-    3, "setting", [" ".join(f"{k}={v:g}" for k, v in m.items() if k != "type") for m in mods]
-)
-write_csv(table.drop(columns="p0"), snakemake.output.fit)
-for row in table.itertuples():
-    log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
 
-figures = Path(snakemake.output.figures)
-figures.mkdir(parents=True, exist_ok=True)
-worst = table.loc[table.groupby("kind")["fit_percent"].idxmin()]  # the lowest FIT of each kind
-for row in worst.itertuples():
-    data = validation_data(validate_run(runs[row.run], params, modulators[row.run]))
-    write_csv(data, figures / f"{row.kind}.csv")
-    title = f"{row.kind}: run {row.run} (lowest FIT of its kind, {row.fit_percent:.1f} %)"
-    save_figure(validation_figure(data, title=title), figures / f"{row.kind}.png")
+
+def main() -> None:
+    runs, metas = read_runs(snakemake.input.runs)
+    params = read_params(snakemake.input.params)
+    modulators = {rid: meta.get("modulator") for rid, meta in metas.items()}
+    table = validate_runs(
+        runs, params, modulators, {rid: meta["kind"] for rid, meta in metas.items()}
+    )
+    # The modulator columns of fit.csv, as written so far (to become Modulator.label).
+    mods = [m or {} for m in modulators.values()]
+    table.insert(2, "modulator", [m.get("type", "") for m in mods])
+    table.insert(
+        3, "setting", [" ".join(f"{k}={v:g}" for k, v in m.items() if k != "type") for m in mods]
+    )
+    write_csv(table.drop(columns="p0"), snakemake.output.fit)
+    for row in table.itertuples():
+        log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
+
+    figures = Path(snakemake.output.figures)
+    figures.mkdir(parents=True, exist_ok=True)
+    worst = table.loc[table.groupby("kind")["fit_percent"].idxmin()]  # the lowest FIT of each kind
+    for row in worst.itertuples():
+        data = validation_data(validate_run(runs[row.run], params, modulators[row.run]))
+        write_csv(data, figures / f"{row.kind}.csv")
+        title = f"{row.kind}: run {row.run} (lowest FIT of its kind, {row.fit_percent:.1f} %)"
+        save_figure(validation_figure(data, title=title), figures / f"{row.kind}.png")
+
+
+run_stage(snakemake, "validate_model", main, log)

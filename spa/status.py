@@ -1,0 +1,219 @@
+"""One bad dataset costs only itself: every per-dataset stage records whether it worked.
+
+A workflow job of a dataset runs its work through :func:`run_stage`. When the work raises
+(bad data, an identification that cannot be done, a run that is not what its kind says), the
+job does not fail: it logs the error with its traceback, fills each of its outputs with a
+placeholder, and writes its status file (``results/<dataset>/status/<stage>.json``) saying
+what failed. A later stage of the same dataset finds the failed status and skips its work the
+same way. So every other dataset, and the report, are still built; the report lists the failed
+datasets with their first errors (:func:`dataset_failures`), and the final ``check`` job of
+``reproduce-all`` exits non-zero naming them (:func:`failure_summary`).
+
+A status file is ``{"stage", "dataset", "ok", "errors": [...], "upstream"}``; ``upstream`` names
+the earlier stage that failed when this one was skipped for it.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import shutil
+import traceback
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "STATUS_DIR",
+    "dataset_failures",
+    "failure_summary",
+    "read_status",
+    "run_stage",
+    "write_placeholder",
+    "write_status",
+]
+
+#: Folder of a dataset's results holding one ``<stage>.json`` per stage.
+STATUS_DIR = "status"
+
+_MAX_ERRORS = 10
+
+# A 1x1 transparent PNG: a valid figure file that says nothing (the report never shows it).
+_EMPTY_PNG = bytes.fromhex(
+    "89504e470d0a1a0a0000000d49484452000000010000000108060000001f15c489"
+    "0000000d49444154789c6360000002000001e221bc330000000049454e44ae426082"
+)
+
+
+def write_status(
+    path: str | Path,
+    stage: str,
+    dataset: str,
+    errors: Iterable[str] = (),
+    upstream: str | None = None,
+) -> dict[str, Any]:
+    """Write a stage's status file; ``errors`` empty means it worked."""
+    errs = [str(e) for e in errors][:_MAX_ERRORS]
+    status = {
+        "stage": stage,
+        "dataset": dataset,
+        "ok": not errs,
+        "errors": errs,
+        "upstream": upstream,
+    }
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(status, indent=1) + "\n")
+    return status
+
+
+def read_status(path: str | Path) -> dict[str, Any] | None:
+    """A status file's content, or None when it does not exist (the stage did not run)."""
+    p = Path(path)
+    if not p.is_file():
+        return None
+    try:
+        status = json.loads(p.read_text())
+    except ValueError:
+        return {"stage": p.stem, "ok": False, "errors": [f"unreadable status file {p}"]}
+    return status if isinstance(status, dict) else None
+
+
+def write_placeholder(path: str | Path, kind: str, message: str) -> None:
+    """Fill one output of a failed stage so that the workflow can go on.
+
+    Parameters
+    ----------
+    path : path-like
+        The output.
+    kind : str
+        Its kind in :mod:`spa.outputs` (``table``, ``data``, ``figure``, ``params``,
+        ``figures``, ``runs``, ...).
+    message : str
+        Why there is no result; written into tables and parameter files.
+    """
+    out = Path(path)
+    if kind in ("figures", "runs"):
+        if out.is_dir():
+            shutil.rmtree(out)
+        out.mkdir(parents=True)
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix == ".png":
+        out.write_bytes(_EMPTY_PNG)
+    elif out.suffix in (".yaml", ".yml"):
+        out.write_text(json.dumps({"failed": message}) + "\n")
+    else:
+        out.write_text("error\n" + json.dumps(message) + "\n")
+
+
+def _upstream_failure(status_dir: Path, before: Iterable[str]) -> dict[str, Any] | None:
+    for stage in before:
+        status = read_status(status_dir / f"{stage}.json")
+        if status is not None and not status.get("ok", False):
+            return status
+    return None
+
+
+def run_stage(
+    smk: Any,
+    stage: str,
+    work: Callable[[], None],
+    log: logging.Logger,
+) -> bool:
+    """Run one dataset stage's work; on failure, placeholders and a failed status instead.
+
+    Parameters
+    ----------
+    smk : snakemake.script.Snakemake
+        The job (``snakemake`` in a workflow script): its ``output`` must have a ``status``.
+    stage : str
+        The stage's name in :data:`spa.outputs.STAGES`.
+    work : callable
+        Does the stage's work and writes every output but ``status``.
+    log : logging.Logger
+        The job's log: the error and its traceback go there.
+
+    Returns
+    -------
+    bool
+        True when the work ran and succeeded.
+    """
+    from spa.outputs import STAGES
+
+    dataset = str(smk.wildcards.dataset)
+    status_path = Path(smk.output.status)
+    names = [s.name for s in STAGES if s.per_dataset]
+    before = names[: names.index(stage)] if stage in names else []
+    failed = _upstream_failure(status_path.parent, before)
+    if failed is not None:
+        errors = [f"skipped: stage {failed['stage']} failed"]
+        log.error("%s: %s (%s)", dataset, errors[0], "; ".join(failed.get("errors", [])[:3]))
+        _fill(smk, stage, errors[0])
+        write_status(status_path, stage, dataset, errors, upstream=str(failed["stage"]))
+        return False
+    try:
+        work()
+    except Exception as exc:
+        problems = getattr(exc, "problems", None)
+        if problems:
+            errors = [str(p) for p in problems if getattr(p, "is_error", True)]
+            for p in problems:
+                (log.error if getattr(p, "is_error", True) else log.warning)("%s", p)
+        else:
+            errors = [f"{type(exc).__name__}: {exc}"]
+        log.error("%s: stage %s failed:\n%s", dataset, stage, traceback.format_exc())
+        _fill(smk, stage, errors[0])
+        write_status(status_path, stage, dataset, errors)
+        return False
+    write_status(status_path, stage, dataset)
+    return True
+
+
+def _fill(smk: Any, stage: str, message: str) -> None:
+    from spa.outputs import get_stage
+
+    kinds = {o.key: o.kind for o in get_stage(stage).outputs}
+    for key, path in smk.output.items():
+        if key != "status":
+            write_placeholder(path, kinds.get(key, "data"), message)
+
+
+def dataset_failures(
+    results: str | Path, datasets: Iterable[str]
+) -> dict[str, list[dict[str, Any]]]:
+    """The failed stages of each dataset (first failure first), from the status files.
+
+    Returns
+    -------
+    dict
+        Dataset -> its failed status records (empty datasets are left out); a stage skipped
+        because of an earlier one is listed after it.
+    """
+    from spa.outputs import STAGES
+
+    order = [s.name for s in STAGES if s.per_dataset]
+    out: dict[str, list[dict[str, Any]]] = {}
+    for name in datasets:
+        folder = Path(results) / name / STATUS_DIR
+        failed = []
+        for stage in order:
+            status = read_status(folder / f"{stage}.json")
+            if status is not None and not status.get("ok", False):
+                failed.append(status)
+        if failed:
+            out[name] = failed
+    return out
+
+
+def failure_summary(failures: Mapping[str, list[dict[str, Any]]]) -> str:
+    """One paragraph per failed dataset: the stage that failed and its first errors."""
+    lines = []
+    for name, records in failures.items():
+        first = next((r for r in records if not r.get("upstream")), records[0])
+        lines.append(f"dataset {name}: stage {first['stage']} failed")
+        lines += [f"  {e}" for e in first.get("errors", [])[:5]]
+        skipped = [r["stage"] for r in records if r.get("upstream")]
+        if skipped:
+            lines.append(f"  (skipped for it: {', '.join(skipped)})")
+    return "\n".join(lines)

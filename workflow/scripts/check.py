@@ -1,0 +1,20 @@
+"""Fail the run, naming them, when any dataset failed; else write results/status.yaml."""
+
+import sys
+from pathlib import Path
+
+import yaml
+
+from spa.io import get_logger
+from spa.status import dataset_failures, failure_summary
+
+log = get_logger("check", snakemake.log[0])
+out = Path(snakemake.output.status)
+failures = dataset_failures(out.parent, snakemake.params.datasets)
+if failures:
+    text = failure_summary(failures)
+    log.error("%d of %d datasets failed:\n%s", len(failures), len(snakemake.params.datasets), text)
+    print(f"spa: {len(failures)} dataset(s) failed (see the report):\n{text}", file=sys.stderr)
+    sys.exit(1)
+out.write_text(yaml.safe_dump({"datasets": list(snakemake.params.datasets), "failed": []}))
+log.info("all %d datasets complete", len(snakemake.params.datasets))
