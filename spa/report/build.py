@@ -140,9 +140,10 @@ def _failures_html(failures: Mapping[str, list[dict[str, Any]]]) -> str:
             f"failed; its log is logs/{e(name)}/.{note}<ul>{errors}</ul></li>"
         )
     return (
-        '<div class="key" style="border-color:#a33;background:#fdf3f3">\n<p>These datasets produced no results; the other datasets '
-        "are complete. Fix the data (check a bench dataset with <code>spa validate "
-        "raw/&lt;name&gt;</code>) and run <code>snakemake reproduce-all</code> again.</p>\n"
+        '<div class="key" style="border-color:#a33;background:#fdf3f3">\n'
+        "<p>These datasets produced no results; the other datasets are complete. Fix the "
+        "data (check a bench dataset with <code>spa validate raw/&lt;name&gt;</code>) and "
+        "run <code>snakemake reproduce-all</code> again.</p>\n"
         f"<ul>{''.join(items)}</ul>\n</div>\n"
     )
 
