@@ -20,6 +20,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import spa.datasets as ds
+import spa.datasets.readers.delimited as delimited
+import spa.datasets.runtable as runtable
 from spa.cli import main
 from spa.datasets import (
     DatasetError,
@@ -310,7 +312,7 @@ def test_spaces_and_bom_are_accepted(tmp_path: Path) -> None:
 
 
 def test_checks_carry_across_chunks(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(ds, "_CSV_BLOCK", 256)
+    monkeypatch.setattr(delimited, "_CSV_BLOCK", 256)
     df = frame(400)
     df.loc[299, "t"] = df.loc[298, "t"]  # duplicate of the previous row: row 300
     folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": df})
@@ -321,7 +323,7 @@ def test_checks_carry_across_chunks(tmp_path: Path, monkeypatch: pytest.MonkeyPa
 
 def test_malformed_line_is_numbered_across_blocks(tmp_path: Path,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(ds, "_CSV_BLOCK", 200)
+    monkeypatch.setattr(delimited, "_CSV_BLOCK", 200)
     lines = frame(400).to_csv(index=False).splitlines()
     lines[149] = "0.5,0.1"  # line 150 of the file: two fields instead of three
     lines[301] = lines[301].replace(",", ",x", 1)  # line 302: text in p
@@ -344,9 +346,9 @@ def test_blank_lines_are_skipped(tmp_path: Path) -> None:
 def test_chunking_does_not_change_the_output(tmp_path: Path,
                                              monkeypatch: pytest.MonkeyPatch) -> None:
     folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": frame(3000)})
-    monkeypatch.setattr(ds, "_ROW_GROUP", 1000)
+    monkeypatch.setattr(runtable, "_ROW_GROUP", 1000)
     whole = ingest_dataset(folder, tmp_path / "a")[0].read_bytes()
-    monkeypatch.setattr(ds, "_CSV_BLOCK", 512)
+    monkeypatch.setattr(delimited, "_CSV_BLOCK", 512)
     chunked = ingest_dataset(folder, tmp_path / "b")[0]
     assert chunked.read_bytes() == whole
     assert pq.ParquetFile(chunked).metadata.num_row_groups == 3

@@ -1,0 +1,141 @@
+"""The dataset contract's vocabulary: file names, run kinds, canonical columns, units and
+limits (see ``raw/README.md``)."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pyarrow as pa
+
+#: Name of the description file inside a dataset folder.
+SPEC_FILE = "dataset.yaml"
+
+
+#: Kinds of run.
+KINDS: tuple[str, ...] = ("charge", "discharge", "pulse", "staircase", "sine", "chirp")
+
+
+#: Kinds of run driven through a pulse modulator: they need ``modulator`` and ``u``.
+MODULATED_KINDS: tuple[str, ...] = ("staircase", "sine", "chirp")
+
+
+#: Where the data come from.
+ORIGINS: tuple[str, ...] = ("bench", "synthetic")
+
+
+#: Canonical column names, in the order of a run table.
+CANONICAL_COLUMNS: tuple[str, ...] = ("t", "p", "valve", "u")
+
+
+#: Columns each kind of run must have.
+REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
+    "charge": ("t", "p"),
+    "discharge": ("t", "p"),
+    "pulse": ("t", "p", "valve"),
+    "staircase": ("t", "p", "u"),
+    "sine": ("t", "p", "u"),
+    "chirp": ("t", "p", "u"),
+}
+
+
+#: Columns whose absence is a warning, not an error.
+RECOMMENDED_COLUMNS: Mapping[str, tuple[str, ...]] = {k: ("valve",) for k in MODULATED_KINDS}
+
+
+#: Seconds per unit of time.
+TIME_UNITS: Mapping[str, float] = {"s": 1.0, "ms": 1e-3}
+
+
+#: Bar per unit of (gauge) pressure.
+PRESSURE_UNITS: Mapping[str, float] = {"bar": 1.0, "mbar": 1e-3, "kPa": 1e-2, "psi": 0.0689475729}
+
+
+#: Plausible range of gauge pressure for a soft actuator, in bar: a little below full vacuum
+#: (-1.013 bar, with room for sensor offset) up to well above any supply used with one.
+P_MIN_BAR = -1.1
+
+
+P_MAX_BAR = 20.0
+
+
+#: Parquet key-value metadata key holding the run's description as JSON.
+META_KEY = b"spa"
+
+
+#: Value of ``meta["format"]`` in every run table.
+RUN_TABLE_FORMAT = "spa.run/1"
+
+
+# Units whose factor is the inverse of an integer: divide by it, which rounds correctly.
+_DIVISORS = {"ms": 1000.0, "mbar": 1000.0, "kPa": 100.0}
+
+
+_FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
+
+
+_TOP_KEYS = ("name", "description", "origin", "rig", "units", "columns", "runs")
+
+
+_REQUIRED_TOP = ("name", "description", "origin", "rig", "runs")
+
+
+_RUN_KEYS = ("id", "kind", "file", "modulator", "notes")
+
+
+_UNIT_KEYS = ("time", "pressure")
+
+
+_NAME_RE = re.compile(r"[A-Za-z0-9._-]+")
+
+
+_ID_RE = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,99}")
+
+
+_ARROW_TYPES = {"t": pa.float64(), "p": pa.float64(), "valve": pa.int8(), "u": pa.float64()}
+
+
+_QUANTITY = {"t": "time", "p": "pressure", "valve": "valve command", "u": "input fraction u"}
+
+
+_NA_TOKENS = frozenset(
+    [
+        "",
+        "#N/A",
+        "#N/A N/A",
+        "#NA",
+        "-1.#IND",
+        "-1.#QNAN",
+        "-NaN",
+        "-nan",
+        "1.#IND",
+        "1.#QNAN",
+        "N/A",
+        "NA",
+        "NULL",
+        "NaN",
+        "n/a",
+        "nan",
+        "null",
+    ]
+)
+
+
+_BATCH_ROWS = 1 << 19  # rows per Parquet / MATLAB chunk
+
+
+_MAX_ROWS_LISTED = 5
+
+
+# --------------------------------------------------------------------------- units
+
+
+def _to_seconds(t: npt.NDArray[np.float64], unit: str) -> npt.NDArray[np.float64]:
+    return t / _DIVISORS[unit] if unit in _DIVISORS else t * TIME_UNITS[unit]
+
+
+def _to_bar(p: Any, unit: str) -> Any:
+    return p / _DIVISORS[unit] if unit in _DIVISORS else p * PRESSURE_UNITS[unit]

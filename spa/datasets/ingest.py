@@ -1,0 +1,306 @@
+"""Validate a dataset folder and ingest it into canonical run tables (one streaming pass
+per run)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+from pathlib import Path, PurePosixPath
+
+from spa.datasets.checks import RunSummary, _RunCheck
+from spa.datasets.contract import (
+    _FORMATS,
+    _MAX_ROWS_LISTED,
+    _QUANTITY,
+    CANONICAL_COLUMNS,
+    RECOMMENDED_COLUMNS,
+    REQUIRED_COLUMNS,
+    RUN_TABLE_FORMAT,
+    SPEC_FILE,
+)
+from spa.datasets.problems import DatasetError, Problem, _one_of, _suggest
+from spa.datasets.readers import _SOURCES
+from spa.datasets.readers.base import _ReadError, _Retry
+from spa.datasets.runtable import _meta_bytes, _RunWriter, _sha256
+from spa.datasets.spec import RunEntry, _parse_spec, _Parsed
+
+# --------------------------------------------------------------------------- scanning
+
+
+def _scan_run(
+    parsed: _Parsed, run: RunEntry, out: Path | None
+) -> tuple[list[Problem], RunSummary | None]:
+    """Check one run's file; with ``out``, also write its run table there (if clean)."""
+    path = parsed.folder / run.file
+    fmt = _FORMATS[PurePosixPath(run.file).suffix.lower()]
+    what = {"csv": "column", "parquet": "column", "mat": "MATLAB variable"}[fmt]
+
+    def problem(
+        message: str,
+        column: str | None = None,
+        row: int | None = None,
+        level: str = "error",
+        line: int | None = None,
+    ) -> Problem:
+        return Problem(run.file, run.id, column, row, message, line=line, level=level)
+
+    if path.stat().st_size == 0:
+        return [problem("file is empty (0 bytes)")], None
+    try:
+        source = _SOURCES[fmt](path)
+    except _ReadError as exc:
+        return [problem(str(exc), exc.column, exc.row)], None
+
+    problems: list[Problem] = []
+    present: dict[str, str] = {}
+    for canon in CANONICAL_COLUMNS:
+        name = parsed.columns[canon]
+        if name in source.columns:
+            if source.columns.count(name) > 1:
+                problems.append(problem(f"{what} {name!r} appears more than once", name))
+            present[canon] = name
+            continue
+        mapped = "" if name == canon else f" (mapped from {canon!r} under columns:)"
+        hint = (
+            f"; the file has {_one_of(repr(c) for c in source.columns)}"
+            f"{_suggest(name, source.columns)}; map names under columns: in {SPEC_FILE}"
+        )
+        if canon in REQUIRED_COLUMNS[run.kind]:
+            problems.append(
+                problem(
+                    f"missing {what} {name!r}{mapped}: a {run.kind} run needs "
+                    f"{_QUANTITY[canon]} ({canon}){hint}",
+                    name,
+                )
+            )
+        elif canon in RECOMMENDED_COLUMNS.get(run.kind, ()):
+            problems.append(
+                problem(
+                    f"no {what} {name!r}{mapped}: the valve command is recommended for "
+                    f"{run.kind} runs; ingesting without it",
+                    name,
+                    level="warning",
+                )
+            )
+    if any(p.is_error for p in problems):
+        return problems, None
+    names = list(present.values())
+    check_types = getattr(source, "check_types", None)
+    if check_types is not None:
+        type_errors = check_types(names)
+        if type_errors:
+            return problems + [problem(str(e), e.column, e.row) for e in type_errors], None
+
+    meta = None
+    if out is not None:
+        meta = _meta_bytes(
+            {
+                "format": RUN_TABLE_FORMAT,
+                "dataset": parsed.name,
+                "description": parsed.description,
+                "origin": parsed.origin,
+                "rig": parsed.rig,
+                "run": run.id,
+                "kind": run.kind,
+                "modulator": run.modulator,
+                "notes": run.notes,
+                "source": {
+                    "file": run.file,
+                    "sha256": _sha256(path),
+                    "format": fmt,
+                    "columns": present,
+                },
+                "units": {"time": parsed.time_unit, "pressure": parsed.pressure_unit},
+            }
+        )
+    rename = {v: k for k, v in present.items()}
+    check = _RunCheck(present, parsed.time_unit, parsed.pressure_unit)
+
+    def scan(as_text: bool) -> _RunCheck:
+        nonlocal check
+        check = _RunCheck(present, parsed.time_unit, parsed.pressure_unit)
+        writer = None
+        if out is not None:
+            writer = _RunWriter(out, tuple(present), meta or b"")
+        try:
+            for offset, values, bad in source.chunks(names, as_text):
+                clean = check.feed(
+                    offset,
+                    {rename[k]: v for k, v in values.items()},
+                    {rename[k]: v for k, v in bad.items()},
+                )
+                if writer is not None:
+                    if clean is None:
+                        writer.abort()
+                        writer = None
+                    else:
+                        writer.add(clean)
+            if writer is not None:
+                if check.rows >= 2:
+                    writer.close()
+                else:
+                    writer.abort()
+        except BaseException:
+            if writer is not None:
+                writer.abort()
+            raise
+        return check
+
+    try:
+        try:
+            scan(as_text=False)
+        except _Retry:
+            scan(as_text=True)
+    except _ReadError as exc:
+        problems.append(problem(str(exc), exc.column, exc.row))
+    except MemoryError:
+        raise
+    except Exception as exc:  # never a raw traceback for a bad file
+        problems.append(problem(f"cannot read the file: {type(exc).__name__}: {exc}"))
+
+    invalid = getattr(source, "invalid", [])
+    for line, text, expected, actual in invalid[:_MAX_ROWS_LISTED]:
+        more = f" ({len(invalid)} such lines in all)" if len(invalid) > 1 else ""
+        problems.append(
+            problem(
+                f"malformed line: expected {expected} comma-separated fields, got {actual}: "
+                f"{text[:80]!r} (truncated file? ';' separators or decimal commas?){more}",
+                line=line,
+            )
+        )
+    found = check.problems(run.file, run.id) + check.warnings(run.file, run.id, run.kind)
+    line_of = getattr(source, "line_of", None)
+    if line_of is not None:
+        found = [replace(p, line=line_of(p.row)) for p in found]
+    problems += found
+    if any(p.is_error for p in problems):
+        if out is not None:
+            out.unlink(missing_ok=True)
+        return problems, None
+    return problems, check.summary(run)
+
+
+def _scan_dataset(
+    folder: Path, out_dir: Path | None
+) -> tuple[_Parsed, list[Problem], list[RunSummary], dict[str, Path]]:
+    parsed = _parse_spec(folder)
+    problems = list(parsed.problems)
+    summaries: list[RunSummary] = []
+    temps: dict[str, Path] = {}
+    if not parsed.data_ok:
+        return parsed, problems, summaries, temps
+    writing = out_dir is not None and not parsed.has_errors
+    for run in parsed.runs:
+        tmp = out_dir / f".{run.id}.parquet.tmp" if writing and out_dir else None
+        run_problems, summary = _scan_run(parsed, run, tmp)
+        problems += run_problems
+        if summary is not None:
+            summaries.append(summary)
+            if tmp is not None:
+                temps[run.id] = tmp
+    return parsed, problems, summaries, temps
+
+
+def check_dataset(folder: str | Path) -> tuple[list[Problem], list[RunSummary]]:
+    """Check a dataset folder against the contract and summarise its runs.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        The dataset folder, ``raw/<name>``.
+
+    Returns
+    -------
+    problems : list of Problem
+        Every problem found (errors and warnings), description first, then run by run.
+    summaries : list of RunSummary
+        One per run whose data passed.
+    """
+    _, problems, summaries, _ = _scan_dataset(Path(folder), None)
+    return problems, summaries
+
+
+def validate_dataset(folder: str | Path) -> list[Problem]:
+    """Check a dataset folder against the contract; return every problem found.
+
+    Checks ``dataset.yaml`` (keys, with the closest valid key for a typo; kinds; modulator
+    settings; units; column names; run ids; file paths, which must stay inside the folder)
+    and every run's data (readable file; required columns; numbers only, no NaN or inf; time
+    strictly increasing; valve in {0, 1}; u in [0, 1]; pressure within
+    :data:`P_MIN_BAR` to :data:`P_MAX_BAR` bar gauge after unit conversion). Data are read in
+    chunks, so any length of recording can be checked.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        The dataset folder, ``raw/<name>``.
+
+    Returns
+    -------
+    list of Problem
+        Empty when the dataset is valid. Problems with ``level == "warning"`` (a staircase,
+        sine or chirp run without a valve column; an implausible sample rate or tiny pressure
+        range) do not make it invalid. A problem found on many rows is reported once, at its
+        first row, with the number of rows and the first few row numbers.
+
+    Examples
+    --------
+    >>> [str(p) for p in validate_dataset("/no/such/folder")]
+    ['error: dataset folder: dataset folder /no/such/folder does not exist']
+    """
+    return check_dataset(folder)[0]
+
+
+def ingest_dataset(folder: str | Path, out_dir: str | Path) -> list[Path]:
+    """Validate a dataset and write one canonical run table per run.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        The dataset folder, ``raw/<name>``; never written to.
+    out_dir : str or path-like
+        Where to write ``<run id>.parquet``; created if needed. Must not be the dataset
+        folder, inside it, or the folder holding it (``raw/``).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The run tables, in the order of ``runs:``.
+
+    Raises
+    ------
+    DatasetError
+        If the dataset has any error; nothing is written (earlier outputs are left alone).
+    ValueError
+        If ``out_dir`` is inside the dataset or its parent folder is ``raw/``.
+
+    Notes
+    -----
+    Each run is checked and converted in one streaming pass: times to s, pressures to bar
+    (factors in :data:`TIME_UNITS` and :data:`PRESSURE_UNITS`; units whose factor is the
+    inverse of an integer are divided by it, so 250 kPa is exactly 2.5 bar). Each table is
+    written to a hidden temporary file and renamed into place only once every run passed.
+    The metadata hold the dataset name, description, origin and rig, the run id, kind,
+    modulator and notes, the source file's relative path, format, column names and sha256,
+    and the units converted from. Equal inputs give byte-identical outputs.
+    """
+    folder = Path(folder)
+    out = Path(out_dir)
+    root = folder.resolve()
+    target = out.resolve()
+    if target.is_relative_to(root) or target == root.parent:
+        raise ValueError(
+            f"out_dir {out} is inside the dataset folder {folder} or is its parent folder; "
+            "ingest never writes into raw/"
+        )
+    parsed, problems, _, temps = _scan_dataset(folder, out)
+    if any(p.is_error for p in problems):
+        for tmp in temps.values():
+            tmp.unlink(missing_ok=True)
+        raise DatasetError(folder, problems)
+    paths = []
+    for run in parsed.runs:
+        final = out / f"{run.id}.parquet"
+        os.replace(temps[run.id], final)
+        paths.append(final)
+    return paths

@@ -1,0 +1,14 @@
+"""One reader per file family behind one dispatcher by file ending.
+
+Each reader (a "source") opens one run's file and yields chunks of float columns; the
+contract's ``format`` of a run (from its file ending, see ``spa.datasets.contract``) picks
+it from :data:`_SOURCES`. Adding a format is one module here and one line in that table.
+"""
+
+from __future__ import annotations
+
+from spa.datasets.readers.delimited import _CsvSource
+from spa.datasets.readers.matlab import _MatSource
+from spa.datasets.readers.parquet import _ParquetSource
+
+_SOURCES = {"csv": _CsvSource, "parquet": _ParquetSource, "mat": _MatSource}

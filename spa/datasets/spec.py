@@ -1,0 +1,573 @@
+"""``dataset.yaml``: its safe YAML loader, its parser (every problem at once) and the
+parsed :class:`DatasetSpec`."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath, PureWindowsPath
+from typing import Any
+
+import yaml
+
+from spa.datasets.contract import (
+    _FORMATS,
+    _ID_RE,
+    _NAME_RE,
+    _REQUIRED_TOP,
+    _RUN_KEYS,
+    _TOP_KEYS,
+    _UNIT_KEYS,
+    CANONICAL_COLUMNS,
+    KINDS,
+    MODULATED_KINDS,
+    ORIGINS,
+    PRESSURE_UNITS,
+    SPEC_FILE,
+    TIME_UNITS,
+)
+from spa.datasets.problems import DatasetError, Problem, _is_one_of, _one_of, _suggest, _unknown_key
+from spa.model.modulators import MODULATORS, check_settings
+
+# --------------------------------------------------------------------------- specification
+
+
+@dataclass(frozen=True, slots=True)
+class RunEntry:
+    """One entry of ``runs:`` in ``dataset.yaml``, checked.
+
+    Attributes
+    ----------
+    id : str
+        Run id, unique within the dataset and safe as a file name.
+    kind : str
+        One of :data:`KINDS`.
+    file : str
+        Path of the run's file, relative to the dataset folder.
+    modulator : dict or None
+        ``{"type": kind, **settings}`` with every setting filled in (see
+        :func:`spa.model.modulators.check_settings`), or None.
+    notes : str or None
+        Free text.
+    """
+
+    id: str
+    kind: str
+    file: str
+    modulator: dict[str, Any] | None = None
+    notes: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class DatasetSpec:
+    """The content of a valid ``dataset.yaml``.
+
+    Attributes
+    ----------
+    folder : pathlib.Path
+        The dataset folder.
+    name, description, origin : str
+        As in the file; ``origin`` is one of :data:`ORIGINS`.
+    rig : dict
+        Free description of the bench (dates turned into ISO strings).
+    time_unit, pressure_unit : str
+        Units of the files (keys of :data:`TIME_UNITS` and :data:`PRESSURE_UNITS`).
+    columns : dict
+        Column name in the files for each canonical name in :data:`CANONICAL_COLUMNS`.
+    runs : tuple of RunEntry
+        The runs, in file order.
+    """
+
+    folder: Path
+    name: str
+    description: str
+    origin: str
+    rig: dict[str, Any]
+    time_unit: str
+    pressure_unit: str
+    columns: dict[str, str]
+    runs: tuple[RunEntry, ...]
+
+    def run_path(self, run: RunEntry | str) -> Path:
+        """Absolute path of a run's file."""
+        spec = run if isinstance(run, RunEntry) else self.run(run)
+        return self.folder / spec.file
+
+    def run(self, run_id: str) -> RunEntry:
+        """The run with id ``run_id``; ``KeyError`` naming the known ids if absent."""
+        for r in self.runs:
+            if r.id == run_id:
+                return r
+        raise KeyError(f"no run {run_id!r} in dataset {self.name!r}; runs: {self.run_ids}")
+
+    @property
+    def run_ids(self) -> list[str]:
+        """Run ids in file order."""
+        return [r.id for r in self.runs]
+
+
+@dataclass
+class _Parsed:
+    """Whatever could be checked of ``dataset.yaml``; runs with problems are left out."""
+
+    folder: Path
+    problems: list[Problem] = field(default_factory=list)
+    name: str = ""
+    description: str = ""
+    origin: str = ""
+    rig: dict[str, Any] = field(default_factory=dict)
+    time_unit: str = "s"
+    pressure_unit: str = "bar"
+    columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
+    runs: list[RunEntry] = field(default_factory=list)
+    data_ok: bool = True  # units and columns are usable for checking the data
+
+    def error(
+        self,
+        message: str,
+        *,
+        key: str | None = None,
+        run: str | None = None,
+        file: str | None = SPEC_FILE,
+        level: str = "error",
+    ) -> None:
+        self.problems.append(Problem(file, run, None, None, message, key=key, level=level))
+
+    @property
+    def has_errors(self) -> bool:
+        return any(p.is_error for p in self.problems)
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """Safe YAML loader that rejects a key given twice in one mapping.
+
+    Floats are read as YAML 1.2 reads them, so ``20e-3`` is a number (YAML 1.1, PyYAML's
+    default, needs ``20.0e-3`` and would give the string ``'20e-3'``).
+    """
+
+
+_UniqueKeyLoader.yaml_implicit_resolvers = {
+    k: [r for r in v if r[0] != "tag:yaml.org,2002:float"]
+    for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+
+
+_UniqueKeyLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+        |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
+    list("-+0123456789."),
+)
+
+
+def _construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> Any:
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        try:
+            duplicate = key in seen
+        except TypeError:
+            continue
+        if duplicate:
+            raise yaml.constructor.ConstructorError(
+                "while constructing a mapping",
+                node.start_mark,
+                f"found duplicate key {key!r}",
+                key_node.start_mark,
+            )
+        seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def _plain(value: Any) -> Any:
+    """Turn YAML values into JSON-compatible ones (dates become ISO strings)."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, _dt.date | _dt.datetime | _dt.time):
+        return value.isoformat()
+    if value is None or isinstance(value, bool | int | float | str):
+        if isinstance(value, float) and not math.isfinite(value):
+            return str(value)
+        return value
+    return str(value)
+
+
+def _check_modulator(value: Any) -> tuple[dict[str, Any] | None, list[str]]:
+    """Check a ``modulator:`` mapping; return the completed settings and the problems."""
+    example = "e.g. {type: pwm, f_w: 20}"
+    if not isinstance(value, Mapping):
+        return None, [f"modulator must be a mapping, {example}; got {value!r}"]
+    kind = value.get("type")
+    if kind is None:
+        return None, [f"modulator has no 'type'; expected one of {_one_of(MODULATORS)}, {example}"]
+    if not _is_one_of(kind, MODULATORS):
+        return None, [
+            f"unknown modulator type {kind!r}; expected one of {_one_of(MODULATORS)}"
+            f"{_suggest(kind, MODULATORS)}"
+        ]
+    allowed = ["type", *MODULATORS[kind]]
+    problems = [
+        f"unknown {kind} setting {k!r}{_suggest(k, allowed)}; {kind} takes {_one_of(allowed)}"
+        for k in value
+        if k not in allowed
+    ]
+    if problems:
+        return None, problems
+    settings = {k: v for k, v in value.items() if k != "type"}
+    try:
+        full = check_settings(str(kind), **settings)
+    except ValueError as exc:
+        return None, [f"bad modulator settings: {exc}"]
+    return {"type": kind, **full}, []
+
+
+def _check_run_file(folder: Path, value: Any) -> tuple[str | None, str | None]:
+    """Check a run's ``file``: return (relative path, None) or (None, problem)."""
+    if not isinstance(value, str) or not value.strip():
+        return None, f"file must be a path relative to the dataset folder, got {value!r}"
+    if "\\" in value:
+        return None, f"file path {value!r} contains '\\'; use '/' between folders"
+    if PurePosixPath(value).is_absolute() or PureWindowsPath(value).drive:
+        return None, (
+            f"file path {value!r} is absolute; paths must be relative to the dataset folder "
+            "and stay inside it"
+        )
+    if ".." in PurePosixPath(value).parts:
+        return None, (
+            f"file path {value!r} leaves the dataset folder through '..'; "
+            "data files must live inside the folder"
+        )
+    full = folder / value
+    resolved = full.resolve()
+    if not resolved.is_relative_to(folder.resolve()):
+        return None, (
+            f"file path {value!r} resolves to {resolved}, outside the dataset folder "
+            "(a symlink pointing out?); data files must live inside the folder"
+        )
+    suffix = PurePosixPath(value).suffix.lower()
+    if suffix not in _FORMATS:
+        return None, (
+            f"unsupported file type {suffix or '(none)'!r} for {value!r}; expected one of "
+            f"{_one_of(_FORMATS)}"
+        )
+    if not full.exists():
+        return None, f"file {value!r} not found (looked for {full})"
+    if not full.is_file():
+        return None, f"{value!r} is not a regular file"
+    return value, None
+
+
+def _parse_spec(folder: Path) -> _Parsed:
+    parsed = _Parsed(folder=folder)
+    if not folder.exists():
+        parsed.error(f"dataset folder {folder} does not exist", file=None)
+        parsed.data_ok = False
+        return parsed
+    if not folder.is_dir():
+        parsed.error(
+            f"{folder} is not a folder; a dataset is a folder holding {SPEC_FILE}", file=None
+        )
+        parsed.data_ok = False
+        return parsed
+    spec_path = folder / SPEC_FILE
+    if not spec_path.is_file():
+        parsed.error(f"missing {SPEC_FILE}: every dataset folder needs one (see raw/README.md)")
+        parsed.data_ok = False
+        return parsed
+    try:
+        doc = yaml.load(spec_path.read_text(encoding="utf-8"), Loader=_UniqueKeyLoader)
+    except UnicodeDecodeError as exc:
+        parsed.error(f"cannot read {SPEC_FILE} as UTF-8 text: {exc}")
+        parsed.data_ok = False
+        return parsed
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        what = getattr(exc, "problem", None) or str(exc)
+        parsed.error(f"cannot parse YAML{where}: {what}")
+        parsed.data_ok = False
+        return parsed
+    if not isinstance(doc, Mapping):
+        kind = "an empty file" if doc is None else f"a {type(doc).__name__}"
+        parsed.error(f"expected a mapping with keys {_one_of(_TOP_KEYS)}; got {kind}")
+        parsed.data_ok = False
+        return parsed
+
+    for key in doc:
+        if key not in _TOP_KEYS:
+            parsed.error(
+                _unknown_key(key, _TOP_KEYS),
+                key=str(key),
+            )
+    for key in _REQUIRED_TOP:
+        if key not in doc:
+            parsed.error(f"missing required key {key!r}")
+
+    name = doc.get("name")
+    if "name" in doc:
+        if not isinstance(name, str) or not _NAME_RE.fullmatch(name) or name in (".", ".."):
+            parsed.error(
+                f"name {name!r} must be a string of letters, digits, '.', '_' and '-'",
+                key="name",
+            )
+        elif name != folder.name:
+            parsed.error(
+                f"name {name!r} differs from the folder name {folder.name!r}; they must be equal",
+                key="name",
+            )
+        else:
+            parsed.name = name
+    if "description" in doc:
+        desc = doc["description"]
+        if not isinstance(desc, str) or not desc.strip():
+            parsed.error(f"description must be non-empty text, got {desc!r}", key="description")
+        else:
+            parsed.description = desc.strip()
+    if "origin" in doc:
+        origin = doc["origin"]
+        if not _is_one_of(origin, ORIGINS):
+            parsed.error(
+                f"origin {origin!r} is not one of {_one_of(ORIGINS)}{_suggest(origin, ORIGINS)}",
+                key="origin",
+            )
+        else:
+            parsed.origin = origin
+    if "rig" in doc:
+        rig = doc["rig"]
+        if not isinstance(rig, Mapping):
+            parsed.error(
+                "rig must be a mapping describing the bench, e.g. "
+                f"{{valve: ..., actuator: ..., sensors: ..., controller: ...}}; got {rig!r}",
+                key="rig",
+            )
+        else:
+            parsed.rig = _plain(rig)
+
+    _parse_units(parsed, doc.get("units"))
+    _parse_columns(parsed, doc.get("columns"))
+    if "runs" in doc:
+        _parse_runs(parsed, doc["runs"])
+    return parsed
+
+
+def _parse_units(parsed: _Parsed, units: Any) -> None:
+    if units is None:
+        return
+    if not isinstance(units, Mapping):
+        parsed.error(
+            f"units must be a mapping like {{time: ms, pressure: kPa}}, got {units!r}", key="units"
+        )
+        parsed.data_ok = False
+        return
+    for key in units:
+        if key not in _UNIT_KEYS:
+            parsed.error(
+                _unknown_key(key, _UNIT_KEYS),
+                key=f"units.{key}",
+            )
+            parsed.data_ok = False
+    for key, table in (("time", TIME_UNITS), ("pressure", PRESSURE_UNITS)):
+        if key not in units:
+            continue
+        value = units[key]
+        if not _is_one_of(value, table):
+            parsed.error(
+                f"{key} unit {value!r} is not one of {_one_of(table)}{_suggest(value, table)}",
+                key=f"units.{key}",
+            )
+            parsed.data_ok = False
+        elif key == "time":
+            parsed.time_unit = value
+        else:
+            parsed.pressure_unit = value
+
+
+def _parse_columns(parsed: _Parsed, columns: Any) -> None:
+    if columns is None:
+        return
+    if not isinstance(columns, Mapping):
+        parsed.error(
+            f"columns must map canonical names ({_one_of(CANONICAL_COLUMNS)}) to the names in "
+            f"the files, e.g. {{t: time_ms, p: P_kPa}}; got {columns!r}",
+            key="columns",
+        )
+        parsed.data_ok = False
+        return
+    for key, value in columns.items():
+        if key not in CANONICAL_COLUMNS:
+            parsed.error(
+                f"unknown canonical column {key!r}{_suggest(key, CANONICAL_COLUMNS)}; "
+                f"allowed: {_one_of(CANONICAL_COLUMNS)}",
+                key=f"columns.{key}",
+            )
+            parsed.data_ok = False
+        elif not isinstance(value, str) or not value:
+            parsed.error(
+                f"column name for {key!r} must be a non-empty string, got {value!r}",
+                key=f"columns.{key}",
+            )
+            parsed.data_ok = False
+        else:
+            parsed.columns[key] = value
+    names = list(parsed.columns.values())
+    for dup in sorted({n for n in names if names.count(n) > 1}):
+        which = [c for c, n in parsed.columns.items() if n == dup]
+        parsed.error(
+            f"file column {dup!r} is used for several canonical columns {which} (a canonical "
+            "name not mapped under columns: stands for itself)",
+            key="columns",
+        )
+        parsed.data_ok = False
+
+
+def _parse_runs(parsed: _Parsed, runs: Any) -> None:
+    if not isinstance(runs, list):
+        parsed.error(
+            f"runs must be a list of {{id, kind, file, ...}} entries, got {runs!r}", key="runs"
+        )
+        return
+    if not runs:
+        parsed.error("runs is empty; list at least one run", key="runs")
+        return
+    seen: dict[str, str] = {}
+    for i, entry in enumerate(runs):
+        key = f"runs[{i}]"
+        if not isinstance(entry, Mapping):
+            parsed.error(
+                f"each run must be a mapping with keys {_one_of(_RUN_KEYS)}, got {entry!r}", key=key
+            )
+            continue
+        before = len(parsed.problems)
+        rid = entry.get("id")
+        label = rid if isinstance(rid, str) else None
+
+        def err(
+            message: str, sub: str | None = None, _label: str | None = label, _key: str = key
+        ) -> None:
+            parsed.error(message, key=f"{_key}.{sub}" if sub else _key, run=_label)
+
+        for k in entry:
+            if k not in _RUN_KEYS:
+                err(_unknown_key(k, _RUN_KEYS), str(k))
+        for k in ("id", "kind", "file"):
+            if k not in entry:
+                err(f"missing required key {k!r}")
+        if "id" in entry:
+            if not isinstance(rid, str):
+                err(f"id must be a string (quote it in YAML: id: '{rid}'), got {rid!r}", "id")
+            elif not _ID_RE.fullmatch(rid):
+                err(
+                    f"id {rid!r} is not filename-safe: use up to 100 letters, digits, '.', '_' "
+                    "and '-', not starting with '.'",
+                    "id",
+                )
+            elif rid.casefold() in seen:
+                other = seen[rid.casefold()]
+                same = "" if other == rid else f" ({other!r} differs only in case)"
+                err(f"duplicate run id {rid!r}{same}; run ids must be unique", "id")
+            else:
+                seen[rid.casefold()] = rid
+        kind = entry.get("kind")
+        if "kind" in entry and not _is_one_of(kind, KINDS):
+            err(
+                f"unknown kind {kind!r}; expected one of {_one_of(KINDS)}{_suggest(kind, KINDS)}",
+                "kind",
+            )
+        modulator = None
+        if entry.get("modulator") is not None:
+            modulator, problems = _check_modulator(entry["modulator"])
+            for message in problems:
+                err(message, "modulator")
+        elif _is_one_of(kind, MODULATED_KINDS):
+            err(
+                f"a {kind} run needs a modulator, one of {{type: pwm, f_w: <Hz>}}, "
+                "{type: ipfm, t_h: <s>, gain: <G>}, {type: iipfm, t_l: <s>, gain: <G>}, "
+                "{type: dsm, period: <s>}",
+                "modulator",
+            )
+        notes = entry.get("notes")
+        if notes is not None and not isinstance(notes, str):
+            err(f"notes must be text, got {notes!r}", "notes")
+        rel = None
+        if "file" in entry:
+            rel, message = _check_run_file(parsed.folder, entry["file"])
+            if message:
+                err(message, "file")
+        if len(parsed.problems) == before and rel is not None:
+            parsed.runs.append(RunEntry(rid, kind, rel, modulator, notes))
+
+
+def find_datasets(raw_dir: str | Path) -> list[str]:
+    """Names of the dataset folders in ``raw_dir``: its sub-folders holding a ``dataset.yaml``.
+
+    Parameters
+    ----------
+    raw_dir : str or path-like
+        The folder of datasets, usually ``raw``. A missing folder holds no datasets.
+
+    Returns
+    -------
+    list of str
+        Sorted folder names (hidden folders, starting with ``.``, are skipped).
+    """
+    root = Path(raw_dir)
+    if not root.is_dir():
+        return []
+    return sorted(
+        p.name
+        for p in root.iterdir()
+        if p.is_dir() and not p.name.startswith(".") and (p / SPEC_FILE).is_file()
+    )
+
+
+def load_spec(folder: str | Path) -> DatasetSpec:
+    """Read and check ``dataset.yaml`` of a dataset folder (not the data themselves).
+
+    Parameters
+    ----------
+    folder : str or path-like
+        The dataset folder, ``raw/<name>``.
+
+    Returns
+    -------
+    DatasetSpec
+        The description with defaults filled in.
+
+    Raises
+    ------
+    DatasetError
+        Listing every problem of ``dataset.yaml``: unknown keys (with the closest valid key),
+        bad values, run files that are missing, of an unsupported type or outside the folder.
+    """
+    parsed = _parse_spec(Path(folder))
+    if parsed.has_errors:
+        raise DatasetError(folder, parsed.problems)
+    return _spec_from(parsed)
+
+
+def _spec_from(parsed: _Parsed) -> DatasetSpec:
+    return DatasetSpec(
+        folder=parsed.folder,
+        name=parsed.name,
+        description=parsed.description,
+        origin=parsed.origin,
+        rig=parsed.rig,
+        time_unit=parsed.time_unit,
+        pressure_unit=parsed.pressure_unit,
+        columns=dict(parsed.columns),
+        runs=tuple(parsed.runs),
+    )
