@@ -22,7 +22,7 @@ import pandas as pd
 
 from spa.model.modulators import modulate
 from spa.model.params import ValveParams
-from spa.model.plant import run_start_pressures
+from spa.model.plant import replay
 
 __all__ = [
     "ValidationResult",
@@ -33,31 +33,6 @@ __all__ = [
     "validate_run",
     "validate_runs",
 ]
-
-
-def _evaluate(
-    t: npt.NDArray[np.float64],
-    starts: npt.NDArray[np.float64],
-    level: npt.NDArray[np.bool_],
-    hold: npt.NDArray[np.float64],
-    p0: float,
-    params: ValveParams,
-) -> npt.NDArray[np.float64]:
-    """Closed-form pressure at times ``t`` for runs starting at ``starts`` (``t >= starts[0]``).
-
-    Run ``j`` has command ``level[j]`` from ``starts[j]`` to ``starts[j+1]`` and holds the
-    pressure for ``hold[j]`` seconds first; ``p0`` is the pressure at ``starts[0]``.
-    """
-    ends = np.append(starts[1:], np.inf)
-    active = np.maximum(ends - starts - hold, 0.0)
-    p_start = run_start_pressures(level, active, p0, params)
-    j = np.searchsorted(starts, t, side="right") - 1
-    np.maximum(j, 0, out=j)
-    elapsed = np.maximum(t - starts[j] - hold[j], 0.0)
-    pj = p_start[j]
-    charging = params.k2 + (pj - params.k2) * np.exp(-elapsed / params.tau2)
-    root = np.maximum(np.sqrt(pj) - elapsed / (2.0 * params.c1), 0.0)
-    return np.where(level[j], charging, root * root)
 
 
 def _edges(valve: npt.NDArray[np.int8]) -> npt.NDArray[np.int64]:
@@ -144,7 +119,7 @@ def model_response(
     level = v[k].astype(bool)
     hold = np.where(level, params.t_on, params.t_off)
     hold[0] = 0.0
-    return _evaluate(tt, tt[k], level, hold, float(p0), params)
+    return replay(tt, tt[k], level, hold, float(p0), params)
 
 
 def fit_percent(measured: npt.ArrayLike, model: npt.ArrayLike) -> float:
@@ -355,7 +330,7 @@ def validate_run(
         level = command[k].astype(bool)
         hold = np.where(level, params.t_on, params.t_off)
         hold[0] = 0.0
-        model = _evaluate(t, grid[k], level, hold, start, params)
+        model = replay(t, grid[k], level, hold, start, params)
         idx = np.searchsorted(grid, t + 1e-9 * (grid[1] - grid[0]), side="right") - 1
         valve = command[np.clip(idx, 0, command.size - 1)]
     else:

@@ -156,10 +156,37 @@ def test_empty_and_bool_inputs():
 
 
 @pytest.mark.parametrize("field", ["c1", "k2", "tau2", "t_on", "t_off"])
-@pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), float("inf"), "x"])
+@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf"), "x"])
 def test_valve_params_reject_bad_values_naming_the_field(field, value):
     with pytest.raises(ValueError, match=f"ValveParams.{field}"):
         ValveParams(**{field: value})
+
+
+@pytest.mark.parametrize("field", ["c1", "k2", "tau2"])
+def test_valve_params_reject_zero_rates_but_allow_zero_delays(field):
+    with pytest.raises(ValueError, match=f"ValveParams.{field} must be finite and > 0"):
+        ValveParams(**{field: 0.0})
+    assert ValveParams(t_on=0.0, t_off=0.0).t_on == 0.0  # an ideal valve switches at once
+
+
+def test_segment_pressure_is_the_closed_form_of_eqs_a1_a2():
+    """One plant function: charging k2 + (p - k2) e^(-t/tau2), exhausting (sqrt(p) - t/2c1)^2."""
+    from spa.model.plant import segment_pressure
+
+    prm = ValveParams(c1=0.4, k2=0.9, tau2=0.7)
+    t = np.array([0.0, 0.05, 0.3, 1.0, 5.0])
+    np.testing.assert_allclose(
+        segment_pressure(True, 0.2, t, prm), 0.9 + (0.2 - 0.9) * np.exp(-t / 0.7), rtol=1e-15
+    )
+    expected = np.maximum(np.sqrt(0.6) - t / 0.8, 0.0) ** 2
+    np.testing.assert_allclose(segment_pressure(False, 0.6, t, prm), expected, rtol=1e-15)
+    assert segment_pressure(False, 0.6, 10.0, prm) == 0.0  # empty, and stays empty
+    mixed = segment_pressure(np.array([True, False]), np.array([0.2, 0.6]), 0.3, prm)
+    assert mixed[0] == segment_pressure(True, 0.2, 0.3, prm)
+    assert mixed[1] == segment_pressure(False, 0.6, 0.3, prm)
+    runs = segment_pressure(np.array([True, False]), [0.2, 0.6], t[:4], prm, repeats=[2, 2])
+    np.testing.assert_array_equal(runs[:2], segment_pressure(True, 0.2, t[:2], prm))
+    np.testing.assert_array_equal(runs[2:], segment_pressure(False, 0.6, t[2:4], prm))
 
 
 def test_valve_params_nominal_values_are_the_papers():

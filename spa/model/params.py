@@ -56,11 +56,13 @@ class ValveParams:
                 number = float(value)
             except (TypeError, ValueError):
                 raise ValueError(
-                    f"ValveParams.{f.name} must be a finite positive number, got {value!r}"
+                    f"ValveParams.{f.name} must be a number, got {value!r}"
                 ) from None
-            if not math.isfinite(number) or number <= 0.0:
+            delay = f.name in ("t_on", "t_off")  # a valve may switch without delay
+            if not math.isfinite(number) or number < 0.0 or (number == 0.0 and not delay):
+                allowed = ">= 0" if delay else "> 0"
                 raise ValueError(
-                    f"ValveParams.{f.name} must be a finite positive number, got {value!r}"
+                    f"ValveParams.{f.name} must be finite and {allowed}, got {value!r}"
                 )
             object.__setattr__(self, f.name, number)
 

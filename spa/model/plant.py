@@ -15,7 +15,98 @@ import numpy.typing as npt
 
 from spa.model.params import ValveParams
 
-__all__ = ["charge", "discharge", "run_start_pressures", "simulate"]
+__all__ = [
+    "charge",
+    "discharge",
+    "replay",
+    "run_start_pressures",
+    "segment_pressure",
+    "simulate",
+]
+
+
+def segment_pressure(
+    on: bool | npt.ArrayLike,
+    p_start: npt.ArrayLike,
+    elapsed: npt.ArrayLike,
+    params: ValveParams,
+    repeats: npt.ArrayLike | None = None,
+) -> np.ndarray:
+    """The plant's closed forms: pressure after ``elapsed`` s of charging or exhausting.
+
+    Every evaluation of the model in spa (simulation, the replay of a run for validation,
+    identification's model response, the exact periodic orbits of tuning) calls this one
+    function.
+
+    Parameters
+    ----------
+    on : bool or array_like of bool
+        True: charging (state 2, valve open); False: exhausting (state 1, valve closed).
+        Broadcast against ``p_start`` and ``elapsed``.
+    p_start : array_like
+        Pressure when the segment's active phase starts, bar (>= 0).
+    elapsed : array_like
+        Active time since then, s; negative values count as 0 (still in the hold).
+    params : ValveParams
+        Uses ``c1`` (s·bar^-0.5), ``k2`` (bar) and ``tau2`` (s).
+    repeats : array_like of int, optional
+        When given, ``on`` and ``p_start`` hold one value per run of ``repeats[j]``
+        consecutive entries of ``elapsed`` (as :func:`numpy.repeat`): a whole simulation in
+        one call, with the per-run terms computed once per run.
+
+    Returns
+    -------
+    numpy.ndarray
+        Charging: ``k2 + (p_start - k2) * exp(-elapsed/tau2)`` (Eq. 2 solved; Appendix B
+        Eq. A2). Exhausting: ``max(sqrt(p_start) - elapsed/(2*c1), 0)**2`` (Eq. 1 solved;
+        Eq. A1): the actuator empties in finite time ``2*c1*sqrt(p_start)`` and stays at 0.
+
+    Notes
+    -----
+    Evaluated as ``exp(elapsed * (-1/tau2)) * (p_start - k2) + k2`` and
+    ``(sqrt(p_start) - elapsed * (1/(2*c1)))**2``: one reciprocal per call, so that a
+    simulation and a replay of it agree to the last bit.
+
+    Examples
+    --------
+    >>> prm = ValveParams()
+    >>> p = float(segment_pressure(True, 0.0, prm.tau2, prm))   # one time constant
+    >>> abs(p - prm.k2 * (1 - math.exp(-1))) < 1e-15
+    True
+    >>> float(segment_pressure(False, 0.25, 2 * prm.c1 * 0.5, prm))  # empty after 2*c1*sqrt(p)
+    0.0
+    """
+    e = np.maximum(np.asarray(elapsed, dtype=np.float64), 0.0)
+    p0 = np.asarray(p_start, dtype=np.float64)
+    if np.ndim(on) == 0:
+        if on:
+            return np.exp(e * (-1.0 / params.tau2)) * (p0 - params.k2) + params.k2
+        root = np.maximum(np.sqrt(p0) - e * (1.0 / (2.0 * params.c1)), 0.0)
+        return root * root
+    # Both closed forms at once: exp(e*rate)*a + base + max(b - e*r, 0)**2, with the terms of
+    # the other state zero (exp(e*0)*0 = 0, max(0 - e*0, 0)**2 = 0): the same bits as above.
+    level = np.asarray(on, dtype=bool)
+    a = np.where(level, p0 - params.k2, 0.0)
+    base = np.where(level, params.k2, 0.0)
+    b = np.where(level, 0.0, np.sqrt(np.where(level, 0.0, p0)))
+    r = np.where(level, 0.0, 1.0 / (2.0 * params.c1))
+    rate = np.where(level, -1.0 / params.tau2, 0.0)
+
+    def per_sample(x: np.ndarray) -> np.ndarray:
+        # Expanded just before use, so that each full-length temporary is freed at once
+        # (keeping five alive doubles the time in page faults).
+        return x if repeats is None else np.repeat(x, repeats)
+
+    out = e * per_sample(rate)
+    np.exp(out, out=out)
+    out *= per_sample(a)
+    out += per_sample(base)
+    root = e * per_sample(r)
+    np.subtract(per_sample(b), root, out=root)
+    np.maximum(root, 0.0, out=root)
+    root *= root
+    out += root
+    return out
 
 
 def charge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np.ndarray:
@@ -33,12 +124,9 @@ def charge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np
     Returns
     -------
     numpy.ndarray
-        ``k2 + (p0 - k2) * exp(-elapsed/tau2)`` (Eq. 2 solved; Appendix B Eq. A2).
+        ``k2 + (p0 - k2) * exp(-elapsed/tau2)`` (:func:`segment_pressure` with ``on=True``).
     """
-    p0 = np.asarray(p0, dtype=np.float64)
-    return params.k2 + (p0 - params.k2) * np.exp(
-        -np.asarray(elapsed, dtype=np.float64) / params.tau2
-    )
+    return segment_pressure(True, p0, elapsed, params)
 
 
 def discharge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np.ndarray:
@@ -56,13 +144,10 @@ def discharge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) ->
     Returns
     -------
     numpy.ndarray
-        ``max(sqrt(p0) - elapsed/(2*c1), 0)**2`` (Eq. 1 solved; Appendix B Eq. A1). The
-        actuator empties in finite time ``2*c1*sqrt(p0)`` and stays at 0.
+        ``max(sqrt(p0) - elapsed/(2*c1), 0)**2`` (:func:`segment_pressure` with
+        ``on=False``).
     """
-    root = np.sqrt(np.asarray(p0, dtype=np.float64)) - np.asarray(elapsed, dtype=np.float64) / (
-        2.0 * params.c1
-    )
-    return np.square(np.maximum(root, 0.0))
+    return segment_pressure(False, p0, elapsed, params)
 
 
 def _check_command(u: npt.ArrayLike) -> np.ndarray:
@@ -147,28 +232,52 @@ def simulate(
     active = np.maximum(lengths * dt - hold, 0.0)
     p_start = run_start_pressures(level, active, p0, params)
 
-    # Closed form at every sample of every run, in one pass over the samples:
-    # charging runs: p = k2 + a*exp(-e/tau2) (b = r = 0); exhausting runs: p = max(b - r*e, 0)^2
-    # (a = 0), with e the active time elapsed since the run's hold ended.
-    a = np.where(level, p_start - params.k2, 0.0)
-    b = np.where(level, 0.0, np.sqrt(p_start))
-    r = np.where(level, 0.0, 1.0 / (2.0 * params.c1))
-    rate = np.where(level, -1.0 / params.tau2, 0.0)
-    base = np.where(level, params.k2, 0.0)
+    # The closed form of each run at its samples, with the active time elapsed since the
+    # run's hold ended.
     elapsed = np.arange(n, dtype=np.float64)
     elapsed *= dt
     elapsed -= np.repeat(starts * dt + hold, lengths)
-    np.maximum(elapsed, 0.0, out=elapsed)
-    p = elapsed * np.repeat(rate, lengths)
-    np.exp(p, out=p)
-    p *= np.repeat(a, lengths)
-    p += np.repeat(base, lengths)
-    root = elapsed * np.repeat(r, lengths)
-    np.subtract(np.repeat(b, lengths), root, out=root)
-    np.maximum(root, 0.0, out=root)
-    root *= root
-    p += root
-    return p
+    return segment_pressure(level, p_start, elapsed, params, repeats=lengths)
+
+
+def replay(
+    t: npt.NDArray[np.float64],
+    starts: npt.NDArray[np.float64],
+    level: npt.NDArray[np.bool_],
+    hold: npt.NDArray[np.float64],
+    p0: float,
+    params: ValveParams,
+) -> npt.NDArray[np.float64]:
+    """Exact pressure at any times ``t`` for a sequence of runs of constant command.
+
+    Parameters
+    ----------
+    t : numpy.ndarray of float
+        Times, s (``t >= starts[0]``); any spacing, e.g. a recording's own sample times.
+    starts : numpy.ndarray of float
+        Start of each run, s, increasing (the first sample, then every valve edge).
+    level : numpy.ndarray of bool
+        Command of each run (True: valve open).
+    hold : numpy.ndarray of float
+        How long each run holds the pressure before it acts (``t_on``/``t_off``, or 0 for a
+        run settled at the start), s.
+    p0 : float
+        Pressure at ``starts[0]``, bar.
+    params : ValveParams
+        Model parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        The pressure at ``t``: :func:`run_start_pressures` chains the runs, then
+        :func:`segment_pressure` evaluates each sample's run.
+    """
+    ends = np.append(starts[1:], np.inf)
+    active = np.maximum(ends - starts - hold, 0.0)
+    p_start = run_start_pressures(level, active, p0, params)
+    j = np.searchsorted(starts, t, side="right") - 1
+    np.maximum(j, 0, out=j)
+    return segment_pressure(level[j], p_start[j], t - starts[j] - hold[j], params)
 
 
 def run_start_pressures(

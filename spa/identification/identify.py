@@ -1,0 +1,200 @@
+"""The three experiments chained: a dataset's runs in, an :class:`IdentificationResult` out."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import pandas as pd
+
+from spa.identification.delays import _FALLBACK_PRIOR_REL_SD, fit_delays
+from spa.identification.rate_fits import fit_charge, fit_discharge
+from spa.identification.results import (
+    _Z95,
+    UNITS,
+    ChargeFit,
+    DelayFit,
+    DischargeFit,
+    Estimate,
+    IdentificationError,
+    IdentificationResult,
+    Runs,
+)
+from spa.model.params import ValveParams
+
+# --------------------------------------------------------------------------------------------
+# The whole identification
+# --------------------------------------------------------------------------------------------
+
+
+def identify(
+    charge: Runs | None,
+    discharge: Runs | None,
+    pulse: Runs | None,
+    *,
+    window: float = 0.1,
+    polyorder: int = 3,
+    skip: float = 0.03,
+    onset_fraction: float = 0.02,
+    tail_fraction: float = 0.05,
+    supply_fraction: float = 0.9,
+    max_delay: float = 0.05,
+    min_edges: int = 3,
+    n_boot: int = 200,
+    seed: int = 0,
+    fallback: ValveParams | None = None,
+) -> IdentificationResult:
+    """Identify ``c1``, ``k2``, ``tau2``, ``t_on``, ``t_off`` from the three experiments.
+
+    Parameters
+    ----------
+    charge, discharge, pulse : mapping of run id to table, sequence of tables, or None
+        The runs of experiments 1, 2 and 3 (see :func:`fit_charge`, :func:`fit_discharge`,
+        :func:`fit_delays`).
+    window, polyorder : float, int, optional
+        Savitzky–Golay window (s) and order for the derivatives.
+    skip, onset_fraction, tail_fraction, supply_fraction : float, optional
+        Window choices of the derivative fits (see :func:`fit_charge`, :func:`fit_discharge`).
+    max_delay : float, optional
+        Largest ``t_on``/``t_off`` searched, s.
+    min_edges : int, optional
+        Responding rising/falling edges needed for ``t_on``/``t_off``.
+    n_boot : int, optional
+        Bootstrap replicates.
+    seed : int, optional
+        Seed of the bootstrap's :class:`numpy.random.Generator`; the result is deterministic
+        for a given seed.
+    fallback : ValveParams, optional
+        Nominal parameters. Without it any experiment that cannot support its fit raises
+        :class:`IdentificationError`. With it, the parameters of that experiment take the
+        nominal values instead, and ``result.fallback`` records which and why.
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    IdentificationError
+        When data are missing or insufficient and no ``fallback`` is given; the message names
+        the experiment and what is missing.
+
+    Notes
+    -----
+    ``t_on``/``t_off`` come last: their fit re-fits ``c1``, ``k2``, ``tau2`` as nuisance
+    parameters tied to the experiment 1–2 values by their bootstrap standard errors (20 %
+    for a fallback value).
+    """
+    settings: dict[str, Any] = {
+        "window": float(window),
+        "polyorder": int(polyorder),
+        "skip": float(skip),
+        "onset_fraction": float(onset_fraction),
+        "tail_fraction": float(tail_fraction),
+        "supply_fraction": float(supply_fraction),
+        "max_delay": float(max_delay),
+        "min_edges": int(min_edges),
+        "n_boot": int(n_boot),
+        "seed": int(seed),
+    }
+    common = {"window": window, "polyorder": polyorder, "skip": skip, "n_boot": n_boot}
+    reasons: dict[str, str] = {}
+
+    def nominal(name: str, reason: str) -> Estimate:
+        assert fallback is not None
+        reasons[name] = reason
+        return Estimate(
+            getattr(fallback, name), None, None, UNITS[name], (), "fallback", fallback=reason
+        )
+
+    cf: ChargeFit | None = None
+    try:
+        cf = fit_charge(
+            charge or {},
+            onset_fraction=onset_fraction,
+            supply_fraction=supply_fraction,
+            seed=seed,
+            **common,
+        )
+        k2, tau2 = cf.k2, cf.tau2
+    except IdentificationError as err:
+        if fallback is None:
+            raise
+        k2, tau2 = nominal("k2", str(err)), nominal("tau2", str(err))
+    df: DischargeFit | None = None
+    try:
+        df = fit_discharge(
+            discharge or {},
+            onset_fraction=onset_fraction,
+            tail_fraction=tail_fraction,
+            seed=seed,
+            **common,
+        )
+        c1 = df.c1
+    except IdentificationError as err:
+        if fallback is None:
+            raise
+        c1 = nominal("c1", str(err))
+
+    prior_sd = {}
+    for name, est in (("c1", c1), ("k2", k2), ("tau2", tau2)):
+        if est.lo is not None and est.hi is not None and est.hi > est.lo:
+            prior_sd[name] = (est.hi - est.lo) / (2 * _Z95)
+        else:
+            prior_sd[name] = _FALLBACK_PRIOR_REL_SD * est.value
+    start = ValveParams(c1.value, k2.value, tau2.value)  # t_on, t_off: found by grid search
+    dfit: DelayFit | None = None
+    try:
+        dfit = fit_delays(
+            pulse or {}, start, prior_sd=prior_sd, max_delay=max_delay, min_edges=min_edges
+        )
+        t_on, t_off = dfit.t_on, dfit.t_off
+    except IdentificationError as err:
+        if fallback is None:
+            raise
+        t_on, t_off = nominal("t_on", str(err)), nominal("t_off", str(err))
+    return IdentificationResult(
+        c1=c1,
+        k2=k2,
+        tau2=tau2,
+        t_on=t_on,
+        t_off=t_off,
+        charge=cf,
+        discharge=df,
+        delays=dfit,
+        fallback=reasons,
+        settings=settings,
+    )
+
+
+def identify_runs(
+    runs: Mapping[str, pd.DataFrame], kinds: Mapping[str, str], **kwargs: Any
+) -> IdentificationResult:
+    """:func:`identify` on a collection of runs of mixed kinds.
+
+    Parameters
+    ----------
+    runs : mapping of run id to table
+        All runs; those whose kind is not ``charge``, ``discharge`` or ``pulse`` are ignored.
+    kinds : mapping of run id to kind
+        Kind of every run.
+    **kwargs
+        Passed on to :func:`identify`.
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    ValueError
+        If a run has no kind.
+    """
+    missing = sorted(set(runs) - set(kinds))
+    if missing:
+        raise ValueError(f"kinds has no entry for run(s) {missing}")
+    groups: dict[str, dict[str, pd.DataFrame]] = {"charge": {}, "discharge": {}, "pulse": {}}
+    for rid, table in runs.items():
+        if kinds[rid] in groups:
+            groups[kinds[rid]][rid] = table
+    return identify(groups["charge"], groups["discharge"], groups["pulse"], **kwargs)

@@ -1,0 +1,277 @@
+"""The pressure rate dP/dt of a run (Savitzky-Golay on a uniform grid) and the segments of a
+charge or discharge run it is fitted on."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+from scipy.signal import savgol_filter
+
+from spa.identification.results import FloatArray, IdentificationError, Runs
+from spa.validation import _edges
+
+# --------------------------------------------------------------------------------------------
+# Run tables and derivatives
+# --------------------------------------------------------------------------------------------
+
+
+def _as_runs(runs: Runs | None, kind: str) -> list[tuple[str, pd.DataFrame]]:
+    """Normalise ``runs`` to a list of ``(id, table)``; ids of a sequence are ``kind[i]``."""
+    if runs is None:
+        return []
+    if isinstance(runs, pd.DataFrame):
+        raise ValueError(f"{kind} must be a mapping of run id to table or a list of tables")
+    if isinstance(runs, Mapping):
+        items = [(str(k), v) for k, v in runs.items()]
+    else:
+        items = [(str(v.attrs.get("run_id", f"{kind}[{i}]")), v) for i, v in enumerate(runs)]
+    for rid, table in items:
+        if not isinstance(table, pd.DataFrame):
+            raise ValueError(f"{kind} run {rid!r} must be a DataFrame, got {type(table).__name__}")
+        for col in ("t", "p"):
+            if col not in table.columns:
+                raise ValueError(f"{kind} run {rid!r} has no {col!r} column")
+    return items
+
+
+def _arrays(table: pd.DataFrame, rid: str) -> tuple[FloatArray, FloatArray, np.ndarray | None]:
+    """``t``, ``p`` and ``valve`` (or None) of a run, checked."""
+    t = table["t"].to_numpy(dtype=np.float64)
+    p = table["p"].to_numpy(dtype=np.float64)
+    if t.size < 10:
+        raise IdentificationError(f"run {rid!r} has only {t.size} samples")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(p))):
+        raise ValueError(f"run {rid!r}: columns 't' and 'p' must be finite")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError(f"run {rid!r}: column 't' must be strictly increasing")
+    valve = None
+    if "valve" in table.columns:
+        valve = table["valve"].to_numpy()
+        if not np.all((valve == 0) | (valve == 1)):
+            raise ValueError(f"run {rid!r}: column 'valve' must hold only 0 and 1")
+        valve = valve.astype(np.int8)
+    return t, p, valve
+
+
+def _uniform(
+    t: FloatArray, p: FloatArray, valve: np.ndarray | None
+) -> tuple[FloatArray, FloatArray, np.ndarray | None, float]:
+    """Resample onto a uniform grid at the median step (unchanged if already uniform)."""
+    dt = float(np.median(np.diff(t)))
+    if np.max(np.abs(np.diff(t) - dt)) <= 1e-6 * dt:
+        return t, p, valve, dt
+    n = math.floor((t[-1] - t[0]) / dt + 1e-9) + 1
+    grid = t[0] + dt * np.arange(n)
+    pg = np.interp(grid, t, p)
+    vg = None
+    if valve is not None:
+        idx = np.searchsorted(t, grid + 1e-9 * dt, side="right") - 1
+        vg = valve[np.clip(idx, 0, t.size - 1)]
+    return grid, pg, vg, dt
+
+
+def _window_samples(window: float, polyorder: int, dt: float, n: int | None = None) -> int:
+    """Odd Savitzky–Golay window length in samples closest to ``window`` seconds."""
+    if not (isinstance(polyorder, int | np.integer) and polyorder >= 1):
+        raise ValueError(f"polyorder must be an integer >= 1, got {polyorder!r}")
+    if not (math.isfinite(window) and window > 0):
+        raise ValueError(f"window must be finite and > 0 s, got {window!r}")
+    w = 2 * math.floor(window / (2.0 * dt) + 0.5) + 1
+    if w <= polyorder + 1:
+        raise ValueError(
+            f"window = {window:g} s is {w} samples at dt = {dt:g} s; it must span more than "
+            f"polyorder + 1 = {polyorder + 1} samples"
+        )
+    if n is not None and w > n:
+        raise IdentificationError(
+            f"window = {window:g} s ({w} samples) is longer than the run ({n} samples)"
+        )
+    return w
+
+
+def _savgol(
+    p: npt.ArrayLike, w: int, polyorder: int, dt: float, deriv: int = 0
+) -> npt.NDArray[np.float64]:
+    return savgol_filter(p, w, polyorder, deriv=deriv, delta=dt, axis=-1, mode="interp")
+
+
+def pressure_rate(table: pd.DataFrame, window: float, polyorder: int) -> pd.DataFrame:
+    """Smoothed pressure and its time derivative (Savitzky–Golay) on a uniform grid.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Run table with ``t`` (s) and ``p`` (bar).
+    window : float
+        Savitzky–Golay window in s (rounded to the nearest odd number of samples).
+    polyorder : int
+        Polynomial order (>= 1).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t`` (uniform grid at the median step), ``p`` (interpolated measurement),
+        ``p_smooth`` (bar) and ``dpdt`` (bar/s).
+
+    Raises
+    ------
+    ValueError
+        If ``window`` spans no more than ``polyorder + 1`` samples or ``polyorder < 1``.
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> t = np.arange(200) * 1e-3
+    >>> out = pressure_rate(pd.DataFrame({"t": t, "p": 0.5 * t**2}), 0.021, 2)
+    >>> bool(np.allclose(out["dpdt"], t))
+    True
+    """
+    t, p, _ = _arrays(table, "table")
+    tg, pg, _, dt = _uniform(t, p, None)
+    w = _window_samples(window, polyorder, dt, tg.size)
+    return pd.DataFrame(
+        {
+            "t": tg,
+            "p": pg,
+            "p_smooth": _savgol(pg, w, polyorder, dt),
+            "dpdt": _savgol(pg, w, polyorder, dt, deriv=1),
+        }
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Experiments 1 and 2: derivative fits with a residual block bootstrap
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Segment:
+    """The usable part of one charge/discharge run on its uniform grid."""
+
+    rid: str
+    t: FloatArray  # grid times of the bootstrap region
+    ps: FloatArray  # smoothed pressure over the region
+    d: FloatArray  # derivative over the region
+    p: FloatArray  # measured pressure over the region
+    w: int  # Savitzky-Golay window, samples
+    dt: float  # grid step, s
+    used: npt.NDArray[np.bool_]  # points of the region that enter the fit
+    points: pd.DataFrame  # all points after the edge, for the figure
+    ref: FloatArray = field(default_factory=lambda: np.empty(0))  # reference curve (bootstrap)
+    resid: FloatArray = field(default_factory=lambda: np.empty(0))  # p - ref
+
+
+def _select_edge(valve: np.ndarray | None, rising: bool, rid: str, kind: str) -> tuple[int, int]:
+    """Index of the first edge of the wanted direction and of the end of that command run."""
+    n = 0 if valve is None else valve.size
+    if valve is None:
+        return 0, -1
+    target = 1 if rising else 0
+    k = _edges(valve)
+    k = k[valve[k] == target]
+    if k.size:
+        start = int(k[0])
+    elif valve[0] == target:
+        start = 0
+    else:
+        state = "opens" if rising else "closes"
+        raise IdentificationError(f"{kind} run {rid!r}: the valve never {state}")
+    after = np.flatnonzero(valve[start:] != target)
+    end = start + int(after[0]) - 1 if after.size else n - 1
+    return start, end
+
+
+def _segment(
+    rid: str,
+    table: pd.DataFrame,
+    kind: str,
+    window: float,
+    polyorder: int,
+    skip: float,
+    onset_fraction: float,
+    tail_fraction: float,
+) -> _Segment:
+    """Locate the response after the valve edge and compute smoothed pressure and rate."""
+    t, p, valve = _arrays(table, rid)
+    tg, pg, vg, dt = _uniform(t, p, valve)
+    w = _window_samples(window, polyorder, dt, tg.size)
+    half = w // 2
+    rising = kind == "charge"
+    k_edge, k_end = _select_edge(vg, rising, rid, kind)
+    k_end = tg.size - 1 if k_end < 0 else k_end
+    ps = _savgol(pg, w, polyorder, dt)
+    d = _savgol(pg, w, polyorder, dt, deriv=1)
+    # Level at the edge (mean of the half window before it, or the first samples) and at the
+    # end of the command run (mean of its last half window).
+    before = pg[max(k_edge - half, 0) : k_edge + 1]
+    p_a = float(before.mean())
+    p_b = float(pg[max(k_end - half, k_edge) : k_end + 1].mean())
+    change = (p_b - p_a) if rising else (p_a - p_b)
+    tail = slice(max(k_end - w, k_edge), k_end + 1)
+    noise = float(np.std(pg[tail] - ps[tail]))
+    if change <= max(10.0 * noise, 1e-6):
+        what = "rise" if rising else "fall"
+        raise IdentificationError(
+            f"{kind} run {rid!r}: the pressure does not {what} after the valve edge "
+            f"({p_a:.4g} -> {p_b:.4g} bar)"
+        )
+    moved = (ps[k_edge:] - p_a) if rising else (p_a - ps[k_edge:])
+    crossed = np.flatnonzero(moved >= onset_fraction * change)
+    k_onset = k_edge + (int(crossed[0]) if crossed.size else 0)
+    t_start = max(tg[k_edge] + skip, tg[k_onset]) + half * dt
+    t_stop = tg[k_end] - half * dt
+    if not rising:
+        below = np.flatnonzero(ps[k_onset : k_end + 1] < tail_fraction * p_a)
+        if below.size:
+            t_stop = min(t_stop, tg[k_onset + int(below[0])] - 0.5 * dt)
+    used_all = (tg >= t_start - 1e-9 * dt) & (tg <= t_stop + 1e-9 * dt)
+    idx = np.flatnonzero(used_all)
+    if idx.size < max(2 * w, 20):
+        raise IdentificationError(
+            f"{kind} run {rid!r}: only {idx.size} samples between the response start and "
+            f"{'the end of the run' if rising else 'the near-zero tail'}; need at least "
+            f"{max(2 * w, 20)} (lengthen the run or shorten the window)"
+        )
+    lo = max(int(idx[0]) - half, 0)
+    hi = min(int(idx[-1]) + half, tg.size - 1)
+    region = slice(lo, hi + 1)
+    points = pd.DataFrame(
+        {
+            "run": rid,
+            "t": tg[k_edge : k_end + 1],
+            "p": ps[k_edge : k_end + 1],
+            "dpdt": d[k_edge : k_end + 1],
+            "used": used_all[k_edge : k_end + 1],
+        }
+    )
+    return _Segment(
+        rid=rid,
+        t=tg[region],
+        ps=ps[region],
+        d=d[region],
+        p=pg[region],
+        w=w,
+        dt=dt,
+        used=used_all[region],
+        points=points,
+    )
+
+
+def _line(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Least-squares line ``y = slope*x + intercept`` along the last axis."""
+    xm = x.mean(axis=-1, keepdims=True)
+    ym = y.mean(axis=-1, keepdims=True)
+    sxy = ((x - xm) * (y - ym)).sum(axis=-1)
+    sxx = ((x - xm) ** 2).sum(axis=-1)
+    slope = sxy / np.where(sxx > 0, sxx, np.nan)
+    return slope, ym[..., 0] - slope * xm[..., 0]
+
+
+def _r2(y: FloatArray, fit: FloatArray) -> float:
+    ss_tot = float(np.sum((y - y.mean()) ** 2))
+    return 1.0 - float(np.sum((y - fit) ** 2)) / ss_tot if ss_tot > 0 else math.nan

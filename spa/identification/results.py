@@ -1,0 +1,316 @@
+"""What identification returns: estimates with 95 % intervals, the three fits, and the result that
+serialises to ``params.yaml``."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from spa.model.params import ValveParams
+
+Runs = Mapping[str, pd.DataFrame] | Sequence[pd.DataFrame]
+
+
+FloatArray = npt.NDArray[np.float64]
+
+
+#: Units of the five parameters, as written to ``params.yaml``.
+UNITS: Mapping[str, str] = {
+    "c1": "s*bar^-0.5",
+    "k2": "bar",
+    "tau2": "s",
+    "t_on": "s",
+    "t_off": "s",
+}
+
+
+_Z95 = 1.959963984540054
+
+
+class IdentificationError(ValueError):
+    """The runs cannot support a fit; the message names what is missing."""
+
+
+# --------------------------------------------------------------------------------------------
+# Result containers
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One identified parameter with its 95 % interval.
+
+    Attributes
+    ----------
+    value : float
+        Point estimate, in ``unit``.
+    lo, hi : float or None
+        95 % interval; ``None`` for a fallback value.
+    unit : str
+        ``"s*bar^-0.5"``, ``"bar"`` or ``"s"``.
+    runs : tuple of str
+        Ids of the runs the estimate uses.
+    method : str
+        How the value and the interval were obtained.
+    fallback : str or None
+        When not ``None`` the value is the caller's nominal one and this says why.
+    spread : mapping or None
+        For ``t_on``, ``t_off``: statistics of the per-edge delays (``n``, ``sd``, ``median``,
+        ``min``, ``max``, in s).
+    """
+
+    value: float
+    lo: float | None
+    hi: float | None
+    unit: str
+    runs: tuple[str, ...] = ()
+    method: str = ""
+    fallback: str | None = None
+    spread: Mapping[str, float] | None = None
+
+    def contains(self, x: float) -> bool:
+        """Whether ``x`` lies in the 95 % interval (False for a fallback)."""
+        return self.lo is not None and self.hi is not None and self.lo <= x <= self.hi
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain, YAML-ready dictionary."""
+        out: dict[str, Any] = {
+            "value": float(self.value),
+            "lo": None if self.lo is None else float(self.lo),
+            "hi": None if self.hi is None else float(self.hi),
+            "unit": self.unit,
+            "runs": list(self.runs),
+            "method": self.method,
+            "fallback": self.fallback,
+        }
+        if self.spread is not None:
+            out["spread"] = {k: float(v) for k, v in self.spread.items()}
+        return out
+
+
+@dataclass(frozen=True)
+class ChargeFit:
+    """Experiment 1: straight line ``dP/dt = slope*P + intercept`` while charging.
+
+    Attributes
+    ----------
+    k2, tau2 : Estimate
+        ``k2 = -intercept/slope`` (bar), ``tau2 = -1/slope`` (s).
+    slope, intercept : float
+        Line coefficients (1/s, bar/s).
+    r2 : float
+        Coefficient of determination of the line.
+    n_points : int
+        Points used in the fit.
+    points : pandas.DataFrame
+        ``run``, ``t``, ``p`` (smoothed, bar), ``dpdt`` (bar/s), ``used`` (bool): every grid
+        point of every run after the valve opened, for Fig. 2a.
+    """
+
+    k2: Estimate
+    tau2: Estimate
+    slope: float
+    intercept: float
+    r2: float
+    n_points: int
+    points: pd.DataFrame = field(repr=False)
+
+    def summary(self) -> dict[str, float | int]:
+        """Fit coefficients and R² as a plain dictionary."""
+        return {
+            "slope": self.slope,
+            "intercept": self.intercept,
+            "r2": self.r2,
+            "n_points": self.n_points,
+        }
+
+
+@dataclass(frozen=True)
+class DischargeFit:
+    """Experiment 2: power law ``dP/dt = -a*P**b`` and ``c1`` with ``b = 1/2`` while exhausting.
+
+    Attributes
+    ----------
+    c1 : Estimate
+        ``1/a`` of the fit with ``b`` fixed at 0.5 (s·bar^-0.5).
+    a, b : float
+        Free power-law coefficients (bar^(1-b)/s, 1).
+    r2_power : float
+        R² of the free power law.
+    r2 : float
+        R² of the ``b = 0.5`` fit that gives ``c1``.
+    n_points : int
+        Points used in the fits.
+    points : pandas.DataFrame
+        ``run``, ``t``, ``p``, ``dpdt``, ``used``, for Fig. 2b.
+    """
+
+    c1: Estimate
+    a: float
+    b: float
+    r2_power: float
+    r2: float
+    n_points: int
+    points: pd.DataFrame = field(repr=False)
+
+    def summary(self) -> dict[str, float | int]:
+        """Fit coefficients and R² as a plain dictionary."""
+        return {
+            "a": self.a,
+            "b": self.b,
+            "r2_power": self.r2_power,
+            "r2": self.r2,
+            "n_points": self.n_points,
+        }
+
+
+@dataclass(frozen=True)
+class DelayFit:
+    """Experiment 3: switching delays from the pulse runs.
+
+    Attributes
+    ----------
+    t_on, t_off : Estimate
+        Delays in s, with the per-edge spread.
+    nuisance : dict
+        ``c1``, ``k2``, ``tau2`` as re-fitted on the pulse runs (tied to the experiment 1–2
+        values by their uncertainty), and ``z_c1``, ... their shift in prior standard
+        deviations: a consistency check between the experiments.
+    rmse : float
+        RMS residual of the model over the pulse runs, bar.
+    inflation : float
+        Variance inflation applied for residual autocorrelation (1 for white residuals).
+    converged : bool
+        Whether the least-squares fit met its tolerance (rather than its evaluation limit).
+    edges : pandas.DataFrame
+        One row per command edge: ``run``, ``t`` (s), ``direction`` (``"on"``/``"off"``),
+        ``segment`` (s until the next edge), ``p_edge`` (bar), ``delay`` (s, NaN when
+        ``censored``), ``censored`` (no visible response: the segment ended within the hold,
+        or the pressure cannot move, e.g. exhausting at 0 bar).
+    traces : dict of str to pandas.DataFrame
+        Per run ``t``, ``p``, ``valve``, ``p_model``: data for Fig. 2c.
+    """
+
+    t_on: Estimate
+    t_off: Estimate
+    nuisance: Mapping[str, float]
+    rmse: float
+    inflation: float
+    converged: bool
+    edges: pd.DataFrame = field(repr=False)
+    traces: Mapping[str, pd.DataFrame] = field(repr=False)
+
+    def summary(self) -> dict[str, Any]:
+        """Fit diagnostics as a plain dictionary."""
+        used = self.edges[~self.edges["censored"]]
+        return {
+            **{k: float(v) for k, v in self.nuisance.items()},
+            "rmse": self.rmse,
+            "inflation": self.inflation,
+            "converged": self.converged,
+            "n_edges_on": int((used["direction"] == "on").sum()),
+            "n_edges_off": int((used["direction"] == "off").sum()),
+        }
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """All five parameters, the fits behind them and any fallback.
+
+    Attributes
+    ----------
+    c1, k2, tau2, t_on, t_off : Estimate
+        The identified parameters.
+    charge, discharge, delays : ChargeFit, DischargeFit, DelayFit or None
+        The fits (``None`` where a fallback replaced them).
+    fallback : dict of str to str
+        Parameter name → why its nominal value was used. Empty when everything was
+        identified from data.
+    settings : dict
+        The settings of the identification (window, polyorder, ...), for the record.
+    """
+
+    c1: Estimate
+    k2: Estimate
+    tau2: Estimate
+    t_on: Estimate
+    t_off: Estimate
+    charge: ChargeFit | None = field(default=None, repr=False)
+    discharge: DischargeFit | None = field(default=None, repr=False)
+    delays: DelayFit | None = field(default=None, repr=False)
+    fallback: Mapping[str, str] = field(default_factory=dict)
+    settings: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_valve_params(self) -> ValveParams:
+        """The point estimates as :class:`~spa.model.params.ValveParams`."""
+        return ValveParams(
+            c1=self.c1.value,
+            k2=self.k2.value,
+            tau2=self.tau2.value,
+            t_on=self.t_on.value,
+            t_off=self.t_off.value,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The content of ``params.yaml``: plain types only, ready for ``yaml.safe_dump``.
+
+        Top-level keys ``c1``, ``k2``, ``tau2``, ``t_on``, ``t_off`` (each ``value``, ``lo``,
+        ``hi``, ``unit``, ``runs``, ``method``, ``fallback``), then ``fits`` (``charge``:
+        slope, intercept, r2; ``discharge``: a, b, r2_power, r2; ``pulse``: nuisance
+        re-fit, rmse, edge counts), ``fallback`` and ``settings``.
+        """
+        fits: dict[str, Any] = {}
+        if self.charge is not None:
+            fits["charge"] = self.charge.summary()
+        if self.discharge is not None:
+            fits["discharge"] = self.discharge.summary()
+        if self.delays is not None:
+            fits["pulse"] = self.delays.summary()
+        out: dict[str, Any] = {
+            name: getattr(self, name).to_dict() for name in ("c1", "k2", "tau2", "t_on", "t_off")
+        }
+        out["fits"] = {
+            k: {kk: (vv if isinstance(vv, bool | int) else float(vv)) for kk, vv in v.items()}
+            for k, v in fits.items()
+        }
+        out["fallback"] = dict(self.fallback)
+        out["settings"] = dict(self.settings)
+        return out
+
+
+def load_params(mapping: Mapping[str, Any]) -> ValveParams:
+    """Build :class:`~spa.model.params.ValveParams` from ``params.yaml`` content or a flat mapping.
+
+    Parameters
+    ----------
+    mapping : mapping
+        Either ``{"c1": 0.53, ...}`` or the nested form of
+        :meth:`IdentificationResult.to_dict` (``{"c1": {"value": 0.53, ...}, ...}``).
+
+    Returns
+    -------
+    ValveParams
+
+    Raises
+    ------
+    ValueError
+        If a parameter is missing or invalid; the message names it.
+
+    Examples
+    --------
+    >>> load_params({"c1": {"value": 0.5}, "k2": 0.8, "tau2": 0.8, "t_on": 0.003,
+    ...              "t_off": 0.01}).c1
+    0.5
+    """
+    values = {}
+    for name in UNITS:
+        if name not in mapping:
+            raise ValueError(f"mapping has no {name!r}; expected keys {list(UNITS)}")
+        item = mapping[name]
+        values[name] = item["value"] if isinstance(item, Mapping) else item
+    return ValveParams(**values)
