@@ -46,8 +46,10 @@ def _ingest(args: argparse.Namespace, out: TextIO) -> int:
     except DatasetError as exc:
         for p in exc.problems:
             print(p, file=out)
-        print(f"{args.folder}: not ingested, {sum(p.is_error for p in exc.problems)} error(s)",
-              file=out)
+        print(
+            f"{args.folder}: not ingested, {sum(p.is_error for p in exc.problems)} error(s)",
+            file=out,
+        )
         return 1
     except ValueError as exc:
         print(f"error: {exc}", file=out)

@@ -19,7 +19,9 @@ from spa.model.plant import simulate
 # --------------------------------------------------------------------------------------------
 
 
-def _steps(duration: float, dt: float, name: str) -> int:
+def _steps(duration: float, dt: float, name: str, allow_zero: bool = False) -> int:
+    if allow_zero and duration == 0:
+        return 0
     if not (math.isfinite(duration) and duration > 0):
         raise ValueError(f"{name} must be finite and > 0 s, got {duration!r}")
     n = math.floor(duration / dt + 0.5)
@@ -38,6 +40,8 @@ def identification_commands(
     lows: Sequence[float] = (0.005, 0.01, 0.02, 0.05, 0.1),
     highs: Sequence[float] = (0.04, 0.08),
     repeats: int = 2,
+    pulse_lead: float | None = None,
+    tail: float = 0.0,
 ) -> dict[str, npt.NDArray[np.int8]]:
     """Valve commands of the three identification experiments (Section 3.2).
 
@@ -60,6 +64,10 @@ def identification_commands(
         applied (for each high duration, each low duration followed by that high).
     repeats : int, optional
         How many times the pulse pattern is repeated.
+    pulse_lead : float, optional
+        Time closed before the pulse experiment's first edge, s; default ``lead``.
+    tail : float, optional
+        Time closed after the pulse experiment's last high, s (the last exhaust); default 0.
 
     Returns
     -------
@@ -95,7 +103,8 @@ def identification_commands(
         raise ValueError(f"repeats must be an integer >= 1, got {repeats!r}")
     if len(lows) == 0 or len(highs) == 0:
         raise ValueError("lows and highs must each hold at least one duration")
-    n_lead = _steps(lead, dt, "lead")
+    n_lead = _steps(lead, dt, "lead", allow_zero=True)
+    n_pulse_lead = _steps(lead if pulse_lead is None else pulse_lead, dt, "pulse_lead", True)
     n_charge = _steps(charge_duration, dt, "charge_duration")
     n_dis = _steps(discharge_duration, dt, "discharge_duration")
     if n_charge <= n_lead or n_dis <= n_lead:
@@ -107,12 +116,14 @@ def identification_commands(
     n_lows = [_steps(v, dt, "lows") for v in lows]
     n_highs = [_steps(v, dt, "highs") for v in highs]
     levels = [0, 1]
-    counts = [n_lead, _steps(fill, dt, "fill")]
+    counts = [n_pulse_lead, _steps(fill, dt, "fill")]
     for _ in range(int(repeats)):
         for nh in n_highs:
             for nl in n_lows:
                 levels += [0, 1]
                 counts += [nl, nh]
+    levels.append(0)
+    counts.append(_steps(tail, dt, "tail", allow_zero=True))
     pulse = np.repeat(np.array(levels, dtype=np.int8), counts)
     return {"charge": charge, "discharge": dis, "pulse": pulse}
 

@@ -55,9 +55,7 @@ class ValveParams:
             try:
                 number = float(value)
             except (TypeError, ValueError):
-                raise ValueError(
-                    f"ValveParams.{f.name} must be a number, got {value!r}"
-                ) from None
+                raise ValueError(f"ValveParams.{f.name} must be a number, got {value!r}") from None
             delay = f.name in ("t_on", "t_off")  # a valve may switch without delay
             if not math.isfinite(number) or number < 0.0 or (number == 0.0 and not delay):
                 allowed = ">= 0" if delay else "> 0"

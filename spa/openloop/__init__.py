@@ -102,8 +102,7 @@ def paper_case(mod: Mapping[str, Any]) -> str | None:
     for name, (case, *_) in PAPER_TABLE3.items():
         ckind, csettings = parse_modulator(case)
         if ckind == kind and all(
-            math.isclose(float(settings[k]), float(v), rel_tol=1e-9)
-            for k, v in csettings.items()
+            math.isclose(float(settings[k]), float(v), rel_tol=1e-9) for k, v in csettings.items()
         ):
             return name
     return None

@@ -303,9 +303,7 @@ def principal_domain_mask(f: npt.ArrayLike, fmin: float = 0.0) -> npt.NDArray[np
     return (k2 >= k2_min) & (k2 <= k1) & (2 * (k1 + k2) <= n)
 
 
-def mean_bicoherence(
-    f: npt.ArrayLike, bic: npt.ArrayLike, fmin: float = 0.0
-) -> float:
+def mean_bicoherence(f: npt.ArrayLike, bic: npt.ArrayLike, fmin: float = 0.0) -> float:
     """Mean bicoherence over the principal domain: one figure to rank responses by.
 
     Parameters

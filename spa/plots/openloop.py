@@ -19,6 +19,7 @@ from spa.plots.analytic import _COLOURS, _LABELS, _require
 
 __all__ = ["fig6", "fig7a", "fig7b", "fig8", "fig9", "no_data_figure", "thin"]
 
+
 def _kinds(df: pd.DataFrame) -> list[str]:
     """The modulators present, in the paper's Table 3 order."""
     return [k for k in MODULATOR_ORDER if (df["modulator"] == k).any()]

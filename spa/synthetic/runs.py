@@ -1,0 +1,353 @@
+"""Simulated runs and datasets: the experiments of a dataset, simulated exactly and written as
+canonical run tables."""
+
+from __future__ import annotations
+
+import math
+import zlib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from spa.identification.experiments import identification_commands
+from spa.model.modulators import modulate, parse_modulator
+from spa.model.params import ValveParams
+from spa.model.plant import simulate
+from spa.synthetic.inputs import chirp_input, sine_input, staircase_input
+from spa.synthetic.sensor import Sensor, _ringing
+
+# ---- runs -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One simulated run: what the controller commands.
+
+    Either a fixed valve command (``valve``; identification experiments) or an input
+    fraction (``xi``) through ``modulator`` (``{"type": ..., settings}``).
+    """
+
+    id: str
+    kind: str
+    p0: float = 0.0
+    valve: np.ndarray | None = None
+    xi: np.ndarray | None = None
+    modulator: Mapping[str, Any] | None = None
+    notes: str = ""
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+def run_seed(seed: int, dataset: str, run_id: str) -> np.random.Generator:
+    """A Generator seeded from the config seed, dataset name and run id (stable across runs)."""
+    return np.random.default_rng([seed, zlib.crc32(dataset.encode()), zlib.crc32(run_id.encode())])
+
+
+def simulate_run(
+    spec: RunSpec,
+    params: ValveParams,
+    dt: float,
+    sensor: Sensor,
+    rng: np.random.Generator,
+) -> pd.DataFrame:
+    """Simulate one run and log it through the sensor: the canonical run table.
+
+    Parameters
+    ----------
+    spec : RunSpec
+        The command: a valve sequence at step ``dt``, or an input fraction and a modulator.
+    params : ValveParams
+        The true valve + actuator.
+    dt : float
+        Controller step in s (the modulator clock and the resolution of valve edges).
+    sensor : Sensor
+        Logging rate, noise, quantisation, ringing.
+    rng : numpy.random.Generator
+        Source of the sensor noise.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t`` (s), ``p`` (bar), ``valve`` (int8) and, for modulated runs, ``u`` (input
+        fraction), one row per logged sample. ``valve`` is the command at each sample
+        instant.
+    """
+    ratio = 1.0 / (sensor.fs * dt)
+    every = round(ratio)
+    if every < 1 or abs(ratio - every) > 1e-6:
+        raise ValueError(
+            f"sensor.fs = {sensor.fs:g} Hz: 1/fs must be a whole number of controller steps "
+            f"dt = {dt:g} s"
+        )
+    if spec.valve is not None:
+        u = np.asarray(spec.valve, dtype=np.int8)
+        xi = None
+    elif spec.xi is not None and spec.modulator is not None:
+        mod = dict(spec.modulator)
+        kind = mod.pop("type")
+        xi = np.asarray(spec.xi, dtype=np.float64)
+        u = modulate(kind, xi, dt, **mod)
+    else:
+        raise ValueError(f"run {spec.id!r}: give either valve, or xi and modulator")
+    p = simulate(u, dt, params, p0=spec.p0)
+    idx = np.arange(0, u.size, every)
+    t = idx * dt
+    logged = p[idx]
+    if sensor.ringing is not None:
+        edges = np.flatnonzero(np.diff(u)) + 1
+        sign = np.where(u[edges] == 1, 1.0, -1.0)
+        logged = logged + _ringing(t, edges * dt, sign, sensor.ringing)
+    if sensor.noise > 0:
+        logged = logged + rng.normal(0.0, sensor.noise, logged.size)
+    if sensor.quantum > 0:
+        logged = np.round(logged / sensor.quantum) * sensor.quantum
+    table = {"t": t, "p": logged, "valve": u[idx]}
+    if xi is not None:
+        table["u"] = np.clip(xi[idx], 0.0, 1.0)
+    return pd.DataFrame(table)
+
+
+def identification_runs(
+    params: ValveParams,
+    dt: float,
+    charge_time: float = 6.0,
+    discharge_time: float = 4.0,
+    low_times: Sequence[float] = (0.005, 0.010, 0.015, 0.020, 0.050, 0.100, 0.200),
+    high_time: float = 0.300,
+    repeats: int = 3,
+) -> list[RunSpec]:
+    """The paper's three identification experiments (Section 3.2) as simulated runs.
+
+    The commands are :func:`spa.identification.identification_commands`, the one experiment
+    design, with the simulator's settings (the config's ``experiments: identification``):
+    charge and discharge from t = 0 with the valve settled (no lead), the pulse train after
+    0.2 s closed, opened ``high_time`` first (the fill), each low followed by ``high_time``
+    open, and 0.5 s closed at the end.
+
+    Parameters
+    ----------
+    params : ValveParams
+        Used for the supply pressure ``k2`` (the discharge starts there).
+    dt : float
+        Controller step, s.
+    charge_time : float
+        Experiment 1: valve open from 0 bar for this long (several ``tau2``).
+    discharge_time : float
+        Experiment 2: valve closed from the supply pressure for this long.
+    low_times : sequence of float
+        Experiment 3: the low-state durations of the pulse train, s.
+    high_time : float
+        Experiment 3: the high-state duration between lows, s.
+    repeats : int
+        How many times the sequence of low durations is repeated.
+
+    Returns
+    -------
+    list of RunSpec
+        ``charge``, ``discharge`` and ``pulse`` runs.
+    """
+    cmds = identification_commands(
+        dt,
+        lead=0.0,
+        charge_duration=charge_time,
+        discharge_duration=discharge_time,
+        pulse_lead=0.2,
+        fill=high_time,
+        lows=low_times,
+        highs=(high_time,),
+        repeats=repeats,
+        tail=0.5,
+    )
+    return [
+        RunSpec("charge", "charge", p0=0.0, valve=cmds["charge"]),
+        RunSpec("discharge", "discharge", p0=params.k2, valve=cmds["discharge"]),
+        RunSpec(
+            "pulse",
+            "pulse",
+            p0=0.0,
+            valve=cmds["pulse"],
+            notes=f"low durations {list(low_times)} s, high {high_time} s, x{repeats}",
+        ),
+    ]
+
+
+def setting_label(mod: Mapping[str, Any]) -> str:
+    """Short file-safe name of a modulator setting, used in run ids.
+
+    Examples
+    --------
+    >>> setting_label({"type": "pwm", "f_w": 20})
+    'pwm-20Hz'
+    >>> setting_label({"type": "iipfm", "t_l": 0.02, "gain": 1.15})
+    'iipfm-20ms-G1.15'
+    """
+    kind, s = parse_modulator(mod)
+    if kind == "pwm":
+        return f"pwm-{s['f_w']:g}Hz"
+    name = {"ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}[kind]
+    label = f"{kind}-{s[name] * 1e3:g}ms"
+    if kind in ("ipfm", "iipfm") and not math.isclose(s["gain"], 1.0):
+        label += f"-G{s['gain']:g}"
+    return label
+
+
+def modulated_runs(
+    modulators: Sequence[Mapping[str, Any]],
+    dt: float,
+    experiments: Mapping[str, Mapping[str, Any]],
+) -> list[RunSpec]:
+    """Staircase, sine and chirp runs for every modulator setting.
+
+    Parameters
+    ----------
+    modulators : sequence of mapping
+        ``{"type": "pwm", "f_w": 20}`` and the like.
+    dt : float
+        Controller step, s.
+    experiments : mapping
+        ``staircase: {step, hold}``, ``sine: {frequency, amplitudes, periods_per_level,
+        offset, settle}``, ``chirp: {f0, f1, duration, offset, amplitude}``; a missing key
+        skips that experiment.
+
+    Returns
+    -------
+    list of RunSpec
+        Run ids ``<kind>_<setting label>``, e.g. ``staircase_pwm-20Hz``.
+    """
+    runs: list[RunSpec] = []
+    for mod in modulators:
+        label = setting_label(mod)
+        if "staircase" in experiments:
+            cfg = experiments["staircase"]
+            step, hold = float(cfg["step"]), float(cfg["hold"])
+            levels = math.floor(1.0 / step + 1e-9) + 1
+            t = np.arange(round(levels * hold / dt)) * dt
+            runs.append(
+                RunSpec(
+                    f"staircase_{label}",
+                    "staircase",
+                    xi=staircase_input(t, step, hold),
+                    modulator=dict(mod),
+                )
+            )
+        if "sine" in experiments:
+            cfg = dict(experiments["sine"])
+            settle = float(cfg.pop("settle", 0.0))
+            f = float(cfg["frequency"])
+            n_levels = len(cfg["amplitudes"])
+            span = n_levels * int(cfg.get("periods_per_level", 2)) / f
+            t = np.arange(round((settle + span) / dt)) * dt
+            tt = np.maximum(t - settle, 0.0)
+            xi = sine_input(tt, **cfg)
+            xi[t < settle] = float(cfg.get("offset", 0.5))
+            runs.append(
+                RunSpec(
+                    f"sine_{label}",
+                    "sine",
+                    xi=xi,
+                    modulator=dict(mod),
+                    meta={"settle": settle, **cfg},
+                )
+            )
+        if "chirp" in experiments:
+            cfg = dict(experiments["chirp"])
+            duration = float(cfg["duration"])
+            t = np.arange(round(duration / dt)) * dt
+            runs.append(
+                RunSpec(
+                    f"chirp_{label}",
+                    "chirp",
+                    xi=chirp_input(t, **cfg),
+                    modulator=dict(mod),
+                    meta=cfg,
+                )
+            )
+    return runs
+
+
+# ---- whole datasets -----------------------------------------------------------------------
+
+
+def dataset_runs(
+    cfg: Mapping[str, Any], experiments: Mapping[str, Mapping[str, Any]]
+) -> list[RunSpec]:
+    """Every run of a simulated dataset: the identification experiments, then per modulator.
+
+    Parameters
+    ----------
+    cfg : mapping
+        One entry of the config's ``simulated:`` (``params``, ``controller_dt``, ``sensor``,
+        ``modulators``).
+    experiments : mapping
+        The config's ``experiments:`` (``identification``, ``staircase``, ``sine``, ``chirp``).
+    """
+    params = ValveParams(**cfg["params"])
+    dt = float(cfg["controller_dt"])
+    ident = dict(experiments.get("identification", {}))
+    runs = identification_runs(params, dt, **ident)
+    modulated = {k: v for k, v in experiments.items() if k in ("staircase", "sine", "chirp")}
+    return runs + modulated_runs(cfg["modulators"], dt, modulated)
+
+
+def generate_dataset(
+    name: str,
+    cfg: Mapping[str, Any],
+    experiments: Mapping[str, Mapping[str, Any]],
+    seed: int,
+    out_dir: str | Path,
+    progress: Callable[[str], None] | None = None,
+) -> list[Path]:
+    """Simulate a whole dataset and write one canonical run table per run.
+
+    Parameters
+    ----------
+    name : str
+        Dataset name (the folder under ``results/``).
+    cfg, experiments : mapping
+        See :func:`dataset_runs`.
+    seed : int
+        Config seed; each run's noise comes from :func:`run_seed` (seed, name, run id), so a
+        run's bytes do not depend on which other runs are configured.
+    out_dir : path-like
+        Folder for ``<run id>.parquet``.
+    progress : callable, optional
+        Called with a line of text after each run.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The run tables written.
+    """
+    from spa.datasets import write_run_table
+
+    params = ValveParams(**cfg["params"])
+    dt = float(cfg["controller_dt"])
+    sensor = Sensor.from_mapping(cfg.get("sensor"))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for spec in dataset_runs(cfg, experiments):
+        table = simulate_run(spec, params, dt, sensor, run_seed(seed, name, spec.id))
+        meta = {
+            "dataset": name,
+            "run": spec.id,
+            "kind": spec.kind,
+            "origin": "synthetic",
+            "modulator": dict(spec.modulator) if spec.modulator else None,
+            "notes": spec.notes,
+            "description": str(cfg.get("description", "")),
+            "truth": params.as_dict(),
+            "controller_dt": dt,
+            "sensor": dict(cfg.get("sensor") or {}),
+            "seed": int(seed),
+            "experiment": {k: v for k, v in spec.meta.items()},
+        }
+        path = out / f"{spec.id}.parquet"
+        write_run_table(path, table, meta)
+        paths.append(path)
+        if progress is not None:
+            progress(f"{name}/{spec.id}: {len(table)} samples, {spec.kind}")
+    return paths

@@ -1,0 +1,69 @@
+"""The simulated sensor: Gaussian noise, ADC quantisation and ringing after each valve edge."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+# ---- sensor -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Ringing:
+    """Damped oscillation added to the pressure after each valve edge.
+
+    ``amplitude * exp(-damping*s) * sin(2*pi*frequency*s)`` at time ``s`` after the most
+    recent edge, positive after an opening edge and negative after a closing one.
+    """
+
+    amplitude: float = 0.01  # bar
+    frequency: float = 60.0  # Hz
+    damping: float = 60.0  # 1/s
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """Pressure sensor and logger.
+
+    Parameters
+    ----------
+    fs : float
+        Logging rate in Hz; ``1/fs`` must be a whole number of controller steps.
+    noise : float
+        Standard deviation of additive Gaussian noise, bar.
+    quantum : float
+        ADC step, bar (0: none).
+    ringing : Ringing, optional
+        Damped ringing after each valve edge.
+    """
+
+    fs: float = 1000.0
+    noise: float = 0.005
+    quantum: float = 0.001
+    ringing: Ringing | None = None
+
+    @classmethod
+    def from_mapping(cls, cfg: Mapping[str, Any] | None) -> Sensor:
+        """Build from a config mapping (``fs``, ``noise``, ``quantum``, ``ringing``)."""
+        cfg = dict(cfg or {})
+        ring = cfg.pop("ringing", None)
+        return cls(**cfg, ringing=Ringing(**ring) if ring else None)
+
+
+def _ringing(t: np.ndarray, edge_t: np.ndarray, edge_sign: np.ndarray, r: Ringing) -> np.ndarray:
+    out = np.zeros_like(t)
+    if edge_t.size == 0:
+        return out
+    j = np.searchsorted(edge_t, t, side="right") - 1
+    has = j >= 0
+    s = t[has] - edge_t[j[has]]
+    out[has] = (
+        edge_sign[j[has]]
+        * r.amplitude
+        * np.exp(-r.damping * s)
+        * np.sin(2 * np.pi * r.frequency * s)
+    )
+    return out
