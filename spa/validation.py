@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.model.modulators import modulate
+from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
 from spa.model.plant import replay
 
@@ -373,8 +373,10 @@ def validate_runs(
     Returns
     -------
     pandas.DataFrame
-        Columns ``run``, ``kind``, ``fit_percent``, ``rmse``, ``max_abs_error``, ``n``,
-        ``p0``, in the order of ``runs``.
+        Columns ``run``, ``kind``, ``modulator`` (type) and ``setting``
+        (:attr:`spa.model.modulators.Modulator.label`; both empty for a run without a
+        modulator), ``fit_percent``, ``rmse``, ``max_abs_error``, ``n``, ``p0``, in the order
+        of ``runs``.
     """
     items = list(runs.items()) if isinstance(runs, Mapping) else list(enumerate(runs))
     rows = []
@@ -382,7 +384,15 @@ def validate_runs(
         mod = None if modulators is None else modulators.get(str(rid))
         res = validate_run(table, params, mod)
         kind = None if kinds is None else kinds.get(str(rid))
-        rows.append({"run": str(rid), "kind": kind, **res.as_dict()})
-    return pd.DataFrame(
-        rows, columns=["run", "kind", "fit_percent", "rmse", "max_abs_error", "n", "p0"]
-    )
+        setting = Modulator.from_mapping(mod) if mod else None
+        rows.append(
+            {
+                "run": str(rid),
+                "kind": kind,
+                "modulator": setting.kind if setting else "",
+                "setting": setting.label if setting else "",
+                **res.as_dict(),
+            }
+        )
+    columns = ["run", "kind", "modulator", "setting", "fit_percent", "rmse", "max_abs_error"]
+    return pd.DataFrame(rows, columns=[*columns, "n", "p0"])

@@ -153,7 +153,13 @@ def test_validate_run_errors_name_the_problem():
 def test_validate_runs_table():
     u = modulate("iipfm", np.full(2000, 0.5), 1e-3, t_l=0.02, gain=1.15)
     runs = {"a": _noise_free(u, 1e-3), "b": _noise_free(1 - u, 1e-3, p0=0.5)}
-    out = validate_runs(runs, PARAMS, kinds={"a": "staircase", "b": "sine"})
-    assert list(out.columns) == ["run", "kind", "fit_percent", "rmse", "max_abs_error", "n", "p0"]
+    mods = {"a": {"type": "iipfm", "t_l": 0.02, "gain": 1.15}}
+    out = validate_runs(runs, PARAMS, mods, kinds={"a": "staircase", "b": "sine"})
+    assert list(out.columns) == [
+        "run", "kind", "modulator", "setting", "fit_percent", "rmse", "max_abs_error", "n", "p0"
+    ]  # fmt: skip
     assert out["run"].tolist() == ["a", "b"] and out["kind"].tolist() == ["staircase", "sine"]
+    # one label for a setting, everywhere (spa.model.modulators.Modulator.label)
+    assert out["modulator"].tolist() == ["iipfm", ""]
+    assert out["setting"].tolist() == ["iipfm-20ms-G1.15", ""]
     assert (out["fit_percent"] > 99.9).all()

@@ -36,7 +36,7 @@ from spa.model.averaging import (
     pulse_times,
     thresholds,
 )
-from spa.model.modulators import parse_modulator
+from spa.model.modulators import MODULATOR_ORDER, Modulator
 from spa.model.params import ValveParams
 from spa.openloop.linearity import (
     compensate_lag,
@@ -46,7 +46,6 @@ from spa.openloop.linearity import (
     step_time_constants,
 )
 from spa.openloop.spectra import bicoherence, mean_bicoherence, principal_domain_mask, segment_count
-from spa.synthetic import setting_label
 
 __all__ = [
     "MODULATOR_ORDER",
@@ -98,12 +97,9 @@ def paper_case(mod: Mapping[str, Any]) -> str | None:
     >>> paper_case({"type": "pwm", "f_w": 10}) is None
     True
     """
-    kind, settings = parse_modulator(mod)
+    setting = Modulator.from_mapping(mod)
     for name, (case, *_) in PAPER_TABLE3.items():
-        ckind, csettings = parse_modulator(case)
-        if ckind == kind and all(
-            math.isclose(float(settings[k]), float(v), rel_tol=1e-9) for k, v in csettings.items()
-        ):
+        if Modulator.from_mapping(case) == setting:
             return name
     return None
 
@@ -137,7 +133,8 @@ def predicted_levels(
     >>> df["switching_rate_model"].tolist()
     [0.0, 40.0, 0.0]
     """
-    kind, settings = parse_modulator(mod)
+    setting = Modulator.from_mapping(mod)
+    kind, settings = setting.kind, dict(setting.settings)
     x = np.asarray(xi, dtype=np.float64)
     p_eq = np.asarray(equilibrium(kind, x, params, **settings), dtype=np.float64)
     t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, x, **settings))
@@ -262,7 +259,8 @@ def staircase_analysis(
         ``switching_rate_mean`` (edges/s over all levels) and ``noise_pp`` (``p_pp`` of the
         first level, the sensor's floor when that level is a dead-zone).
     """
-    kind, settings = parse_modulator(mod)
+    setting = Modulator.from_mapping(mod)
+    kind, settings = setting.kind, dict(setting.settings)
     t, p, valve, u = _columns(run, "staircase_analysis")
     lv = staircase_levels(t, p, u, valve, settle=settle)
     steps = step_time_constants(t, p, u, settle=settle, min_change=min_change, smooth=smooth)
@@ -280,7 +278,7 @@ def staircase_analysis(
     tau = steps["tau"].dropna()
     summary: dict[str, Any] = {
         "modulator": kind,
-        "setting": setting_label(mod),
+        "setting": setting.label,
         "paper_case": case or "",
         **fit,
         "paper_mse": paper[0],
@@ -432,12 +430,12 @@ def chirp_analysis(
     )
 
 
-#: Display order of the modulators (the paper's Table 3).
-MODULATOR_ORDER = ("pwm", "ipfm", "iipfm", "dsm")
-
-
 def runs_of_kind(metas: Mapping[str, Mapping[str, Any]], kind: str) -> list[str]:
-    """Run ids of one kind whose metadata names a modulator, in the paper's modulator order.
+    """Run ids of one kind whose metadata names a modulator, in the order of their settings.
+
+    The order is :attr:`spa.model.modulators.Modulator.sort_key`: the paper's modulator order
+    (PWM, IPFM, IIPFM, ΔΣM), then the setting's value as a number (10 ms before 100 ms),
+    then the gain; runs of the same setting by id.
 
     Examples
     --------
@@ -446,8 +444,7 @@ def runs_of_kind(metas: Mapping[str, Mapping[str, Any]], kind: str) -> list[str]
     ['b']
     """
     ids = [r for r, m in metas.items() if m.get("kind") == kind and m.get("modulator")]
-    rank = {k: i for i, k in enumerate(MODULATOR_ORDER)}
-    return sorted(ids, key=lambda r: (rank.get(metas[r]["modulator"].get("type"), 9), r))
+    return sorted(ids, key=lambda r: (Modulator.from_mapping(metas[r]["modulator"]).sort_key, r))
 
 
 def run_tags(metas: Mapping[str, Mapping[str, Any]], ids: Sequence[str]) -> pd.DataFrame:
@@ -479,8 +476,8 @@ def run_tags(metas: Mapping[str, Mapping[str, Any]], ids: Sequence[str]) -> pd.D
     """
     rows = {}
     for r in ids:
-        kind, settings = parse_modulator(metas[r]["modulator"])
-        rows[r] = (kind, setting_label(metas[r]["modulator"]), float(settings.get("gain", 1.0)))
+        setting = Modulator.from_mapping(metas[r]["modulator"])
+        rows[r] = (setting.kind, setting.label, setting.gain)
     tags = pd.DataFrame.from_dict(rows, orient="index", columns=["modulator", "setting", "gain"])
     shared = tags["setting"].duplicated(keep=False)
     tags.loc[shared, "setting"] = tags.index[shared]

@@ -13,7 +13,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from spa.openloop import MODULATOR_ORDER, PAPER_TIME_CONSTANTS
+from spa.model.modulators import MODULATOR_ORDER
+from spa.openloop import PAPER_TIME_CONSTANTS
 from spa.openloop.spectra import principal_domain_mask
 from spa.plots.analytic import _COLOURS, _LABELS, _require
 
@@ -64,7 +65,7 @@ def fig6(traces: pd.DataFrame) -> Figure:
     axes = fig.subplots(len(kinds), 1, sharex=True, squeeze=False)[:, 0]
     for ax, kind in zip(axes, kinds, strict=True):
         d = traces[traces["modulator"] == kind]
-        for setting, g in d.groupby("setting", sort=True):
+        for setting, g in d.groupby("setting", sort=False):
             ax.plot(g["t"], g["p"], lw=0.7, label=setting)
         ax.set_title(_LABELS[kind], fontsize=9, loc="left")
         ax.set_ylabel("P (bar)")
@@ -166,7 +167,7 @@ def fig8(aligned: pd.DataFrame) -> Figure:
     axes = fig.subplots(1, len(kinds), sharey=True, squeeze=False)[0]
     for ax, kind in zip(axes, kinds, strict=True):
         ax.plot([0, 1], [0, 1], "k--", lw=1.0, label="ideal")
-        for setting, g in aligned[aligned["modulator"] == kind].groupby("setting", sort=True):
+        for setting, g in aligned[aligned["modulator"] == kind].groupby("setting", sort=False):
             ax.plot(g["xi"], g["p_norm"], lw=0.6, label=f"{setting} (RMS {g['rms'].iloc[0]:.3f})")
         ax.set_title(_LABELS[kind], fontsize=9)
         ax.set_xlabel("input fraction ξ")

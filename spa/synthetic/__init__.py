@@ -18,7 +18,6 @@ from spa.synthetic.runs import (
     identification_runs,
     modulated_runs,
     run_seed,
-    setting_label,
     simulate_run,
 )
 from spa.synthetic.sensor import Ringing, Sensor
@@ -34,7 +33,6 @@ __all__ = [
     "identification_runs",
     "modulated_runs",
     "run_seed",
-    "setting_label",
     "simulate_run",
     "sine_input",
     "staircase_input",

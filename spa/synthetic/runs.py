@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from spa.identification.experiments import identification_commands
-from spa.model.modulators import modulate, parse_modulator
+from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 from spa.synthetic.inputs import chirp_input, sine_input, staircase_input
@@ -174,26 +174,6 @@ def identification_runs(
     ]
 
 
-def setting_label(mod: Mapping[str, Any]) -> str:
-    """Short file-safe name of a modulator setting, used in run ids.
-
-    Examples
-    --------
-    >>> setting_label({"type": "pwm", "f_w": 20})
-    'pwm-20Hz'
-    >>> setting_label({"type": "iipfm", "t_l": 0.02, "gain": 1.15})
-    'iipfm-20ms-G1.15'
-    """
-    kind, s = parse_modulator(mod)
-    if kind == "pwm":
-        return f"pwm-{s['f_w']:g}Hz"
-    name = {"ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}[kind]
-    label = f"{kind}-{s[name] * 1e3:g}ms"
-    if kind in ("ipfm", "iipfm") and not math.isclose(s["gain"], 1.0):
-        label += f"-G{s['gain']:g}"
-    return label
-
-
 def modulated_runs(
     modulators: Sequence[Mapping[str, Any]],
     dt: float,
@@ -219,7 +199,7 @@ def modulated_runs(
     """
     runs: list[RunSpec] = []
     for mod in modulators:
-        label = setting_label(mod)
+        label = Modulator.from_mapping(mod).label
         if "staircase" in experiments:
             cfg = experiments["staircase"]
             step, hold = float(cfg["step"]), float(cfg["hold"])

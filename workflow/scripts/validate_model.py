@@ -17,12 +17,6 @@ def main() -> None:
     table = validate_runs(
         runs, params, modulators, {rid: meta["kind"] for rid, meta in metas.items()}
     )
-    # The modulator columns of fit.csv, as written so far (to become Modulator.label).
-    mods = [m or {} for m in modulators.values()]
-    table.insert(2, "modulator", [m.get("type", "") for m in mods])
-    table.insert(
-        3, "setting", [" ".join(f"{k}={v:g}" for k, v in m.items() if k != "type") for m in mods]
-    )
     write_csv(table.drop(columns="p0"), snakemake.output.fit)
     for row in table.itertuples():
         log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
