@@ -22,57 +22,41 @@ __version__ = "0.1.0"
 
 #: Public name -> the module that defines it.
 _EXPORTS: dict[str, str] = {
-    **dict.fromkeys(
-        (
-            "chattering_estimate",
-            "equilibrium",
-            "equilibrium_pressure",
-            "pseudo_steady_mean",
-            "pseudo_steady_state",
-            "pulse_times",
-            "thresholds",
-            "time_constant",
-            "time_fractions",
-        ),
-        "spa.model.averaging",
-    ),
-    **dict.fromkeys(
-        (
-            "IdentificationError",
-            "IdentificationResult",
-            "identify",
-            "identify_runs",
-            "load_params",
-        ),
-        "spa.identification",
-    ),
-    **dict.fromkeys(
-        (
-            "compensate_lag",
-            "linear_fit_metrics",
-            "sine_linearity",
-            "staircase_levels",
-            "step_time_constants",
-        ),
-        "spa.openloop.linearity",
-    ),
-    **dict.fromkeys(
-        ("MODULATORS", "Modulator", "check_settings", "modulate"), "spa.model.modulators"
-    ),
-    **dict.fromkeys(
-        ("chirp_analysis", "predicted_levels", "sine_analysis", "staircase_analysis"),
-        "spa.openloop",
-    ),
     "ValveParams": "spa.model.params",
     **dict.fromkeys(("charge", "discharge", "simulate"), "spa.model.plant"),
     **dict.fromkeys(
-        ("bicoherence", "mean_bicoherence", "principal_domain_mask"), "spa.openloop.spectra"
+        ("MODULATORS", "Modulator", "check_settings", "modulate"), "spa.model.modulators"
     ),
+    # The averaged analysis (Section 4), from the module that defines each name.
+    **dict.fromkeys(("pulse_times", "time_fractions"), "spa.model.pulses"),
+    **dict.fromkeys(
+        ("equilibrium", "equilibrium_pressure", "time_constant"), "spa.model.equilibrium"
+    ),
+    **dict.fromkeys(
+        ("chattering_estimate", "pseudo_steady_mean", "pseudo_steady_state"),
+        "spa.model.chattering",
+    ),
+    "thresholds": "spa.model.thresholds",
+    **dict.fromkeys(
+        ("IdentificationError", "IdentificationResult", "identify", "identify_runs"),
+        "spa.identification",
+    ),
+    "load_params": "spa.identification.results",
+    **dict.fromkeys(("ValidationResult", "validate_run", "validate_runs"), "spa.validation"),
     **dict.fromkeys(
         ("iipfm_optimal_t_l", "linearity_cost", "modulator_settings", "optimum", "sweep"),
         "spa.tuning",
     ),
-    **dict.fromkeys(("ValidationResult", "validate_run", "validate_runs"), "spa.validation"),
+    **dict.fromkeys(("linear_fit_metrics", "staircase_levels"), "spa.openloop.levels"),
+    "step_time_constants": "spa.openloop.steps",
+    **dict.fromkeys(("compensate_lag", "sine_linearity"), "spa.openloop.sine_fit"),
+    **dict.fromkeys(
+        ("chirp_analysis", "predicted_levels", "sine_analysis", "staircase_analysis"),
+        "spa.openloop",
+    ),
+    **dict.fromkeys(
+        ("bicoherence", "mean_bicoherence", "principal_domain_mask"), "spa.openloop.spectra"
+    ),
 }
 
 __all__ = sorted(_EXPORTS)

@@ -271,30 +271,19 @@ class _RunCheck:
         duration = _to_seconds(np.float64(self.t_prev - self.t_first), self.time_unit)
         rate = (self.rows - 1) / duration
         tcol = self.columns["t"]
+        message = None
         if rate < 5.0:
-            out.append(
-                Problem(
-                    file,
-                    run,
-                    tcol,
-                    None,
-                    f"mean sample rate {rate:.3g} Hz is implausibly low for a valve "
-                    "with ms delays; is time in ms? (set units: {time: ms})",
-                    level="warning",
-                )
+            message = (
+                f"mean sample rate {rate:.3g} Hz is implausibly low for a valve "
+                "with ms delays; is time in ms? (set units: {time: ms})"
             )
         elif rate > 1e6:
-            out.append(
-                Problem(
-                    file,
-                    run,
-                    tcol,
-                    None,
-                    f"mean sample rate {rate:.3g} Hz is implausibly high; "
-                    f"is time really in {self.time_unit}?",
-                    level="warning",
-                )
+            message = (
+                f"mean sample rate {rate:.3g} Hz is implausibly high; "
+                f"is time really in {self.time_unit}?"
             )
+        if message is not None:
+            out.append(Problem(file, run, tcol, None, message, level="warning"))
         peak = max(
             abs(_to_bar(self.p_lo, self.pressure_unit)), abs(_to_bar(self.p_hi, self.pressure_unit))
         )

@@ -228,12 +228,8 @@ def validate_dataset(folder: str | Path) -> list[Problem]:
     and every run's data (readable file; required columns; numbers only, no NaN or inf; time
     strictly increasing; valve in {0, 1}; u in [0, 1]; pressure within
     :data:`P_MIN_BAR` to :data:`P_MAX_BAR` bar gauge after unit conversion). Data are read in
-    chunks, so any length of recording can be checked.
-
-    Parameters
-    ----------
-    folder : str or path-like
-        The dataset folder, ``raw/<name>``.
+    chunks, so any length of recording can be checked. ``folder`` is as for
+    :func:`check_dataset`, which also summarises the runs.
 
     Returns
     -------

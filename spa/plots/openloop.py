@@ -8,6 +8,7 @@ and returns a matplotlib Figure built without pyplot; save it with
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -47,6 +48,20 @@ def no_data_figure(message: str) -> Figure:
     ax.axis("off")
     ax.text(0.5, 0.5, message, ha="center", va="center", fontsize=10, wrap=True)
     return fig
+
+
+def write_no_runs(
+    message: str, tables: Sequence[str | Path], figures: Sequence[str | Path]
+) -> None:
+    """The outputs of an analysis for a dataset without runs of its kind: tables with the
+    tag columns and no row, and figures that say ``message``."""
+    from spa.io import save_figure, write_csv
+
+    empty = pd.DataFrame(columns=["run", "modulator", "setting", "gain"])
+    for path in tables:
+        write_csv(empty, path)
+    for path in figures:
+        save_figure(no_data_figure(message), path)
 
 
 def fig6(traces: pd.DataFrame) -> Figure:

@@ -4,7 +4,7 @@ import pandas as pd
 
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import best_settings, chirp_analysis, run_tags, runs_of_kind
-from spa.plots.openloop import fig9, no_data_figure
+from spa.plots.openloop import fig9, write_no_runs
 from spa.status import run_stage
 
 log = get_logger("chirp", snakemake.log[0])
@@ -31,11 +31,8 @@ def main() -> None:
         save_figure(fig9(panels), snakemake.output.fig9)
     else:
         log.info("no chirp runs in this dataset: empty table, placeholder figure")
-        write_csv(
-            pd.DataFrame(columns=["run", "modulator", "setting", "gain"]), snakemake.output.table
-        )
         message = f"{snakemake.wildcards.dataset}: no chirp runs"
-        save_figure(no_data_figure(message), snakemake.output.fig9)
+        write_no_runs(message, [snakemake.output.table], [snakemake.output.fig9])
 
 
 run_stage(snakemake, "chirp", main, log)

@@ -4,7 +4,7 @@ import pandas as pd
 
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import run_tags, runs_of_kind, sine_analysis
-from spa.plots.openloop import fig8, no_data_figure, thin
+from spa.plots.openloop import fig8, thin, write_no_runs
 from spa.status import run_stage
 
 log = get_logger("sine", snakemake.log[0])
@@ -34,11 +34,8 @@ def main() -> None:
         save_figure(fig8(pd.concat(curves)), snakemake.output.fig8)
     else:
         log.info("no sine runs in this dataset: empty table, placeholder figure")
-        write_csv(
-            pd.DataFrame(columns=["run", "modulator", "setting", "gain"]), snakemake.output.table
-        )
         message = f"{snakemake.wildcards.dataset}: no sine runs"
-        save_figure(no_data_figure(message), snakemake.output.fig8)
+        write_no_runs(message, [snakemake.output.table], [snakemake.output.fig8])
 
 
 run_stage(snakemake, "sine", main, log)

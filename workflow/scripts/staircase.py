@@ -6,7 +6,7 @@ import yaml
 from spa.identification import load_params
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import best_settings, run_tags, runs_of_kind, staircase_analysis
-from spa.plots.openloop import fig6, fig7a, fig7b, no_data_figure, thin
+from spa.plots.openloop import fig6, fig7a, fig7b, thin, write_no_runs
 from spa.status import run_stage
 
 log = get_logger("staircase", snakemake.log[0])
@@ -37,11 +37,10 @@ def main() -> None:
 
     if not ids:
         log.info("no staircase runs in this dataset: empty tables, placeholder figures")
-        empty = pd.DataFrame(columns=["run", "modulator", "setting", "gain"])
-        for path in (out.table3, out.levels, out.time_constants):
-            write_csv(empty, path)
-        for path in (out.fig6, out.fig7a, out.fig7b):
-            save_figure(no_data_figure(f"{snakemake.wildcards.dataset}: no staircase runs"), path)
+        message = f"{snakemake.wildcards.dataset}: no staircase runs"
+        write_no_runs(
+            message, [out.table3, out.levels, out.time_constants], [out.fig6, out.fig7a, out.fig7b]
+        )
     else:
         table3 = pd.DataFrame(rows)
         first = ["run", "modulator", "setting", "gain", "paper_case"]
