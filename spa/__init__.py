@@ -28,9 +28,9 @@ _EXPORTS: dict[str, str] = {
         ("MODULATORS", "Modulator", "check_settings", "modulate"), "spa.model.modulators"
     ),
     # The averaged analysis (Section 4), from the module that defines each name.
-    **dict.fromkeys(("pulse_times", "time_fractions"), "spa.model.pulses"),
     **dict.fromkeys(
-        ("equilibrium", "equilibrium_pressure", "time_constant"), "spa.model.equilibrium"
+        ("equilibrium", "equilibrium_pressure", "pulse_times", "time_constant", "time_fractions"),
+        "spa.model.averaging",
     ),
     **dict.fromkeys(
         ("chattering_estimate", "pseudo_steady_mean", "pseudo_steady_state"),

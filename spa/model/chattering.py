@@ -1,12 +1,25 @@
-"""Chattering: the estimate of Eq. 10 and the exact pseudo-steady state of Appendix B."""
+"""Chattering: the pressure ripple of a steady pulse train (MODEL.md section 3, Appendix B).
+
+* :func:`chattering_estimate` – the paper's estimate, the rise during one high pulse at the
+  averaged equilibrium (Eq. 10);
+* :func:`pseudo_steady_state` – the exact extrema ``P+`` and ``P-`` of the periodic orbit of
+  a train with fixed high and low durations (Appendix B), no averaging assumed;
+* :func:`pseudo_steady_mean` – their mid-point, the fast-switching estimate of the
+  equilibrium.
+
+Vectorised like :mod:`spa.model.averaging`: arguments broadcast, scalars give NumPy scalars.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
 
+from spa import _checks as checks
+from spa.model._broadcast import Floats, as_output
 from spa.model.params import ValveParams
-from spa.model.pulses import Floats, _out, _params
+
+__all__ = ["chattering_estimate", "pseudo_steady_mean", "pseudo_steady_state"]
 
 
 def chattering_estimate(
@@ -45,15 +58,14 @@ def chattering_estimate(
     >>> round(float(chattering_estimate(0.02, 0.4, p)), 5)
     0.01058
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     th, pe = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(p_eq, np.float64))
     gap = np.maximum(p.k2 - pe, 0.0)
     with np.errstate(invalid="ignore"):
         d = th * gap / p.tau2
-    return _out(np.where(gap > 0.0, d, 0.0))
+    return as_output(np.where(gap > 0.0, d, 0.0))
 
 
-# --------------------------------------------------------------------------- Appendix B
 def pseudo_steady_state(
     t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | None = None
 ) -> tuple[Floats, Floats]:
@@ -97,7 +109,7 @@ def pseudo_steady_state(
     >>> round(float(hi), 4), round(float(lo), 4)
     (0.326, 0.3154)
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     if np.any(np.isnan(th)) or np.any(np.isnan(tl)) or np.any(th < 0) or np.any(tl < 0):
         raise ValueError("t_h and t_l must be >= 0 (inf allowed), not NaN")
@@ -122,7 +134,7 @@ def pseudo_steady_state(
     saturated = charges & ~discharges
     p_plus = np.where(both, p_plus, np.where(saturated, p.k2, 0.0))
     p_minus = np.where(both, p_minus, np.where(saturated, p.k2, 0.0))
-    return _out(p_plus), _out(p_minus)
+    return as_output(p_plus), as_output(p_minus)
 
 
 def pseudo_steady_mean(
@@ -159,4 +171,4 @@ def pseudo_steady_mean(
     0.3207
     """
     hi, lo = pseudo_steady_state(t_h, t_l, params)
-    return _out(0.5 * (np.asarray(hi) + np.asarray(lo)))
+    return as_output(0.5 * (np.asarray(hi) + np.asarray(lo)))

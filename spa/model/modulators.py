@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from spa import _checks as checks
+
 __all__ = [
     "MODULATORS",
     "MODULATOR_ORDER",
@@ -87,16 +89,6 @@ def parse_modulator(mod: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
     return kind, check_settings(kind, **{k: v for k, v in mod.items() if k != "type"})
 
 
-def _number(kind: str, name: str, value: Any) -> float:
-    """A setting as a float; booleans and strings are refused (YAML ``true`` is not 1 Hz)."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"{kind}: setting {name!r} must be a number, got {value!r}")
-    number = float(value)
-    if not math.isfinite(number) or number <= 0.0:
-        raise ValueError(f"{kind}: setting {name!r} must be finite and > 0, got {value!r}")
-    return number
-
-
 def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[str, float]:
     """Validate a modulator's settings and fill in defaults.
 
@@ -133,10 +125,10 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
         value = settings.get(name, default)
         if value is None:
             raise ValueError(f"{kind}: missing setting {name!r}")
-        out[name] = _number(kind, name, value)
+        # Booleans and strings are refused (YAML ``true`` is not 1 Hz).
+        out[name] = checks.positive(f"{kind}: setting {name!r}", value)
     if dt is not None:
-        if not math.isfinite(dt) or dt <= 0.0:
-            raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+        dt = checks.positive("dt", dt)
         if kind == "pwm" and 1.0 / out["f_w"] < dt * (1 - _EPS):
             raise ValueError(
                 f"pwm: period 1/f_w = {1 / out['f_w']:g} s is shorter than dt = {dt:g} s; "
@@ -266,16 +258,6 @@ class Modulator:
         return modulate(self.kind, xi, dt, **self.settings)
 
 
-def _check_xi(xi: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    x = np.asarray(xi, dtype=np.float64)
-    if x.ndim != 1:
-        raise ValueError(f"xi must be a one-dimensional array, got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        bad = int(np.flatnonzero(~np.isfinite(x))[0])
-        raise ValueError(f"xi must be finite; xi[{bad}] = {x[bad]!r}")
-    return np.clip(x, 0.0, 1.0)
-
-
 def _steps(width: float, dt: float) -> int:
     """Number of steps a pulse of ``width`` seconds lasts (at least one)."""
     return max(1, math.floor(width / dt + 0.5))
@@ -384,7 +366,7 @@ def modulate(kind: str, xi: npt.ArrayLike, dt: float, **settings: float) -> npt.
     [1, 1, 1, 1, 0, 0, 0, 0]
     """
     s = check_settings(kind, dt, **settings)
-    x = _check_xi(xi)
+    x = np.clip(checks.finite_array("xi", xi, ndim=1), 0.0, 1.0)
     if x.size == 0:
         return np.zeros(0, dtype=np.int8)
     if kind == "pwm":

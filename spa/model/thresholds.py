@@ -1,4 +1,12 @@
-"""Dead-zone and saturation thresholds of the input fraction (Table 1)."""
+"""Dead-zone and saturation thresholds of the input fraction (MODEL.md section 3, Table 1).
+
+* :func:`thresholds` – the largest ``xi`` of the dead-zone and the smallest of saturation,
+  the zero crossings of the averaged time fractions;
+* :func:`threshold_table` – Table 1 for a list of modulator settings;
+* :data:`THRESHOLD_FORMULAS` – the same closed forms as text, for the table.
+
+Vectorised like :mod:`spa.model.averaging`: settings may be arrays.
+"""
 
 from __future__ import annotations
 
@@ -8,9 +16,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from spa.model.modulators import MODULATORS, check_settings
+from spa import _checks as checks
+from spa.model._broadcast import Floats, as_output, settings_arrays
+from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
-from spa.model.pulses import Floats, _out, _params, _settings
+
+__all__ = ["THRESHOLD_FORMULAS", "threshold_table", "thresholds"]
 
 #: Table 1 as text: ``kind -> (dead-zone, saturation)`` closed forms of ``xi`` (clipped to
 #: [0, 1]). The ΔΣM forms reduce to the paper's 0 and 1 when ``period >= 2*t_on, 2*t_off``.
@@ -22,7 +33,6 @@ THRESHOLD_FORMULAS: Mapping[str, tuple[str, str]] = {
 }
 
 
-# --------------------------------------------------------------------------- Table 1
 def thresholds(
     kind: str, params: ValveParams | None = None, **settings: Any
 ) -> tuple[Floats, Floats]:
@@ -75,8 +85,8 @@ def thresholds(
     >>> [round(float(v), 6) for v in thresholds("iipfm", p, t_l=0.02, gain=1.15)]
     [0.0, 1.0]
     """
-    p = _params(params)
-    s = _settings(kind, settings)
+    p = checks.valve_params(params)
+    s = settings_arrays(kind, settings)
     if kind == "pwm":
         dead = p.t_on * s["f_w"]
         sat = 1.0 - p.t_off * s["f_w"]
@@ -90,21 +100,21 @@ def thresholds(
         dead = 1.0 - s["period"] / (2.0 * p.t_on)
         sat = s["period"] / (2.0 * p.t_off)
     return (
-        _out(np.clip(np.asarray(dead, np.float64), 0.0, 1.0)),
-        _out(np.clip(np.asarray(sat, np.float64), 0.0, 1.0)),
+        as_output(np.clip(np.asarray(dead, np.float64), 0.0, 1.0)),
+        as_output(np.clip(np.asarray(sat, np.float64), 0.0, 1.0)),
     )
 
 
 def threshold_table(
-    selected: Iterable[Mapping[str, Any]], params: ValveParams | None = None
+    selected: Iterable[Mapping[str, Any] | Modulator], params: ValveParams | None = None
 ) -> pd.DataFrame:
     """Table 1 for a list of modulator settings, as a tidy table.
 
     Parameters
     ----------
-    selected : iterable of mapping
+    selected : iterable of mapping or Modulator
         Entries like ``{"type": "iipfm", "t_l": 0.02, "gain": 1.15}`` (the ``analytic.selected``
-        section of the configuration).
+        section of the configuration) or :class:`~spa.model.modulators.Modulator` values.
     params : ValveParams, optional
         Valve parameters; nominal when omitted.
 
@@ -125,22 +135,21 @@ def threshold_table(
        dead_zone  saturation
     0       0.06         0.8
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     rows = []
     for i, entry in enumerate(selected):
-        settings = dict(entry)
-        kind = settings.pop("type", None)
-        if kind is None:
-            raise ValueError(f"selected[{i}]: missing 'type'; expected one of {sorted(MODULATORS)}")
-        full = check_settings(kind, **settings)
-        dead, sat = thresholds(kind, p, **full)
+        try:
+            mod = Modulator.from_mapping(entry)
+        except ValueError as exc:
+            raise ValueError(f"selected[{i}]: {exc}") from None
+        dead, sat = thresholds(mod.kind, p, **mod.settings)
         rows.append(
             {
-                "modulator": kind,
-                "settings": " ".join(f"{k}={v:g}" for k, v in full.items()),
-                "dead_zone_formula": THRESHOLD_FORMULAS[kind][0],
+                "modulator": mod.kind,
+                "settings": " ".join(f"{k}={v:g}" for k, v in mod.settings.items()),
+                "dead_zone_formula": THRESHOLD_FORMULAS[mod.kind][0],
                 "dead_zone": float(dead),
-                "saturation_formula": THRESHOLD_FORMULAS[kind][1],
+                "saturation_formula": THRESHOLD_FORMULAS[mod.kind][1],
                 "saturation": float(sat),
             }
         )

@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from spa import _checks as checks
 from spa.model.averaging import Floats, equilibrium_pressure, time_constant, time_fractions
 from spa.model.modulators import MODULATORS
 from spa.model.params import ValveParams
@@ -57,14 +58,6 @@ PAPER_TABLE2: Mapping[str, tuple[float, float, str]] = {
 _LABELS: Mapping[str, str] = {"pwm": "PWM", "ipfm": "IPFM", "iipfm": "IIPFM", "dsm": "ΔΣM"}
 
 
-def _params(params: ValveParams | None) -> ValveParams:
-    if params is None:
-        return ValveParams()
-    if not isinstance(params, ValveParams):
-        raise ValueError(f"params must be a ValveParams, got {type(params).__name__}")
-    return params
-
-
 def _kind(kind: str) -> str:
     if kind not in MODULATORS:
         raise ValueError(f"unknown modulator kind {kind!r}; expected one of {sorted(MODULATORS)}")
@@ -72,20 +65,7 @@ def _kind(kind: str) -> str:
 
 
 def _value(kind: str, value: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    name = SWEPT_PARAMETER[kind][0]
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{kind}: {name} must be numeric, got {value!r}") from None
-    if not np.all(np.isfinite(v) & (v > 0.0)):
-        raise ValueError(f"{kind}: {name} must be finite and > 0")
-    return v
-
-
-def _n_xi(n_xi: int) -> int:
-    if isinstance(n_xi, bool) or not isinstance(n_xi, int | np.integer) or n_xi < 2:
-        raise ValueError(f"n_xi must be an integer >= 2, got {n_xi!r}")
-    return int(n_xi)
+    return checks.positive_array(f"{kind}: {SWEPT_PARAMETER[kind][0]}", value)
 
 
 def modulator_settings(
@@ -122,7 +102,7 @@ def modulator_settings(
     >>> modulator_settings("pwm", 20.0)
     {'f_w': 20.0}
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     v = _value(_kind(kind), value)
     out: dict[str, Any] = {SWEPT_PARAMETER[kind][0]: v}
     if kind == "ipfm":
@@ -142,7 +122,7 @@ def constraint(kind: str, params: ValveParams | None = None) -> str:
     >>> constraint("dsm")
     'period > t_off = 10 ms and period > t_on = 3 ms'
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     on, off = f"{p.t_on * 1e3:g} ms", f"{p.t_off * 1e3:g} ms"
     return {
         "pwm": "f_w > 0 Hz",
@@ -182,7 +162,7 @@ def feasible(
     >>> feasible("ipfm", [0.002, 0.004]).tolist()
     [False, True]
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     v = _value(_kind(kind), value)
     if kind == "pwm":
         ok = np.ones(v.shape, dtype=bool)
@@ -232,8 +212,8 @@ def linearity_cost(
     >>> round(float(linearity_cost("iipfm", 0.0195)), 2)
     3.63
     """
-    p = _params(params)
-    n = _n_xi(n_xi)
+    p = checks.valve_params(params)
+    n = checks.integer("n_xi", n_xi, minimum=2)
     settings = modulator_settings(kind, value, p)
     v = np.asarray(settings[SWEPT_PARAMETER[kind][0]])
     xi = np.linspace(0.0, 1.0, n)
@@ -257,9 +237,9 @@ def sweep_grid(start: float, stop: float, step: float) -> npt.NDArray[np.float64
     >>> sweep_grid(0.0125, 0.0155, 0.001).tolist()
     [0.0125, 0.0135, 0.0145, 0.0155]
     """
-    for name, x in (("start", start), ("stop", stop), ("step", step)):
-        if not np.isfinite(x) or x <= 0:
-            raise ValueError(f"{name} must be finite and > 0, got {x!r}")
+    start = checks.positive("start", start)
+    stop = checks.positive("stop", stop)
+    step = checks.positive("step", step)
     if stop < start:
         raise ValueError(f"stop must be >= start, got start={start!r}, stop={stop!r}")
     n = int(np.floor((stop - start) / step + 1e-9)) + 1
@@ -308,7 +288,7 @@ def sweep(
     >>> v.tolist(), bool(np.isnan(j[0])), bool(np.isfinite(j[1]))
     ([0.001, 0.003, 0.005], True, False)
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     values = sweep_grid(start, stop, step)
     cost = np.asarray(linearity_cost(kind, values, p, n_xi), dtype=np.float64)
     return values, np.where(feasible(kind, values, p), cost, np.nan)
@@ -381,7 +361,7 @@ def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
     >>> round(iipfm_optimal_t_l() * 1e3, 1)  # ms; the paper prints 19 ms
     19.3
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     r = p.c1 * np.sqrt(p.k2 / 2.0) / p.tau2
     if r >= 1.0:
         raise ValueError(f"c1*sqrt(k2/2)/tau2 = {r:g} must be < 1 for Eq. 29 to have a solution")
@@ -424,7 +404,7 @@ def sweep_frame(
     ValueError
         If a kind is missing or a grid is bad.
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     parts = []
     for kind, g in _grids(sweeps).items():
         values, cost = sweep(kind, p, g["start"], g["stop"], g["step"], n_xi)
@@ -465,7 +445,7 @@ def optimum_table(
         ``1 + t_on/t_l``, else empty), ``paper_J_min``, ``paper_optimum`` (printed values, for
         reference only), ``analytic_optimum`` (Eq. 29's ``t_l*`` for IIPFM, else empty).
     """
-    p = _params(params)
+    p = checks.valve_params(params)
     rows = []
     for kind, g in _grids(sweeps).items():
         value, j_min = optimum(kind, p, g["start"], g["stop"], g["step"], n_xi)
@@ -511,8 +491,8 @@ def equilibrium_frame(
         Columns ``modulator``, ``parameter``, ``value``, ``gain``, ``xi``, ``p_eq`` (Eq. 5),
         ``p_target`` (``k2*xi``), ``tau_m`` (Eq. 9; NaN in the dead-zone and past saturation).
     """
-    p = _params(params)
-    xi = np.linspace(0.0, 1.0, _n_xi(n_xi))
+    p = checks.valve_params(params)
+    xi = np.linspace(0.0, 1.0, checks.integer("n_xi", n_xi, minimum=2))
     parts = []
     for kind in _LABELS:
         if kind not in optima:
