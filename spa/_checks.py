@@ -88,15 +88,7 @@ def positive(name: str, value: Any, unit: str = "") -> float:
 
 
 def nonnegative(name: str, value: Any, unit: str = "") -> float:
-    """A finite number >= 0.
-
-    Raises
-    ------
-    ArgumentTypeError
-        If ``value`` is not a number.
-    ValueError
-        If it is not finite or negative.
-    """
+    """A finite number >= 0; raises as :func:`positive` does, for a negative value."""
     v = number(name, value)
     if not (math.isfinite(v) and v >= 0.0):
         raise ValueError(f"{name} must be finite and >= 0{_unit(unit)}, got {value!r}")

@@ -535,12 +535,8 @@ def find_datasets(raw_dir: str | Path) -> list[str]:
 
 
 def load_spec(folder: str | Path) -> DatasetSpec:
-    """Read and check ``dataset.yaml`` of a dataset folder (not the data themselves).
-
-    Parameters
-    ----------
-    folder : str or path-like
-        The dataset folder, ``raw/<name>``.
+    """Read and check ``dataset.yaml`` of a dataset folder, ``raw/<name>`` (only that file:
+    the data are checked by :func:`spa.datasets.check_dataset`).
 
     Returns
     -------

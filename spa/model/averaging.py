@@ -310,12 +310,7 @@ def time_constant(
 ) -> Floats:
     """Equivalent first-order time constant around the averaged equilibrium (Eq. 9).
 
-    Parameters
-    ----------
-    alpha1, alpha2 : array_like of float
-        Time fractions (:func:`time_fractions`); broadcast.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    The arguments are those of :func:`equilibrium_pressure`.
 
     Returns
     -------

@@ -57,7 +57,8 @@ def thresholds(
     Raises
     ------
     ValueError
-        As :func:`time_fractions`.
+        For an unknown ``kind`` or a setting out of its range (checked by
+        :func:`time_fractions`).
 
     Notes
     -----
