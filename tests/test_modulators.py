@@ -7,7 +7,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from spa import modulate
+from spa import check_settings, modulate
 
 import reference as ref
 
@@ -41,6 +41,8 @@ def cases(draw):
         xi = np.pad(xi, (0, n - xi.size), mode="edge")
     steps = draw(st.floats(1.0, 150.0))
     if kind == "pwm":
+        # a PWM period needs two controller steps, and a valve cannot follow 10 kHz
+        steps = max(steps, 2.0, 1e-4 / dt)
         s = {"f_w": 1.0 / (steps * dt)}
     elif kind == "dsm":
         s = {"period": steps * dt}
@@ -78,6 +80,7 @@ def test_output_is_int8_zero_one_same_length():
 @settings(max_examples=80, deadline=None)
 @given(xi=XI, dt=DTS, n_period=st.integers(2, 400), periods=st.integers(20, 60))
 def test_pwm_duty_and_frequency(xi, dt, n_period, periods):
+    assume(n_period * dt >= 1e-4)  # up to 10 kHz
     f_w = 1.0 / (n_period * dt)
     u = modulate("pwm", np.full(n_period * periods, xi), dt, f_w=f_w)
     # duty xi, to one step per period
@@ -210,3 +213,19 @@ def test_non_finite_input_raises(bad):
 def test_bad_dt_raises():
     with pytest.raises(ValueError, match="dt"):
         modulate("pwm", np.full(10, 0.5), 0.0, f_w=20)
+
+
+def test_settings_out_of_physical_range_are_refused_with_the_range():
+    """A frequency of 1e-300 Hz or a PWM period shorter than two controller steps is a typo or
+    a unit slip: the message names the setting and the allowed range."""
+    xi = np.full(100, 0.5)
+    with pytest.raises(ValueError, match=r"'f_w' = 1e-300 is outside .* \[0.001, 10000\] Hz"):
+        modulate("pwm", xi, 1e-3, f_w=1e-300)
+    with pytest.raises(ValueError, match="above half the controller rate"):
+        modulate("pwm", xi, 1e-3, f_w=600.0)
+    assert modulate("pwm", xi, 1e-3, f_w=500.0).size == 100  # two steps per period
+    with pytest.raises(ValueError, match=r"'t_l' = 1e-300 is outside"):
+        modulate("iipfm", xi, 1e-3, t_l=1e-300)
+    for bad in (True, "20", None):
+        with pytest.raises((TypeError, ValueError), match="f_w"):
+            check_settings("pwm", f_w=bad)

@@ -197,3 +197,14 @@ def test_valve_params_nominal_values_are_the_papers():
         "t_on": 0.003,
         "t_off": 0.010,
     }
+
+
+def test_simulate_names_the_bad_argument():
+    u = np.ones(10, dtype=np.int8)
+    np.testing.assert_array_equal(simulate(u, np.int64(1)), simulate(u, 1.0))  # numpy integers
+    with pytest.raises(TypeError, match="params must be a ValveParams, got dict"):
+        simulate(u, 1e-3, {"c1": 0.5})
+    with pytest.raises(TypeError, match="dt must be a number"):
+        simulate(u, "1e-3")
+    with pytest.raises(ValueError, match="p0 must be finite and >= 0 bar"):
+        simulate(u, 1e-3, p0=-0.1)

@@ -59,6 +59,17 @@ PARAMETER: Mapping[str, tuple[str, str]] = {
 _NAMES = {"pwm": "PWM", "ipfm": "IPFM", "iipfm": "IIPFM", "dsm": "ΔΣM"}
 _SYMBOLS = {"f_w": "f_W", "t_h": "t_h", "t_l": "t_l", "period": "T_ΔΣ"}
 
+#: Plausible ranges of the settings (Hz for f_w, s for durations, 1 for the gain): outside
+#: them a value is a typo or a unit slip (a frequency of 1e-300 Hz, a width of 20 s given as
+#: 20 for 20 ms), not a modulator a solenoid valve can follow.
+_RANGES: Mapping[str, tuple[float, float, str]] = {
+    "f_w": (1e-3, 1e4, "Hz"),
+    "t_h": (1e-5, 1e2, "s"),
+    "t_l": (1e-5, 1e2, "s"),
+    "period": (1e-5, 1e2, "s"),
+    "gain": (1e-3, 1e3, ""),
+}
+
 # Relative tolerance used when comparing accumulated floating-point times to event times.
 _EPS = 1e-9
 
@@ -127,12 +138,18 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
             raise ValueError(f"{kind}: missing setting {name!r}")
         # Booleans and strings are refused (YAML ``true`` is not 1 Hz).
         out[name] = checks.positive(f"{kind}: setting {name!r}", value)
+        lo, hi, unit = _RANGES[name]
+        if not lo <= out[name] <= hi:
+            raise ValueError(
+                f"{kind}: setting {name!r} = {value!r} is outside the range a solenoid-valve "
+                f"modulator can have, [{lo:g}, {hi:g}] {unit}"
+            )
     if dt is not None:
         dt = checks.positive("dt", dt)
-        if kind == "pwm" and 1.0 / out["f_w"] < dt * (1 - _EPS):
+        if kind == "pwm" and 1.0 / out["f_w"] < 2.0 * dt * (1 - _EPS):
             raise ValueError(
-                f"pwm: period 1/f_w = {1 / out['f_w']:g} s is shorter than dt = {dt:g} s; "
-                f"f_w must be <= 1/dt = {1 / dt:g} Hz"
+                f"pwm: f_w = {out['f_w']:g} Hz is above half the controller rate 1/(2*dt) = "
+                f"{0.5 / dt:g} Hz (dt = {dt:g} s): a period needs at least two steps"
             )
         width = {"ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}.get(kind)
         if width is not None and out[width] < dt * (1 - _EPS):

@@ -13,6 +13,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from spa import _checks as checks
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -211,11 +212,9 @@ def simulate(
     >>> bool(abs(p[10] - 0.837 * (1 - np.exp(-1 / 0.826))) < 1e-12)
     True
     """
-    params = ValveParams() if params is None else params
-    if not (isinstance(dt, int | float | np.floating) and math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
-    if not (math.isfinite(p0) and p0 >= 0.0):
-        raise ValueError(f"p0 must be finite and >= 0 bar, got {p0!r}")
+    params = checks.valve_params(params)
+    dt = checks.positive("dt", dt, "s")
+    p0 = checks.nonnegative("p0", p0, "bar")
     cmd = _check_command(u)
     n = cmd.size
     if n == 0:

@@ -198,6 +198,12 @@ def bicoherence(
     advance = _advance(n, ov)
     segments = sliding_window_view(y, n)[::advance]
     n_seg = segments.shape[0]  # == (len(x) - noverlap) // advance
+    if n_seg < 2:
+        raise ValueError(
+            f"x holds {n_seg} segment of nfft = {n} samples: a bicoherence averages over "
+            "segments (one segment gives 1 everywhere); give a longer x, a smaller nfft or "
+            "more overlap"
+        )
     segments = (segments - segments.mean(axis=1, keepdims=True)) * _hanning(n)
 
     # Full spectrum from the half spectrum: exact conjugate symmetry. Rows: frequency bins.
