@@ -585,3 +585,11 @@ def test_cli_ingest_reports_problems(tmp_path: Path, capsys) -> None:
     assert main(["ingest", str(CORPUS / "bad" / "non_numeric"), str(tmp_path / "o")]) == 1
     out = capsys.readouterr().out
     assert "non-numeric value" in out and "not ingested, 1 error(s)" in out
+
+
+def test_a_huge_dataset_yaml_is_refused_before_it_is_parsed(tmp_path: Path) -> None:
+    folder = tmp_path / "big"
+    folder.mkdir()
+    (folder / "dataset.yaml").write_text("name: big\ndescription: " + "x" * (2 << 20) + "\n")
+    problems = validate_dataset(folder)
+    assert any("a description is at most 1048576 bytes" in str(p) for p in problems), problems

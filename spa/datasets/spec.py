@@ -141,12 +141,68 @@ class _Parsed:
         return any(p.is_error for p in self.problems)
 
 
+#: Bounds on a ``dataset.yaml``: a description is a few kB; these stop hostile or broken
+#: files (an alias "billion laughs" bomb, thousands of nested brackets, a huge file) in
+#: bounded time and memory, with a message.
+MAX_SPEC_BYTES = 1 << 20
+MAX_ALIASES = 100
+MAX_DEPTH = 20
+MAX_NODES = 100_000  # values once every alias is expanded
+
+
+class _SpecTooComplex(yaml.YAMLError):
+    """A dataset.yaml over one of the bounds above."""
+
+
+def _expanded_size(node: yaml.Node, memo: dict[int, int]) -> int:
+    """Values in a composed YAML tree with every alias expanded (each shared node counted once
+    per reference), in time linear in the number of distinct nodes."""
+    key = id(node)
+    if key not in memo:
+        memo[key] = 1  # a cycle counts once
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        else:
+            children = []
+        memo[key] = 1 + sum(min(_expanded_size(c, memo), MAX_NODES + 1) for c in children)
+    return memo[key]
+
+
 class _UniqueKeyLoader(yaml.SafeLoader):
     """Safe YAML loader that rejects a key given twice in one mapping.
 
     Floats are read as YAML 1.2 reads them, so ``20e-3`` is a number (YAML 1.1, PyYAML's
-    default, needs ``20.0e-3`` and would give the string ``'20e-3'``).
+    default, needs ``20.0e-3`` and would give the string ``'20e-3'``). At most
+    :data:`MAX_ALIASES` aliases (``*name``) and :data:`MAX_DEPTH` levels of nesting.
     """
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._aliases = 0
+        self._depth = 0
+
+    def get_single_node(self) -> Any:
+        node = super().get_single_node()
+        if node is not None and _expanded_size(node, {}) > MAX_NODES:
+            raise _SpecTooComplex(
+                f"more than {MAX_NODES} values once its aliases are expanded (an alias bomb?)"
+            )
+        return node
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            self._aliases += 1
+            if self._aliases > MAX_ALIASES:
+                raise _SpecTooComplex(f"more than {MAX_ALIASES} aliases (*name)")
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise _SpecTooComplex(f"nested more than {MAX_DEPTH} levels deep")
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
 
 _UniqueKeyLoader.yaml_implicit_resolvers = {
@@ -288,8 +344,20 @@ def _parse_spec(folder: Path) -> _Parsed:
         parsed.error(f"missing {SPEC_FILE}: every dataset folder needs one (see raw/README.md)")
         parsed.data_ok = False
         return parsed
+    size = spec_path.stat().st_size
+    if size > MAX_SPEC_BYTES:
+        parsed.error(
+            f"{SPEC_FILE} is {size} bytes; a description is at most {MAX_SPEC_BYTES} bytes "
+            "(the data go in the run files)"
+        )
+        parsed.data_ok = False
+        return parsed
     try:
         doc = yaml.load(spec_path.read_text(encoding="utf-8"), Loader=_UniqueKeyLoader)
+    except _SpecTooComplex as exc:
+        parsed.error(f"{SPEC_FILE} is too complex to be a dataset description: {exc}")
+        parsed.data_ok = False
+        return parsed
     except UnicodeDecodeError as exc:
         parsed.error(f"cannot read {SPEC_FILE} as UTF-8 text: {exc}")
         parsed.data_ok = False

@@ -424,6 +424,21 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
         lambda d: _case(d, units={"pressure": "kPa"}, df=F.assign(p=F["p"] * 10_000)),
         ["the values look like mbar"],
     ),
+    "yaml_alias_bomb": (
+        lambda d: _raw(
+            d,
+            "name: yaml_alias_bomb\na0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n"
+            + "".join(
+                f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]\n" for i in range(1, 10)
+            )
+            + "runs: *a9\n",
+        ),
+        ["too complex to be a dataset description", "once its aliases are expanded"],
+    ),
+    "yaml_too_deep": (
+        lambda d: _raw(d, "name: yaml_too_deep\nruns: " + "[" * 5000 + "]" * 5000 + "\n"),
+        ["too complex to be a dataset description", "nested more than 20 levels deep"],
+    ),
     "many_problems": (
         _multi,
         ["unknown key 'orign' (did you mean 'origin'?)",
