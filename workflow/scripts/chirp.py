@@ -5,7 +5,7 @@ import pandas as pd
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import best_settings, chirp_analysis, run_tags, runs_of_kind
 from spa.plots.openloop import fig9, write_no_runs
-from spa.status import run_stage
+from spa.status import naming_run, run_stage
 
 log = get_logger("chirp", snakemake.log[0])
 
@@ -16,7 +16,8 @@ def main() -> None:
     tags = run_tags(metas, ids)
     rows, maps = [], {}
     for i, rid in enumerate(ids, 1):
-        f, bic, summary = chirp_analysis(runs[rid], **snakemake.params.cfg)
+        with naming_run(rid, "chirp"):
+            f, bic, summary = chirp_analysis(runs[rid], **snakemake.params.cfg)
         rows.append({"run": rid, **tags.loc[rid], **summary})
         maps[rid] = (f, bic)
         log.info("[%d/%d] %s: mean bicoherence %.4f", i, len(ids), rid, summary["mean_bicoherence"])

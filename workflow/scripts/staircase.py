@@ -7,7 +7,7 @@ from spa.identification import load_params
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.openloop import best_settings, run_tags, runs_of_kind, staircase_analysis
 from spa.plots.openloop import fig6, fig7a, fig7b, thin, write_no_runs
-from spa.status import run_stage
+from spa.status import naming_run, run_stage
 
 log = get_logger("staircase", snakemake.log[0])
 
@@ -21,9 +21,10 @@ def main() -> None:
     tags = run_tags(metas, ids)
     rows, levels, steps, traces = [], [], [], []
     for i, rid in enumerate(ids, 1):
-        lv, st, summary = staircase_analysis(
-            runs[rid], metas[rid]["modulator"], params, **snakemake.params.cfg
-        )
+        with naming_run(rid, "staircase"):
+            lv, st, summary = staircase_analysis(
+                runs[rid], metas[rid]["modulator"], params, **snakemake.params.cfg
+            )
         tag = {"run": rid, **tags.loc[rid]}
         rows.append({**summary, **tag})
         levels.append(lv.assign(**tag))
