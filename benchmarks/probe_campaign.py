@@ -196,10 +196,9 @@ PROBES["csv_cr_only"] = _csv_probe(("t,p,valve\n" + _rows).replace("\n", "\r").e
 PROBES["csv_long_line"] = _csv_probe(b"t,p,valve\n" + b"1" * (50 << 20) + b"\n", "line 2")
 PROBES["csv_400_digits"] = _csv_probe(("t,p,valve\n0," + "9" * 400 + ",1\n").encode(), "row")
 PROBES["csv_utf16_no_bom"] = _csv_probe(("t,p,valve\n" + _rows).encode("utf-16-le"), "UTF-16")
+_ULP = repr(float(np.nextafter(1.0, 2.0)))
 PROBES["csv_u_one_ulp_over"] = _csv_probe(
-    (
-        "t,p,valve,u\n" + "".join(f"{k}e-3,0.1,1,{np.nextafter(1.0, 2.0)!r}\n" for k in range(9))
-    ).encode(),
+    ("t,p,valve,u\n" + "".join(f"{k}e-3,0.1,1,{_ULP}\n" for k in range(9))).encode(),
     "1.0000000000000002",
 )
 PROBES["csv_name_needs_escaping"] = _csv_probe(

@@ -593,3 +593,46 @@ def test_a_huge_dataset_yaml_is_refused_before_it_is_parsed(tmp_path: Path) -> N
     (folder / "dataset.yaml").write_text("name: big\ndescription: " + "x" * (2 << 20) + "\n")
     problems = validate_dataset(folder)
     assert any("a description is at most 1048576 bytes" in str(p) for p in problems), problems
+
+
+def _one_csv_run(tmp_path: Path, content: bytes) -> list[str]:
+    folder = tmp_path / "d"
+    folder.mkdir(parents=True)
+    (folder / "dataset.yaml").write_text(
+        "name: d\ndescription: x\norigin: bench\nrig: {}\n"
+        "runs:\n- {id: c, kind: charge, file: run.csv}\n"
+    )
+    (folder / "run.csv").write_bytes(content)
+    return [str(p) for p in validate_dataset(folder)]
+
+
+ROWS = "".join(f"{k * 0.001:.3f},{min(k, 500) * 0.001:.4f},1\n" for k in range(1000))
+
+
+def test_hostile_csv_gets_a_message_naming_the_cause(tmp_path: Path, monkeypatch) -> None:
+    cr = _one_csv_run(tmp_path / "cr", ("t,p,valve\n" + ROWS).replace("\n", "\r").encode())
+    assert any("lines end in CR alone" in m for m in cr), cr
+    utf16 = _one_csv_run(tmp_path / "u16", ("t,p,valve\n" + ROWS).encode("utf-16-le"))
+    assert any("UTF-16 text without a byte-order mark" in m for m in utf16), utf16
+    bom = _one_csv_run(tmp_path / "bom", ("t,p,valve\n" + ROWS).encode("utf-16"))
+    assert any("looks like UTF-16 text (it holds" in m for m in bom), bom
+    monkeypatch.setattr(delimited, "_MAX_LINE", 4096)
+    monkeypatch.setattr(delimited, "_CSV_BLOCK", 1024)
+    long = _one_csv_run(tmp_path / "long", b"t,p,valve\n0,0,1\n" + b"1" * 10_000 + b"\n")
+    assert any("line 3 is longer than 4096 bytes" in m for m in long), long
+    ulp = repr(float(np.nextafter(1.0, 2.0)))
+    rows = "".join(f"{k}e-3,0.1,1,{ulp}\n" for k in range(9))
+    over = _one_csv_run(tmp_path / "ulp", ("t,p,valve,u\n" + rows).encode())
+    assert any(f"u = {ulp} is outside [0, 1]" in m for m in over), over
+
+
+def test_time_in_seconds_declared_as_ms_is_flagged(tmp_path: Path) -> None:
+    folder = tmp_path / "d"
+    folder.mkdir()
+    (folder / "dataset.yaml").write_text(
+        "name: d\ndescription: x\norigin: bench\nrig: {}\nunits: {time: ms}\n"
+        "runs:\n- {id: c, kind: charge, file: run.csv}\n"
+    )
+    (folder / "run.csv").write_text("t,p,valve\n" + ROWS)  # 1 kHz in s, said to be ms
+    problems = [str(p) for p in validate_dataset(folder)]
+    assert any("implausibly high; is time really in ms?" in m for m in problems), problems
