@@ -114,6 +114,14 @@ class _CsvSource:
         offset, line = 0, 2
         try:
             for block in self._blocks():
+                try:
+                    block.decode("utf-8")
+                except UnicodeDecodeError as exc:
+                    bad = line + block.count(b"\n", 0, exc.start)
+                    raise _ReadError(
+                        f"line {bad} is not UTF-8 text (byte {block[exc.start]:#04x}); save the "
+                        "file as UTF-8 (in Excel: CSV UTF-8)"
+                    ) from None
                 invalid: list[Any] = []
                 table = self._parse(block, names, kind, True, invalid)
                 if invalid:  # parse again on one thread, which numbers the bad lines
