@@ -84,27 +84,29 @@ def segment_pressure(
             return params.k2 + (p0 - params.k2) * np.exp(-e / params.tau2)
         root = np.maximum(np.sqrt(p0) - e / (2.0 * params.c1), 0.0)
         return root * root
-    # Both closed forms at once: k2 + a*exp(-e/tau) + max(b - e/d, 0)**2, with the terms of
-    # the other state zero (tau = d = inf makes e/tau = 0, and a = b = k2 = 0 there): the same
-    # bits as above, sample by sample.
+    # Both closed forms at once: base + a*exp(-e/tau2) + max(b - e/(2*c1), 0)**2, with the
+    # terms of the other state zero (a = base = 0 while exhausting, b = 0 while charging): the
+    # same bits as above, sample by sample.
     level = np.asarray(on, dtype=bool)
     a = np.where(level, p0 - params.k2, 0.0)
     base = np.where(level, params.k2, 0.0)
     b = np.where(level, 0.0, np.sqrt(np.where(level, 0.0, p0)))
-    d = np.where(level, np.inf, 2.0 * params.c1)
-    tau = np.where(level, params.tau2, np.inf)
+
+    if repeats is None:
+        root = np.maximum(b - e / (2.0 * params.c1), 0.0)
+        return np.exp(-e / params.tau2) * a + base + root * root
 
     def per_sample(x: np.ndarray) -> np.ndarray:
         # Expanded just before use, so that each full-length temporary is freed at once
-        # (keeping five alive doubles the time in page faults).
-        return x if repeats is None else np.repeat(x, repeats)
+        # (keeping them all alive doubles the time in page faults).
+        return np.repeat(x, repeats)
 
     out = np.negative(e)
-    out /= per_sample(tau)
+    out /= params.tau2
     np.exp(out, out=out)
     out *= per_sample(a)
     out += per_sample(base)
-    root = e / per_sample(d)
+    root = e / (2.0 * params.c1)
     np.subtract(per_sample(b), root, out=root)
     np.maximum(root, 0.0, out=root)
     root *= root
