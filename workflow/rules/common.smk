@@ -77,5 +77,10 @@ def dataset_targets():
         "sine/fig8.png",
         "chirp/bicoherence.csv",
         "chirp/fig9.png",
+        "tuning/table1.csv",
+        "tuning/table2.csv",
+        "tuning/fig4.png",
+        "tuning/fig5.png",
+        "tuning/recommendation.yaml",
     ]
     return [f"{RESULTS}/{d}/{name}" for d in DATASETS for name in per_dataset]
