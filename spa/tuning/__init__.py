@@ -49,6 +49,7 @@ from spa.tuning.stage import (
     format_result,
     read_identified,
     tune,
+    tune_with_config,
 )
 from spa.tuning.tables import equilibrium_frame, optimum_table, sweep_frame, tuning_table
 
@@ -91,5 +92,6 @@ __all__ = [
     "sweep_frame",
     "sweep_grid",
     "tune",
+    "tune_with_config",
     "tuning_table",
 ]

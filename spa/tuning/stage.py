@@ -41,6 +41,7 @@ __all__ = [
     "format_result",
     "read_identified",
     "tune",
+    "tune_with_config",
 ]
 
 
@@ -273,6 +274,50 @@ def tune(
     }
     rec["sentence"] = recommendation_sentence(rec)
     return TuningResult(ident, table1, data, table2, curves, candidates, rec)
+
+
+def tune_with_config(
+    valve: ValveParams | Identified | str | Path | Mapping[str, Any],
+    config: Mapping[str, Any] | None = None,
+    **options: Any,
+) -> TuningResult:
+    """:func:`tune` with the sections of a pipeline configuration (``config/config.yaml``).
+
+    Parameters
+    ----------
+    valve
+        As :func:`tune`.
+    config : mapping, optional
+        A configuration: ``analytic.sweeps``, ``analytic.n_xi``, ``analytic.selected``,
+        ``tuning`` and ``linearity.staircase`` are used where present; the paper's grids and
+        the defaults of :class:`~spa.tuning.recommend.TuningOptions` otherwise.
+    **options
+        Entries of the ``tuning:`` section that override the configuration's (None values
+        are ignored), e.g. ``score="J_exact"``.
+
+    Returns
+    -------
+    TuningResult
+
+    Raises
+    ------
+    TuningError, ValueError
+        As :func:`tune`.
+    """
+    cfg = dict(config or {})
+    analytic = dict(cfg.get("analytic") or {})
+    tuning = {
+        **dict(cfg.get("tuning") or {}),
+        **{k: v for k, v in options.items() if v is not None},
+    }
+    return tune(
+        valve,
+        sweeps=analytic.get("sweeps"),
+        n_xi=analytic.get("n_xi", 100),
+        options=tuning,
+        selected=analytic.get("selected"),
+        linearity=dict(cfg.get("linearity") or {}).get("staircase"),
+    )
 
 
 #: Table 2 columns printed by :func:`format_result`.
