@@ -195,8 +195,12 @@ def dsm_runs(xi: float, max_denominator: int = 1000) -> tuple[int, ...]:
     >>> dsm_runs(0.5), dsm_runs(0.3), dsm_runs(0.75)
     ((1, 1), (1, 2, 1, 3, 1, 2), (3, 1))
     """
-    x = checks.fraction("xi", xi)
-    frac = Fraction(x).limit_denominator(checks.integer("max_denominator", max_denominator))
+    return _pattern(checks.fraction("xi", xi), checks.integer("max_denominator", max_denominator))
+
+
+@lru_cache(maxsize=4096)
+def _pattern(xi: float, max_denominator: int) -> tuple[int, ...]:
+    frac = Fraction(xi).limit_denominator(max_denominator)
     if frac.numerator == 0:
         return ()
     if frac.numerator == frac.denominator:

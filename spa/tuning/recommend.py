@@ -218,9 +218,11 @@ def setting_metrics(
     th = np.where(pulsing, t_h, 1.0)
     tl = np.where(pulsing, t_l, 1.0)
     hi, lo = (np.asarray(a) for a in pseudo_steady_state(th, tl, params))
+    # A pulse within rounding of its hold (IIPFM's t_on-long high at xi = 0 with the gain of
+    # Eq. 17) does not move the pressure.
     moving = np.minimum(
-        np.where(pulsing & (th > params.t_on), th, np.inf),
-        np.where(pulsing & (tl > params.t_off), tl, np.inf),
+        np.where(pulsing & (th > params.t_on * (1 + 1e-9)), th, np.inf),
+        np.where(pulsing & (tl > params.t_off * (1 + 1e-9)), tl, np.inf),
     ).min(axis=-1)
     if kind == "dsm":
         moving = np.where(np.isfinite(moving), np.asarray(grid["period"])[..., 0], np.inf)
