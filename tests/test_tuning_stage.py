@@ -183,8 +183,8 @@ def test_a_fallback_parameter_has_no_interval_and_is_recorded(tmp_path):
     ("change", "match"),
     [
         ({"k2": {"value": None}}, "no value for 'k2'"),
-        ({"tau2": {"value": -0.8}}, "tau2 must be a finite positive number"),
-        ({"c1": {"value": 0.0}}, "c1 must be a finite positive number"),
+        ({"tau2": {"value": -0.8}}, "ValveParams.tau2 must be"),
+        ({"c1": {"value": 0.0}}, "ValveParams.c1 must be"),
         ({"error": "no charge run"}, "the identification failed: no charge run"),
     ],
 )
@@ -257,7 +257,7 @@ VALVE = ["--c1", "0.5", "--k2", "1", "--tau2", "1", "--t-on", "0.003", "--t-off"
     [
         (["--c1", "0.5"], 2, "missing --k2 --tau2 --t-on --t-off"),
         (["params.yaml", "--c1", "0.5"], 2, "not both"),
-        (["--c1", "-0.5", *VALVE[2:]], 1, "c1 must be a finite positive number"),
+        (["--c1", "-0.5", *VALVE[2:]], 1, "ValveParams.c1 must be"),
         ([*VALVE[:-1], "2"], 1, "t_off = 2 s is not shorter"),
         (["missing/params.yaml"], 1, "did not run or failed"),
     ],
