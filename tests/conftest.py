@@ -97,6 +97,21 @@ def fake_results(tmp_path_factory):
         tables.append(d / "identification" / "params.yaml")
         for name in ("fig2a", "fig2b", "fig2c"):
             png(d / "identification" / f"{name}.png")
+        if full:  # the tuning stage's outputs (optional in the report)
+            tune = d / "tuning"
+            tune.mkdir()
+            (tune / "recommendation.yaml").write_text(
+                yaml.safe_dump(
+                    {
+                        "sentence": "Use IIPFM with t_l = 19.5 ms and G = 1.154 <best>.",
+                        "setting": {"type": "iipfm", "t_l": 0.0195, "gain": 1.154},
+                    }
+                )
+            )
+            csv(tune / "table2.csv", pd.DataFrame({"modulator": ["iipfm"], "J_min": [3.61]}))
+            csv(tune / "table1.csv", pd.DataFrame({"modulator": ["iipfm"], "dead_zone": [0.1]}))
+            for name in ("fig4", "fig5"):
+                png(tune / f"{name}.png")
         fit = pd.DataFrame(
             {
                 "run": ["charge", FAKE_NASTY],

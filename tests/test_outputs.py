@@ -74,8 +74,9 @@ def test_logs_as_the_workflow_writes_them():
     assert log_path("simulate_dataset", "r") == "r/logs/{dataset}/simulate.log"
     assert log_path("analytic_fig5", "r") == "r/logs/analytic/fig5.log"
     assert log_path("report", "r") == "r/logs/report.log"
-    with pytest.raises(KeyError, match="'tune'"):
-        log_path("tune", "r")
+    assert log_path("tune", "r", "sim") == "r/logs/sim/tune.log"
+    with pytest.raises(KeyError, match="'frobnicate'"):
+        log_path("frobnicate", "r")
 
 
 def test_report_sections_in_pipeline_order_key_item_first():
