@@ -111,6 +111,7 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
             "staircase/fig*.png",
             "sine/fig*.png",
             "chirp/fig*.png",
+            "tuning/fig*.png",
         ):
             figures += (results / d).glob(pattern)
         for name in (
@@ -119,6 +120,8 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
             "staircase/table3.csv",
             "sine/linearity.csv",
             "chirp/bicoherence.csv",
+            "tuning/table2.csv",
+            "tuning/table1.csv",
         ):
             tables += [results / d / name] if (results / d / name).is_file() else []
     return datasets, len(figures), len(tables)
