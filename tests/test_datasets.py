@@ -690,3 +690,9 @@ def test_any_csv_gives_a_valid_run_or_a_clean_dataset_error(
     assert {p for p in written if p.parts[0] == "raw"} == {
         Path("raw/ds/dataset.yaml"), Path("raw/ds/c1.csv")
     }
+
+
+def test_ns_time_stamps_beyond_2_53_are_named(tmp_path: Path) -> None:
+    rows = "".join(f"{1_700_000_000_000_000_000 + k * 1_000_000},0.1,1\n" for k in range(20))
+    problems = _one_csv_run(tmp_path, ("t,p,valve\n" + rows).encode())
+    assert any("is beyond 2^53" in m and "[run 'c', column 't', row 1" in m for m in problems)

@@ -164,6 +164,16 @@ class _RunCheck:
             if t.size:
                 if self.rows == 0:
                     self.t_first = float(t[0])
+                self._note(
+                    "t",
+                    "huge",
+                    np.abs(t) >= 2.0**53,
+                    offset,
+                    lambda i: (
+                        f"t = {t[i]:.17g} {tu} is beyond 2^53, where a float no longer holds "
+                        "every integer (time in ns since 1970?); subtract the start time"
+                    ),
+                )
                 before = np.nan if self.t_prev is None else self.t_prev
                 prev = np.concatenate(([before], t[:-1]))
                 step = np.where(np.isfinite(t) & np.isfinite(prev), t - prev, np.nan)
