@@ -146,7 +146,7 @@ def staircase_levels(
 
     Notes
     -----
-    MODEL.md section 5: the equilibrium pressure of a level is the mean over the settled part
+    docs/model.md section 5: the equilibrium pressure of a level is the mean over the settled part
     of the step; the staircase of the paper holds each of 11 levels (``xi = 0, 0.1, .., 1``)
     for 5 s.
 

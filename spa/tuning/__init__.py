@@ -1,4 +1,4 @@
-"""Tuning the modulators for linearity by optimisation (MODEL.md section 4, paper Section 5).
+"""Tuning the modulators for linearity by optimisation (docs/model.md section 4, paper Section 5).
 
 Each modulator has one principal parameter: ``f_w`` (Hz) for PWM, the pulse width ``t_h``
 (s) for IPFM, the pulse separation ``t_l`` (s) for IIPFM (with the dead-zone-free gain
