@@ -1,6 +1,7 @@
-"""Command line: ``spa validate``, ``spa ingest`` and ``spa example`` (see ``spa --help``).
+"""Command line: ``spa validate``, ``spa ingest``, ``spa example`` and ``spa tune``.
 
-Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error.
+Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error
+(see ``spa --help``).
 """
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import TextIO
 
 __all__ = ["main"]
@@ -68,6 +70,29 @@ def _example(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _tune(args: argparse.Namespace, out: TextIO) -> int:
+    import yaml
+
+    from spa.tuning import format_result, tune_with_config
+
+    given = {k: getattr(args, k) for k in ("c1", "k2", "tau2", "t_on", "t_off")}
+    missing = [f"--{k.replace('_', '-')}" for k, v in given.items() if v is None]
+    if (args.params is None and missing) or (args.params is not None and len(missing) < 5):
+        what = f"missing {' '.join(missing)}" if args.params is None else "not both"
+        print(
+            f"error: give PARAMS.yaml or all of --c1 --k2 --tau2 --t-on --t-off ({what})", file=out
+        )
+        return 2
+    try:
+        config = yaml.safe_load(Path(args.config).read_text()) if args.config else None
+        result = tune_with_config(args.params or given, config, score=args.score)
+    except (ValueError, OSError, yaml.YAMLError) as exc:
+        print(f"error: {exc}", file=out)
+        return 1
+    print(format_result(result, as_json=args.json), file=out)
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="spa",
@@ -99,6 +124,31 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("folder", metavar="FOLDER", help="destination, e.g. raw/example")
     p.add_argument("--seed", type=int, default=2025, help="noise seed (default 2025)")
     p.set_defaults(func=_example)
+    p = sub.add_parser(
+        "tune",
+        help="tune the four modulators for a valve and recommend a setting",
+        description="Sweep each modulator's parameter for the valve of PARAMS.yaml (an "
+        "identification's params.yaml, whose 95 %% intervals are propagated) or of the five "
+        "parameters given; print Table 2 and the recommended setting. Exit 1 for a valve "
+        "that cannot be tuned.",
+    )
+    p.add_argument("params", nargs="?", metavar="PARAMS.yaml", help="identified parameters")
+    for name, unit in (
+        ("c1", "s*bar^-0.5"),
+        ("k2", "bar"),
+        ("tau2", "s"),
+        ("t-on", "s"),
+        ("t-off", "s"),
+    ):
+        p.add_argument(f"--{name}", type=float, help=f"{name} in {unit}")
+    p.add_argument(
+        "--config",
+        metavar="CONFIG.yaml",
+        help="take sweeps, n_xi and the tuning: section from this configuration",
+    )
+    p.add_argument("--score", choices=["J", "J_exact"], help="cost minimised (default: J)")
+    p.add_argument("--json", action="store_true", help="print JSON for scripts")
+    p.set_defaults(func=_tune)
     return parser
 
 

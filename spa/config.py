@@ -56,11 +56,131 @@ def config_errors(config: Mapping[str, Any], schema: Mapping[str, Any]) -> list[
         elif err.validator == "enum":
             msg = f"{err.instance!r} is not one of {err.validator_value}"
         lines.append(f"{where}: {msg}")
-    return sorted(set(lines))
+    return sorted(set(lines)) or semantic_errors(config)
+
+
+def semantic_errors(config: Mapping[str, Any]) -> list[str]:
+    """What a schema cannot say: relations between values of a schema-valid configuration.
+
+    - each sweep of ``analytic.sweeps`` (and ``tuning.sweeps`` when present) runs upwards:
+      ``start < stop``;
+    - a simulated dataset's logging period ``1/sensor.fs`` is a whole number of controller
+      steps ``controller_dt`` (samples fall on the modulator's clock);
+    - its modulators are valid for that controller (:meth:`Modulator.from_mapping` and the
+      step checks of :func:`spa.model.modulators.check_settings`).
+
+    Returns
+    -------
+    list of str
+        ``"<key>: <problem>"`` lines, empty when the configuration is consistent.
+    """
+    from spa.model.modulators import Modulator, check_settings
+
+    lines = []
+    for section in ("analytic", "tuning"):
+        sweeps = (config.get(section) or {}).get("sweeps") or {}
+        for kind, grid in sweeps.items():
+            if isinstance(grid, Mapping) and {"start", "stop"} <= set(grid):
+                if not grid["start"] < grid["stop"]:
+                    lines.append(
+                        f"{section}.sweeps.{kind}: start {grid['start']} must be below stop "
+                        f"{grid['stop']}"
+                    )
+    for name, sim in (config.get("simulated") or {}).items():
+        dt = float(sim["controller_dt"])
+        fs = float(sim["sensor"]["fs"])
+        ratio = 1.0 / (fs * dt)
+        if abs(ratio - round(ratio)) > 1e-9 * max(ratio, 1.0) or round(ratio) < 1:
+            lines.append(
+                f"simulated.{name}.sensor.fs: the logging period 1/fs = {1 / fs:g} s is not a "
+                f"whole number of controller steps controller_dt = {dt:g} s"
+            )
+        for i, mod in enumerate(sim.get("modulators") or []):
+            try:
+                setting = Modulator.from_mapping(mod)
+                check_settings(setting.kind, dt, **setting.settings)
+            except ValueError as exc:
+                lines.append(f"simulated.{name}.modulators[{i}]: {exc}")
+    return lines
+
+
+def _resolve(schema: Mapping[str, Any], root: Mapping[str, Any]) -> Mapping[str, Any]:
+    ref = schema.get("$ref")
+    if isinstance(ref, str) and ref.startswith("#/"):
+        node: Any = root
+        for part in ref[2:].split("/"):
+            node = node[part]
+        return _resolve(node, root)
+    return schema
+
+
+def _number(text: str) -> int | float | None:
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        try:
+            return float(text)  # YAML 1.1 misses 1e-3
+        except ValueError:
+            return None
+    return value
+
+
+def coerce_numbers(config: Any, schema: Mapping[str, Any], root: Mapping[str, Any] | None = None):
+    """Turn strings into numbers where the schema wants a number, in place.
+
+    ``snakemake --config 'analytic={n_xi: 50}'`` hands nested values over as strings
+    (``'50'``); a user means the number. Only strings that read as a number, at a key whose
+    schema type is ``number`` or ``integer``, are changed; anything else is left for the
+    schema to report.
+
+    Examples
+    --------
+    >>> cfg = {"a": {"n": "50", "x": "1e-3", "name": "50"}}
+    >>> schema = {"properties": {"a": {"properties": {
+    ...     "n": {"type": "integer"}, "x": {"type": "number"}, "name": {"type": "string"}}}}}
+    >>> coerce_numbers(cfg, schema)
+    {'a': {'n': 50, 'x': 0.001, 'name': '50'}}
+    """
+    root = schema if root is None else root
+    node = _resolve(schema, root)
+    if isinstance(config, dict):
+        props = dict(node.get("properties", {}))
+        for branch in node.get("allOf", []):  # if/then variants (a modulator by its type)
+            then = _resolve(branch.get("then", branch), root)
+            for key, sub in then.get("properties", {}).items():
+                if isinstance(sub, Mapping):
+                    props.setdefault(key, sub)
+        extra = node.get("additionalProperties")
+        for key, value in config.items():
+            sub = props.get(key, extra if isinstance(extra, Mapping) else None)
+            if sub is None:
+                continue
+            sub = _resolve(sub, root)
+            if isinstance(value, str) and sub.get("type") in ("number", "integer"):
+                number = _number(value)
+                if number is not None and (sub["type"] == "number" or float(number).is_integer()):
+                    config[key] = int(number) if sub["type"] == "integer" else number
+            else:
+                coerce_numbers(value, sub, root)
+    elif isinstance(config, list) and isinstance(node.get("items"), Mapping):
+        for i, value in enumerate(config):
+            sub = _resolve(node["items"], root)
+            if isinstance(value, str) and sub.get("type") in ("number", "integer"):
+                number = _number(value)
+                if number is not None:
+                    config[i] = number
+            else:
+                coerce_numbers(value, sub, root)
+    return config
 
 
 def validate_config(config: Mapping[str, Any], schema_path: str | Path) -> None:
     """Check ``config`` against the YAML JSON-schema at ``schema_path``.
+
+    Numbers given as strings (``--config`` on the command line) are first read as numbers
+    where the schema wants one (:func:`coerce_numbers`), in place.
 
     Raises
     ------
@@ -68,6 +188,7 @@ def validate_config(config: Mapping[str, Any], schema_path: str | Path) -> None:
         Listing every problem, each naming its key and what is allowed.
     """
     schema = yaml.safe_load(Path(schema_path).read_text())
+    coerce_numbers(config, schema)
     errors = config_errors(config, schema)
     if errors:
         raise ConfigError(

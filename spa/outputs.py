@@ -35,6 +35,7 @@ __all__ = [
     "FIGURES",
     "PAGE",
     "PARAMS",
+    "RECOMMENDATION",
     "RUNS",
     "STAGES",
     "TABLE",
@@ -62,9 +63,11 @@ RUNS: Final = "runs"
 """A folder of canonical run tables (``<run id>.parquet``)."""
 PAGE: Final = "page"
 """The HTML report itself."""
+RECOMMENDATION: Final = "recommendation"
+"""The tuning stage's ``recommendation.yaml``, shown as its one-sentence summary."""
 
-Kind = Literal["table", "figure", "data", "params", "figures", "runs", "page"]
-_KINDS = (TABLE, FIGURE, DATA, PARAMS, FIGURES, RUNS, PAGE)
+Kind = Literal["table", "figure", "data", "params", "figures", "runs", "page", "recommendation"]
+_KINDS = (TABLE, FIGURE, DATA, PARAMS, FIGURES, RUNS, PAGE, RECOMMENDATION)
 
 
 @dataclass(frozen=True)
@@ -262,6 +265,59 @@ STAGES: tuple[Stage, ...] = (
             "The pulse run: command, measured and model pressure, with a zoom on one edge.",
         ),
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
+    ),
+    _per_dataset(
+        "tune",
+        Output(
+            "recommendation",
+            "tuning/recommendation.yaml",
+            RECOMMENDATION,
+            "Recommended modulator for this valve",
+            "The modulator setting that minimises the linearity cost for this dataset's "
+            "identified valve within the tuning: constraints, as a dataset.yaml modulator entry, "
+            "with its predicted dead-zone, saturation, chattering and switching rate; the full "
+            "record, with the best setting of each other modulator, is tuning/recommendation.yaml.",
+            required=False,
+        ),
+        Output(
+            "table2",
+            "tuning/table2.csv",
+            TABLE,
+            "Table 2 for this valve",
+            "Each modulator's optimum of J for this valve, J there, Eq. 29's t_l*, J at the "
+            "paper's setting, J_exact from the exact periodic steady state, and the range over "
+            "the corners of the identification's 95 % intervals.",
+            required=False,
+        ),
+        Output(
+            "fig4",
+            "tuning/fig4.png",
+            FIGURE,
+            "Fig. 4 for this valve: linearity cost",
+            "Linearity cost J (solid) and J_exact from the exact periodic steady state (dashed) "
+            "against each modulator's parameter, for this dataset's identified valve.",
+            required=False,
+        ),
+        Output("fig4_csv", "tuning/fig4.csv", DATA),
+        Output(
+            "table1",
+            "tuning/table1.csv",
+            TABLE,
+            "Table 1 for this valve: dead-zone and saturation",
+            "Dead-zone and saturation with this valve's parameters at the paper's settings, at "
+            "each optimum and at the recommendation.",
+            required=False,
+        ),
+        Output(
+            "fig5",
+            "tuning/fig5.png",
+            FIGURE,
+            "Fig. 5 for this valve: equilibrium and time constant",
+            "Averaged equilibrium pressure, exact cycle mean and time constant against the input "
+            "fraction at each modulator's optimum.",
+            required=False,
+        ),
+        Output("fig5_csv", "tuning/fig5.csv", DATA),
     ),
     _per_dataset(
         "validate_model",

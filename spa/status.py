@@ -19,14 +19,17 @@ import json
 import logging
 import shutil
 import traceback
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 __all__ = [
     "STATUS_DIR",
+    "RunError",
     "dataset_failures",
     "failure_summary",
+    "naming_run",
     "read_status",
     "run_stage",
     "write_placeholder",
@@ -43,6 +46,30 @@ _EMPTY_PNG = bytes.fromhex(
     "89504e470d0a1a0a0000000d49484452000000010000000108060000001f15c489"
     "0000000d49444154789c6360000002000001e221bc330000000049454e44ae426082"
 )
+
+
+class RunError(ValueError):
+    """An analysis of one run failed; the message names the run and its kind."""
+
+
+@contextmanager
+def naming_run(run: str, kind: str) -> Iterator[None]:
+    """Re-raise an error of the analysis of one run with the run named.
+
+    Examples
+    --------
+    >>> with naming_run("s1", "staircase"):
+    ...     raise ValueError("xi must be strictly increasing")
+    Traceback (most recent call last):
+    ...
+    spa.status.RunError: run 's1' (staircase): ValueError: xi must be strictly increasing
+    """
+    try:
+        yield
+    except (ValueError, ArithmeticError, LookupError, TypeError) as exc:
+        if isinstance(exc, RunError):
+            raise
+        raise RunError(f"run {run!r} ({kind}): {type(exc).__name__}: {exc}") from exc
 
 
 def write_status(

@@ -97,6 +97,21 @@ def fake_results(tmp_path_factory):
         tables.append(d / "identification" / "params.yaml")
         for name in ("fig2a", "fig2b", "fig2c"):
             png(d / "identification" / f"{name}.png")
+        if full:  # the tuning stage's outputs (optional in the report)
+            tune = d / "tuning"
+            tune.mkdir()
+            (tune / "recommendation.yaml").write_text(
+                yaml.safe_dump(
+                    {
+                        "sentence": "Use IIPFM with t_l = 19.5 ms and G = 1.154 <best>.",
+                        "setting": {"type": "iipfm", "t_l": 0.0195, "gain": 1.154},
+                    }
+                )
+            )
+            csv(tune / "table2.csv", pd.DataFrame({"modulator": ["iipfm"], "J_min": [3.61]}))
+            csv(tune / "table1.csv", pd.DataFrame({"modulator": ["iipfm"], "dead_zone": [0.1]}))
+            for name in ("fig4", "fig5"):
+                png(tune / f"{name}.png")
         fit = pd.DataFrame(
             {
                 "run": ["charge", FAKE_NASTY],
@@ -136,8 +151,30 @@ def fake_results(tmp_path_factory):
     )
 
 
+def isolated_raw(base: Path) -> Path:
+    """A config file pointing datasets.raw_dir at a copy of raw/example under ``base``.
+
+    Workflow tests never read the repository's own raw/: a user's datasets there must not
+    change what the tests see (or make them slow).
+    """
+    import shutil
+
+    raw = base / "raw"
+    if not (raw / "example").exists():
+        shutil.copytree(ROOT / "raw" / "example", raw / "example")
+    cfg = base / "isolated.yaml"
+    cfg.write_text(f"datasets:\n  raw_dir: {raw}\n  include: []\n  exclude: []\n")
+    return cfg
+
+
 @pytest.fixture(scope="session")
-def small_run(tmp_path_factory):
+def isolated_config(tmp_path_factory) -> Path:
+    """:func:`isolated_raw` once a session."""
+    return isolated_raw(tmp_path_factory.mktemp("isolated"))
+
+
+@pytest.fixture(scope="session")
+def small_run(tmp_path_factory, isolated_config):
     """Results folder of `snakemake reproduce-all` with config/small.yaml, run once a session."""
     import subprocess
 
@@ -150,6 +187,7 @@ def small_run(tmp_path_factory):
             "reproduce-all",
             "--configfile",
             "config/small.yaml",
+            str(isolated_config),
             "--config",
             f"results={out}",
             "-c2",

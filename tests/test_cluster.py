@@ -82,7 +82,7 @@ def assert_every_job_went_through_submit(log: str, cluster_dir: Path) -> dict[st
     return {submitted[j]: job for j, job in jobs.items()}
 
 
-def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path):
+def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path, isolated_config):
     # A dry run uses Snakemake's dry-run executor: the SLURM plugin only checks its settings
     # and calls no sbatch/sinfo/sacct, so this works on a machine without SLURM. (A real run
     # there fails at the first submission: the plugin asks sacct for a default account.)
@@ -93,6 +93,7 @@ def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path):
         "--dry-run",
         "--configfile",
         "config/small.yaml",
+        str(isolated_config),
         "--config",
         f"results={tmp_path}",
     )
@@ -109,7 +110,7 @@ def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def cluster_run(tmp_path_factory):
+def cluster_run(tmp_path_factory, isolated_config):
     """A real run of the small config through profiles/local-cluster.
 
     Three targets, one per stage (analytic, simulated dataset, bench dataset), rather than
@@ -129,6 +130,7 @@ def cluster_run(tmp_path_factory):
         "profiles/local-cluster",
         "--configfile",
         "config/small.yaml",
+        str(isolated_config),
         "--config",
         f"results={out}",
         # A non-default size for one rule, to show the values are the job's, not defaults.

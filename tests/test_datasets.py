@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -593,3 +594,99 @@ def test_a_huge_dataset_yaml_is_refused_before_it_is_parsed(tmp_path: Path) -> N
     (folder / "dataset.yaml").write_text("name: big\ndescription: " + "x" * (2 << 20) + "\n")
     problems = validate_dataset(folder)
     assert any("a description is at most 1048576 bytes" in str(p) for p in problems), problems
+
+
+def _one_csv_run(tmp_path: Path, content: bytes) -> list[str]:
+    folder = tmp_path / "d"
+    folder.mkdir(parents=True)
+    (folder / "dataset.yaml").write_text(
+        "name: d\ndescription: x\norigin: bench\nrig: {}\n"
+        "runs:\n- {id: c, kind: charge, file: run.csv}\n"
+    )
+    (folder / "run.csv").write_bytes(content)
+    return [str(p) for p in validate_dataset(folder)]
+
+
+ROWS = "".join(f"{k * 0.001:.3f},{min(k, 500) * 0.001:.4f},1\n" for k in range(1000))
+
+
+def test_hostile_csv_gets_a_message_naming_the_cause(tmp_path: Path, monkeypatch) -> None:
+    cr = _one_csv_run(tmp_path / "cr", ("t,p,valve\n" + ROWS).replace("\n", "\r").encode())
+    assert any("lines end in CR alone" in m for m in cr), cr
+    utf16 = _one_csv_run(tmp_path / "u16", ("t,p,valve\n" + ROWS).encode("utf-16-le"))
+    assert any("UTF-16 text without a byte-order mark" in m for m in utf16), utf16
+    bom = _one_csv_run(tmp_path / "bom", ("t,p,valve\n" + ROWS).encode("utf-16"))
+    assert any("looks like UTF-16 text (it holds" in m for m in bom), bom
+    monkeypatch.setattr(delimited, "_MAX_LINE", 4096)
+    monkeypatch.setattr(delimited, "_CSV_BLOCK", 1024)
+    long = _one_csv_run(tmp_path / "long", b"t,p,valve\n0,0,1\n" + b"1" * 10_000 + b"\n")
+    assert any("line 3 is longer than 4096 bytes" in m for m in long), long
+    ulp = repr(float(np.nextafter(1.0, 2.0)))
+    rows = "".join(f"{k}e-3,0.1,1,{ulp}\n" for k in range(9))
+    over = _one_csv_run(tmp_path / "ulp", ("t,p,valve,u\n" + rows).encode())
+    assert any(f"u = {ulp} is outside [0, 1]" in m for m in over), over
+
+
+def test_time_in_seconds_declared_as_ms_is_flagged(tmp_path: Path) -> None:
+    folder = tmp_path / "d"
+    folder.mkdir()
+    (folder / "dataset.yaml").write_text(
+        "name: d\ndescription: x\norigin: bench\nrig: {}\nunits: {time: ms}\n"
+        "runs:\n- {id: c, kind: charge, file: run.csv}\n"
+    )
+    (folder / "run.csv").write_text("t,p,valve\n" + ROWS)  # 1 kHz in s, said to be ms
+    problems = [str(p) for p in validate_dataset(folder)]
+    assert any("implausibly high; is time really in ms?" in m for m in problems), problems
+
+
+_CSV_LINES = st.lists(
+    st.one_of(
+        st.just("t,p,valve"),
+        st.builds(
+            lambda t, p, v: f"{t},{p},{v}",
+            st.one_of(st.floats(allow_nan=True), st.integers(-(2**70), 2**70), st.text(max_size=4)),
+            st.one_of(st.floats(-50, 2500), st.text(max_size=3)),
+            st.sampled_from(["0", "1", "2", "", "x", "1.0"]),
+        ),
+        st.text(max_size=30),
+    ),
+    max_size=25,
+)
+
+
+@settings(max_examples=120, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(lines=_CSV_LINES, ending=st.sampled_from(["\n", "\r\n", "\r"]),
+       encoding=st.sampled_from(["utf-8", "utf-8-sig", "utf-16", "latin-1"]))
+def test_any_csv_gives_a_valid_run_or_a_clean_dataset_error(
+    tmp_path: Path, lines: list[str], ending: str, encoding: str
+) -> None:
+    """Fuzz: whatever a run's file holds, validation returns problems and ingest either writes
+    the run tables or raises DatasetError; nothing is ever written into the dataset folder or
+    outside the output folder."""
+    folder = tmp_path / "raw" / "ds"
+    out = tmp_path / "results" / "runs"
+    shutil.rmtree(tmp_path / "raw", ignore_errors=True)
+    shutil.rmtree(tmp_path / "results", ignore_errors=True)
+    folder.mkdir(parents=True)
+    (folder / "dataset.yaml").write_text(
+        "name: ds\ndescription: x\norigin: bench\nrig: {}\n"
+        "runs:\n- {id: c, kind: charge, file: c1.csv}\n"
+    )
+    (folder / "c1.csv").write_bytes(ending.join(["t,p,valve", *lines]).encode(encoding, "replace"))
+    before = {p: p.read_bytes() for p in folder.iterdir()}
+    problems = validate_dataset(folder)
+    assert all(p.level in ("error", "warning") for p in problems)
+    try:
+        paths = ingest_dataset(folder, out)
+    except DatasetError as exc:
+        assert any(p.is_error for p in exc.problems)
+    else:
+        assert not any(p.is_error for p in problems)
+        assert [p.name for p in paths] == ["c.parquet"]
+    assert {p: p.read_bytes() for p in folder.iterdir()} == before
+    written = {p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file()}
+    assert all(p.parts[0] in ("raw", "results") for p in written)
+    assert {p for p in written if p.parts[0] == "raw"} == {
+        Path("raw/ds/dataset.yaml"), Path("raw/ds/c1.csv")
+    }

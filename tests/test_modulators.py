@@ -229,3 +229,12 @@ def test_settings_out_of_physical_range_are_refused_with_the_range():
     for bad in (True, "20", None):
         with pytest.raises((TypeError, ValueError), match="f_w"):
             check_settings("pwm", f_w=bad)
+
+
+def test_a_mapping_cannot_smuggle_check_settings_arguments():
+    from spa import Modulator
+
+    with pytest.raises(ValueError, match=r"pwm: unknown setting\(s\) \['dt'\]"):
+        Modulator.from_mapping({"type": "pwm", "f_w": 20, "dt": 0.001})
+    with pytest.raises(ValueError, match=r"unknown setting\(s\) \['kind'\]"):
+        Modulator.from_mapping({"type": "pwm", "f_w": 20, "kind": "x"})

@@ -74,8 +74,9 @@ def test_logs_as_the_workflow_writes_them():
     assert log_path("simulate_dataset", "r") == "r/logs/{dataset}/simulate.log"
     assert log_path("analytic_fig5", "r") == "r/logs/analytic/fig5.log"
     assert log_path("report", "r") == "r/logs/report.log"
-    with pytest.raises(KeyError, match="'tune'"):
-        log_path("tune", "r")
+    assert log_path("tune", "r", "sim") == "r/logs/sim/tune.log"
+    with pytest.raises(KeyError, match="'frobnicate'"):
+        log_path("frobnicate", "r")
 
 
 def test_report_sections_in_pipeline_order_key_item_first():
@@ -153,3 +154,43 @@ def test_a_name_both_simulated_and_bench_is_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"\['sim'\] are both simulated.*datasets.exclude"):
         discover_datasets(_config(raw))
     assert discover_datasets(_config(raw, exclude=["sim"])) == (["sim"], ["a"])
+
+
+def _schema():
+    import yaml
+
+    return yaml.safe_load((ROOT / "workflow" / "schemas" / "config.schema.yaml").read_text())
+
+
+def _full_config():
+    import yaml
+
+    return yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+
+
+def test_config_relations_the_schema_cannot_state_are_checked():
+    from spa.config import config_errors
+
+    cfg = _full_config()
+    assert config_errors(cfg, _schema()) == []
+    cfg["analytic"]["sweeps"]["pwm"].update(start=80.0, stop=1.0)
+    cfg["simulated"]["sim"]["controller_dt"] = 0.003
+    cfg["simulated"]["sim"]["modulators"][0] = {"type": "pwm", "f_w": 900.0}
+    errors = "\n".join(config_errors(cfg, _schema()))
+    assert "analytic.sweeps.pwm: start 80.0 must be below stop 1.0" in errors
+    assert "simulated.sim.sensor.fs: the logging period 1/fs = 0.001 s is not a whole" in errors
+    assert "simulated.sim.modulators[0]: pwm: f_w = 900 Hz is above half" in errors
+
+
+def test_numbers_given_as_strings_on_the_command_line_are_numbers():
+    """`--config 'analytic={n_xi: 30}'` hands Snakemake's config '30', a string."""
+    from spa.config import coerce_numbers, config_errors
+
+    cfg = _full_config()
+    cfg["analytic"]["n_xi"] = "30"
+    cfg["simulated"]["sim"]["modulators"][0] = {"type": "pwm", "f_w": "50"}
+    cfg["seed"] = "abc"
+    coerce_numbers(cfg, _schema())
+    assert cfg["analytic"]["n_xi"] == 30
+    assert cfg["simulated"]["sim"]["modulators"][0]["f_w"] == 50
+    assert config_errors(cfg, _schema()) == ["seed: 'abc' is not of type 'integer'"]

@@ -15,17 +15,25 @@ from spa import ValveParams
 from spa.model.averaging import equilibrium
 from spa.plots.analytic import plot_cost_sweeps, plot_equilibrium
 from spa.tuning import (
+    PAPER_SETTING,
     PAPER_TABLE2,
+    check_sweeps,
+    corners,
     equilibrium_frame,
+    exact_cost,
     feasible,
     iipfm_optimal_t_l,
     linearity_cost,
     modulator_settings,
     optimum,
     optimum_table,
+    propagate,
+    read_intervals,
     sweep,
     sweep_frame,
     sweep_grid,
+    tune,
+    tuning_table,
 )
 
 P = ValveParams()
@@ -114,14 +122,6 @@ def test_vectorised_cost_equals_pointwise_cost(kind, values):
     one_by_one = [linearity_cost(kind, float(x), P, n_xi=37) for x in v]
     np.testing.assert_allclose(together, one_by_one, rtol=1e-13)
     assert np.all(together >= 0)
-
-
-def test_full_sweeps_are_fast():
-    import time
-
-    start = time.perf_counter()
-    sweep_frame(SWEEPS, P, n_xi=100)
-    assert time.perf_counter() - start < 1.0  # ~3750 grid points x 100 xi
 
 
 # ---- Table 2 and Eq. 29 -----------------------------------------------------------------
@@ -255,3 +255,176 @@ def test_figures_draw_the_tidy_tables():
     assert len(fig.axes) == 4  # two rows x two modulators
     with pytest.raises(ValueError, match="J"):
         plot_cost_sweeps(sweeps.drop(columns="J"))
+
+
+# ---- issue 14: a valve's own Table 2 ----------------------------------------------------
+
+EXAMPLE = ValveParams(c1=0.45, k2=1.05, tau2=0.70, t_on=0.004, t_off=0.009)
+
+
+def eq25_by_hand(kind: str, value: float, v: ValveParams, n: int = 100) -> float:
+    """Eq. 25 written out from docs/model.md sections 3-4, one xi at a time (independent code)."""
+    total = 0.0
+    for i in range(n):
+        x = i / (n - 1)
+        if kind == "pwm":
+            a1, a2 = (1 - x) - v.t_off * value, x - v.t_on * value
+        elif kind == "ipfm":
+            a1, a2 = 1 - (1 + v.t_off / value) * x, (1 - v.t_on / value) * x
+        elif kind == "iipfm":
+            g = 1 + v.t_on / value
+            a1 = (1 / g) * (1 - v.t_off / value) * (1 - x)
+            a2 = 1 - (1 / g) * (1 + v.t_on / value) * (1 - x)
+        else:
+            f = 1 / value
+            a1 = 1 - (1 + 2 * f * v.t_off) * x + 2 * f * v.t_off * x**2
+            a2 = (1 - 2 * f * v.t_on) * x + 2 * f * v.t_on * x**2
+        if a2 <= 1e-15:
+            p_eq = 0.0
+        elif a1 <= 0:
+            p_eq = v.k2
+        else:
+            b = v.tau2**2 * a1**2 / (2 * v.c1**2 * a2**2)
+            p_eq = v.k2 + b * (1 - math.sqrt(1 + 4 * v.k2 * v.c1**2 * a2**2 / (v.tau2**2 * a1**2)))
+        total += abs(p_eq - v.k2 * x)
+    return total
+
+
+def optimum_by_hand(kind: str, v: ValveParams) -> tuple[float, float]:
+    g = SWEEPS[kind]
+    count = int((g["stop"] - g["start"]) / g["step"] + 1e-9) + 1
+    best = (math.inf, math.nan)
+    for k in range(count):
+        value = round(g["start"] + k * g["step"], 12)
+        if (kind == "ipfm" and value <= v.t_on) or (kind in ("iipfm", "dsm") and value <= v.t_off):
+            continue
+        j = eq25_by_hand(kind, value, v)
+        if j < best[0]:
+            best = (j, value)
+    return best[1], best[0]
+
+
+@pytest.fixture(scope="module")
+def example_table2() -> pd.DataFrame:
+    return tuning_table(SWEEPS, EXAMPLE, n_xi=100).set_index("modulator")
+
+
+@pytest.mark.parametrize("kind", ["pwm", "ipfm", "iipfm", "dsm"])
+def test_table2_of_a_non_nominal_valve_agrees_with_eq25_by_hand(kind, example_table2):
+    """Issue 14, done when: the table agrees with an independent evaluation of Eq. 25."""
+    value, j_min = optimum_by_hand(kind, EXAMPLE)
+    row = example_table2.loc[kind]
+    scale = 1.0 if kind == "pwm" else 1e3
+    assert row["optimum"] == pytest.approx(value * scale, abs=1e-9)
+    assert row["J_min"] == pytest.approx(j_min, rel=1e-9)
+    paper = PAPER_SETTING[kind]
+    assert row["J_paper_setting"] == pytest.approx(eq25_by_hand(kind, paper, EXAMPLE), rel=1e-9)
+
+
+def test_recommendation_of_a_non_nominal_valve_is_the_minimum_of_eq25_by_hand():
+    unconstrained = {"max_switching_rate": None, "max_chattering": None, "min_pulse_width": None}
+    by_hand = {k: optimum_by_hand(k, EXAMPLE) for k in ("pwm", "ipfm", "iipfm", "dsm")}
+    kind = min(by_hand, key=lambda k: by_hand[k][1])
+    for options in (unconstrained, {}):  # the defaults do not bind at this optimum
+        rec = tune(EXAMPLE, sweeps=SWEEPS, options=options).recommendation
+        best = rec["recommended"]
+        assert best["modulator"] == kind == "iipfm"
+        assert best["setting"]["t_l"] == pytest.approx(by_hand[kind][0], abs=1e-12)
+        assert best["setting"]["gain"] == pytest.approx(1 + EXAMPLE.t_on / by_hand[kind][0])
+        assert best["J"] == pytest.approx(by_hand[kind][1], rel=1e-9)
+        runners = {r["modulator"]: r for r in rec["runners_up"]}
+        assert set(runners) == {"pwm", "ipfm", "dsm"}
+        if not options:
+            continue
+        for k, r in runners.items():  # unconstrained, each runner-up is its own optimum
+            assert r["J"] == pytest.approx(by_hand[k][1], rel=1e-9)
+
+
+def test_nominal_table2_done_when(table2):
+    """Issue 14: IIPFM optimum ~19.5 ms with G ~1.154, Eq. 29 19.3 ms, J at the paper's 20 Hz.
+
+    The paper prints J = 10.5 for PWM at its 20 Hz: we get 10.94 there (4 % above; the
+    sweep minimum is 10.92 at 18.6 Hz). For IIPFM at 20 ms it prints 4.8, we get 3.69.
+    """
+    t2 = tuning_table(SWEEPS, P, n_xi=100).set_index("modulator")
+    assert t2.loc["iipfm", "optimum"] == 19.5
+    assert t2.loc["iipfm", "gain"] == pytest.approx(1.154, abs=5e-4)
+    assert t2.loc["iipfm", "analytic_optimum"] == pytest.approx(19.3, abs=0.05)
+    assert t2.loc["pwm", "J_paper_setting"] == pytest.approx(linearity_cost("pwm", 20.0, P))
+    assert t2.loc["pwm", "J_paper_setting"] == pytest.approx(10.5, rel=0.05)
+    assert t2.loc["iipfm", "J_paper_setting"] == pytest.approx(3.69, abs=0.01)
+    # the analytic stage's Table 2 and this one agree where they overlap
+    for kind in ("pwm", "ipfm", "iipfm", "dsm"):
+        assert t2.loc[kind, "optimum"] == table2.loc[kind, "optimum"]
+        assert t2.loc[kind, "J_min"] == table2.loc[kind, "J_min"]
+    assert (t2["interval_method"] == "none").all()
+    assert (t2["optimum_lo"] == t2["optimum"]).all() and (t2["J_min_hi"] == t2["J_min"]).all()
+
+
+def test_j_exact_column_is_the_exact_cost_at_the_optimum(example_table2):
+    for kind, row in example_table2.iterrows():
+        value = row["optimum"] * (1.0 if kind == "pwm" else 1e-3)
+        assert row["J_exact"] == pytest.approx(float(exact_cost(kind, value, EXAMPLE)), rel=1e-12)
+        assert row["J_exact_min"] <= row["J_exact"]
+
+
+def test_j_exact_equals_j_under_fast_switching():
+    """Tiny delays and short periods: the orbit is its average and J_exact -> J."""
+    fast = ValveParams(t_on=1e-6, t_off=1e-6)
+    for kind, value in [("pwm", 2000.0), ("ipfm", 5e-4), ("iipfm", 5e-4), ("dsm", 5e-4)]:
+        j, j_exact = linearity_cost(kind, value, fast), exact_cost(kind, value, fast)
+        assert j_exact == pytest.approx(j, rel=2e-3), kind
+
+
+def test_intervals_bracket_the_point_and_widen_with_the_box():
+    narrow = {"c1": (0.448, 0.452), "t_on": (0.0039, 0.0041)}
+    wide = {"c1": (0.40, 0.50), "t_on": (0.003, 0.005), "t_off": (0.008, 0.010)}
+    small = {k: {**g, "step": g["step"] * 5} for k, g in SWEEPS.items()}
+    a = tuning_table(small, EXAMPLE, 50, narrow).set_index("modulator")
+    b = tuning_table(small, EXAMPLE, 50, wide).set_index("modulator")
+    for col in ("optimum", "J_min", "J_exact"):
+        assert (a[f"{col}_lo"] <= a[col]).all() and (a[col] <= a[f"{col}_hi"]).all()
+        assert (b[f"{col}_lo"] <= a[f"{col}_lo"]).all() and (a[f"{col}_hi"] <= b[f"{col}_hi"]).all()
+    assert (b["J_min_hi"] - b["J_min_lo"] > 0).all()
+    assert (a["interval_method"] == "corners").all()
+
+
+def test_corners_and_propagate():
+    box = {"c1": (0.5, 0.6), "k2": (0.8, 0.9), "t_off": (0.01, 0.01)}
+    valves = corners(P, box)
+    assert len(valves) == 4  # t_off's interval has one end
+    assert {(v.c1, v.k2) for v in valves} == {(0.5, 0.8), (0.5, 0.9), (0.6, 0.8), (0.6, 0.9)}
+    lo, hi = propagate(lambda v: [v.c1 * v.k2, -v.c1], P, box)
+    np.testing.assert_allclose(lo, [0.4, -0.6])
+    np.testing.assert_allclose(hi, [0.54, -0.5])
+    assert corners(P, None) == [] and corners(ValveParams(), {"t_on": (-1e-3, 0.004)})[0].t_on > 0
+    with pytest.raises(ValueError, match="unknown parameter"):
+        corners(P, {"c2": (1.0, 2.0)})
+    with pytest.raises(ValueError, match="k2: 95 % interval"):
+        read_intervals({"k2": {"value": 0.8, "lo": 0.9, "hi": 0.7}})
+
+
+@pytest.mark.parametrize(
+    ("params", "name"),
+    [
+        (ValveParams(t_on=1.5), "t_on = 1.5 s"),
+        (ValveParams(t_off=1.2), "t_off = 1.2 s"),
+        (ValveParams(t_on=0.6, t_off=0.5), "t_on \\+ t_off"),
+    ],
+)
+def test_delays_longer_than_the_sweep_are_named(params, name):
+    with pytest.raises(ValueError, match=name):
+        check_sweeps(SWEEPS, params)
+    with pytest.raises(ValueError, match=name):
+        tune(params, sweeps=SWEEPS)
+
+
+def test_gain_argument_of_the_cost():
+    j = linearity_cost("iipfm", np.array([0.02, 0.03])[:, None], P, gain=np.array([1.0, 1.15]))
+    assert j.shape == (2, 2)
+    assert j[0, 1] == pytest.approx(float(linearity_cost("iipfm", 0.02, P, gain=1.15)))
+    assert linearity_cost("iipfm", 0.02, P, gain=1 + P.t_on / 0.02) == linearity_cost(
+        "iipfm", 0.02, P
+    )
+    with pytest.raises(ValueError, match="pwm: has no gain"):
+        linearity_cost("pwm", 20.0, P, gain=1.1)

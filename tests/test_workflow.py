@@ -80,11 +80,12 @@ def test_identified_example_valve_is_its_hidden_truth(small_run):
         assert found[name]["lo"] <= true <= found[name]["hi"], (name, found[name], true)
 
 
-def test_second_run_has_nothing_to_do(small_run):
+def test_second_run_has_nothing_to_do(small_run, isolated_config):
     res = run(
         "reproduce-all",
         "--configfile",
         "config/small.yaml",
+        str(isolated_config),
         "--config",
         f"results={small_run}",
         "-n",
@@ -93,8 +94,8 @@ def test_second_run_has_nothing_to_do(small_run):
     assert "Nothing to be done" in res.stdout + res.stderr
 
 
-def test_lint_finds_nothing_but_the_explained_conda_advice():
-    res = run("--lint", "--configfile", "config/small.yaml")
+def test_lint_finds_nothing_but_the_explained_conda_advice(isolated_config):
+    res = run("--lint", "--configfile", "config/small.yaml", str(isolated_config))
     findings = {
         line.strip() for line in (res.stdout + res.stderr).splitlines() if line.startswith("    * ")
     }
@@ -176,3 +177,51 @@ def test_hidden_and_spec_less_folders_of_raw_are_not_datasets(tmp_path):
     text = res.stdout + res.stderr
     assert f"{out}/example/runs" in text
     assert ".hidden" not in text and "notes" not in text
+
+
+def test_fallback_identification_and_a_run_that_is_not_its_kind(tmp_path):
+    """use_fallback: a dataset without pulse runs is identified with nominal delays and gets
+    its figures; a 'staircase' run whose input is not a staircase fails its stage with the run
+    named (traceback in the log), not the workflow."""
+    import json
+
+    raw = tmp_path / "raw"
+    shutil.copytree(ROOT / "raw" / "example", raw / "nopulse")
+    spec = raw / "nopulse" / "dataset.yaml"
+    text = spec.read_text().replace("name: example", "name: nopulse")
+    start = text.index("- id: pulse")
+    text = text[:start] + text[text.index("- id: staircase_iipfm", start) :]
+    spec.write_text(text)
+    (raw / "nopulse" / "pulse.csv").unlink()
+    # a sine where the dataset says staircase
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = raw / "nopulse" / "staircase_pwm-20Hz.parquet"
+    table = pq.read_table(path).to_pandas()
+    table[table.columns[-1]] = 0.5 + 0.4 * np.sin(np.arange(len(table)) / 500.0)
+    pq.write_table(pa.Table.from_pandas(table, preserve_index=False), path)
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(f"identification: {{use_fallback: true}}\ndatasets: {{raw_dir: {raw}}}\n")
+    out = tmp_path / "results"
+    res = run(
+        f"{out}/nopulse/staircase/table3.csv",
+        f"{out}/nopulse/validation/fit.csv",
+        "--configfile",
+        "config/small.yaml",
+        str(cfg),
+        "--config",
+        f"results={out}",
+        "-c2",
+    )
+    assert res.returncode == 0, res.stderr[-3000:]
+    status = json.loads((out / "nopulse" / "status" / "identify.json").read_text())
+    assert status["ok"], status
+    params = (out / "nopulse" / "identification" / "params.yaml").read_text()
+    assert "fallback" in params
+    assert (out / "nopulse" / "identification" / "fig2c.png").stat().st_size > 1000
+    stair = json.loads((out / "nopulse" / "status" / "staircase.json").read_text())
+    assert not stair["ok"]
+    assert "run 'staircase_pwm-20Hz' (staircase)" in stair["errors"][0]
+    assert "Traceback" in (out / "logs" / "nopulse" / "staircase.log").read_text()

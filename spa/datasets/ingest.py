@@ -247,7 +247,9 @@ def validate_dataset(folder: str | Path) -> list[Problem]:
     return check_dataset(folder)[0]
 
 
-def ingest_dataset(folder: str | Path, out_dir: str | Path) -> list[Path]:
+def ingest_dataset(
+    folder: str | Path, out_dir: str | Path, warnings: list[Problem] | None = None
+) -> list[Path]:
     """Validate a dataset and write one canonical run table per run.
 
     Parameters
@@ -257,6 +259,9 @@ def ingest_dataset(folder: str | Path, out_dir: str | Path) -> list[Path]:
     out_dir : str or path-like
         Where to write ``<run id>.parquet``; created if needed. Must not be the dataset
         folder, inside it, or the folder holding it (``raw/``).
+    warnings : list, optional
+        When given, the warnings found (problems that do not stop the ingest, e.g. an
+        implausible sample rate) are appended to it, for the caller to log.
 
     Returns
     -------
@@ -294,6 +299,8 @@ def ingest_dataset(folder: str | Path, out_dir: str | Path) -> list[Path]:
         for tmp in temps.values():
             tmp.unlink(missing_ok=True)
         raise DatasetError(folder, problems)
+    if warnings is not None:
+        warnings.extend(p for p in problems if not p.is_error)
     paths = []
     for run in parsed.runs:
         final = out / f"{run.id}.parquet"

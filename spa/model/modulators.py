@@ -97,7 +97,14 @@ def parse_modulator(mod: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
     if not isinstance(mod, Mapping) or "type" not in mod:
         raise ValueError(f"modulator must be a mapping with a 'type', got {mod!r}")
     kind = str(mod["type"])
-    return kind, check_settings(kind, **{k: v for k, v in mod.items() if k != "type"})
+    settings = {str(k): v for k, v in mod.items() if k != "type"}
+    if kind in MODULATORS:
+        unknown = sorted(set(settings) - set(MODULATORS[kind]))
+        if unknown:  # also keeps 'dt' from reaching check_settings' own argument
+            raise ValueError(
+                f"{kind}: unknown setting(s) {unknown}; expected {sorted(MODULATORS[kind])}"
+            )
+    return kind, check_settings(kind, **settings)
 
 
 def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[str, float]:

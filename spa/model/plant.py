@@ -64,9 +64,9 @@ def segment_pressure(
 
     Notes
     -----
-    Evaluated as ``exp(elapsed * (-1/tau2)) * (p_start - k2) + k2`` and
-    ``(sqrt(p_start) - elapsed * (1/(2*c1)))**2``: one reciprocal per call, so that a
-    simulation and a replay of it agree to the last bit.
+    Evaluated as ``k2 + (p_start - k2) * exp(-elapsed/tau2)`` and
+    ``max(sqrt(p_start) - elapsed/(2*c1), 0)**2`` in every path, so that a simulation and a
+    replay of it agree to the last bit.
 
     Examples
     --------
@@ -81,28 +81,32 @@ def segment_pressure(
     p0 = np.asarray(p_start, dtype=np.float64)
     if np.ndim(on) == 0:
         if on:
-            return np.exp(e * (-1.0 / params.tau2)) * (p0 - params.k2) + params.k2
-        root = np.maximum(np.sqrt(p0) - e * (1.0 / (2.0 * params.c1)), 0.0)
+            return params.k2 + (p0 - params.k2) * np.exp(-e / params.tau2)
+        root = np.maximum(np.sqrt(p0) - e / (2.0 * params.c1), 0.0)
         return root * root
-    # Both closed forms at once: exp(e*rate)*a + base + max(b - e*r, 0)**2, with the terms of
-    # the other state zero (exp(e*0)*0 = 0, max(0 - e*0, 0)**2 = 0): the same bits as above.
+    # Both closed forms at once: base + a*exp(-e/tau2) + max(b - e/(2*c1), 0)**2, with the
+    # terms of the other state zero (a = base = 0 while exhausting, b = 0 while charging): the
+    # same bits as above, sample by sample.
     level = np.asarray(on, dtype=bool)
     a = np.where(level, p0 - params.k2, 0.0)
     base = np.where(level, params.k2, 0.0)
     b = np.where(level, 0.0, np.sqrt(np.where(level, 0.0, p0)))
-    r = np.where(level, 0.0, 1.0 / (2.0 * params.c1))
-    rate = np.where(level, -1.0 / params.tau2, 0.0)
+
+    if repeats is None:
+        root = np.maximum(b - e / (2.0 * params.c1), 0.0)
+        return np.exp(-e / params.tau2) * a + base + root * root
 
     def per_sample(x: np.ndarray) -> np.ndarray:
         # Expanded just before use, so that each full-length temporary is freed at once
-        # (keeping five alive doubles the time in page faults).
-        return x if repeats is None else np.repeat(x, repeats)
+        # (keeping them all alive doubles the time in page faults).
+        return np.repeat(x, repeats)
 
-    out = e * per_sample(rate)
+    out = np.negative(e)
+    out /= params.tau2
     np.exp(out, out=out)
     out *= per_sample(a)
     out += per_sample(base)
-    root = e * per_sample(r)
+    root = e / (2.0 * params.c1)
     np.subtract(per_sample(b), root, out=root)
     np.maximum(root, 0.0, out=root)
     root *= root

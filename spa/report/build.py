@@ -11,7 +11,7 @@ from typing import Any
 import pandas as pd
 import yaml
 
-from spa.outputs import FIGURE, FIGURES, PARAMS, Output, section_outputs
+from spa.outputs import FIGURE, FIGURES, PARAMS, RECOMMENDATION, Output, section_outputs
 from spa.report.html import (
     STYLE,
     embed_png,
@@ -80,6 +80,14 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
         alt = html.escape(title)
         body = f'<img src="{embed_png(path)}" alt="{alt}" width="{width}" height="{height}">'
         attrs = f' class="fig" style="max-width:{width + 2}px"'
+    elif item.kind == RECOMMENDATION:
+        rec = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+        sentence = rec.get("sentence") or rec.get("failed") or "no recommendation"
+        setting = rec.get("setting")
+        body = f'<p class="lead">{html.escape(str(sentence))}</p>'
+        if setting:
+            flow = yaml.safe_dump(setting, default_flow_style=True).strip()
+            body += f"<pre>modulator: {html.escape(flow)}</pre>"
     elif item.kind == PARAMS:
         params = yaml.safe_load(path.read_text(encoding="utf-8"))
         body = f'<div class="scroll">{html_table(params_table(params))}</div>'

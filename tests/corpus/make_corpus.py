@@ -324,7 +324,17 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "unreadable_csv_header": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"\xff\xfe\x00t\x00,\n1,2\n"),
-        ["the header line is not UTF-8 text"],
+        ["the file looks like UTF-16 text (it holds NUL bytes); save it as UTF-8"],
+    ),
+    "csv_utf16_no_bom": (
+        lambda d: _case(d)
+        or (d / "charge1.csv").write_bytes("t,p,valve\n0,0,1\n1,1,1\n".encode("utf-16-le")),
+        ["UTF-16 text without a byte-order mark"],
+    ),
+    "csv_cr_line_ends": (
+        lambda d: _case(d)
+        or (d / "charge1.csv").write_bytes(b"t,p,valve\r0,0,1\r0.001,0.1,1\r"),
+        ["the lines end in CR alone (old Mac OS text)"],
     ),
     "truncated_parquet": (
         lambda d: _parquet_case(d, pa.Table.from_pandas(F, preserve_index=False), truncate=True),

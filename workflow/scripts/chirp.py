@@ -14,7 +14,7 @@ from spa.openloop import (
     runs_of_kind,
 )
 from spa.plots.openloop import fig9, write_no_runs
-from spa.status import run_stage
+from spa.status import naming_run, run_stage
 
 log = get_logger("chirp", snakemake.log[0])
 
@@ -27,9 +27,10 @@ def main() -> None:
     tags = run_tags(metas, ids)
     rows, maps = [], {}
     for i, rid in enumerate(ids, 1):
-        f, bic, summary = chirp_analysis(runs[rid], **cfg)
-        if is_simulated(metas[rid]) and seeds > 1:  # the spread over sensor-noise seeds
-            summary.update(noise_spread(metas[rid], summary, seeds, **cfg))
+        with naming_run(rid, "chirp"):
+            f, bic, summary = chirp_analysis(runs[rid], **cfg)
+            if is_simulated(metas[rid]) and seeds > 1:  # the spread over sensor-noise seeds
+                summary.update(noise_spread(metas[rid], summary, seeds, **cfg))
         rows.append({"run": rid, **tags.loc[rid], **summary})
         maps[rid] = (f, bic, summary["threshold"], summary["fmin"])
         log.info(

@@ -6,6 +6,7 @@ from spa import ValveParams
 from spa.identification import identify_runs
 from spa.io import get_logger, read_runs, save_figure, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
+from spa.plots.openloop import write_no_runs
 from spa.status import run_stage
 from spa.validation import validate_run
 
@@ -34,16 +35,24 @@ def main() -> None:
         yaml.safe_dump(result.to_dict(), fh, sort_keys=False)
     log.info("identified %s", result.to_valve_params())
 
-    for data_fn, fig_fn, fit, png, csv in (
-        (fig2a_data, fig2a, result.charge, out.fig2a, out.fig2a_csv),
-        (fig2b_data, fig2b, result.discharge, out.fig2b, out.fig2b_csv),
+    dataset = snakemake.wildcards.dataset
+    fallback = "; ".join(f"{k} from the fallback" for k in result.fallback)
+    for data_fn, fig_fn, fit, png, csv, kind in (
+        (fig2a_data, fig2a, result.charge, out.fig2a, out.fig2a_csv, "charge"),
+        (fig2b_data, fig2b, result.discharge, out.fig2b, out.fig2b_csv, "discharge"),
     ):
+        if fit is None:
+            write_no_runs(f"{dataset}: no {kind} fit ({fallback})", [csv], [png])
+            continue
         data = data_fn(fit)
         write_csv(data, csv)
         save_figure(fig_fn(data), png)
 
-    pulse_id = sorted(r for r, k in kinds.items() if k == "pulse")[0]
-    trace = validate_run(runs[pulse_id], result.to_valve_params()).trace
+    pulse_ids = sorted(r for r, k in kinds.items() if k == "pulse")
+    if not pulse_ids:
+        write_no_runs(f"{dataset}: no pulse runs ({fallback})", [out.fig2c_csv], [out.fig2c])
+        return
+    trace = validate_run(runs[pulse_ids[0]], result.to_valve_params()).trace
     data = fig2c_data(trace)
     write_csv(data, out.fig2c_csv)
     save_figure(fig2c(data), out.fig2c)

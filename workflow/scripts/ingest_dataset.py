@@ -10,11 +10,14 @@ log = get_logger("ingest_dataset", snakemake.log[0])
 
 def main() -> None:
     folder = snakemake.params.folder
+    warnings = []
     try:
-        paths = ingest_dataset(folder, snakemake.output.runs)
+        paths = ingest_dataset(folder, snakemake.output.runs, warnings)
     except DatasetError:
         log.error("%s failed validation; fix it (check with `spa validate %s`)", folder, folder)
         raise
+    for problem in warnings:
+        log.warning("%s", problem)
     write_run_index(snakemake.output.runs, paths)
     for path in paths:
         log.info("wrote %s", path)

@@ -5,7 +5,7 @@ import pandas as pd
 from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
 from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, sine_reference
 from spa.plots.openloop import fig8, thin, write_no_runs
-from spa.status import run_stage
+from spa.status import naming_run, run_stage
 
 log = get_logger("sine", snakemake.log[0])
 
@@ -21,7 +21,8 @@ def main() -> None:
         if settle is None:  # the hold before the sine, as recorded by the simulator
             settle = float((metas[rid].get("experiment") or {}).get("settle", 0.0))
         settles[rid] = settle
-        aligned, summary = sine_analysis(runs[rid], settle=settle, max_lag=cfg["max_lag"])
+        with naming_run(rid, "sine"):
+            aligned, summary = sine_analysis(runs[rid], settle=settle, max_lag=cfg["max_lag"])
         tag = {"run": rid, **tags.loc[rid]}
         rows.append({**tag, "settle": settle, **summary})
         curves.append(thin(aligned, 5000).assign(**tag, rms=summary["rms"]))

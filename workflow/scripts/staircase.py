@@ -12,7 +12,7 @@ from spa.openloop import (
     staircase_analysis,
 )
 from spa.plots.openloop import fig6, fig7a, fig7b, thin, write_no_runs
-from spa.status import run_stage
+from spa.status import naming_run, run_stage
 
 log = get_logger("staircase", snakemake.log[0])
 
@@ -26,14 +26,15 @@ def main() -> None:
     rows, levels, steps, traces = [], [], [], []
     for i, rid in enumerate(ids, 1):
         # simulated runs: the chattering of the true pressure, and of the sensor without noise
-        clean = {
-            name: noise_free_pressure(runs[rid], metas[rid], ringing=ringing)
-            for name, ringing in (("noise_free", False), ("ringing", True))
-        }
-        lv, st, summary = staircase_analysis(
-            runs[rid], metas[rid]["modulator"], params, **snakemake.params.cfg,
-            clean={k: v for k, v in clean.items() if v is not None},
-        )  # fmt: skip
+        with naming_run(rid, "staircase"):
+            clean = {
+                name: noise_free_pressure(runs[rid], metas[rid], ringing=ringing)
+                for name, ringing in (("noise_free", False), ("ringing", True))
+            }
+            lv, st, summary = staircase_analysis(
+                runs[rid], metas[rid]["modulator"], params, **snakemake.params.cfg,
+                clean={k: v for k, v in clean.items() if v is not None},
+            )  # fmt: skip
         tag = {"run": rid, **tags.loc[rid]}
         rows.append({**summary, **tag})
         levels.append(lv.assign(**tag))

@@ -15,6 +15,7 @@ import pyarrow.csv as pacsv
 from spa.datasets.readers.base import _Chunk, _ReadError, _Retry, _text_to_float
 
 _CSV_BLOCK = 16 << 20  # bytes per CSV block read
+_MAX_LINE = 1 << 20  # bytes: a longer line is not a row of a few numbers
 
 
 class _CsvSource:
@@ -31,7 +32,24 @@ class _CsvSource:
         # (first data row, first line, rows map one-to-one onto lines) of each block read
         self.blocks: list[tuple[int, int, bool]] = []
         with path.open("rb") as fh:
-            first = fh.readline(1 << 20)
+            head = fh.read(1 << 16)
+        if head.startswith((b"\xff\xfe", b"\xfe\xff")) or b"\x00" in head:
+            bom = (
+                "" if head.startswith((b"\xff\xfe", b"\xfe\xff")) else " without a byte-order mark"
+            )
+            raise _ReadError(
+                f"the file looks like UTF-16 text{bom} (it holds NUL bytes); save it as UTF-8 "
+                "(in Excel: CSV UTF-8), or convert it with `iconv -f UTF-16 -t UTF-8`"
+            )
+        if b"\r" in head and b"\n" not in head:
+            raise _ReadError(
+                "the lines end in CR alone (old Mac OS text); save the file with LF or CR LF "
+                "line ends, e.g. `tr '\\r' '\\n' < in.csv > out.csv`"
+            )
+        with path.open("rb") as fh:
+            first = fh.readline(_MAX_LINE)
+        if not first.endswith(b"\n") and len(first) == _MAX_LINE:
+            raise _ReadError(f"line 1 (the header) is longer than {_MAX_LINE} bytes")
         self.header_size = len(first)
         try:
             text = first.decode("utf-8-sig")
@@ -48,6 +66,7 @@ class _CsvSource:
         with self.path.open("rb") as fh:
             fh.seek(self.header_size)
             carry = b""
+            line = 2  # of the first data line
             while True:
                 data = fh.read(_CSV_BLOCK)
                 if not data:
@@ -57,7 +76,14 @@ class _CsvSource:
                 data = carry + data
                 cut = data.rfind(b"\n") + 1
                 carry = data[cut:]
+                if len(carry) > _MAX_LINE:
+                    long_line = line + data.count(b"\n", 0, cut)
+                    raise _ReadError(
+                        f"line {long_line} is longer than {_MAX_LINE} "
+                        "bytes; a row holds a few numbers (is this a text file with line ends?)"
+                    )
                 if cut:
+                    line += data.count(b"\n", 0, cut)
                     yield data[:cut]
 
     def _parse(
@@ -88,6 +114,14 @@ class _CsvSource:
         offset, line = 0, 2
         try:
             for block in self._blocks():
+                try:
+                    block.decode("utf-8")
+                except UnicodeDecodeError as exc:
+                    bad = line + block.count(b"\n", 0, exc.start)
+                    raise _ReadError(
+                        f"line {bad} is not UTF-8 text (byte {block[exc.start]:#04x}); save the "
+                        "file as UTF-8 (in Excel: CSV UTF-8)"
+                    ) from None
                 invalid: list[Any] = []
                 table = self._parse(block, names, kind, True, invalid)
                 if invalid:  # parse again on one thread, which numbers the bad lines

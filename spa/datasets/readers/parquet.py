@@ -15,6 +15,12 @@ from spa.datasets.contract import _BATCH_ROWS
 from spa.datasets.readers.base import _Chunk, _numeric_type, _ReadError, _text_to_float, _text_type
 
 
+def _beyond_float(col: pa.Array) -> bool:
+    """True when an integer column holds a value a float64 cannot represent exactly."""
+    top = pc.max(pc.abs_checked(pc.cast(col, pa.int64()))) if len(col) else None
+    return top is not None and top.is_valid and top.as_py() > 2**53
+
+
 class _ParquetSource:
     """A Parquet file, read by record batches."""
 
@@ -47,6 +53,13 @@ class _ParquetSource:
                     col = batch.column(name)
                     if _text_type(col.type):
                         values[name], bad[name] = _text_to_float(col)
+                    elif pa.types.is_integer(col.type) and _beyond_float(col):
+                        raise _ReadError(
+                            f"integers from row {offset + 1} on reach 2^53 = {2**53}, beyond "
+                            "what a float holds exactly (time in ns since 1970?); subtract the "
+                            "start time, or store the column as float seconds",
+                            column=name,
+                        )
                     else:
                         values[name] = pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False)
                 yield offset, values, bad

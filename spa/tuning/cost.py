@@ -1,0 +1,500 @@
+"""The linearity cost of Eq. 25 over each modulator's parameter (paper Section 5).
+
+Each modulator has one principal parameter: ``f_w`` (Hz) for PWM, the pulse width ``t_h``
+(s) for IPFM, the pulse separation ``t_l`` (s) for IIPFM (with the dead-zone-free gain
+``G = 1 + t_on/t_l``, Eq. 17) and the clock period (s) for ΔΣM. The cost of Eq. 25 measures
+how far the averaged equilibrium curve ``P_eq(xi)`` (Eq. 5) is from the line ``k2*xi``; the
+sweep evaluates it on a grid of the parameter, all grid points at once. :func:`optimum`
+takes the grid minimum and :func:`iipfm_optimal_t_l` the analytic IIPFM optimum (Eq. 29).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from spa import _checks as checks
+from spa.model.averaging import Floats, equilibrium_pressure, time_fractions
+from spa.model.modulators import MODULATOR_ORDER, MODULATORS, PARAMETER, Modulator
+from spa.model.params import ValveParams
+
+__all__ = [
+    "DEFAULT_SWEEPS",
+    "PAPER_SETTING",
+    "PAPER_TABLE2",
+    "SWEPT_PARAMETER",
+    "CostFunction",
+    "check_sweeps",
+    "constraint",
+    "deviation_cost",
+    "feasible",
+    "iipfm_optimal_t_l",
+    "linearity_cost",
+    "modulator_settings",
+    "optimum",
+    "paper_setting",
+    "setting",
+    "sweep",
+    "sweep_grid",
+]
+
+#: The swept parameter of each modulator: ``kind -> (setting name, unit)``.
+SWEPT_PARAMETER: Mapping[str, tuple[str, str]] = PARAMETER
+
+#: Table 2 as printed in the paper: ``kind -> (J_min, selected parameter, unit)``.
+#: Reference values for comparison columns only; nothing here is computed from them.
+PAPER_TABLE2: Mapping[str, tuple[float, float, str]] = {
+    "pwm": (10.5, 20.0, "Hz"),
+    "ipfm": (12.5, 20.0, "ms"),
+    "iipfm": (4.8, 20.0, "ms"),
+    "dsm": (9.6, 20.0, "ms"),
+}
+
+#: The paper's selected value of each swept parameter (Hz for PWM, s otherwise).
+PAPER_SETTING: Mapping[str, float] = {"pwm": 20.0, "ipfm": 0.020, "iipfm": 0.020, "dsm": 0.020}
+
+#: The grids of Section 5.1: ``kind -> {start, stop, step}`` (Hz for PWM, s otherwise).
+DEFAULT_SWEEPS: Mapping[str, Mapping[str, float]] = {
+    "pwm": {"start": 1.0, "stop": 80.0, "step": 0.1},
+    "ipfm": {"start": 0.0125, "stop": 1.0, "step": 0.001},
+    "iipfm": {"start": 0.0125, "stop": 1.0, "step": 0.001},
+    "dsm": {"start": 0.0125, "stop": 1.0, "step": 0.001},
+}
+
+#: A cost ``(kind, values, params, n_xi) -> J`` such as :func:`linearity_cost`.
+CostFunction = Callable[[str, npt.NDArray[np.float64], ValveParams, int], Floats]
+
+
+def _kind(kind: str) -> str:
+    if kind not in MODULATORS:
+        raise ValueError(f"unknown modulator kind {kind!r}; expected one of {sorted(MODULATORS)}")
+    return kind
+
+
+def _value(kind: str, value: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    return checks.positive_array(f"{kind}: {SWEPT_PARAMETER[kind][0]}", value)
+
+
+def modulator_settings(
+    kind: str,
+    value: npt.ArrayLike,
+    params: ValveParams | None = None,
+    gain: npt.ArrayLike | None = None,
+) -> dict[str, Any]:
+    """Settings of a modulator for a value of its swept parameter.
+
+    Parameters
+    ----------
+    kind : {"pwm", "ipfm", "iipfm", "dsm"}
+        Modulator type.
+    value : array_like of float
+        ``f_w`` in Hz (PWM) or ``t_h``, ``t_l``, ``period`` in s.
+    params : ValveParams, optional
+        Valve parameters (IIPFM's gain uses ``t_on``); nominal when omitted.
+    gain : array_like of float, optional
+        IPFM/IIPFM gain instead of the default (broadcasts with ``value``); for a gain sweep.
+
+    Returns
+    -------
+    dict
+        Keyword settings for :mod:`spa.model.averaging` and
+        :func:`spa.model.modulators.modulate`: IPFM uses ``gain = 1`` (the paper's choice),
+        IIPFM ``gain = 1 + t_on/t_l`` (Eq. 17), unless ``gain`` is given.
+        Scalars in give floats out.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``kind``, a non-positive value or gain, or a gain for PWM or ΔΣM.
+
+    Examples
+    --------
+    >>> modulator_settings("iipfm", 0.02)
+    {'t_l': 0.02, 'gain': 1.15}
+    >>> modulator_settings("pwm", 20.0)
+    {'f_w': 20.0}
+    """
+    p = checks.valve_params(params)
+    v = _value(_kind(kind), value)
+    out: dict[str, Any] = {SWEPT_PARAMETER[kind][0]: v}
+    if gain is not None:
+        if "gain" not in MODULATORS[kind]:
+            raise ValueError(f"{kind}: has no gain; only ipfm and iipfm take one")
+        out["gain"] = checks.positive_array(f"{kind}: gain", gain)
+    elif kind == "ipfm":
+        out["gain"] = np.ones_like(v)
+    elif kind == "iipfm":
+        out["gain"] = 1.0 + p.t_on / v
+    if all(np.ndim(x) == 0 for x in out.values()):
+        out = {k: float(x) for k, x in out.items()}
+    return out
+
+
+def setting(
+    kind: str, value: float, params: ValveParams | None = None, gain: float | None = None
+) -> Modulator:
+    """The :class:`~spa.model.modulators.Modulator` of one value of the swept parameter.
+
+    Examples
+    --------
+    >>> setting("iipfm", 0.02).label
+    'iipfm-20ms-G1.15'
+    """
+    return Modulator(kind, modulator_settings(kind, value, params, gain))
+
+
+def paper_setting(kind: str, params: ValveParams | None = None) -> Modulator:
+    """The paper's selected setting (20 Hz, 20 ms; IIPFM with ``G = 1 + t_on/t_l``).
+
+    Examples
+    --------
+    >>> paper_setting("pwm").label, paper_setting("iipfm").label
+    ('pwm-20Hz', 'iipfm-20ms-G1.15')
+    """
+    return setting(kind, PAPER_SETTING[_kind(kind)], params)
+
+
+def constraint(kind: str, params: ValveParams | None = None) -> str:
+    """The optimisation constraint of a modulator as text (paper Section 5.1, Table 2).
+
+    Examples
+    --------
+    >>> constraint("dsm")
+    'period > t_off = 10 ms and period > t_on = 3 ms'
+    """
+    p = checks.valve_params(params)
+    on, off = f"{p.t_on * 1e3:g} ms", f"{p.t_off * 1e3:g} ms"
+    return {
+        "pwm": "f_w > 0 Hz",
+        "ipfm": f"t_h > t_on = {on} (gain = 1)",
+        "iipfm": f"t_l > t_off = {off} and gain = 1 + t_on/t_l",
+        "dsm": f"period > t_off = {off} and period > t_on = {on}",
+    }[_kind(kind)]
+
+
+def feasible(
+    kind: str, value: npt.ArrayLike, params: ValveParams | None = None
+) -> npt.NDArray[np.bool_] | np.bool_:
+    """Whether a parameter value satisfies the modulator's constraint (Section 5.1).
+
+    Parameters
+    ----------
+    kind : {"pwm", "ipfm", "iipfm", "dsm"}
+        Modulator type.
+    value : array_like of float
+        Swept parameter value(s), as in :func:`modulator_settings`.
+    params : ValveParams, optional
+        Valve parameters; nominal when omitted.
+
+    Returns
+    -------
+    numpy.ndarray of bool or numpy.bool_
+        PWM: always; IPFM: ``t_h > t_on``; IIPFM: ``t_l > t_off``; ΔΣM: ``period > t_off``
+        and ``period > t_on``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``kind`` or a non-positive value.
+
+    Examples
+    --------
+    >>> feasible("ipfm", [0.002, 0.004]).tolist()
+    [False, True]
+    """
+    p = checks.valve_params(params)
+    v = _value(_kind(kind), value)
+    if kind == "pwm":
+        ok = np.ones(v.shape, dtype=bool)
+    elif kind == "ipfm":
+        ok = v > p.t_on
+    elif kind == "iipfm":
+        ok = v > p.t_off
+    else:
+        ok = (v > p.t_off) & (v > p.t_on)
+    return np.asarray(ok)[()]
+
+
+def linearity_cost(
+    kind: str,
+    value: npt.ArrayLike,
+    params: ValveParams | None = None,
+    n_xi: int = 100,
+    *,
+    gain: npt.ArrayLike | None = None,
+) -> Floats:
+    """Linearity cost ``J`` of a modulator setting (Eq. 25).
+
+    Parameters
+    ----------
+    kind : {"pwm", "ipfm", "iipfm", "dsm"}
+        Modulator type.
+    value : array_like of float
+        Swept parameter value(s) (:func:`modulator_settings`); an array gives one ``J`` each.
+    params : ValveParams, optional
+        Valve parameters; nominal when omitted.
+    n_xi : int, default 100
+        Number ``N`` of equally spaced input fractions in [0, 1], both ends included.
+    gain : array_like of float, optional
+        IPFM/IIPFM gain instead of the default (:func:`modulator_settings`).
+
+    Returns
+    -------
+    numpy.ndarray or numpy.float64
+        ``J`` in bar, of the shape of ``value`` (broadcast with ``gain``). The constraint is
+        not applied here (see :func:`feasible`, :func:`sweep`).
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``kind``, a non-positive value or ``n_xi < 2``.
+
+    Notes
+    -----
+    ``J = sum_{i=1..N} |P_eq(xi_i) - k2*xi_i|``, ``xi_i = (i - 1)/(N - 1)``, with ``P_eq``
+    the averaged equilibrium of Eq. 5. ``J`` grows with ``N``; compare costs at equal ``N``.
+
+    Examples
+    --------
+    >>> round(float(linearity_cost("iipfm", 0.0195)), 2)
+    3.63
+    """
+    p = checks.valve_params(params)
+    n = checks.integer("n_xi", n_xi, minimum=2)
+    settings = modulator_settings(kind, value, p, gain)
+    shape = np.broadcast_shapes(*(np.shape(x) for x in settings.values()))
+    xi = np.linspace(0.0, 1.0, n)
+    grid = {k: np.asarray(x)[..., np.newaxis] for k, x in settings.items()}
+    a1, a2 = time_fractions(kind, xi, p, **grid)
+    peq = equilibrium_pressure(a1, a2, p)
+    return np.asarray(deviation_cost(peq, xi, p.k2), dtype=np.float64).reshape(shape)[()]
+
+
+def deviation_cost(
+    pressure: npt.ArrayLike, xi: npt.ArrayLike, k2: float
+) -> npt.NDArray[np.float64]:
+    """``sum_i |P(xi_i) - k2*xi_i|`` over the last axis: the sum of Eq. 25.
+
+    Examples
+    --------
+    >>> float(deviation_cost([0.0, 0.5, 0.75], [0.0, 0.5, 1.0], 1.0))
+    0.25
+    """
+    diff = np.asarray(pressure, np.float64) - k2 * np.asarray(xi, np.float64)
+    return np.asarray(np.abs(diff).sum(axis=-1), dtype=np.float64)
+
+
+def sweep_grid(start: float, stop: float, step: float) -> npt.NDArray[np.float64]:
+    """Grid ``start, start + step, ...`` up to ``stop`` inclusive (to 1e-9 of a step).
+
+    Raises
+    ------
+    ValueError
+        Unless ``0 < start <= stop`` and ``step > 0``, all finite.
+
+    Examples
+    --------
+    >>> sweep_grid(0.0125, 0.0155, 0.001).tolist()
+    [0.0125, 0.0135, 0.0145, 0.0155]
+    """
+    start = checks.positive("start", start)
+    stop = checks.positive("stop", stop)
+    step = checks.positive("step", step)
+    if stop < start:
+        raise ValueError(f"stop must be >= start, got start={start!r}, stop={stop!r}")
+    n = int(np.floor((stop - start) / step + 1e-9)) + 1
+    # Rounding removes the float noise of start + k*step (0.019500000000000003 -> 0.0195).
+    return np.round(start + step * np.arange(n), 12)
+
+
+def sweep(
+    kind: str,
+    params: ValveParams | None,
+    start: float,
+    stop: float,
+    step: float,
+    n_xi: int = 100,
+    cost: CostFunction | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Linearity cost over a grid of the modulator's parameter, with the constraints.
+
+    Parameters
+    ----------
+    kind : {"pwm", "ipfm", "iipfm", "dsm"}
+        Modulator type.
+    params : ValveParams or None
+        Valve parameters; nominal when None.
+    start, stop, step : float
+        Grid of :func:`sweep_grid`, in the parameter's unit (Hz for PWM, s otherwise).
+    n_xi : int, default 100
+        Points of ``xi`` in the cost.
+    cost : callable, optional
+        ``(kind, values, params, n_xi) -> J``; :func:`linearity_cost` (Eq. 25) by default,
+        :func:`spa.tuning.exact.exact_cost` for the exact periodic steady state.
+
+    Returns
+    -------
+    values, J : numpy.ndarray
+        Grid values and ``J``; ``J`` is NaN where :func:`feasible` is False.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``kind``, a bad grid or ``n_xi``.
+
+    Notes
+    -----
+    All grid points are evaluated at once (a ``(len(values), n_xi)`` array).
+
+    Examples
+    --------
+    >>> v, j = sweep("ipfm", None, 0.001, 0.005, 0.002, n_xi=10)
+    >>> v.tolist(), bool(np.isnan(j[0])), bool(np.isfinite(j[1]))
+    ([0.001, 0.003, 0.005], True, False)
+    """
+    p = checks.valve_params(params)
+    values = sweep_grid(start, stop, step)
+    j = np.asarray((cost or linearity_cost)(kind, values, p, n_xi), dtype=np.float64)
+    return values, np.where(feasible(kind, values, p), j, np.nan)
+
+
+def optimum(
+    kind: str,
+    params: ValveParams | None,
+    start: float,
+    stop: float,
+    step: float,
+    n_xi: int = 100,
+    cost: CostFunction | None = None,
+) -> tuple[float, float]:
+    """Grid value minimising the linearity cost, and the minimum (Table 2).
+
+    Parameters
+    ----------
+    kind, params, start, stop, step, n_xi, cost
+        As :func:`sweep`.
+
+    Returns
+    -------
+    value, J_min : float
+        The first grid value where the feasible ``J`` is smallest, and that ``J``.
+
+    Raises
+    ------
+    ValueError
+        As :func:`sweep`, or if no grid point is feasible.
+
+    Examples
+    --------
+    >>> optimum("iipfm", None, 0.0125, 1.0, 0.001)[0]
+    0.0195
+    """
+    values, j = sweep(kind, params, start, stop, step, n_xi, cost)
+    if not np.any(np.isfinite(j)):
+        raise ValueError(
+            f"{kind}: no feasible grid point in [{start}, {stop}]: {constraint(kind, params)}"
+        )
+    i = int(np.nanargmin(j))
+    return float(values[i]), float(j[i])
+
+
+def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
+    """Analytic IIPFM pulse separation that best linearises the valve (Eq. 29).
+
+    Parameters
+    ----------
+    params : ValveParams, optional
+        Valve parameters; nominal when omitted.
+
+    Returns
+    -------
+    float
+        ``t_l*`` in s.
+
+    Raises
+    ------
+    ValueError
+        If ``r = c1*sqrt(k2/2)/tau2 >= 1`` (then no positive ``t_l`` matches the ideal ratio).
+
+    Notes
+    -----
+    Matching the IIPFM fraction ratio ``(t_l - t_off)²/(t_l + t_on)² * (1 - xi)²/xi²`` to the
+    ideal ``c1²*k2/tau2² * (1 - xi)²/xi`` (Eq. 20) with ``(1 - xi)²/xi² ≈ 2*(1 - xi)²/xi``
+    gives ``(t_l - t_off)/(t_l + t_on) = r`` with ``r = c1*sqrt(k2/2)/tau2``, so
+    ``t_l* = (t_off + r*t_on)/(1 - r)``.
+
+    Examples
+    --------
+    >>> round(iipfm_optimal_t_l() * 1e3, 1)  # ms; the paper prints 19 ms
+    19.3
+    """
+    p = checks.valve_params(params)
+    r = p.c1 * np.sqrt(p.k2 / 2.0) / p.tau2
+    if r >= 1.0:
+        raise ValueError(f"c1*sqrt(k2/2)/tau2 = {r:g} must be < 1 for Eq. 29 to have a solution")
+    return float((p.t_off + r * p.t_on) / (1.0 - r))
+
+
+def check_sweeps(
+    sweeps: Mapping[str, Mapping[str, float]], params: ValveParams | None = None
+) -> dict[str, Mapping[str, float]]:
+    """The four grids in the paper's order, checked against the valve's delays.
+
+    Parameters
+    ----------
+    sweeps : mapping
+        ``kind -> {"start", "stop", "step"}`` for all four kinds (``analytic.sweeps``).
+    params : ValveParams, optional
+        Valve parameters; nominal when omitted.
+
+    Returns
+    -------
+    dict
+        The grids, in the order PWM, IPFM, IIPFM, ΔΣM.
+
+    Raises
+    ------
+    ValueError
+        If a kind or a grid key is missing, or a delay is longer than a whole sweep, so that
+        no setting of it is feasible: ``t_on + t_off`` at least the longest PWM period
+        (``1/start``; every setting is then all dead-zone or saturation), ``t_on`` at least
+        the longest IPFM pulse, ``t_off`` at least the longest IIPFM separation or ΔΣM period
+        (or ``t_on`` at least the longest period). The message names the delay.
+
+    Examples
+    --------
+    >>> check_sweeps(DEFAULT_SWEEPS, ValveParams(t_off=2.0))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: t_off = 2 s is not shorter than the longest IIPFM t_l of the sweep (0.9995 s): ...
+    """
+    p = checks.valve_params(params)
+    missing = [k for k in MODULATOR_ORDER if k not in sweeps]
+    if missing:
+        raise ValueError(f"sweeps: missing modulator(s) {missing}")
+    grids = {k: sweeps[k] for k in MODULATOR_ORDER}
+    values = {}
+    for kind, g in grids.items():
+        absent = [key for key in ("start", "stop", "step") if key not in g]
+        if absent:
+            raise ValueError(f"sweeps.{kind}: missing {absent}; expected start, stop, step")
+        values[kind] = sweep_grid(g["start"], g["stop"], g["step"])
+    limits = [
+        ("t_on", p.t_on, values["ipfm"][-1], "IPFM t_h", "t_h > t_on"),
+        ("t_off", p.t_off, values["iipfm"][-1], "IIPFM t_l", "t_l > t_off"),
+        ("t_off", p.t_off, values["dsm"][-1], "ΔΣM period", "period > t_off"),
+        ("t_on", p.t_on, values["dsm"][-1], "ΔΣM period", "period > t_on"),
+        ("t_on + t_off", p.t_on + p.t_off, 1.0 / values["pwm"][0], "PWM period 1/f_w", "1/f_w"),
+    ]
+    for name, delay, limit, what, rule in limits:
+        if delay >= limit:
+            if rule == "1/f_w":
+                rule = "t_on + t_off < 1/f_w, else all dead-zone or saturation"
+            raise ValueError(
+                f"{name} = {delay:g} s is not shorter than the longest {what} of the sweep "
+                f"({limit:g} s): no setting is feasible ({rule}); check {name} or widen the sweep"
+            )
+    return grids

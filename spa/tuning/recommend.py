@@ -1,0 +1,522 @@
+"""Which modulator and setting to use for a valve: the constrained minimum of the cost.
+
+Every setting of the four sweeps is a candidate (IIPFM with ``G = 1 + t_on/t_l``, and with
+every gain of an optional gain sweep). Each gets its cost (``J`` of Eq. 25 and ``J_exact`` of
+the exact periodic steady state) and what a user must live with, as a maximum over the
+input fractions of the cost's grid: the valve's switching rate (command edges per second,
+``2/(t_h + t_l)``), the chattering (Appendix B's ``P+ - P-``) and the shortest pulse the
+controller must produce. The constraints of :class:`TuningOptions` keep the candidates a
+user accepts; :func:`recommend` picks the one with the smallest score (``J`` or
+``J_exact``), predicts what it will do (:func:`predict`, including a simulated staircase)
+and names the constraint that ruled everything out when nothing is left.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from spa import _checks as checks
+from spa.model.averaging import pulse_times, time_constant, time_fractions
+from spa.model.chattering import pseudo_steady_state
+from spa.model.modulators import MODULATOR_ORDER, Modulator
+from spa.model.params import ValveParams
+from spa.model.plant import simulate
+from spa.model.thresholds import thresholds
+from spa.openloop import staircase_analysis
+from spa.synthetic import staircase_input
+from spa.tuning.cost import feasible, linearity_cost, modulator_settings, sweep_grid
+from spa.tuning.exact import exact_cost
+
+__all__ = [
+    "CONSTRAINTS",
+    "UNITS",
+    "TuningOptions",
+    "candidate_frame",
+    "predict",
+    "recommend",
+    "recommendation_sentence",
+    "setting_metrics",
+]
+
+#: The user's constraints, in the order they are reported.
+CONSTRAINTS: tuple[str, ...] = (
+    "setting_range",
+    "max_switching_rate",
+    "max_chattering",
+    "min_pulse_width",
+)
+
+#: Units of the numbers in a recommendation.
+UNITS: Mapping[str, str] = {
+    "J": "bar",
+    "J_exact": "bar",
+    "dead_zone": "1 (input fraction)",
+    "saturation": "1 (input fraction)",
+    "chattering": "bar",
+    "switching_rate": "valve command edges per second",
+    "min_pulse": "s",
+    "tau_m": "s",
+    "fit": "%",
+    "mse": "bar^2",
+    "max_dev": "bar",
+    "mad": "bar",
+}
+
+_SCORES = ("J", "J_exact")
+
+
+def _limit(name: str, value: Any, unit: str) -> float | None:
+    return None if value is None else checks.positive(f"tuning.{name}", value, unit)
+
+
+@dataclass(frozen=True)
+class TuningOptions:
+    """What the recommendation minimises and which settings it may choose.
+
+    Parameters
+    ----------
+    score : {"J", "J_exact"}
+        The cost minimised: the paper's averaged ``J`` (Eq. 25) or ``J_exact``.
+    max_switching_rate : float or None
+        Largest switching rate allowed, valve command edges per second, max over ``xi``
+        (valve life); None: no limit.
+    max_chattering : float or None
+        Largest chattering allowed, bar (Appendix B's ``P+ - P-``, max over ``xi``).
+    min_pulse_width : float or None
+        Shortest pulse the controller can produce, s. A setting needs every pulse that moves
+        the pressure (high longer than ``t_on``, low longer than ``t_off``; ΔΣM: its clock
+        period) to be at least this long.
+    ranges : mapping
+        ``kind -> (lo, hi)``: the settings a user accepts, in the sweep's unit (Hz for PWM,
+        s otherwise); kinds not listed keep their whole sweep.
+    gain_sweep : mapping or None
+        ``{start, stop, step}``: IIPFM gains tried at every ``t_l`` besides
+        ``1 + t_on/t_l``.
+    staircase : mapping
+        ``step``, ``hold`` (s) and ``dt`` (controller step, s) of the staircase simulated
+        for the predicted ``fit``, ``mse``, ``max_dev``, ``mad`` (the paper's: 0.1, 5 s).
+
+    Examples
+    --------
+    >>> TuningOptions.from_mapping({"max_chattering": None, "score": "J_exact"}).score
+    'J_exact'
+    """
+
+    score: str = "J"
+    max_switching_rate: float | None = 100.0
+    max_chattering: float | None = 0.05
+    min_pulse_width: float | None = 0.001
+    ranges: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    gain_sweep: Mapping[str, float] | None = None
+    staircase: Mapping[str, float] = field(
+        default_factory=lambda: {"step": 0.1, "hold": 5.0, "dt": 0.001}
+    )
+
+    def __post_init__(self) -> None:
+        if self.score not in _SCORES:
+            raise ValueError(f"tuning.score must be one of {list(_SCORES)}, got {self.score!r}")
+        object.__setattr__(
+            self,
+            "max_switching_rate",
+            _limit("max_switching_rate", self.max_switching_rate, "edges/s"),
+        )
+        object.__setattr__(
+            self, "max_chattering", _limit("max_chattering", self.max_chattering, "bar")
+        )
+        object.__setattr__(
+            self, "min_pulse_width", _limit("min_pulse_width", self.min_pulse_width, "s")
+        )
+        ranges = {}
+        for kind, pair in dict(self.ranges).items():
+            if kind not in MODULATOR_ORDER:
+                raise ValueError(f"tuning.ranges: unknown modulator {kind!r}")
+            if not isinstance(pair, list | tuple) or len(pair) != 2:
+                raise ValueError(f"tuning.ranges.{kind} must be [lo, hi], got {pair!r}")
+            lo = checks.positive(f"tuning.ranges.{kind}[0]", pair[0])
+            hi = checks.positive(f"tuning.ranges.{kind}[1]", pair[1])
+            if hi < lo:
+                raise ValueError(f"tuning.ranges.{kind} must have lo <= hi, got {list(pair)}")
+            ranges[kind] = (lo, hi)
+        object.__setattr__(self, "ranges", ranges)
+        stair = {"step": 0.1, "hold": 5.0, "dt": 0.001, **dict(self.staircase)}
+        object.__setattr__(
+            self,
+            "staircase",
+            {
+                "step": checks.fraction("tuning.staircase.step", stair["step"], low_open=True),
+                "hold": checks.positive("tuning.staircase.hold", stair["hold"], "s"),
+                "dt": checks.positive("tuning.staircase.dt", stair["dt"], "s"),
+            },
+        )
+
+    @classmethod
+    def from_mapping(cls, cfg: Mapping[str, Any] | None) -> TuningOptions:
+        """Options from the config's ``tuning:`` section (missing keys take the defaults)."""
+        cfg = dict(cfg or {})
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = sorted(set(cfg) - known)
+        if unknown:
+            raise ValueError(f"tuning: unknown key(s) {unknown}; allowed: {sorted(known)}")
+        return cls(**cfg)
+
+    def to_mapping(self) -> dict[str, Any]:
+        """Plain, YAML-ready form."""
+        return {
+            "score": self.score,
+            "max_switching_rate": self.max_switching_rate,
+            "max_chattering": self.max_chattering,
+            "min_pulse_width": self.min_pulse_width,
+            "ranges": {k: list(v) for k, v in self.ranges.items()},
+            "gain_sweep": None if self.gain_sweep is None else dict(self.gain_sweep),
+            "staircase": dict(self.staircase),
+        }
+
+
+def setting_metrics(
+    kind: str,
+    value: npt.ArrayLike,
+    params: ValveParams,
+    n_xi: int = 100,
+    gain: npt.ArrayLike | None = None,
+) -> dict[str, npt.NDArray[np.float64]]:
+    """Switching rate, chattering and shortest pulse of settings, each a maximum over ``xi``.
+
+    Parameters
+    ----------
+    kind, value, params, n_xi, gain
+        As :func:`spa.tuning.cost.linearity_cost`.
+
+    Returns
+    -------
+    dict
+        Arrays of the shape of ``value``: ``switching_rate`` (largest ``2/(t_h + t_l)`` over
+        the grid of ``xi``, edges/s), ``chattering`` (largest ``P+ - P-`` of Appendix B, bar)
+        and ``min_pulse`` (shortest pulse that moves the pressure, s; ΔΣM: the clock period;
+        ``inf`` when nothing pulses). Where the command is constant there is no pulse train:
+        rate and chattering 0. Durations are those of
+        :func:`spa.model.averaging.pulse_times`, as in :func:`spa.openloop.predicted_levels`.
+
+    Examples
+    --------
+    >>> m = setting_metrics("pwm", 20.0, ValveParams())
+    >>> float(m["switching_rate"])
+    40.0
+    """
+    settings = modulator_settings(kind, value, params, gain)
+    xi = np.linspace(0.0, 1.0, checks.integer("n_xi", n_xi, minimum=2))
+    grid = {k: np.asarray(x)[..., np.newaxis] for k, x in settings.items()}
+    t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, xi, **grid))
+    pulsing = np.isfinite(t_h) & np.isfinite(t_l) & (t_h > 0.0) & (t_l > 0.0)
+    th = np.where(pulsing, t_h, 1.0)
+    tl = np.where(pulsing, t_l, 1.0)
+    hi, lo = (np.asarray(a) for a in pseudo_steady_state(th, tl, params))
+    # A pulse within rounding of its hold (IIPFM's t_on-long high at xi = 0 with the gain of
+    # Eq. 17) does not move the pressure.
+    moving = np.minimum(
+        np.where(pulsing & (th > params.t_on * (1 + 1e-9)), th, np.inf),
+        np.where(pulsing & (tl > params.t_off * (1 + 1e-9)), tl, np.inf),
+    ).min(axis=-1)
+    if kind == "dsm":
+        moving = np.where(np.isfinite(moving), np.asarray(grid["period"])[..., 0], np.inf)
+    return {
+        "switching_rate": np.where(pulsing, 2.0 / (th + tl), 0.0).max(axis=-1),
+        "chattering": np.where(pulsing, hi - lo, 0.0).max(axis=-1),
+        "min_pulse": moving,
+    }
+
+
+def candidate_frame(
+    grids: Mapping[str, Mapping[str, float]],
+    params: ValveParams,
+    n_xi: int = 100,
+    options: TuningOptions | None = None,
+    data: pd.DataFrame | None = None,
+) -> pd.DataFrame:
+    """Every setting of the sweeps with its costs, metrics and constraint checks.
+
+    Parameters
+    ----------
+    grids : mapping
+        ``kind -> {start, stop, step}`` (:func:`spa.tuning.cost.check_sweeps`).
+    params : ValveParams
+        Valve parameters.
+    n_xi : int, default 100
+        Points of ``xi`` in the costs and metrics.
+    options : TuningOptions, optional
+        Constraints and gain sweep; defaults when omitted.
+    data : pandas.DataFrame, optional
+        ``sweep_frame(grids, params, n_xi, exact=True)`` when already computed: its ``J``
+        and ``J_exact`` are used for the settings with the default gain.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per candidate: ``modulator``, ``value`` (Hz for PWM, s otherwise), ``gain``
+        (NaN for PWM, ΔΣM), ``J``, ``J_exact``, ``switching_rate``, ``chattering``,
+        ``min_pulse`` (:func:`setting_metrics`), one boolean column per entry of
+        :data:`CONSTRAINTS` (True: the candidate meets it) and ``feasible`` (all of them).
+        Settings outside Section 5's constraints (:func:`spa.tuning.cost.feasible`) are left
+        out.
+    """
+    opts = options or TuningOptions()
+    parts = []
+    for kind, g in grids.items():
+        values = sweep_grid(g["start"], g["stop"], g["step"])
+        keep = np.asarray(feasible(kind, values, params), dtype=bool)
+        values = values[keep]
+        sets: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None]] = [
+            (values, None)
+        ]
+        if kind == "iipfm" and opts.gain_sweep is not None:
+            gains = sweep_grid(**opts.gain_sweep)
+            sets.append((np.repeat(values, gains.size), np.tile(gains, values.size)))
+        for v, gain in sets:
+            settings = modulator_settings(kind, v, params, gain)
+            if gain is None and data is not None:
+                known = data[data["modulator"] == kind]
+                if len(known) != keep.size:
+                    raise ValueError(f"data: {kind} rows do not match the grid {dict(g)}")
+                costs = {
+                    "J": known["J"].to_numpy()[keep],
+                    "J_exact": known["J_exact"].to_numpy()[keep],
+                }
+            else:
+                costs = {
+                    "J": linearity_cost(kind, v, params, n_xi, gain=gain),
+                    "J_exact": exact_cost(kind, v, params, n_xi, gain=gain),
+                }
+            frame = pd.DataFrame(
+                {
+                    "modulator": kind,
+                    "value": v,
+                    "gain": settings.get("gain", np.full(v.shape, np.nan)),
+                    **costs,
+                    **setting_metrics(kind, v, params, n_xi, gain),
+                }
+            )
+            lo, hi = opts.ranges.get(kind, (-np.inf, np.inf))
+            frame["setting_range"] = (v >= lo * (1 - 1e-12)) & (v <= hi * (1 + 1e-12))
+            parts.append(frame)
+    out = pd.concat(parts, ignore_index=True)
+    limits = {
+        "max_switching_rate": ("switching_rate", opts.max_switching_rate, 1),
+        "max_chattering": ("chattering", opts.max_chattering, 1),
+        "min_pulse_width": ("min_pulse", opts.min_pulse_width, -1),
+    }
+    for name, (column, limit, sign) in limits.items():
+        if limit is None:
+            out[name] = True
+        elif sign > 0:
+            out[name] = out[column] <= limit
+        else:
+            out[name] = out[column] >= limit * (1 - 1e-9)
+    out["feasible"] = out[list(CONSTRAINTS)].all(axis=1)
+    return out
+
+
+def _excluded_by(rows: pd.DataFrame) -> list[str]:
+    """The constraint(s) that no row meets, else the smallest set no row meets together."""
+    single = [c for c in CONSTRAINTS if not rows[c].any()]
+    if single:
+        return single
+    for r in range(2, len(CONSTRAINTS) + 1):
+        for combo in itertools.combinations(CONSTRAINTS, r):
+            if not rows[list(combo)].all(axis=1).any():
+                return list(combo)
+    return []
+
+
+def _staircase(mod: Modulator, params: ValveParams, options: TuningOptions, **analysis: Any):
+    """Fit, MSE, max_dev and MAD of a noise-free simulated staircase (Table 3's metrics)."""
+    step, hold, dt = (options.staircase[k] for k in ("step", "hold", "dt"))
+    levels = math.floor(1.0 / step + 1e-9) + 1
+    t = np.arange(round(levels * hold / dt)) * dt
+    xi = staircase_input(t, step, hold)
+    u = mod.modulate(xi, dt)
+    run = pd.DataFrame({"t": t, "p": simulate(u, dt, params), "valve": u, "u": xi})
+    _, _, summary = staircase_analysis(run, mod.to_mapping(), params, **analysis)
+    return {k: float(summary[k]) for k in ("fit", "mse", "max_dev", "mad")}
+
+
+def predict(
+    mod: Modulator,
+    params: ValveParams,
+    n_xi: int = 100,
+    options: TuningOptions | None = None,
+    linearity: Mapping[str, float] | None = None,
+) -> dict[str, Any]:
+    """What a setting will do on the valve: the ``predicted:`` block of a recommendation.
+
+    Parameters
+    ----------
+    mod : Modulator
+        The setting.
+    params : ValveParams
+        Valve parameters.
+    n_xi : int, default 100
+        Points of ``xi`` for the maxima and the ``tau_m`` range.
+    options : TuningOptions, optional
+        Its ``staircase`` is simulated; defaults when omitted.
+    linearity : mapping, optional
+        Keyword arguments of :func:`spa.openloop.staircase_analysis` (``settle``, ...).
+
+    Returns
+    -------
+    dict
+        ``dead_zone``, ``saturation`` (Table 1), ``chattering``, ``switching_rate``,
+        ``min_pulse`` (:func:`setting_metrics`), ``tau_m`` (``{min, max}`` of Eq. 9 over the
+        ``xi`` where it is defined, s), and ``fit``, ``mse``, ``max_dev``, ``mad`` of the paper's
+        staircase simulated with the exact plant, noise-free, analysed like a measured one.
+    """
+    opts = options or TuningOptions()
+    settings = dict(mod.settings)
+    dead, sat = (float(v) for v in thresholds(mod.kind, params, **settings))
+    gain = settings.get("gain")
+    metrics = setting_metrics(mod.kind, mod.value, params, n_xi, gain)
+    xi = np.linspace(0.0, 1.0, n_xi)
+    tau = np.asarray(time_constant(*time_fractions(mod.kind, xi, params, **settings), params))
+    tau = tau[np.isfinite(tau)]
+    return {
+        "dead_zone": dead,
+        "saturation": sat,
+        "chattering": float(metrics["chattering"]),
+        "switching_rate": float(metrics["switching_rate"]),
+        "min_pulse": float(metrics["min_pulse"]),
+        "tau_m": {
+            "min": float(tau.min()) if tau.size else None,
+            "max": float(tau.max()) if tau.size else None,
+        },
+        **_staircase(mod, params, opts, **dict(linearity or {})),
+    }
+
+
+def _entry(
+    row: pd.Series,
+    params: ValveParams,
+    n_xi: int,
+    options: TuningOptions,
+    linearity: Mapping[str, float] | None,
+) -> dict[str, Any]:
+    gain = None if np.isnan(row["gain"]) else float(row["gain"])
+    mod = Modulator(
+        row["modulator"], modulator_settings(row["modulator"], row["value"], params, gain)
+    )
+    return {
+        "modulator": mod.kind,
+        "label": mod.label,
+        "description": mod.description,
+        "setting": mod.to_mapping(),
+        "J": float(row["J"]),
+        "J_exact": float(row["J_exact"]),
+        "predicted": predict(mod, params, n_xi, options, linearity),
+    }
+
+
+def recommend(
+    candidates: pd.DataFrame,
+    params: ValveParams,
+    n_xi: int = 100,
+    options: TuningOptions | None = None,
+    linearity: Mapping[str, float] | None = None,
+) -> dict[str, Any]:
+    """The recommended setting, the runner-up of each other modulator, or why there is none.
+
+    Parameters
+    ----------
+    candidates : pandas.DataFrame
+        :func:`candidate_frame`.
+    params : ValveParams
+        Valve parameters.
+    n_xi : int, default 100
+        As :func:`candidate_frame`.
+    options : TuningOptions, optional
+        Score and constraints; defaults when omitted.
+    linearity : mapping, optional
+        Passed to :func:`predict`.
+
+    Returns
+    -------
+    dict
+        YAML-ready: ``score``, ``constraints`` (the options, and per constraint how many
+        candidates it excludes), ``n_candidates``, ``n_feasible``, ``recommended`` (None
+        when nothing is feasible; else ``modulator``, ``label``, ``description``,
+        ``setting`` in the form of a ``dataset.yaml`` modulator, ``J``, ``J_exact``,
+        ``predicted``), ``runners_up`` (the best feasible setting of every other modulator,
+        best first, or the constraints that exclude all of its settings), ``excluded_by``
+        (the constraints that together exclude every setting; empty when one is feasible)
+        and ``units``.
+    """
+    opts = options or TuningOptions()
+    feasible_rows = candidates[candidates["feasible"]]
+    best = feasible_rows.sort_values(opts.score, kind="stable").drop_duplicates("modulator")
+    entries = [_entry(row, params, n_xi, opts, linearity) for _, row in best.iterrows()]
+    runners_up: list[dict[str, Any]] = entries[1:]
+    for kind in MODULATOR_ORDER:
+        rows = candidates[candidates["modulator"] == kind]
+        if not rows.empty and kind not in set(best["modulator"]):
+            runners_up.append({"modulator": kind, "excluded_by": _excluded_by(rows)})
+    excludes = {c: int((~candidates[c]).sum()) for c in CONSTRAINTS}
+    return {
+        "score": opts.score,
+        "constraints": {**opts.to_mapping(), "excludes": excludes},
+        "n_candidates": len(candidates),
+        "n_feasible": len(feasible_rows),
+        "recommended": entries[0] if entries else None,
+        "runners_up": runners_up,
+        "excluded_by": [] if entries else _excluded_by(candidates),
+        "units": dict(UNITS),
+    }
+
+
+def recommendation_sentence(rec: Mapping[str, Any]) -> str:
+    """The recommendation in one sentence a person can act on.
+
+    Parameters
+    ----------
+    rec : mapping
+        :func:`recommend`'s result (or the content of ``recommendation.yaml``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> text = recommendation_sentence({"recommended": None, "excluded_by": ["max_chattering"],
+    ...                                 "constraints": {"max_chattering": 0.001}})
+    >>> text[:80]
+    'No setting of any modulator meets the constraints: max_chattering = 0.001 rules '
+    """
+    best = rec.get("recommended")
+    if not best:
+        names = list(rec.get("excluded_by") or [])
+        limits = rec.get("constraints", {})
+        said = " and ".join(f"{n} = {limits.get(n)}" for n in names) or "the constraints"
+        verb, them = ("rules", "it") if len(names) == 1 else ("rule", "them")
+        return (
+            f"No setting of any modulator meets the constraints: {said} {verb} out every one; "
+            f"relax {them} in the tuning: section of the config."
+        )
+    pred = best["predicted"]
+    setting = ", ".join(
+        f"{k}: {v:.6g}" if isinstance(v, float) else f"{k}: {v}" for k, v in best["setting"].items()
+    )
+    score = rec.get("score", "J")
+    j, other = (best["J"], best["J_exact"]) if score == "J" else (best["J_exact"], best["J"])
+    other_name = "J_exact" if score == "J" else "J"
+    return (
+        f"Use {best['description']} (dataset.yaml modulator: {{{setting}}}): "
+        f"{score} = {j:.2f} bar ({other_name} = {other:.2f}), dead-zone up to "
+        f"xi = {pred['dead_zone']:.2f}, saturation from xi = {pred['saturation']:.2f}, "
+        f"at most {pred['switching_rate']:.0f} valve switchings/s and "
+        f"{pred['chattering'] * 1e3:.1f} mbar chattering; a simulated staircase fits its "
+        f"line to FIT = {pred['fit']:.1f} %."
+    )

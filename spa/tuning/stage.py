@@ -1,0 +1,377 @@
+"""The tuning stage for one valve: every table, curve and the recommendation at once.
+
+:func:`tune` runs Section 5 of the paper on a valve's own parameters (a dataset's identified
+ones, or any :class:`~spa.model.params.ValveParams`) and returns a :class:`TuningResult`
+holding what the workflow writes to ``results/{dataset}/tuning/``: Table 1 at the selected
+settings, the sweeps of Fig. 4 (``J`` and ``J_exact``), Table 2 with intervals, the curves of
+Fig. 5 and the recommendation. :func:`read_identified` reads an identification's
+``params.yaml`` (with its 95 % intervals) and refuses one that failed.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from spa import _checks as checks
+from spa.model.modulators import Modulator
+from spa.model.params import ValveParams
+from spa.model.thresholds import threshold_table
+from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
+from spa.tuning.intervals import PARAMETERS, read_intervals
+from spa.tuning.recommend import (
+    TuningOptions,
+    candidate_frame,
+    recommend,
+    recommendation_sentence,
+)
+from spa.tuning.tables import equilibrium_frame, sweep_frame, tuning_table
+
+__all__ = [
+    "Identified",
+    "TuningError",
+    "TuningResult",
+    "format_result",
+    "read_identified",
+    "tune",
+    "tune_with_config",
+]
+
+
+class TuningError(ValueError):
+    """The valve cannot be tuned (no usable identification); the message says why."""
+
+
+@dataclass(frozen=True)
+class Identified:
+    """A valve as an identification left it: parameters, 95 % intervals, fallbacks.
+
+    Attributes
+    ----------
+    params : ValveParams
+        Point estimates.
+    intervals : dict
+        ``name -> (lo, hi)`` for the parameters with an interval.
+    fallback : dict
+        ``name -> reason`` for parameters that took a nominal value instead of a fit.
+    source : str
+        Where they came from (a file name, or ``"arguments"``).
+    """
+
+    params: ValveParams
+    intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    fallback: Mapping[str, str] = field(default_factory=dict)
+    source: str = "arguments"
+
+
+def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
+    """Read the identified valve from ``params.yaml`` (or its content).
+
+    Parameters
+    ----------
+    source : str, pathlib.Path or mapping
+        A ``params.yaml`` written by the identification
+        (:meth:`spa.identification.IdentificationResult.to_dict`), or its content, or a flat
+        ``{"c1": ..., ...}`` mapping (no intervals).
+
+    Returns
+    -------
+    Identified
+
+    Raises
+    ------
+    TuningError
+        If the file is missing or unreadable (the identification did not run or failed), it
+        records an error, or a parameter is missing or outside the model's domain; the
+        message names the file and the parameter.
+
+    Examples
+    --------
+    >>> v = read_identified({"c1": 0.5, "k2": 0.8, "tau2": 0.8, "t_on": 0.003, "t_off": 0.01})
+    >>> v.params.c1, v.intervals
+    (0.5, {})
+    """
+    where = "arguments"
+    if isinstance(source, str | Path):
+        where = str(source)
+        path = Path(source)
+        if not path.is_file():
+            raise TuningError(
+                f"{where}: no such file; the identification of this dataset did not run or "
+                "failed (see its log), so it gets no tuning"
+            )
+        try:
+            source = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
+    if not isinstance(source, Mapping):
+        raise TuningError(f"{where}: expected a mapping of c1, k2, tau2, t_on, t_off")
+    if source.get("error"):
+        raise TuningError(f"{where}: the identification failed: {source['error']}; no tuning")
+    values = {}
+    for name in PARAMETERS:
+        item = source.get(name)
+        value = item.get("value") if isinstance(item, Mapping) else item
+        if value is None:
+            raise TuningError(
+                f"{where}: no value for {name!r}; the identification failed for it, so the "
+                "valve gets no tuning"
+            )
+        values[name] = value
+    try:
+        params = ValveParams(**values)
+        intervals = read_intervals(source)
+    except ValueError as exc:
+        raise TuningError(f"{where}: {exc}") from None
+    fallback = source.get("fallback") or {}
+    return Identified(params, intervals, dict(fallback), where)
+
+
+@dataclass(frozen=True)
+class TuningResult:
+    """Everything the tuning stage writes for one valve.
+
+    Attributes
+    ----------
+    identified : Identified
+        The valve tuned.
+    table1 : pandas.DataFrame
+        Dead-zone and saturation (Table 1) at the paper's selected settings (``case`` =
+        ``paper``), at each modulator's optimum (``optimum``) and at the recommendation.
+    sweeps : pandas.DataFrame
+        Fig. 4's data: :func:`spa.tuning.tables.sweep_frame` with ``J`` and ``J_exact``.
+    table2 : pandas.DataFrame
+        :func:`spa.tuning.tables.tuning_table`.
+    curves : pandas.DataFrame
+        Fig. 5's data at the optima: :func:`spa.tuning.tables.equilibrium_frame` with
+        ``p_exact``.
+    candidates : pandas.DataFrame
+        :func:`spa.tuning.recommend.candidate_frame` (not written by the workflow).
+    recommendation : dict
+        :func:`spa.tuning.recommend.recommend`, plus ``params``, ``intervals``,
+        ``fallback``, ``source`` and ``sentence`` (:func:`recommendation_sentence`).
+    """
+
+    identified: Identified
+    table1: pd.DataFrame
+    sweeps: pd.DataFrame
+    table2: pd.DataFrame
+    curves: pd.DataFrame
+    candidates: pd.DataFrame = field(repr=False)
+    recommendation: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def sentence(self) -> str:
+        """The recommendation in one sentence."""
+        return recommendation_sentence(self.recommendation)
+
+
+def _table1(
+    selected: Iterable[Mapping[str, Any] | Modulator],
+    optima: Iterable[Modulator],
+    recommended: Modulator | None,
+    params: ValveParams,
+) -> pd.DataFrame:
+    cases = [("paper", Modulator.from_mapping(m)) for m in selected]
+    cases += [("optimum", m) for m in optima]
+    if recommended is not None:
+        cases.append(("recommended", recommended))
+    table = threshold_table([m for _, m in cases], params)
+    table.insert(0, "case", [c for c, _ in cases])
+    table.insert(2, "label", [m.label for _, m in cases])
+    return table
+
+
+def tune(
+    valve: ValveParams | Identified | str | Path | Mapping[str, Any],
+    *,
+    sweeps: Mapping[str, Mapping[str, float]] | None = None,
+    n_xi: int = 100,
+    options: TuningOptions | Mapping[str, Any] | None = None,
+    selected: Iterable[Mapping[str, Any] | Modulator] | None = None,
+    linearity: Mapping[str, float] | None = None,
+) -> TuningResult:
+    """Tune the four modulators for one valve and recommend a setting (paper Section 5).
+
+    Parameters
+    ----------
+    valve : ValveParams, Identified, path or mapping
+        The valve: parameters (no intervals), or an identification's ``params.yaml`` (path
+        or content, :func:`read_identified`), whose 95 % intervals are propagated.
+    sweeps : mapping, optional
+        ``kind -> {start, stop, step}`` (the config's ``analytic.sweeps``); the paper's grids
+        (:data:`spa.tuning.cost.DEFAULT_SWEEPS`) when omitted.
+    n_xi : int, default 100
+        Points of ``xi`` in the costs (Eq. 25's ``N``).
+    options : TuningOptions or mapping, optional
+        The config's ``tuning:`` section (score, constraints, gain sweep, staircase).
+    selected : iterable, optional
+        Settings for Table 1's ``paper`` rows (the config's ``analytic.selected``); the
+        paper's four at 20 Hz / 20 ms when omitted.
+    linearity : mapping, optional
+        Keyword arguments of :func:`spa.openloop.staircase_analysis` for the predicted
+        staircase metrics (the config's ``linearity.staircase``).
+
+    Returns
+    -------
+    TuningResult
+
+    Raises
+    ------
+    TuningError
+        For an identification that failed (:func:`read_identified`).
+    ValueError
+        For parameters outside the model's domain or a delay longer than a whole sweep
+        (:func:`spa.tuning.cost.check_sweeps`), or bad options; the message names them.
+
+    Examples
+    --------
+    >>> from spa.tuning import tune
+    >>> small = {k: {**g, "step": g["step"] * 10} for k, g in DEFAULT_SWEEPS.items()}
+    >>> result = tune(ValveParams(), sweeps=small, n_xi=50)
+    >>> result.recommendation["recommended"]["modulator"]
+    'iipfm'
+    """
+    if isinstance(valve, Identified):
+        ident = valve
+    elif isinstance(valve, ValveParams):
+        ident = Identified(valve)
+    else:
+        ident = read_identified(valve)
+    p = ident.params
+    n = checks.integer("n_xi", n_xi, minimum=2)
+    opts = options if isinstance(options, TuningOptions) else TuningOptions.from_mapping(options)
+    grids = check_sweeps(DEFAULT_SWEEPS if sweeps is None else sweeps, p)
+
+    data = sweep_frame(grids, p, n, exact=True)
+    table2 = tuning_table(grids, p, n, ident.intervals, data)
+    optima = [
+        setting(k, v * (1.0 if k == "pwm" else 1e-3), p)
+        for k, v in zip(table2["modulator"], table2["optimum"], strict=True)
+    ]
+    curves = equilibrium_frame({m.kind: m.value for m in optima}, p, n, exact=True)
+    candidates = candidate_frame(grids, p, n, opts, data)
+    rec = dict(recommend(candidates, p, n, opts, linearity))
+    best = rec["recommended"]
+    chosen = Modulator.from_mapping(best["setting"]) if best else None
+    if selected is None:
+        selected = [paper_setting(k, p) for k in PAPER_SETTING]
+    table1 = _table1(selected, optima, chosen, p)
+    rec = {
+        "source": ident.source,
+        "params": p.as_dict(),
+        "intervals": {k: list(v) for k, v in ident.intervals.items()},
+        "fallback": dict(ident.fallback),
+        "n_xi": n,
+        **rec,
+    }
+    rec["sentence"] = recommendation_sentence(rec)
+    return TuningResult(ident, table1, data, table2, curves, candidates, rec)
+
+
+def tune_with_config(
+    valve: ValveParams | Identified | str | Path | Mapping[str, Any],
+    config: Mapping[str, Any] | None = None,
+    **options: Any,
+) -> TuningResult:
+    """:func:`tune` with the sections of a pipeline configuration (``config/config.yaml``).
+
+    Parameters
+    ----------
+    valve
+        As :func:`tune`.
+    config : mapping, optional
+        A configuration: ``analytic.sweeps``, ``analytic.n_xi``, ``analytic.selected``,
+        ``tuning`` and ``linearity.staircase`` are used where present; the paper's grids and
+        the defaults of :class:`~spa.tuning.recommend.TuningOptions` otherwise.
+    **options
+        Entries of the ``tuning:`` section that override the configuration's (None values
+        are ignored), e.g. ``score="J_exact"``.
+
+    Returns
+    -------
+    TuningResult
+
+    Raises
+    ------
+    TuningError, ValueError
+        As :func:`tune`.
+    """
+    cfg = dict(config or {})
+    analytic = dict(cfg.get("analytic") or {})
+    tuning = {
+        **dict(cfg.get("tuning") or {}),
+        **{k: v for k, v in options.items() if v is not None},
+    }
+    return tune(
+        valve,
+        sweeps=analytic.get("sweeps"),
+        n_xi=analytic.get("n_xi", 100),
+        options=tuning,
+        selected=analytic.get("selected"),
+        linearity=dict(cfg.get("linearity") or {}).get("staircase"),
+    )
+
+
+#: Table 2 columns printed by :func:`format_result`.
+_SHOWN = [
+    "modulator",
+    "optimum",
+    "unit",
+    "gain",
+    "J_min",
+    "J_min_lo",
+    "J_min_hi",
+    "J_exact",
+    "J_paper_setting",
+    "optimum_lo",
+    "optimum_hi",
+    "analytic_optimum",
+]
+
+
+def _plain(value: Any) -> Any:
+    """NumPy scalars and NaN to plain JSON/YAML values."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def format_result(result: TuningResult, as_json: bool = False) -> str:
+    """Text for people (Table 2, the recommendation as YAML, its sentence) or JSON.
+
+    Parameters
+    ----------
+    result : TuningResult
+        :func:`tune`'s result.
+    as_json : bool, default False
+        ``{"table2": [rows], "recommendation": {...}}`` as JSON instead.
+
+    Returns
+    -------
+    str
+    """
+    rec = _plain(result.recommendation)
+    if as_json:
+        rows = [_plain(r) for r in result.table2.to_dict(orient="records")]
+        return json.dumps({"table2": rows, "recommendation": rec}, indent=2)
+    table = result.table2[_SHOWN].to_string(index=False, float_format=lambda x: f"{x:.4g}")
+    interval = result.table2["interval_method"].iloc[0]
+    return (
+        f"Table 2 for {result.identified.source} (intervals: {interval})\n{table}\n\n"
+        f"recommendation:\n{yaml.safe_dump(rec, sort_keys=False, allow_unicode=True)}\n"
+        f"{result.sentence}\n"
+    )

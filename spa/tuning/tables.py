@@ -1,0 +1,309 @@
+"""Tidy tables of the tuning: the sweeps of Fig. 4, Table 2 and the curves of Fig. 5.
+
+* :func:`sweep_frame` – the four sweeps of ``J`` (and optionally ``J_exact``) in one table;
+* :func:`optimum_table` – the analytic stage's Table 2 at the nominal valve, beside the
+  paper's printed values;
+* :func:`tuning_table` – a dataset's Table 2: the optimum of each modulator for its own
+  valve, with ``J`` at the paper's settings, ``J_exact`` and intervals;
+* :func:`equilibrium_frame` – ``P_eq`` (and optionally the exact cycle mean) and ``tau_m``
+  against ``xi`` at given settings (Fig. 5).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from spa import _checks as checks
+from spa.model.averaging import equilibrium_pressure, time_constant, time_fractions
+from spa.model.modulators import MODULATOR_ORDER
+from spa.model.params import ValveParams
+from spa.tuning.cost import (
+    PAPER_TABLE2,
+    SWEPT_PARAMETER,
+    check_sweeps,
+    constraint,
+    iipfm_optimal_t_l,
+    linearity_cost,
+    modulator_settings,
+    optimum,
+    paper_setting,
+    setting,
+    sweep,
+)
+from spa.tuning.exact import exact_cost, exact_curve
+from spa.tuning.intervals import INTERVAL_METHOD, propagate
+
+__all__ = ["equilibrium_frame", "optimum_table", "sweep_frame", "tuning_table"]
+
+
+def sweep_frame(
+    sweeps: Mapping[str, Mapping[str, float]],
+    params: ValveParams | None = None,
+    n_xi: int = 100,
+    exact: bool = False,
+) -> pd.DataFrame:
+    """The four sweeps of Fig. 4 as one tidy table.
+
+    Parameters
+    ----------
+    sweeps : mapping
+        ``kind -> {"start", "stop", "step"}`` for all four kinds (``analytic.sweeps``).
+    params : ValveParams, optional
+        Valve parameters; nominal when omitted.
+    n_xi : int, default 100
+        Points of ``xi`` in the cost.
+    exact : bool, default False
+        Add the column ``J_exact`` (:func:`spa.tuning.exact.exact_cost`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``modulator``, ``parameter``, ``value`` (in ``unit``), ``unit``, ``x_ms`` (the
+        common axis of Fig. 4: PWM period ``1000/f_w``, otherwise ``1000*value``), ``J``
+        (NaN where infeasible), and ``J_exact`` when asked.
+
+    Raises
+    ------
+    ValueError
+        If a kind is missing, a grid is bad, or a delay is longer than a whole sweep
+        (:func:`spa.tuning.cost.check_sweeps`).
+    """
+    p = checks.valve_params(params)
+    parts = []
+    for kind, g in check_sweeps(sweeps, p).items():
+        values, cost = sweep(kind, p, g["start"], g["stop"], g["step"], n_xi)
+        name, unit = SWEPT_PARAMETER[kind]
+        x_ms = 1e3 / values if kind == "pwm" else 1e3 * values
+        parts.append(
+            pd.DataFrame(
+                {
+                    "modulator": kind,
+                    "parameter": name,
+                    "value": values,
+                    "unit": unit,
+                    "x_ms": np.round(x_ms, 9),
+                    "J": cost,
+                }
+            )
+        )
+        if exact:
+            parts[-1]["J_exact"] = np.where(
+                np.isfinite(cost), exact_cost(kind, values, p, n_xi), np.nan
+            )
+    return pd.concat(parts, ignore_index=True)
+
+
+def optimum_table(
+    sweeps: Mapping[str, Mapping[str, float]],
+    params: ValveParams | None = None,
+    n_xi: int = 100,
+) -> pd.DataFrame:
+    """Table 2: the optimum of each sweep beside the paper's printed values.
+
+    Parameters
+    ----------
+    sweeps, params, n_xi
+        As :func:`sweep_frame`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per modulator: ``modulator``, ``constraint``, ``J_min``, ``parameter``,
+        ``optimum`` and ``unit`` (Hz for PWM, ms otherwise), ``gain`` (IPFM 1, IIPFM
+        ``1 + t_on/t_l``, else empty), ``paper_J_min``, ``paper_optimum`` (printed values, for
+        reference only), ``analytic_optimum`` (Eq. 29's ``t_l*`` for IIPFM, else empty).
+    """
+    p = checks.valve_params(params)
+    rows = []
+    for kind, g in check_sweeps(sweeps, p).items():
+        value, j_min = optimum(kind, p, g["start"], g["stop"], g["step"], n_xi)
+        name, unit = SWEPT_PARAMETER[kind]
+        scale, shown = (1.0, "Hz") if unit == "Hz" else (1e3, "ms")
+        settings = modulator_settings(kind, value, p)
+        paper_j, paper_value, _ = PAPER_TABLE2[kind]
+        rows.append(
+            {
+                "modulator": kind,
+                "constraint": constraint(kind, p),
+                "J_min": j_min,
+                "parameter": name,
+                "optimum": round(value * scale, 9),
+                "unit": shown,
+                "gain": settings.get("gain", np.nan),
+                "paper_J_min": paper_j,
+                "paper_optimum": paper_value,
+                "analytic_optimum": iipfm_optimal_t_l(p) * 1e3 if kind == "iipfm" else np.nan,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def equilibrium_frame(
+    optima: Mapping[str, float],
+    params: ValveParams | None = None,
+    n_xi: int = 100,
+    exact: bool = False,
+) -> pd.DataFrame:
+    """Equilibrium pressure and time constant against ``xi`` at given settings (Fig. 5).
+
+    Parameters
+    ----------
+    optima : mapping
+        ``kind -> value`` of the swept parameter (Hz for PWM, s otherwise); settings from
+        :func:`modulator_settings`.
+    params : ValveParams, optional
+        Valve parameters; nominal when omitted.
+    n_xi : int, default 100
+        Points of ``xi`` in [0, 1].
+    exact : bool, default False
+        Add the column ``p_exact``: the exact cycle mean of the periodic steady state
+        (:func:`spa.tuning.exact.exact_curve`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``modulator``, ``parameter``, ``value``, ``gain``, ``xi``, ``p_eq`` (Eq. 5),
+        ``p_target`` (``k2*xi``), ``tau_m`` (Eq. 9; NaN in the dead-zone and past saturation),
+        and ``p_exact`` when asked.
+    """
+    p = checks.valve_params(params)
+    xi = np.linspace(0.0, 1.0, checks.integer("n_xi", n_xi, minimum=2))
+    parts = []
+    for kind in MODULATOR_ORDER:
+        if kind not in optima:
+            continue
+        settings = modulator_settings(kind, optima[kind], p)
+        a1, a2 = time_fractions(kind, xi, p, **settings)
+        parts.append(
+            pd.DataFrame(
+                {
+                    "modulator": kind,
+                    "parameter": SWEPT_PARAMETER[kind][0],
+                    "value": settings[SWEPT_PARAMETER[kind][0]],
+                    "gain": settings.get("gain", np.nan),
+                    "xi": xi,
+                    "p_eq": equilibrium_pressure(a1, a2, p),
+                    "p_target": p.k2 * xi,
+                    "tau_m": time_constant(a1, a2, p),
+                }
+            )
+        )
+        if exact:
+            parts[-1]["p_exact"] = exact_curve(kind, optima[kind], p, xi.size)
+    if not parts:
+        raise ValueError(f"optima: expected some of {list(MODULATOR_ORDER)}, got {sorted(optima)}")
+    return pd.DataFrame(pd.concat(parts, ignore_index=True))
+
+
+def _best(frame: pd.DataFrame, column: str) -> pd.Series:
+    """The row of ``frame`` with the smallest finite ``column`` (the first of ties)."""
+    return frame.loc[frame[column].idxmin(skipna=True)]
+
+
+def _corner_optima(
+    grids: Mapping[str, Mapping[str, float]], params: ValveParams, n_xi: int
+) -> npt.NDArray[np.float64]:
+    """``[optimum, J_min, J_exact at it]`` per modulator (rows in order) for one valve."""
+    rows = []
+    for kind, g in grids.items():
+        value, j_min = optimum(kind, params, g["start"], g["stop"], g["step"], n_xi)
+        rows.append([value, j_min, float(exact_cost(kind, value, params, n_xi))])
+    return np.array(rows)
+
+
+def tuning_table(
+    sweeps: Mapping[str, Mapping[str, float]],
+    params: ValveParams | None = None,
+    n_xi: int = 100,
+    intervals: Mapping[str, tuple[float, float]] | None = None,
+    data: pd.DataFrame | None = None,
+) -> pd.DataFrame:
+    """Table 2 for one valve: each modulator's optimum, J and J_exact, with intervals.
+
+    Parameters
+    ----------
+    sweeps, params, n_xi
+        As :func:`sweep_frame`.
+    intervals : mapping, optional
+        95 % intervals of the valve parameters (:func:`spa.tuning.intervals.read_intervals`);
+        propagated by :func:`spa.tuning.intervals.propagate` (corners of the box).
+    data : pandas.DataFrame, optional
+        ``sweep_frame(sweeps, params, n_xi, exact=True)`` when already computed.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per modulator, with the columns
+
+        * ``modulator``, ``parameter``, ``optimum`` (the grid value minimising ``J``, in
+          ``unit``: Hz for PWM, ms otherwise), ``unit``, ``gain`` (IPFM 1, IIPFM
+          ``1 + t_on/t_l``), ``J_min`` (``J`` there, Eq. 25);
+        * ``analytic_optimum``: Eq. 29's ``t_l*`` in ms for IIPFM (empty for the others, and
+          for IIPFM when ``c1*sqrt(k2/2)/tau2 >= 1``);
+        * ``J_paper_setting``: ``J`` at the paper's setting (20 Hz, 20 ms; IIPFM with
+          ``G = 1 + t_on/t_l``), the like-for-like value beside the paper's printed Table 2;
+        * ``J_exact``: the exact periodic steady state's cost at ``optimum``;
+        * ``optimum_lo``, ``optimum_hi``, ``J_min_lo``, ``J_min_hi``, ``J_exact_lo``,
+          ``J_exact_hi``: the smallest and largest values over the corners of the
+          parameters' 95 % box (each corner re-optimised), and ``interval_method``
+          (``"corners"``, or ``"none"`` without intervals: then the ends equal the values);
+        * ``label`` (the optimum's :attr:`~spa.model.modulators.Modulator.label`),
+          ``J_exact_paper_setting``, ``optimum_exact`` and ``J_exact_min`` (the grid minimum
+          of ``J_exact``), ``constraint`` (Section 5.1), ``paper_optimum`` and
+          ``paper_J_min`` (the paper's printed Table 2, for reference only).
+
+    Raises
+    ------
+    ValueError
+        As :func:`sweep_frame`.
+    """
+    p = checks.valve_params(params)
+    n = checks.integer("n_xi", n_xi, minimum=2)
+    grids = check_sweeps(sweeps, p)
+    if data is None:
+        data = sweep_frame(grids, p, n, exact=True)
+    lo, hi = propagate(lambda q: _corner_optima(grids, q, n), p, intervals)
+    rows = []
+    for i, kind in enumerate(grids):
+        d = data[data["modulator"] == kind]
+        best, best_exact = _best(d, "J"), _best(d, "J_exact")
+        value = float(best["value"])
+        mod = setting(kind, value, p)
+        paper = paper_setting(kind, p)
+        scale = 1.0 if kind == "pwm" else 1e3
+        try:
+            analytic = iipfm_optimal_t_l(p) * 1e3 if kind == "iipfm" else np.nan
+        except ValueError:
+            analytic = np.nan
+        rows.append(
+            {
+                "modulator": kind,
+                "parameter": SWEPT_PARAMETER[kind][0],
+                "optimum": round(value * scale, 9),
+                "unit": "Hz" if kind == "pwm" else "ms",
+                "gain": mod.settings.get("gain", np.nan),
+                "J_min": float(best["J"]),
+                "analytic_optimum": analytic,
+                "J_paper_setting": float(linearity_cost(kind, paper.value, p, n)),
+                "J_exact": float(best["J_exact"]),
+                "optimum_lo": round(lo[i, 0] * scale, 9),
+                "optimum_hi": round(hi[i, 0] * scale, 9),
+                "J_min_lo": lo[i, 1],
+                "J_min_hi": hi[i, 1],
+                "J_exact_lo": lo[i, 2],
+                "J_exact_hi": hi[i, 2],
+                "interval_method": INTERVAL_METHOD if intervals else "none",
+                "label": mod.label,
+                "J_exact_paper_setting": float(exact_cost(kind, paper.value, p, n)),
+                "optimum_exact": round(float(best_exact["value"]) * scale, 9),
+                "J_exact_min": float(best_exact["J_exact"]),
+                "constraint": constraint(kind, p),
+                "paper_optimum": PAPER_TABLE2[kind][1],
+                "paper_J_min": PAPER_TABLE2[kind][0],
+            }
+        )
+    return pd.DataFrame(rows)
