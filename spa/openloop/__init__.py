@@ -32,6 +32,7 @@ from spa.openloop.paper import PAPER_SETTINGS, PAPER_TABLE3, PAPER_TIME_CONSTANT
 from spa.openloop.reference import (
     REFERENCE,
     first_order_response,
+    linear_reference,
     reference_run,
     reference_time_constant,
 )
@@ -73,6 +74,7 @@ __all__ = [
     "frequency_note",
     "is_simulated",
     "linear_fit_metrics",
+    "linear_reference",
     "mean_bicoherence",
     "measured_thresholds",
     "noise_free_pressure",

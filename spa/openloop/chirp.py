@@ -25,7 +25,7 @@ from spa import _checks
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.openloop._arrays import run_columns, uniform_step
-from spa.openloop.reference import REFERENCE, reference_run, reference_time_constant
+from spa.openloop.reference import linear_reference
 from spa.openloop.replicas import noise_replicates
 from spa.openloop.spectra import (
     bicoherence,
@@ -160,13 +160,9 @@ def chirp_reference(
 
     Parameters
     ----------
-    run : pandas.DataFrame
-        A chirp run (its ``t`` and ``u`` are used).
-    params : ValveParams
-        The dataset's parameters: gain ``k2`` and, with ``modulators``, ``tau_m``.
-    modulators : iterable of mapping or Modulator
-        The settings of the dataset's chirp runs
-        (`spa.openloop.reference.reference_time_constant`).
+    run, params, modulators
+        A chirp run (its ``t`` and ``u`` drive the reference), the dataset's parameters and
+        its chirp runs' settings: as `spa.openloop.reference.linear_reference`.
     **options
         As `chirp_analysis`.
 
@@ -178,10 +174,9 @@ def chirp_reference(
         ``run``, ``modulator`` and ``setting`` all ``"linear"``, ``gain`` 1, ``tau_m`` (s)
         and `chirp_analysis`'s summary.
     """
-    tau = reference_time_constant(modulators, params)
-    f, bic, summary = chirp_analysis(reference_run(run, params, tau), **options)
-    row = {"run": REFERENCE, "modulator": REFERENCE, "setting": REFERENCE, "gain": 1.0}
-    return f, bic, {**row, "tau_m": tau, **summary}
+    reference, tags = linear_reference(run, params, modulators)
+    f, bic, summary = chirp_analysis(reference, **options)
+    return f, bic, {**tags, **summary}
 
 
 def noise_spread(

@@ -31,7 +31,13 @@ from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.openloop._arrays import _array, _time, uniform_step
 
-__all__ = ["REFERENCE", "first_order_response", "reference_run", "reference_time_constant"]
+__all__ = [
+    "REFERENCE",
+    "first_order_response",
+    "linear_reference",
+    "reference_run",
+    "reference_time_constant",
+]
 
 #: The ``modulator`` (and ``setting``, ``run``) of the linear reference's row in a table.
 REFERENCE = "linear"
@@ -154,3 +160,29 @@ def reference_run(run: pd.DataFrame, params: ValveParams, tau: float) -> pd.Data
     t = run["t"].to_numpy(dtype=np.float64)
     u = run["u"].to_numpy(dtype=np.float64)
     return pd.DataFrame({"t": t, "p": first_order_response(t, u, params.k2, tau), "u": u})
+
+
+def linear_reference(
+    run: pd.DataFrame, params: ValveParams, modulators: Iterable[Mapping[str, Any] | Modulator]
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """A run's input through the dataset's linear reference, and the tags of its table row.
+
+    Parameters
+    ----------
+    run : pandas.DataFrame
+        The run whose ``t`` and ``u`` drive the reference.
+    params : ValveParams
+        The dataset's parameters (gain ``k2``, and ``tau_m`` with ``modulators``).
+    modulators : iterable of mapping or Modulator
+        The settings of the dataset's runs of that kind (`reference_time_constant`).
+
+    Returns
+    -------
+    reference : pandas.DataFrame
+        `reference_run` with `reference_time_constant`.
+    tags : dict
+        ``run``, ``modulator`` and ``setting`` all `REFERENCE`, ``gain`` 1 and ``tau_m`` (s).
+    """
+    tau = reference_time_constant(modulators, params)
+    tags = {"run": REFERENCE, "modulator": REFERENCE, "setting": REFERENCE, "gain": 1.0}
+    return reference_run(run, params, tau), {**tags, "tau_m": tau}

@@ -20,11 +20,7 @@ import pandas as pd
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.openloop._arrays import run_columns
-from spa.openloop.reference import (
-    REFERENCE,
-    reference_run,
-    reference_time_constant,
-)
+from spa.openloop.reference import linear_reference
 from spa.openloop.sine_fit import compensate_lag, sine_linearity
 
 #: A sine at most this fraction of the plant's corner frequency tests the static
@@ -108,12 +104,9 @@ def sine_reference(
 
     Parameters
     ----------
-    run : pandas.DataFrame
-        A sine run (its ``t`` and ``u`` are used).
-    params : ValveParams
-        The dataset's parameters: gain ``k2`` and, with ``modulators``, ``tau_m``.
-    modulators : iterable of mapping or Modulator
-        The settings of the dataset's sine runs (`reference_time_constant`).
+    run, params, modulators
+        A sine run (its ``t`` and ``u`` drive the reference), the dataset's parameters and
+        its sine runs' settings: as `spa.openloop.reference.linear_reference`.
     settle, max_lag : float
         As `sine_analysis`, with the run's values.
 
@@ -125,20 +118,10 @@ def sine_reference(
         ``run``, ``modulator`` and ``setting`` all ``"linear"``, ``gain`` 1, ``tau_m`` (s),
         ``corner_frequency`` ``1/(2*pi*tau_m)`` (Hz) and `sine_analysis`'s summary.
     """
-    tau = reference_time_constant(modulators, params)
-    aligned, summary = sine_analysis(
-        reference_run(run, params, tau), settle=settle, max_lag=max_lag
-    )
-    row = {
-        "run": REFERENCE,
-        "modulator": REFERENCE,
-        "setting": REFERENCE,
-        "gain": 1.0,
-        "tau_m": tau,
-        "corner_frequency": 1.0 / (2.0 * math.pi * tau),
-        **summary,
-    }
-    return aligned, row
+    reference, tags = linear_reference(run, params, modulators)
+    aligned, summary = sine_analysis(reference, settle=settle, max_lag=max_lag)
+    corner = 1.0 / (2.0 * math.pi * tags["tau_m"])
+    return aligned, {**tags, "corner_frequency": corner, **summary}
 
 
 def frequency_note(reference: Mapping[str, Any]) -> str:
