@@ -340,6 +340,27 @@ def test_a_linear_plant_has_a_false_alarm_rate_near_alpha_under_the_chirp():
     assert hosa.max() > 1.0
 
 
+def test_the_logarithmic_chirp_spends_as_long_on_each_decade():
+    t = np.arange(0, 60, 1e-4)
+    lin = chirp_input(t, 0.1, 100.0, 60.0, 0.5, 0.25)
+    log = chirp_input(t, 0.1, 100.0, 60.0, 0.5, 0.25, method="logarithmic")
+    # instantaneous frequency, from the upward crossings of the offset: f0*(f1/f0)**(t/T)
+
+    def crossings(x):
+        return t[np.flatnonzero((x[:-1] < 0.5) & (x[1:] >= 0.5))]
+
+    up = crossings(log)
+    f_inst = 1.0 / np.diff(up)
+    mid = 0.5 * (up[1:] + up[:-1])
+    expected = 0.1 * 1000.0 ** (mid / 60.0)
+    np.testing.assert_allclose(f_inst, expected, rtol=0.02)
+    assert crossings(lin).size > 2 * up.size  # the linear sweep spends most time at the top
+    with pytest.raises(ValueError, match="logarithmic"):
+        chirp_input(t, 0.0, 100.0, 60.0, method="logarithmic")
+    with pytest.raises(ValueError, match="method"):
+        chirp_input(t, 0.1, 100.0, 60.0, method="exponential")
+
+
 # ----------------------------------------------------------------- chattering and noise
 
 
