@@ -407,7 +407,9 @@ def test_figures_have_one_panel_per_modulator(paper_staircases):
          "significant_fraction": [0.2, 0.1, 0.01], "significant_fraction_min": [0.1, 0.05, 0],
          "significant_fraction_max": [0.3, 0.2, 0]}
     )  # fmt: skip
-    assert len(fig9(maps, sweep=sweep, shown=["a"]).axes) == 4  # and the sweep panel
+    figure = fig9(maps, sweep=sweep, shown=["a"])
+    assert len(figure.axes) == 4  # and the sweep panel, where only the shown bar is outlined
+    assert [bar.get_edgecolor()[3] for bar in figure.axes[-1].patches] == [1.0, 0.0]
     table3 = pd.DataFrame(
         {"modulator": ["pwm"], "setting": ["a"], "fit": [70.0], "paper_fit": [75.0],
          "tau_mean": [0.8], "tau_sd": [0.2]}

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 
 from spa.model.modulators import MODULATOR_ORDER
@@ -114,10 +115,11 @@ def _sweep_panel(
     """
     x = np.arange(len(table))
     y = table[value].to_numpy(dtype=float)
-    colours = [_COLOURS.get(k, "0.5") for k in table["modulator"]]
+    # alpha in the colours, not as an argument: it would turn the edge colour "none" black
+    colours = [to_rgba(_COLOURS.get(k, "0.5"), 0.85) for k in table["modulator"]]
     outlined = set(shown)
-    edges = ["k" if s in outlined else "none" for s in table["setting"]]
-    ax.bar(x, y, color=colours, edgecolor=edges, linewidth=1.2, alpha=0.85)
+    edges = [to_rgba("k" if s in outlined else "none") for s in table["setting"]]
+    ax.bar(x, y, color=colours, edgecolor=edges, linewidth=1.2)
     if isinstance(error, str) and error in table.columns:
         ax.errorbar(x, y, yerr=table[error].to_numpy(dtype=float), fmt="none", ecolor="k", lw=0.8)
     elif isinstance(error, tuple) and all(c in table.columns for c in error):
