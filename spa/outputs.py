@@ -345,10 +345,14 @@ STAGES: tuple[Stage, ...] = (
             TABLE,
             "Table 3: static linearity of the staircase",
             "One row per modulator setting: line P = m ξ + n through the equilibrium pressure "
-            "of each staircase level, MSE, MD (largest residual), MAD (mean absolute residual) "
-            "and FIT %, with the paper's values (paper_*, shaded) beside its five cases; then "
-            "the measured against the averaged-model equilibrium, dead-zone and saturation "
-            "brackets, step time constants and switching rate.",
+            "of each staircase level, MSE, MAD (mean absolute residual, which is what the "
+            "paper's MD is: paper_md beside it), max_dev (largest residual) and FIT %, with the "
+            "paper's values (paper_*, shaded) beside its five cases; then the measured against "
+            "the averaged-model equilibrium, drift_max (how far the levels are from settled), "
+            "dead-zone and saturation brackets, step time constants, switching rate, the "
+            "sensor's noise (noise_sd, from the levels where the valve is still) and the "
+            "chattering: measured, with the noise's variance subtracted, noise-free (simulated "
+            "data) and Appendix B's.",
             key_item=True,
             required=False,
         ),
@@ -368,8 +372,10 @@ STAGES: tuple[Stage, ...] = (
             "staircase/fig7a.png",
             FIGURE,
             "Fig. 7a: equilibrium pressure",
-            "Equilibrium pressure against ξ for the best setting of each modulator plus IIPFM "
-            "with gain, with the ideal line k2·ξ.",
+            "Equilibrium pressure against ξ for the paper's settings (PWM 20 Hz, IPFM 20 ms, "
+            "IIPFM 20 ms with G = 1 and 1.15, ΔΣM 20 ms; a group's best by FIT where the "
+            "dataset lacks one, named in the title), with the ideal line k2·ξ; right: FIT of "
+            "every setting.",
             required=False,
         ),
         Output(
@@ -377,7 +383,8 @@ STAGES: tuple[Stage, ...] = (
             "staircase/fig7b.png",
             FIGURE,
             "Fig. 7b: time constants",
-            "Time constant of each staircase step (time to 63.2 % of the step's change).",
+            "Time constant of each staircase step (time to 63.2 % of the step's change) for "
+            "the paper's settings; right: mean ± sd of every setting.",
             required=False,
         ),
     ),
@@ -388,8 +395,13 @@ STAGES: tuple[Stage, ...] = (
             "sine/linearity.csv",
             TABLE,
             "Sine linearity",
-            "Per setting: lag found by cross-correlation, RMS and largest deviation of "
-            "P/max(P) from the line (0, 0)–(1, 1).",
+            "Per setting: sine frequency, lag found by cross-correlation, RMS and largest "
+            "(max_dev) deviation of P/max(P) from the line (0, 0)–(1, 1); the row 'linear' is "
+            "the same input through a noise-free linear first-order plant (gain k2, the "
+            "dataset's τ_m at ξ = 0.5, Eq. 9), analysed identically: the deviation a linear "
+            "plant gets. The full config drives the sine at 0.02 Hz, well below the plant's "
+            "corner frequency 1/(2π τ_m); the small (CI) config at 0.5 Hz to stay fast, where "
+            "the linear row shows how much of the deviation is the plant's dynamics.",
             required=False,
         ),
         Output(
@@ -398,7 +410,8 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 8: sine linearity",
             "Lag-compensated P/max(P) against the input fraction of the sine runs, one panel "
-            "per modulator, with the line (0, 0)–(1, 1).",
+            "per modulator, with the line (0, 0)–(1, 1) and the linear reference (grey); the "
+            "title gives the sine's frequency against the plant's corner frequency.",
             required=False,
         ),
     ),
@@ -409,8 +422,12 @@ STAGES: tuple[Stage, ...] = (
             "chirp/bicoherence.csv",
             TABLE,
             "Chirp bicoherence",
-            "Per setting: mean (and largest) bicoherence of the pressure response to the chirp "
-            "over the principal domain.",
+            "Per setting: bounded (Kim and Powers) bicoherence of the pressure response to the "
+            "chirp, its significance threshold 1 − α^(1/(K−1)) for K segments, the fraction "
+            "of the principal domain above it (the two rows next to DC left out), and the "
+            "mean, median and largest value; for simulated runs the spread of the fraction "
+            "over sensor-noise seeds. The row 'linear' is the same input through a noise-free "
+            "linear first-order plant: its fraction is the test's false-alarm rate.",
             required=False,
         ),
         Output(
@@ -418,8 +435,11 @@ STAGES: tuple[Stage, ...] = (
             "chirp/fig9.png",
             FIGURE,
             "Fig. 9: bicoherence",
-            "Bicoherence maps over (f1, f2) of the pressure response to the chirp, for the "
-            "lowest-mean setting of each modulator.",
+            "Bicoherence maps over (f1, f2) of the pressure response to the chirp, on a fixed "
+            "[0, 1] scale with the insignificant bins grey, for the paper's settings (a "
+            "group's best where the dataset lacks one, named in the title) and the linear "
+            "reference; below, the significant fraction of every setting (bars: range over "
+            "noise seeds; dashed: the linear reference).",
             required=False,
         ),
     ),

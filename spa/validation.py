@@ -1,4 +1,4 @@
-"""Model validation: re-simulate a recorded run and score the fit (MODEL.md section 1).
+"""Model validation: re-simulate a recorded run and score the fit (docs/model.md section 1).
 
 A run table holds ``t`` (s), ``p`` (bar) and either ``valve`` (the recorded 0/1 command: the
 value at sample ``k`` is the command over ``[t_k, t_{k+1})``) or ``u`` (the input fraction,
@@ -97,7 +97,7 @@ def model_response(
 
     Notes
     -----
-    The same four states as :func:`spa.simulate` (MODEL.md section 1); the edges sit at the
+    The same four states as :func:`spa.simulate` (docs/model.md section 1); the edges sit at the
     recorded sample times rather than on a uniform grid, and the closed forms are evaluated at
     the exact sample times, so irregular sampling costs no accuracy.
 

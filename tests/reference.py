@@ -1,4 +1,4 @@
-"""Plain per-step reference implementations, written straight from MODEL.md for the tests.
+"""Plain per-step reference implementations, written straight from docs/model.md for the tests.
 
 Slow on purpose: one Python iteration per sample, no cleverness, so the vectorised code in
 ``spa`` can be checked against the literal rules.

@@ -104,7 +104,7 @@ def test_scalar_in_scalar_out_and_broadcasting():
     np.testing.assert_allclose(a2[1], XI - P.t_on * 20.0)
 
 
-# ---- time fractions (Eqs. 6-7 and the table of MODEL.md section 3) ----------------------
+# ---- time fractions (Eqs. 6-7 and the table of docs/model.md section 3) ----------------------
 
 
 @given(case=modulator_cases(), xi=st.floats(0.001, 0.999))

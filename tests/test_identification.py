@@ -1,4 +1,4 @@
-"""Accuracy and error paths of the identification (MODEL.md section 1, paper Section 3.2).
+"""Accuracy and error paths of the identification (docs/model.md section 1, paper Section 3.2).
 
 The data are simulated here: the exact model on a fine grid (0.1 ms), sampled at 1 kHz with
 Gaussian sensor noise (5 mbar) and 1 mbar ADC quantisation, all seeded. The valve command

@@ -55,6 +55,19 @@ def test_ripple_is_the_chattering_without_the_settling_tail():
     lv = staircase_levels(t, p, u, settle=0.4)
     np.testing.assert_allclose(lv["p_ripple"], 0.02, atol=1e-3)
     assert (lv["p_pp"] > 0.1).all()  # the drift of 0.05 bar/s over the 2 s window counts
+    # the line's change over the window (2 s) is the drift (to 1 %: the square wave's
+    # incomplete last period tilts the line); a square wave of amplitude a has sd a
+    np.testing.assert_allclose(lv["p_drift"], 0.05 * 2.0, rtol=1e-2)
+    np.testing.assert_allclose(lv["p_ripple_sd"], 0.01, rtol=1e-3)
+
+
+def test_the_ripple_sd_of_a_triangle_is_its_range_over_root_12():
+    t = np.arange(0, 10, 1e-4)
+    tri = 0.02 * np.abs(((t * 20) % 1.0) - 0.5)  # 20 Hz triangle, range 0.01 bar
+    lv = staircase_levels(t, 0.4 + tri, np.full(t.size, 0.5), settle=0.5)
+    assert lv["p_ripple"].iloc[0] == pytest.approx(0.01, rel=1e-3)
+    assert lv["p_ripple_sd"].iloc[0] == pytest.approx(0.01 / math.sqrt(12), rel=1e-3)
+    assert abs(lv["p_drift"].iloc[0]) < 1e-6
 
 
 def test_levels_of_a_settled_staircase():
@@ -62,7 +75,17 @@ def test_levels_of_a_settled_staircase():
     run = staircase_run(p_levels, tau=0.2)
     lv = staircase_levels(run["t"], run["p"], run["u"])
     assert list(lv.columns) == [
-        "level", "xi", "t_start", "t_end", "p_eq", "p_std", "p_pp", "p_ripple", "switching_rate",
+        "level",
+        "xi",
+        "t_start",
+        "t_end",
+        "p_eq",
+        "p_std",
+        "p_pp",
+        "p_ripple",
+        "p_ripple_sd",
+        "p_drift",
+        "switching_rate",
         "n_window",
     ]
     np.testing.assert_array_equal(lv["level"], np.arange(11))
@@ -137,9 +160,9 @@ def test_a_perfectly_linear_staircase_fits_exactly():
     assert r["m"] == pytest.approx(0.75, abs=1e-9)
     assert r["n"] == pytest.approx(0.05, abs=1e-9)
     assert r["fit"] == pytest.approx(100.0, abs=1e-6)
-    assert r["md"] < 1e-9 and r["mse"] < 1e-18
+    assert r["max_dev"] < 1e-9 and r["mse"] < 1e-18
     exact = linear_fit_metrics(XI, 0.05 + 0.75 * XI)
-    assert exact["md"] < 1e-15 and exact["mse"] < 1e-30
+    assert exact["max_dev"] < 1e-15 and exact["mse"] < 1e-30
     assert exact["fit"] == pytest.approx(100.0, abs=1e-12)
 
 
@@ -151,7 +174,7 @@ def test_a_quadratic_gives_the_closed_form_line():
     r = linear_fit_metrics(XI, XI**2)
     assert r["m"] == pytest.approx(1.0, abs=1e-12)
     assert r["n"] == pytest.approx(-0.15, abs=1e-12)
-    assert r["md"] == pytest.approx(0.15, abs=1e-12)
+    assert r["max_dev"] == pytest.approx(0.15, abs=1e-12)
     assert r["mse"] == pytest.approx(0.0078, abs=1e-12)
     # |d^2 - 0.1| = 0.1, 0.09, 0.06, 0.01, 0.06, 0.15 (all but the first twice): 0.84 / 11
     assert r["mad"] == pytest.approx(0.84 / 11, abs=1e-12)
@@ -161,7 +184,7 @@ def test_a_quadratic_gives_the_closed_form_line():
 def test_a_flat_response_has_no_fit_but_valid_errors():
     r = linear_fit_metrics([0, 0.5, 1], [0.8, 0.8, 0.8])
     assert math.isnan(r["fit"])
-    assert r["m"] == 0.0 and r["n"] == pytest.approx(0.8) and r["md"] == pytest.approx(0.0)
+    assert r["m"] == 0.0 and r["n"] == pytest.approx(0.8) and r["max_dev"] == pytest.approx(0.0)
 
 
 @settings(max_examples=60, deadline=None)
@@ -181,12 +204,12 @@ def test_fit_is_invariant_to_affine_rescaling(p, a, b):
     assert scaled["fit"] == pytest.approx(base["fit"], abs=1e-6)
     assert scaled["m"] == pytest.approx(a * base["m"], abs=1e-9 * max(1.0, abs(a)))
     assert scaled["n"] == pytest.approx(a * base["n"] + b, abs=1e-8 * max(1.0, abs(a), abs(b)))
-    assert scaled["md"] == pytest.approx(abs(a) * base["md"], rel=1e-6, abs=1e-9 * abs(a))
+    assert scaled["max_dev"] == pytest.approx(abs(a) * base["max_dev"], rel=1e-6, abs=1e-9 * abs(a))
     assert scaled["mse"] == pytest.approx(a**2 * base["mse"], rel=1e-6, abs=1e-12 * a**2)
     assert scaled["mad"] == pytest.approx(abs(a) * base["mad"], rel=1e-6, abs=1e-9 * abs(a))
-    assert base["md"] >= base["mad"] * (1 - 1e-12)
+    assert base["max_dev"] >= base["mad"] * (1 - 1e-12)
     assert base["fit"] <= 100.0 + 1e-9
-    assert base["md"] ** 2 >= base["mse"] * (1 - 1e-12)  # the largest residual bounds the RMS
+    assert base["max_dev"] ** 2 >= base["mse"] * (1 - 1e-12)  # the largest residual bounds the RMS
 
 
 # ---------------------------------------------------------------- step_time_constants
@@ -198,7 +221,14 @@ def test_first_order_steps_give_their_time_constants():
     run = staircase_run(p_levels, tau=taus)
     steps = step_time_constants(run["t"], run["p"], run["u"])
     assert list(steps.columns) == [
-        "step", "xi_from", "xi_to", "t_start", "p_from", "p_to", "dp", "tau",
+        "step",
+        "xi_from",
+        "xi_to",
+        "t_start",
+        "p_from",
+        "p_to",
+        "dp",
+        "tau",
     ]
     np.testing.assert_array_equal(steps["step"], np.arange(1, 11))
     np.testing.assert_array_equal(steps["xi_from"], XI[:-1])
@@ -309,11 +339,11 @@ def test_a_lead_is_found_only_when_allowed():
 def test_normalised_pressure_against_the_identity_line():
     xi = np.linspace(0, 1, 100001)
     r = sine_linearity(xi, 0.7 * xi)
-    assert r["p_max"] == 0.7 and r["md"] < 1e-15 and r["rms"] < 1e-15
+    assert r["p_max"] == 0.7 and r["max_dev"] < 1e-15 and r["rms"] < 1e-15
     # P = xi^2: deviation xi^2 - xi, mean square -> 1/5 - 1/2 + 1/3 = 1/30, largest 1/4
     r = sine_linearity(xi, 0.837 * xi**2)
     assert r["rms"] == pytest.approx(math.sqrt(1 / 30), rel=1e-4)
-    assert r["md"] == pytest.approx(0.25, abs=1e-12)
+    assert r["max_dev"] == pytest.approx(0.25, abs=1e-12)
     assert r["p_max"] == pytest.approx(0.837)
 
 
@@ -327,8 +357,8 @@ def test_sine_linearity_ignores_the_pressure_unit(p, scale):
     a = sine_linearity(xi, p)
     b = sine_linearity(xi, np.asarray(p) * scale)
     assert b["rms"] == pytest.approx(a["rms"], rel=1e-9, abs=1e-12)
-    assert b["md"] == pytest.approx(a["md"], rel=1e-9, abs=1e-12)
-    assert a["md"] >= a["rms"] * (1 - 1e-12)
+    assert b["max_dev"] == pytest.approx(a["max_dev"], rel=1e-9, abs=1e-12)
+    assert a["max_dev"] >= a["rms"] * (1 - 1e-12)
 
 
 def test_sine_pipeline_recovers_the_static_curve():
@@ -338,7 +368,7 @@ def test_sine_pipeline_recovers_the_static_curve():
     r = sine_linearity(xa, pa)
     assert lag == pytest.approx(0.08, abs=1e-9)
     # p/max(p) = x/max(x), max(x) = 0.95: deviation x*(1/0.95 - 1)
-    assert r["md"] == pytest.approx(0.95 * (1 / 0.95 - 1), abs=1e-6)
+    assert r["max_dev"] == pytest.approx(0.95 * (1 / 0.95 - 1), abs=1e-6)
 
 
 # ---------------------------------------------------------------- bad input
@@ -380,3 +410,24 @@ U5 = np.array([0, 0, 0.5, 0.5, 0.5])
 def test_bad_input_names_the_argument(call, name):
     with pytest.raises(ValueError, match=rf"^{name}\b"):
         call()
+
+
+# ---------------------------------------------------------------- the linear reference
+
+
+def test_first_order_response_is_the_closed_form():
+    from spa.openloop.reference import first_order_response
+
+    t = np.arange(0, 10, 1e-3)
+    step = first_order_response(t, np.ones(t.size), gain=0.8, tau=0.7, y0=0.1)
+    np.testing.assert_allclose(step, 0.8 + (0.1 - 0.8) * np.exp(-t / 0.7), rtol=0, atol=1e-12)
+    # a sine well after the start: gain/sqrt(1 + (w tau)^2), the phase lag atan(w tau)
+    w, tau = 2 * np.pi * 0.5, 0.7
+    y = first_order_response(t, np.sin(w * t), gain=1.0, tau=tau)
+    late = t > 7
+    expected = np.sin(w * (t - 5e-4) - math.atan(w * tau)) / math.hypot(1, w * tau)
+    np.testing.assert_allclose(y[late], expected[late], atol=2e-3)  # held input: dt/2 delay
+    with pytest.raises(ValueError, match="tau"):
+        first_order_response(t, np.ones(t.size), gain=1.0, tau=0.0)
+    with pytest.raises(ValueError, match="uniformly"):
+        first_order_response([0.0, 1.0, 3.0], [1.0, 1.0, 1.0], gain=1.0, tau=1.0)

@@ -12,19 +12,33 @@ from matplotlib.figure import Figure
 from spa.model.averaging import thresholds
 from spa.model.params import ValveParams
 from spa.openloop import (
+    PAPER_SETTINGS,
     PAPER_TABLE3,
     best_settings,
     chirp_analysis,
+    chirp_reference,
+    fallback_note,
     measured_thresholds,
+    noise_free_pressure,
+    noise_spread,
     paper_case,
+    paper_settings,
     predicted_levels,
     run_tags,
     runs_of_kind,
     sine_analysis,
+    sine_reference,
     staircase_analysis,
 )
 from spa.plots.openloop import fig6, fig7a, fig7b, fig8, fig9, no_data_figure, thin
-from spa.synthetic import RunSpec, Sensor, simulate_run, staircase_input
+from spa.synthetic import (
+    RunSpec,
+    Sensor,
+    chirp_input,
+    modulated_runs,
+    simulate_run,
+    staircase_input,
+)
 
 NOMINAL = ValveParams()
 PAPER_CASES = [case for case, *_ in PAPER_TABLE3.values()]
@@ -42,8 +56,7 @@ def staircase_run(mod, dt=1e-4, hold=5.0, sensor=None, seed=0):
 def paper_staircases():
     """Noise-free staircases at the paper's five settings, analysed with the true valve."""
     return {
-        paper_case(mod): staircase_analysis(staircase_run(mod), mod, NOMINAL)
-        for mod in PAPER_CASES
+        paper_case(mod): staircase_analysis(staircase_run(mod), mod, NOMINAL) for mod in PAPER_CASES
     }
 
 
@@ -58,10 +71,17 @@ def test_paper_cases_are_the_five_selected_settings():
 
 
 def test_paper_table3_md_is_below_root_mse_in_every_row():
-    # Why the table reports both `md` (largest residual) and `mad`: the printed "MD" cannot
-    # be a maximum deviation, since max|r| >= sqrt(mean r²) for any residuals.
+    # Why the paper's MD is compared with `mad`, not with the largest residual `max_dev`: the
+    # printed "MD" cannot be a maximum deviation, since max|r| >= sqrt(mean r²) for any
+    # residuals, while mean|r| <= sqrt(mean r²) always holds.
     for _, mse, md, _ in PAPER_TABLE3.values():
         assert md < math.sqrt(mse)
+
+
+def test_paper_settings_are_the_table3_cases():
+    assert [m.label for m in PAPER_SETTINGS] == [
+        "pwm-20Hz", "ipfm-20ms", "iipfm-20ms", "iipfm-20ms-G1.15", "dsm-20ms",
+    ]  # fmt: skip
 
 
 # ---------------------------------------------------------------------- predictions
@@ -159,6 +179,8 @@ def test_table3_ranks_the_modulators_as_the_paper(paper_staircases):
 def test_table3_row_carries_the_paper_values_only_for_paper_cases(paper_staircases):
     row = paper_staircases["PWM"][2]
     assert (row["paper_mse"], row["paper_md"], row["paper_fit"]) == PAPER_TABLE3["PWM"][1:]
+    keys = list(row)  # the paper's MD sits beside the mean absolute residual it is
+    assert keys.index("paper_md") == keys.index("mad") + 1 and "md" not in keys
     mod = {"type": "pwm", "f_w": 10.0}
     other = staircase_analysis(staircase_run(mod, dt=1e-3, hold=2.0), mod, NOMINAL)[2]
     assert math.isnan(other["paper_fit"]) and other["paper_case"] == ""
@@ -167,7 +189,8 @@ def test_table3_row_carries_the_paper_values_only_for_paper_cases(paper_staircas
 def test_levels_residuals_are_measured_minus_fitted_line(paper_staircases):
     levels, _, row = paper_staircases["ΔΣM"]
     np.testing.assert_allclose(levels["residual"], levels["p_eq"] - levels["p_fit"])
-    assert row["md"] == pytest.approx(np.max(np.abs(levels["residual"])))
+    assert row["max_dev"] == pytest.approx(np.max(np.abs(levels["residual"])))
+    assert row["mad"] == pytest.approx(np.mean(np.abs(levels["residual"])))
     assert row["mse"] == pytest.approx(np.mean(levels["residual"] ** 2))
 
 
@@ -201,6 +224,13 @@ def test_best_settings_keeps_the_best_of_each_modulator_and_gains_apart():
     assert best["setting"].tolist() == ["pwm-20Hz", "iipfm-10ms", "iipfm-20ms-G1.15", "dsm-20ms"]
     low = best_settings(table, higher=False)
     assert low["setting"].tolist() == ["pwm-5Hz", "iipfm-20ms", "iipfm-20ms-G1.15", "dsm-20ms"]
+    # the figures show the paper's settings whatever their score, and fall back per group
+    shown, fallbacks = paper_settings(table)
+    assert shown["setting"].tolist() == ["pwm-20Hz", "iipfm-20ms", "iipfm-20ms-G1.15", "dsm-20ms"]
+    assert fallbacks == []
+    shown, fallbacks = paper_settings(table[table["setting"] != "iipfm-20ms"])
+    assert shown["setting"].tolist() == ["pwm-20Hz", "iipfm-10ms", "iipfm-20ms-G1.15", "dsm-20ms"]
+    assert fallbacks == ["iipfm-10ms"] and "iipfm-10ms" in fallback_note(fallbacks, "FIT")
 
 
 def test_run_labels_and_kinds():
@@ -239,7 +269,7 @@ def test_sine_analysis_deviation_of_a_saturating_response():
     run = pd.DataFrame({"t": t, "p": np.minimum(u, 0.8), "valve": 0, "u": u})
     _, s = sine_analysis(run)
     # p/max(p) = min(u, 0.8)/0.8: deviation u/0.8 - u = 0.25 u below 0.8, 1 - u above
-    assert s["md"] == pytest.approx(0.2, abs=1e-3)
+    assert s["max_dev"] == pytest.approx(0.2, abs=1e-3)
 
 
 def test_sine_analysis_rejects_a_settle_longer_than_the_run():
@@ -272,6 +302,81 @@ def test_chirp_analysis_rejects_irregular_sampling_and_bad_factor():
         chirp_analysis(run.assign(t=np.arange(1000) * 1e-3), decimate=0)
 
 
+# ------------------------------------------------------------------- linear references
+
+
+def sine_run(frequency, dt=0.01):
+    """The sine experiment's input (5 amplitudes, 2 periods each, 5 s hold) as a run table."""
+    experiment = {"sine": {"frequency": frequency, "amplitudes": [0.5, 0.4, 0.3, 0.2, 0.1],
+                           "periods_per_level": 2, "offset": 0.5, "settle": 5.0}}  # fmt: skip
+    spec = modulated_runs([{"type": "pwm", "f_w": 20.0}], dt, experiment)[0]
+    t = np.arange(spec.xi.size) * dt
+    return pd.DataFrame({"t": t, "p": 0.0, "valve": 0, "u": spec.xi})
+
+
+def test_a_linear_plant_passes_the_sine_test_only_well_below_its_corner():
+    mods = PAPER_CASES  # median tau_m at xi = 0.5: 1.077 s (corner 0.148 Hz)
+    _, slow = sine_reference(sine_run(0.02), NOMINAL, mods, settle=5.0)
+    _, fast = sine_reference(sine_run(0.5), NOMINAL, mods, settle=5.0)
+    assert slow["tau_m"] == pytest.approx(1.077, abs=0.001)
+    assert slow["frequency"] == pytest.approx(0.02, rel=1e-6)
+    # First order: p/max(p) - xi = c*(1 - 2*A*sin) with c = (1 - g)/(2(1 + g)),
+    # g = 1/sqrt(1 + (2 pi f tau)^2): RMS = c*sqrt(1 + 2*mean(A^2)) = c*sqrt(1.22).
+    g = 1 / math.hypot(1.0, 2 * math.pi * 0.02 * slow["tau_m"])
+    assert slow["rms"] == pytest.approx((1 - g) / (2 * (1 + g)) * math.sqrt(1.22), rel=0.15)
+    assert slow["rms"] < 0.005 and slow["lag"] == pytest.approx(slow["tau_m"], abs=0.03)
+    assert fast["rms"] > 0.2  # at 0.5 Hz a linear plant fails the test: it measures dynamics
+
+
+def test_a_linear_plant_has_a_false_alarm_rate_near_alpha_under_the_chirp():
+    t = np.arange(60000) * 1e-3  # the paper's chirp: 0.1 -> 100 Hz in 60 s, 0.5 +- 0.25
+    run = pd.DataFrame({"t": t, "p": 0.0, "u": chirp_input(t, 0.1, 100.0, 60.0, 0.5, 0.25)})
+    _, bic, row = chirp_reference(run, NOMINAL, PAPER_CASES, decimate=4)
+    assert row["modulator"] == "linear" and row["n_segments"] == 116
+    assert 0.0 <= bic.min() and bic.max() <= 1.0
+    assert row["significant_fraction"] <= 0.03
+    # HOSA's normalisation of the same map is far from bounded
+    _, hosa, _ = chirp_reference(run, NOMINAL, PAPER_CASES, decimate=4, normalisation="hosa")
+    assert hosa.max() > 1.0
+
+
+def test_the_logarithmic_chirp_spends_as_long_on_each_decade():
+    t = np.arange(0, 60, 1e-4)
+    lin = chirp_input(t, 0.1, 100.0, 60.0, 0.5, 0.25)
+    log = chirp_input(t, 0.1, 100.0, 60.0, 0.5, 0.25, method="logarithmic")
+    # instantaneous frequency, from the upward crossings of the offset: f0*(f1/f0)**(t/T)
+
+    def crossings(x):
+        return t[np.flatnonzero((x[:-1] < 0.5) & (x[1:] >= 0.5))]
+
+    up = crossings(log)
+    f_inst = 1.0 / np.diff(up)
+    mid = 0.5 * (up[1:] + up[:-1])
+    expected = 0.1 * 1000.0 ** (mid / 60.0)
+    np.testing.assert_allclose(f_inst, expected, rtol=0.02)
+    assert crossings(lin).size > 2 * up.size  # the linear sweep spends most time at the top
+    with pytest.raises(ValueError, match="logarithmic"):
+        chirp_input(t, 0.0, 100.0, 60.0, method="logarithmic")
+    with pytest.raises(ValueError, match="method"):
+        chirp_input(t, 0.1, 100.0, 60.0, method="exponential")
+
+
+# ----------------------------------------------------------------- chattering and noise
+
+
+def test_noise_variance_subtraction_recovers_the_noise_free_chattering():
+    mod = {"type": "dsm", "period": 0.02}
+    clean = staircase_run(mod, dt=1e-3)
+    noisy = staircase_run(mod, dt=1e-3, sensor=Sensor(fs=1e3, noise=0.005, quantum=0.001))
+    _, _, row = staircase_analysis(noisy, mod, NOMINAL, clean={"noise_free": clean["p"]})
+    # white noise of 5 mbar and a 1 mbar ADC step (variance q²/12), from the still levels
+    assert row["noise_sd"] == pytest.approx(math.hypot(0.005, 0.001 / math.sqrt(12)), rel=0.03)
+    assert row["n_still_levels"] == 2  # xi = 0 and xi = 1: the valve does not move
+    # the noise alone spans ~7 sd over a 2 s window: the raw ripple is mostly noise
+    assert row["ripple_mean"] > 2 * row["ripple_noise_free_mean"]
+    assert row["ripple_corrected_mean"] == pytest.approx(row["ripple_noise_free_mean"], rel=0.1)
+
+
 # ---------------------------------------------------------------------------- figures
 
 
@@ -295,8 +400,24 @@ def test_figures_have_one_panel_per_modulator(paper_staircases):
     )  # fmt: skip
     assert len(fig8(aligned).axes) == 2
     f = np.fft.fftshift(np.fft.fftfreq(16, 1 / 16))
-    maps = [("a", f, np.ones((16, 16))), ("b", f, np.zeros((16, 16)))]
+    maps = [("a", f, np.ones((16, 16)), 0.5, 0.0), ("b", f, np.zeros((16, 16)), np.nan, 2.0)]
     assert len(fig9(maps).axes) == 3  # two maps and the colour bar
+    sweep = pd.DataFrame(
+        {"modulator": ["pwm", "dsm", "linear"], "setting": ["a", "b", "linear"],
+         "significant_fraction": [0.2, 0.1, 0.01], "significant_fraction_min": [0.1, 0.05, 0],
+         "significant_fraction_max": [0.3, 0.2, 0]}
+    )  # fmt: skip
+    figure = fig9(maps, sweep=sweep, shown=["a"])
+    assert len(figure.axes) == 4  # and the sweep panel, where only the shown bar is outlined
+    assert [bar.get_edgecolor()[3] for bar in figure.axes[-1].patches] == [1.0, 0.0]
+    table3 = pd.DataFrame(
+        {"modulator": ["pwm"], "setting": ["a"], "fit": [70.0], "paper_fit": [75.0],
+         "tau_mean": [0.8], "tau_sd": [0.2]}
+    )  # fmt: skip
+    assert len(fig7a(levels, NOMINAL.k2, sweep=table3, note="x").axes) == 2
+    assert len(fig7b(steps, sweep=table3).axes) == 2
+    reference = pd.DataFrame({"xi": [0.1, 0.2], "p_norm": [0.1, 0.2], "rms": [0.0, 0.0]})
+    assert len(fig8(aligned, reference=reference, note="sine").axes) == 2
     assert isinstance(no_data_figure("nothing"), Figure)
 
 
@@ -308,3 +429,72 @@ def test_figures_name_missing_columns():
 def test_thin_keeps_at_most_max_points():
     df = pd.DataFrame({"t": np.arange(10001)})
     assert len(thin(df, 5000)) <= 5000 and thin(df, 5000)["t"].iloc[0] == 0
+
+
+# ------------------------------------------------------------ simulated runs, replayed
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    """A small simulated dataset (one setting: staircase and chirp), read back."""
+    from spa.io import read_runs
+    from spa.synthetic import generate_dataset
+
+    cfg = {
+        "params": NOMINAL.as_dict(),
+        "controller_dt": 1e-3,
+        "sensor": {"fs": 1000.0, "noise": 0.005, "quantum": 0.001,
+                   "ringing": {"amplitude": 0.01, "frequency": 60.0, "damping": 60.0}},
+        "modulators": [{"type": "iipfm", "t_l": 0.02, "gain": 1.15}],
+    }  # fmt: skip
+    experiments = {
+        "staircase": {"step": 0.25, "hold": 2.0},
+        "chirp": {"f0": 0.1, "f1": 100.0, "duration": 8.0, "offset": 0.5, "amplitude": 0.25},
+    }
+    out = tmp_path_factory.mktemp("sim") / "runs"
+    generate_dataset("mini", cfg, experiments, 7, out)
+    return read_runs(out)
+
+
+def test_a_simulated_run_is_replayed_exactly(simulated):
+    from spa.model.plant import simulate
+    from spa.openloop.replicas import replicate_rng, replicate_spec
+
+    runs, metas = simulated
+    run, meta = runs["chirp_iipfm-20ms-G1.15"], metas["chirp_iipfm-20ms-G1.15"]
+    # replicate 0 is the recorded run, bit for bit
+    again = simulate_run(
+        replicate_spec(meta), NOMINAL, 1e-3, Sensor.from_mapping(meta["sensor"]),
+        replicate_rng(meta, 0),
+    )  # fmt: skip
+    np.testing.assert_array_equal(again["p"], run["p"])
+    true = noise_free_pressure(run, meta)
+    np.testing.assert_array_equal(true, simulate(run["valve"].to_numpy(np.int8), 1e-3, NOMINAL))
+    assert np.std(run["p"] - true) == pytest.approx(0.005, rel=0.3)  # noise (and ringing)
+    bench = {**meta, "origin": "bench"}
+    assert noise_free_pressure(run, bench) is None
+
+
+def test_noise_spread_is_deterministic_and_brackets_the_recorded_run(simulated):
+    runs, metas = simulated
+    meta = metas["chirp_iipfm-20ms-G1.15"]
+    options = {"nfft": 128, "decimate": 4}
+    _, _, recorded = chirp_analysis(runs["chirp_iipfm-20ms-G1.15"], **options)
+    spread = noise_spread(meta, recorded, 3, **options)
+    assert spread == noise_spread(meta, recorded, 3, **options)
+    assert spread["seeds"] == 3 and spread["significant_fraction_sd"] >= 0.0
+    lo, hi = spread["significant_fraction_min"], spread["significant_fraction_max"]
+    assert lo <= recorded["significant_fraction"] <= hi
+    with pytest.raises(ValueError, match="not a simulated run"):
+        noise_spread({**meta, "origin": "bench"}, recorded, 2, **options)
+
+
+def test_a_simulated_staircase_reports_its_noise_free_chattering(simulated):
+    runs, metas = simulated
+    run, meta = runs["staircase_iipfm-20ms-G1.15"], metas["staircase_iipfm-20ms-G1.15"]
+    clean = {"noise_free": noise_free_pressure(run, meta),
+             "ringing": noise_free_pressure(run, meta, ringing=True)}  # fmt: skip
+    levels, _, row = staircase_analysis(run, meta["modulator"], NOMINAL, clean=clean)
+    assert {"p_ripple_noise_free", "p_ripple_ringing", "p_ripple_corrected"} <= set(levels)
+    # the sensor's ringing after each edge adds to the chattering; the noise adds far more
+    assert row["ripple_noise_free_mean"] < row["ripple_ringing_mean"] < row["ripple_mean"]

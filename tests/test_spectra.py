@@ -1,4 +1,5 @@
-"""Bicoherence against phase-coupled signals, the literal double loop and its own conventions."""
+"""Bicoherence against phase-coupled signals, Gaussian noise, the literal double loop and its own
+conventions, in both normalisations (bounded, the default; HOSA's)."""
 
 from __future__ import annotations
 
@@ -15,11 +16,16 @@ from spa.openloop.spectra import (
     mean_bicoherence,
     principal_domain_mask,
     segment_count,
+    significance_threshold,
+    significant_fraction,
 )
 
 
-def bicoher_loop(x, fs, nfft, overlap):
-    """HOSA ``bicoher`` written out literally: a loop over segments, then over (f1, f2)."""
+def bicoher_loop(x, fs, nfft, overlap, normalisation="hosa"):
+    """HOSA ``bicoher`` written out literally: a loop over segments, then over (f1, f2).
+
+    ``normalisation="bounded"`` divides instead by ``<|Y1 Y2|^2> <|Y3|^2>`` (Kim & Powers).
+    """
     n = nfft
     noverlap = math.floor(n * overlap + 1e-9)
     advance = n - noverlap
@@ -36,7 +42,10 @@ def bicoher_loop(x, fs, nfft, overlap):
             for j in range(n):
                 m = (i + j) % n
                 b = np.mean(Y[:, i] * Y[:, j] * np.conj(Y[:, m]))
-                bic[i, j] = abs(b) ** 2 / (P[i] * P[j] * P[m])
+                if normalisation == "hosa":
+                    bic[i, j] = abs(b) ** 2 / (P[i] * P[j] * P[m])
+                else:
+                    bic[i, j] = abs(b) ** 2 / (np.mean(np.abs(Y[:, i] * Y[:, j]) ** 2) * P[m])
     return np.fft.fftshift(np.fft.fftfreq(n, d=1 / fs)), np.fft.fftshift(bic), P
 
 
@@ -96,11 +105,12 @@ def test_coupled_ranks_above_independent():
     ("nfft", "overlap", "length"),
     [(16, 0.5, 300), (15, 0.3, 211), (8, 0.0, 64), (32, 0.75, 500), (2, 0.0, 9)],
 )
-def test_equals_the_literal_double_loop(nfft, overlap, length):
+@pytest.mark.parametrize("normalisation", ["bounded", "hosa"])
+def test_equals_the_literal_double_loop(nfft, overlap, length, normalisation):
     rng = np.random.default_rng(nfft)
     x = rng.standard_normal(length).cumsum() ** 2  # non-Gaussian, with a trend
-    f, bic = bicoherence(x, 250.0, nfft=nfft, overlap=overlap)
-    f_ref, bic_ref, _ = bicoher_loop(x, 250.0, nfft, overlap)
+    f, bic = bicoherence(x, 250.0, nfft=nfft, overlap=overlap, normalisation=normalisation)
+    f_ref, bic_ref, _ = bicoher_loop(x, 250.0, nfft, overlap, normalisation)
     np.testing.assert_array_equal(f, f_ref)
     np.testing.assert_allclose(bic, bic_ref, rtol=0, atol=1e-10)
 
@@ -113,7 +123,7 @@ def test_equals_the_literal_double_loop(nfft, overlap, length):
 )
 def test_equals_the_literal_double_loop_property(x, nfft, overlap):
     assume(nfft <= len(x) and segment_count(len(x), nfft, overlap) >= 2)
-    _, bic = bicoherence(x, 1.0, nfft=nfft, overlap=overlap)
+    _, bic = bicoherence(x, 1.0, nfft=nfft, overlap=overlap, normalisation="hosa")
     _, bic_ref, power = bicoher_loop(x, 1.0, nfft, overlap)
     # Not comparable: bins with no power (0/0, reported as 0 by spa) or only rounding error
     # (e.g. a constant x minus its computed mean), where the ratio is noise in both versions.
@@ -122,11 +132,80 @@ def test_equals_the_literal_double_loop_property(x, nfft, overlap):
     np.testing.assert_allclose(bic, bic_ref, rtol=1e-8, atol=1e-10 * scale)
 
 
-def test_invariant_to_gain_and_offset():
+@pytest.mark.parametrize("normalisation", ["bounded", "hosa"])
+def test_invariant_to_gain_and_offset(normalisation):
     x = np.random.default_rng(3).standard_normal(2000) ** 2
-    _, a = bicoherence(x, 100.0, nfft=32)
-    _, b = bicoherence(-3.5 * x + 12.0, 100.0, nfft=32)
+    _, a = bicoherence(x, 100.0, nfft=32, normalisation=normalisation)
+    _, b = bicoherence(-3.5 * x + 12.0, 100.0, nfft=32, normalisation=normalisation)
     np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+# ---- the bounded normalisation and its significance ------------------------------------
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    x=arrays(np.float64, st.integers(16, 120), elements=st.floats(-1e3, 1e3)),
+    nfft=st.integers(2, 16),
+    overlap=st.sampled_from([0.0, 0.5, 0.75]),
+)
+def test_bounded_bicoherence_lies_in_zero_one(x, nfft, overlap):
+    assume(nfft <= len(x) and segment_count(len(x), nfft, overlap) >= 2)
+    _, bic = bicoherence(x, 1.0, nfft=nfft, overlap=overlap)
+    assert np.all(np.isfinite(bic)) and bic.min() >= 0.0 and bic.max() <= 1.0
+
+
+def test_bounded_is_one_for_quadratic_phase_coupling_where_hosa_may_exceed_it():
+    x, fs, nfft, f1, f2 = three_tones(coupled=True, n_seg=64)
+    f, bounded = bicoherence(x, fs, nfft=nfft, overlap=0.0)
+    i, j = np.searchsorted(f, [f2, f1])
+    assert bounded[i, j] > 0.99  # |<Y1 Y2 Y3*>|^2 = <|Y1 Y2|^2><|Y3|^2> for locked phases
+    # A quadratic product of components whose common amplitude a changes from segment to
+    # segment: tones a, a and a^2. HOSA's ratio is then <a^4>/<a^2>^2 > 1 at the coupled bin;
+    # the bounded one stays at 1 (Cauchy-Schwarz with equality: |Y1 Y2| ~ |Y3|).
+    rng = np.random.default_rng(5)
+    n_seg = 64
+    t = np.arange(n_seg * nfft) / fs
+    seg = np.repeat(np.arange(n_seg), nfft)
+    a = rng.uniform(0.2, 3.0, n_seg)[seg]
+    ph1, ph2 = rng.uniform(0, 2 * np.pi, (2, n_seg))
+    y = (
+        a * np.cos(2 * np.pi * f1 * t + ph1[seg])
+        + a * np.cos(2 * np.pi * f2 * t + ph2[seg])
+        + a**2 * np.cos(2 * np.pi * (f1 + f2) * t + ph1[seg] + ph2[seg])
+    )
+    _, hosa = bicoherence(y, fs, nfft=nfft, overlap=0.0, normalisation="hosa")
+    _, kim = bicoherence(y, fs, nfft=nfft, overlap=0.0)
+    assert hosa[i, j] > 1.3 and 0.99 < kim[i, j] <= 1.0
+
+
+def test_gaussian_noise_is_significant_in_about_alpha_of_the_domain():
+    rng = np.random.default_rng(11)
+    nfft, alpha = 64, 0.01
+    fractions = []
+    for _ in range(4):
+        x = rng.standard_normal(nfft * 200)  # 200 independent segments
+        f, bic = bicoherence(x, 1.0, nfft=nfft, overlap=0.0)
+        threshold = significance_threshold(200, alpha)
+        fractions.append(significant_fraction(f, bic, threshold, fmin=2 / nfft))
+    # 4 x ~500 bins: the false-alarm rate is alpha within its binomial spread
+    assert 0.003 < np.mean(fractions) < 0.02
+
+
+def test_significance_threshold_is_the_beta_tail():
+    # P(b2 > x) = (1 - x)**(K - 1): at the threshold it is alpha
+    for k, alpha in ((2, 0.5), (38, 0.01), (116, 0.01), (467, 0.05)):
+        x = significance_threshold(k, alpha)
+        assert (1 - x) ** (k - 1) == pytest.approx(alpha, rel=1e-12)
+    with pytest.raises(ValueError, match="n_segments"):
+        significance_threshold(1)
+    with pytest.raises(ValueError, match="alpha"):
+        significance_threshold(10, alpha=1.0)
+
+
+def test_unknown_normalisation_is_refused():
+    with pytest.raises(ValueError, match="normalisation"):
+        bicoherence(np.ones(64), 1.0, nfft=16, normalisation="kim")
 
 
 def test_segment_count_and_frequency_axis():

@@ -263,7 +263,7 @@ EXAMPLE = ValveParams(c1=0.45, k2=1.05, tau2=0.70, t_on=0.004, t_off=0.009)
 
 
 def eq25_by_hand(kind: str, value: float, v: ValveParams, n: int = 100) -> float:
-    """Eq. 25 written out from MODEL.md sections 3-4, one xi at a time (independent code)."""
+    """Eq. 25 written out from docs/model.md sections 3-4, one xi at a time (independent code)."""
     total = 0.0
     for i in range(n):
         x = i / (n - 1)

@@ -49,8 +49,12 @@ def test_small_config_produces_the_open_loop_analyses(small_run):
             assert (d / name).stat().st_size > 0, (dataset, name)
     sim = pd.read_csv(small_run / "sim" / "staircase" / "table3.csv")
     assert len(sim) == 5 and sim["paper_fit"].notna().all()
-    assert len(pd.read_csv(small_run / "sim" / "sine" / "linearity.csv")) == 5
-    assert len(pd.read_csv(small_run / "sim" / "chirp" / "bicoherence.csv")) == 5
+    # five settings and the linear reference (the same input through a linear plant)
+    sine = pd.read_csv(small_run / "sim" / "sine" / "linearity.csv")
+    chirp = pd.read_csv(small_run / "sim" / "chirp" / "bicoherence.csv")
+    assert len(sine) == len(chirp) == 6 and sine["modulator"].iloc[-1] == "linear"
+    assert chirp["significant_fraction"].iloc[-1] <= 0.03
+    assert chirp[["significant_fraction", "max_bicoherence"]].le(1.0).all().all()
     # raw/example holds two staircases and no sine or chirp run: empty tables, not errors
     assert len(pd.read_csv(small_run / "example" / "staircase" / "table3.csv")) == 2
     assert pd.read_csv(small_run / "example" / "sine" / "linearity.csv").empty

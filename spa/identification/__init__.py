@@ -1,6 +1,6 @@
 """Identification of the valve + actuator parameters from three experiments (Section 3.2).
 
-MODEL.md section 1 and the paper's Fig. 2:
+docs/model.md section 1 and the paper's Fig. 2:
 
 * experiment 1, **charge** (valve open from 0 bar until the supply pressure): ``k2`` and
   ``tau2`` from the straight line ``dP/dt = (k2 - P)/tau2`` fitted to ``dP/dt`` against ``P``

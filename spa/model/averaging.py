@@ -1,4 +1,4 @@
-"""Averaged analysis of a pulse-driven valve feeding a soft actuator (MODEL.md section 3).
+"""Averaged analysis of a pulse-driven valve feeding a soft actuator (docs/model.md section 3).
 
 Section 4.2 of the paper replaces the switched plant by its average over one pulse period:
 the actuator discharges for the fraction ``alpha1`` of the period and charges for the fraction
@@ -157,7 +157,7 @@ def time_fractions(
 
     Notes
     -----
-    MODEL.md section 3 (paper Section 4.3.1), with ``f = 1/T_DS`` for ΔΣM:
+    docs/model.md section 3 (paper Section 4.3.1), with ``f = 1/T_DS`` for ΔΣM:
 
     =======  ======================================  ======================================
     kind     alpha1                                  alpha2

@@ -1,4 +1,4 @@
-"""Chattering: the pressure ripple of a steady pulse train (MODEL.md section 3, Appendix B).
+"""Chattering: the pressure ripple of a steady pulse train (docs/model.md section 3, Appendix B).
 
 * :func:`chattering_estimate` – the paper's estimate, the rise during one high pulse at the
   averaged equilibrium (Eq. 10);

@@ -1,4 +1,4 @@
-"""Digital pulse modulators: PWM, IPFM, inverse IPFM and first-order ΔΣ (MODEL.md section 2).
+"""Digital pulse modulators: PWM, IPFM, inverse IPFM and first-order ΔΣ (docs/model.md section 2).
 
 Every modulator runs at a fixed step ``dt``. ``xi[k]`` is the input fraction sampled at
 ``t = k*dt`` and ``u[k]`` the valve command held over ``[k*dt, (k+1)*dt)``. Event times are

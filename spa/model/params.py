@@ -1,4 +1,4 @@
-"""Valve and actuator parameters of the four-state model (MODEL.md section 1)."""
+"""Valve and actuator parameters of the four-state model (docs/model.md section 1)."""
 
 from __future__ import annotations
 

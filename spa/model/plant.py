@@ -1,4 +1,4 @@
-"""Exact simulation of the four-state valve + actuator model (MODEL.md section 1).
+"""Exact simulation of the four-state valve + actuator model (docs/model.md section 1).
 
 Every segment of the hybrid model has a closed form, so the simulation needs no ODE solver:
 it walks the runs of constant command (one Python iteration per valve *edge*, never per
@@ -200,7 +200,7 @@ def simulate(
 
     Notes
     -----
-    Four states (MODEL.md section 1): discharging ``dP/dt = -sqrt(P)/c1`` (valve off),
+    Four states (docs/model.md section 1): discharging ``dP/dt = -sqrt(P)/c1`` (valve off),
     charging ``dP/dt = (k2 - P)/tau2`` (valve on), and two holds ``dP/dt = 0`` lasting
     ``t_on`` after a 0→1 edge and ``t_off`` after a 1→0 edge. An edge during a hold starts the
     hold of the new command, so a high pulse shorter than ``t_on`` (or a low pulse shorter

@@ -1,4 +1,4 @@
-"""Dead-zone and saturation thresholds of the input fraction (MODEL.md section 3, Table 1).
+"""Dead-zone and saturation thresholds of the input fraction (docs/model.md section 3, Table 1).
 
 * :func:`thresholds` – the largest ``xi`` of the dead-zone and the smallest of saturation,
   the zero crossings of the averaged time fractions;

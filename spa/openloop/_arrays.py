@@ -67,3 +67,20 @@ def _valve(valve: Any, size: int) -> np.ndarray:
         bad = int(np.flatnonzero((v != 0.0) & (v != 1.0))[0])
         raise ValueError(f"valve must hold only 0 and 1; valve[{bad}] = {v[bad]!r}")
     return v
+
+
+def uniform_step(t: np.ndarray, what: str, rtol: float = 1e-6) -> float:
+    """The sample period of increasing times ``t``, or ValueError if they are not uniform."""
+    steps = np.diff(t)
+    dt = float(np.mean(steps))
+    if np.max(np.abs(steps - dt)) > rtol * dt:
+        raise ValueError(f"{what}: t must be uniformly sampled")
+    return dt
+
+
+def run_columns(run: Any, columns: tuple[str, ...], what: str) -> tuple[np.ndarray, ...]:
+    """The named columns of a run table as float64 arrays, or ValueError naming the missing."""
+    missing = [c for c in columns if c not in run.columns]
+    if missing:
+        raise ValueError(f"{what}: run table lacks column(s) {missing}; has {list(run.columns)}")
+    return tuple(run[c].to_numpy(dtype=np.float64) for c in columns)

@@ -51,6 +51,7 @@ def _staircase(t, p, u, settle, atol):
     p_ripple = _segment_sums(np.maximum, resid, first, ends) - _segment_sums(
         np.minimum, resid, first, ends
     )
+    p_ripple_sd = np.sqrt(_segment_sums(np.add, resid * resid, first, ends) / count)
     return {
         "starts": starts,
         "ends": ends,
@@ -63,6 +64,8 @@ def _staircase(t, p, u, settle, atol):
         "p_std": p_std,
         "p_pp": p_pp,
         "p_ripple": p_ripple,
+        "p_ripple_sd": p_ripple_sd,
+        "p_drift": slope * (t[ends - 1] - t[first]),
         "n_window": count,
     }
 
@@ -118,6 +121,13 @@ def staircase_levels(
             Chattering: peak-to-peak of ``p`` about the window's least-squares straight
             line (bar), so that the tail of a response still settling in the window does
             not count as chattering.
+        ``p_ripple_sd``
+            Standard deviation of ``p`` about that line (bar): the ripple as a variance,
+            from which a sensor's noise variance can be subtracted
+            (`spa.openloop.noise.corrected_ripple`).
+        ``p_drift``
+            Change of that line across the window (bar): how far the level is from settled
+            (0 for a level that has settled).
         ``switching_rate``
             Valve edges (rising and falling) per second over the window: the number of
             changes between consecutive window samples divided by the time from the
@@ -136,7 +146,7 @@ def staircase_levels(
 
     Notes
     -----
-    MODEL.md section 5: the equilibrium pressure of a level is the mean over the settled part
+    docs/model.md section 5: the equilibrium pressure of a level is the mean over the settled part
     of the step; the staircase of the paper holds each of 11 levels (``xi = 0, 0.1, .., 1``)
     for 5 s.
 
@@ -178,6 +188,8 @@ def staircase_levels(
             "p_std": lv["p_std"],
             "p_pp": lv["p_pp"],
             "p_ripple": lv["p_ripple"],
+            "p_ripple_sd": lv["p_ripple_sd"],
+            "p_drift": lv["p_drift"],
             "switching_rate": rate,
             "n_window": lv["n_window"],
         }
@@ -199,8 +211,8 @@ def linear_fit_metrics(xi: npt.ArrayLike, p_eq: npt.ArrayLike) -> dict[str, floa
     dict
         ``m`` (bar), ``n`` (bar): the line ``P = m*xi + n``;
         ``mse`` (bar²): mean of the squared residuals;
-        ``md`` (bar): largest absolute residual;
-        ``mad`` (bar): mean absolute residual (see Notes);
+        ``mad`` (bar): mean absolute residual, the paper's MD (see Notes);
+        ``max_dev`` (bar): largest absolute residual;
         ``fit`` (%): ``100*(1 - ||P - P_fit|| / ||P - mean(P)||)``, NaN if all ``p_eq`` are
         equal (the fit is undefined; the other entries are still valid).
 
@@ -217,16 +229,18 @@ def linear_fit_metrics(xi: npt.ArrayLike, p_eq: npt.ArrayLike) -> dict[str, floa
     mean, negative for worse. It is unchanged by any affine rescaling ``a*P + b`` (``a != 0``)
     of the pressures.
 
-    The paper calls MD the "maximum deviation", but its Table 3 has ``sqrt(MSE) > MD`` in every
-    row, which no largest residual can satisfy; its MD values are close to the mean absolute
-    residual ``mad`` of simulated staircases (and about half their largest residual). Both
-    are returned; ``md`` is the largest, as specified in MODEL.md.
+    The paper calls MD the "maximum deviation", but its Table 3 has ``MD < sqrt(MSE)`` in every
+    row, which no largest residual can satisfy (the largest ``|r|`` is at least the RMS of
+    ``r``), while the mean absolute residual always satisfies it; its MD/sqrt(MSE) ratios
+    (0.81-0.89) are those of MAD/RMSE. So ``mad`` is compared with the paper's MD, and the
+    largest residual is returned apart as ``max_dev``.
 
     Examples
     --------
     >>> r = linear_fit_metrics([0, 0.5, 1], [0, 0.5, 0.75])
-    >>> {k: round(v, 6) for k, v in r.items()}
-    {'m': 0.75, 'n': 0.041667, 'mse': 0.003472, 'md': 0.083333, 'mad': 0.055556, 'fit': 81.101776}
+    >>> {k: round(v, 6) for k, v in r.items()}  # doctest: +NORMALIZE_WHITESPACE
+    {'m': 0.75, 'n': 0.041667, 'mse': 0.003472, 'mad': 0.055556, 'max_dev': 0.083333,
+     'fit': 81.101776}
     """
     x = _array("xi", xi)
     p = _array("p_eq", p_eq)
@@ -246,7 +260,7 @@ def linear_fit_metrics(xi: npt.ArrayLike, p_eq: npt.ArrayLike) -> dict[str, floa
         "m": m,
         "n": n,
         "mse": float(np.mean(resid**2)),
-        "md": float(np.max(np.abs(resid))),
         "mad": float(np.mean(np.abs(resid))),
+        "max_dev": float(np.max(np.abs(resid))),
         "fit": fit,
     }

@@ -1,4 +1,4 @@
-"""Staircase and sine linearity analyses of the open-loop experiments (MODEL.md section 5).
+"""Staircase and sine linearity analyses of the open-loop experiments (docs/model.md section 5).
 
 Pure functions on arrays; the arguments are the columns of the canonical run table
 (``t`` in s, ``p`` in bar, ``valve`` 0/1, ``u`` the input fraction), so a run is analysed as

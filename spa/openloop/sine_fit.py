@@ -112,7 +112,7 @@ def sine_linearity(xi: npt.ArrayLike, p: npt.ArrayLike) -> dict[str, float]:
     -------
     dict
         ``rms``: root-mean-square of ``p/max(p) - xi`` over the samples;
-        ``md``: largest ``|p/max(p) - xi|``;
+        ``max_dev``: largest ``|p/max(p) - xi|``;
         ``p_max``: the normalising maximum ``max(p)`` in bar (so that the normalised curve
         for a plot is ``p/p_max``).
 
@@ -134,7 +134,7 @@ def sine_linearity(xi: npt.ArrayLike, p: npt.ArrayLike) -> dict[str, float]:
     --------
     >>> r = sine_linearity([0.0, 0.5, 1.0], [0.0, 0.3, 0.8])
     >>> {k: round(v, 6) for k, v in r.items()}
-    {'rms': 0.072169, 'md': 0.125, 'p_max': 0.8}
+    {'rms': 0.072169, 'max_dev': 0.125, 'p_max': 0.8}
     """
     x = _array("xi", xi)
     pp = _array("p", p)
@@ -146,6 +146,6 @@ def sine_linearity(xi: npt.ArrayLike, p: npt.ArrayLike) -> dict[str, float]:
     dev = pp / p_max - x
     return {
         "rms": float(np.sqrt(np.mean(dev**2))),
-        "md": float(np.max(np.abs(dev))),
+        "max_dev": float(np.max(np.abs(dev))),
         "p_max": p_max,
     }

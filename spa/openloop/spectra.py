@@ -1,12 +1,18 @@
-"""Bicoherence of a pressure record: the HOSA toolbox's ``bicoher`` estimator (MODEL.md section 5).
+"""Bicoherence of a pressure record and its significance (docs/model.md section 5).
 
 The chirp experiment (Fig. 9 of the paper) is judged by the bicoherence of the pressure
-response: a segment-averaged bispectrum normalised by the power spectra. A peak at
-``(f1, f2)`` means that the phase of the component at ``f1 + f2`` is locked to the sum of the
-phases at ``f1`` and ``f2`` across segments, the signature of a quadratic nonlinearity.
+response: a segment-averaged bispectrum normalised by the spectra. A peak at ``(f1, f2)``
+means that the phase of the component at ``f1 + f2`` is locked to the sum of the phases at
+``f1`` and ``f2`` across segments, the signature of a quadratic nonlinearity.
 
-Conventions follow ``bicoher.m`` (A. Swami, HOSA toolbox, revision 1.7) with the segment
-length equal to the FFT length:
+Two normalisations (`bicoherence`): Kim & Powers' (1979), bounded by 0 and 1 (the default),
+and the HOSA toolbox's ``bicoher``, which is not bounded. Under the null hypothesis of a
+Gaussian (in particular, a linear system's) response the bounded one has a known tail, so a
+value can be called significant (`significance_threshold`) and a map summarised by the
+fraction of its bins that are (`significant_fraction`).
+
+Segmentation and spectra follow ``bicoher.m`` (A. Swami, HOSA toolbox, revision 1.7) with
+the segment length equal to the FFT length:
 
 * ``noverlap = floor(nfft*overlap)`` samples shared by consecutive segments, advance
   ``nfft - noverlap``, ``K = floor((len(x) - noverlap)/advance)`` segments starting at sample 0
@@ -27,7 +33,20 @@ import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
 
-__all__ = ["bicoherence", "mean_bicoherence", "principal_domain_mask", "segment_count"]
+from spa._checks import fraction, integer
+
+__all__ = [
+    "NORMALISATIONS",
+    "bicoherence",
+    "mean_bicoherence",
+    "principal_domain_mask",
+    "segment_count",
+    "significance_threshold",
+    "significant_fraction",
+]
+
+#: The normalisations `bicoherence` offers: Kim & Powers' bounded one (default), HOSA's.
+NORMALISATIONS = ("bounded", "hosa")
 
 
 def _hanning(n: int) -> npt.NDArray[np.float64]:
@@ -97,9 +116,13 @@ def _check_nfft(nfft: object, length: int) -> int:
 
 
 def bicoherence(
-    x: npt.ArrayLike, fs: float, nfft: int = 256, overlap: float = 0.5
+    x: npt.ArrayLike,
+    fs: float,
+    nfft: int = 256,
+    overlap: float = 0.5,
+    normalisation: str = "bounded",
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Bicoherence of a real signal by the direct (FFT) method of HOSA's ``bicoher``.
+    """Bicoherence of a real signal by the direct (FFT) method, bounded or as HOSA's ``bicoher``.
 
     Parameters
     ----------
@@ -112,6 +135,8 @@ def bicoherence(
         Samples per segment, which is also the FFT length (2 <= nfft <= len(x)).
     overlap : float, default 0.5
         Fraction of a segment shared with the next one, in [0, 1).
+    normalisation : {"bounded", "hosa"}, default "bounded"
+        ``"bounded"``: Kim & Powers', in [0, 1]; ``"hosa"``: HOSA ``bicoher``'s (see Notes).
 
     Returns
     -------
@@ -134,24 +159,33 @@ def bicoherence(
         bic(f1, f2) = |<Y(f1) Y(f2) conj(Y(f1 + f2))>|**2
                       / (<|Y(f1)|**2> <|Y(f2)|**2> <|Y(f1 + f2)|**2>)
 
-    with frequency indices taken modulo ``nfft``. This is HOSA's normalisation: it is not
-    bounded by 1 in general (Cauchy-Schwarz bounds the numerator by
-    ``<|Y1 Y2|^2> <|Y3|^2>``, not by the product of the three powers), but it is close to 1
-    for quadratic phase coupling and of order ``1/K`` for independent phases. The ``1/nfft``
-    scaling cancels. Where a denominator is exactly zero (a bin with no power in any segment,
-    e.g. a constant ``x``) the numerator is zero too; ``bic`` is set to 0 there, where MATLAB
-    would return NaN. Bins whose power is only rounding error (a constant segment minus its
-    computed mean, a record far longer than its band) give ratios of rounding errors, as in
-    MATLAB: look at the power spectrum before reading such a map.
+    with frequency indices taken modulo ``nfft``, is HOSA's normalisation (``"hosa"``). It is
+    not bounded by 1 (Cauchy-Schwarz bounds the numerator by ``<|Y1 Y2|^2> <|Y3|^2>``, not by
+    the product of the three powers): where ``Y1`` and ``Y2`` are large in the same few
+    segments, ``<|Y1 Y2|^2>`` exceeds ``<|Y1|^2> <|Y2|^2>`` many times over, which a chirp
+    does at every low frequency (values of 50 and more for a linear system). The default
+    (``"bounded"``, Kim & Powers 1979) divides by what Cauchy-Schwarz bounds it with,
+
+        bic(f1, f2) = |<Y(f1) Y(f2) conj(Y(f1 + f2))>|**2
+                      / (<|Y(f1) Y(f2)|**2> <|Y(f1 + f2)|**2>),
+
+    which lies in [0, 1] (values above 1 by rounding are clipped), is 1 for a perfectly
+    phase-coupled triad and, for a Gaussian signal, has the tail of `significance_threshold`.
+    The ``1/nfft`` scaling cancels in both. Where a denominator is exactly zero (a bin with
+    no power in any segment, e.g. a constant ``x``) the numerator is zero too; ``bic`` is set
+    to 0 there, where MATLAB would return NaN. Bins whose power is only rounding error (a
+    constant segment minus its computed mean, a record far longer than its band) give ratios
+    of rounding errors, as in MATLAB: look at the power spectrum before reading such a map.
 
     For real ``x``, ``Y(-f) = conj(Y(f))``, so the triple mean ``T(f1, f2, f3)`` with
     ``f1 + f2 + f3 = 0`` (mod ``fs``) is symmetric in its arguments and turns into its
     conjugate when all three change sign; ``bic(f1, f2) = |T(f1, f2, -f1-f2)|^2/(P1 P2 P3)``
     is thus invariant under these twelve maps. The numerator is computed once per orbit
     (about ``nfft**2/12`` pairs, vectorised over segments and ``f2``, one ``einsum`` per
-    ``f1`` row) and spread to every pair; the denominator is computed at every pair. ``Y`` is
+    ``f1`` row) and spread to every pair; the denominator is computed at every pair (the
+    bounded one's ``<|Y1 Y2|^2>`` is one product of the ``|Y|^2`` matrix with itself). ``Y`` is
     built from ``rfft`` so that the conjugate symmetry holds exactly. The result equals the
-    literal double loop over ``(f1, f2)`` to rounding.
+    literal double loop over ``(f1, f2)`` to rounding, in either normalisation.
 
     Examples
     --------
@@ -193,6 +227,9 @@ def bicoherence(
         raise ValueError(f"overlap must be a fraction in [0, 1), got {overlap!r}") from None
     if not (0.0 <= ov < 1.0):
         raise ValueError(f"overlap must be a fraction in [0, 1), got {overlap!r}")
+    norm = normalisation
+    if norm not in NORMALISATIONS:
+        raise ValueError(f"normalisation must be one of {NORMALISATIONS}, got {norm!r}")
 
     # Segmentation as in bicoher.m.
     advance = _advance(n, ov)
@@ -227,9 +264,16 @@ def bicoherence(
     numerator = (triple.real**2 + triple.imag**2).ravel()[rep].reshape(n, n)
 
     k = np.arange(n)
-    denominator = power[:, None] * power[None, :] * power[(k[:, None] + k[None, :]) % n]
+    p3 = power[(k[:, None] + k[None, :]) % n]
+    if norm == "hosa":
+        denominator = power[:, None] * power[None, :] * p3
+    else:  # <|Y1 Y2|^2> <|Y3|^2>: one product of the |Y|^2 matrix with its transpose
+        a = spec.real**2 + spec.imag**2
+        denominator = (a @ a.T) / n_seg * p3
     bic = np.zeros((n, n), dtype=np.float64)
     np.divide(numerator, denominator, out=bic, where=denominator > 0.0)
+    if norm == "bounded":
+        np.minimum(bic, 1.0, out=bic)  # Cauchy-Schwarz holds exactly; rounding may not
 
     f = np.fft.fftshift(np.fft.fftfreq(n, d=1.0 / fs_))
     return f, np.fft.fftshift(bic)
@@ -349,3 +393,81 @@ def mean_bicoherence(f: npt.ArrayLike, bic: npt.ArrayLike, fmin: float = 0.0) ->
     if not mask.any():
         raise ValueError(f"fmin = {fmin!r} leaves no point of the principal domain")
     return float(b[mask].mean())
+
+
+def significance_threshold(n_segments: int, alpha: float = 0.01) -> float:
+    """Level a bounded bicoherence exceeds with probability ``alpha`` under the Gaussian null.
+
+    Parameters
+    ----------
+    n_segments : int
+        Segments averaged, ``K`` (>= 2; `segment_count`).
+    alpha : float, default 0.01
+        False-alarm probability per bin, in (0, 1).
+
+    Returns
+    -------
+    float
+        ``1 - alpha**(1/(K - 1))``.
+
+    Notes
+    -----
+    For a Gaussian signal and ``K`` independent segments, the bounded bicoherence of a bin
+    (`bicoherence`, ``normalisation="bounded"``) is distributed as a squared coherence
+    estimate of ``K`` segments: ``P(b² > x) = (1 - x)**(K - 1)`` (Beta(1, K - 1)), whose
+    mean is ``1/K``. Solving ``(1 - x)**(K - 1) = alpha`` gives the threshold. A linear
+    system driven by any input is not Gaussian, and overlapping segments are not
+    independent: the threshold is a yardstick, and the fraction of a linear reference's bins
+    above it (`significant_fraction`) says how well it holds for a given experiment.
+
+    Examples
+    --------
+    >>> round(significance_threshold(116), 4)
+    0.0393
+    >>> significance_threshold(2, alpha=0.5)
+    0.5
+    """
+    k = integer("n_segments", n_segments, minimum=2)
+    a = fraction("alpha", alpha, low_open=True, high_open=True)
+    return 1.0 - a ** (1.0 / (k - 1))
+
+
+def significant_fraction(
+    f: npt.ArrayLike, bic: npt.ArrayLike, threshold: float, fmin: float = 0.0
+) -> float:
+    """Fraction of the principal domain where the bicoherence exceeds a threshold.
+
+    Parameters
+    ----------
+    f : array_like of float, shape (n,)
+        Frequency axis returned by `bicoherence` (Hz).
+    bic : array_like of float, shape (n, n)
+        Bicoherence map.
+    threshold : float
+        Level (`significance_threshold`).
+    fmin : float, default 0.0
+        Lowest ``f2`` kept (Hz), as in `principal_domain_mask`: the analyses drop the bins
+        next to DC, which hold the leakage of the record's slow trends.
+
+    Returns
+    -------
+    float
+        ``mean(bic > threshold)`` over `principal_domain_mask(f, fmin)`: near ``alpha`` for
+        a response without quadratic phase coupling, larger the more of the map is coupled.
+
+    Examples
+    --------
+    >>> f = np.fft.fftshift(np.fft.fftfreq(8, d=1 / 8.0))
+    >>> bic = np.zeros((8, 8))
+    >>> bic[6, 4] = 0.9  # (f1, f2) = (2 Hz, 0 Hz): one of the 8 bins of the domain
+    >>> significant_fraction(f, bic, 0.5)
+    0.125
+    """
+    bins, _ = _check_axis(f)
+    b = np.asarray(bic, dtype=np.float64)
+    if b.shape != (bins.size, bins.size):
+        raise ValueError(f"bic must have shape {(bins.size, bins.size)} to match f, got {b.shape}")
+    mask = principal_domain_mask(f, fmin)
+    if not mask.any():
+        raise ValueError(f"fmin = {fmin!r} leaves no point of the principal domain")
+    return float(np.mean(b[mask] > float(threshold)))

@@ -3,6 +3,10 @@
 Each function takes the table the workflow writes beside the PNG (or, for Fig. 9, the maps)
 and returns a matplotlib Figure built without pyplot; save it with
 :func:`spa.io.save_figure`. `no_data_figure` stands in when a dataset has no run of a kind.
+
+Figs. 7a, 7b and 9 show the settings the paper shows (chosen by
+:func:`spa.openloop.selection.paper_settings`) and, in a panel of their own, the sweep over
+every setting of the dataset; Figs. 8 and 9 show the linear reference beside the runs.
 """
 
 from __future__ import annotations
@@ -12,10 +16,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 
 from spa.model.modulators import MODULATOR_ORDER
-from spa.openloop import PAPER_TIME_CONSTANTS
+from spa.openloop.paper import PAPER_TIME_CONSTANTS
+from spa.openloop.reference import REFERENCE
 from spa.openloop.spectra import principal_domain_mask
 from spa.plots.analytic import _COLOURS, _LABELS, _require
 
@@ -90,21 +96,71 @@ def fig6(traces: pd.DataFrame) -> Figure:
     return fig
 
 
-def fig7a(levels: pd.DataFrame, k2: float) -> Figure:
+def _sweep_panel(
+    ax,
+    table: pd.DataFrame,
+    value: str,
+    *,
+    shown: Sequence[str] = (),
+    error: tuple[str, str] | str | None = None,
+    paper: str | None = None,
+    reference: float | None = None,
+    ylabel: str = "",
+) -> None:
+    """One bar per setting of ``table`` (in its order), coloured by modulator.
+
+    ``shown`` settings are outlined; ``error`` is a column of symmetric errors or a pair of
+    columns (low, high); ``paper`` a column of the paper's values (black diamonds);
+    ``reference`` a level drawn as a dashed line (the linear reference).
+    """
+    x = np.arange(len(table))
+    y = table[value].to_numpy(dtype=float)
+    # alpha in the colours, not as an argument: it would turn the edge colour "none" black
+    colours = [to_rgba(_COLOURS.get(k, "0.5"), 0.85) for k in table["modulator"]]
+    outlined = set(shown)
+    edges = [to_rgba("k" if s in outlined else "none") for s in table["setting"]]
+    ax.bar(x, y, color=colours, edgecolor=edges, linewidth=1.2)
+    if isinstance(error, str) and error in table.columns:
+        ax.errorbar(x, y, yerr=table[error].to_numpy(dtype=float), fmt="none", ecolor="k", lw=0.8)
+    elif isinstance(error, tuple) and all(c in table.columns for c in error):
+        lo, hi = (table[c].to_numpy(dtype=float) for c in error)
+        ax.errorbar(x, y, yerr=[y - lo, hi - y], fmt="none", ecolor="k", lw=0.8)
+    if paper is not None and paper in table.columns and table[paper].notna().any():
+        ax.plot(x, table[paper].to_numpy(dtype=float), "kD", ms=4, label="paper (bench)")
+    if reference is not None and np.isfinite(reference):
+        ax.axhline(
+            reference, color="0.3", ls="--", lw=1.0, label=f"linear reference {reference:.3g}"
+        )
+    ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=7)
+    ax.set_ylabel(ylabel, fontsize=8)
+    ax.grid(True, axis="y", lw=0.3, alpha=0.5)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper left")
+
+
+def fig7a(
+    levels: pd.DataFrame, k2: float, sweep: pd.DataFrame | None = None, note: str = ""
+) -> Figure:
     """Fig. 7a: equilibrium pressure against input fraction, with the ideal line ``k2*xi``.
 
     Parameters
     ----------
     levels : pandas.DataFrame
-        Columns ``modulator``, ``setting``, ``gain`` (IPFM/IIPFM gain: other than 1 is drawn
-        with squares), ``xi``, ``p_eq`` (bar) and ``fit`` (% of the setting's line fit, shown
-        in the legend).
+        The levels of the settings shown: columns ``modulator``, ``setting``, ``gain``
+        (IPFM/IIPFM gain: other than 1 is drawn with squares), ``xi``, ``p_eq`` (bar) and
+        ``fit`` (% of the setting's line fit, shown in the legend).
     k2 : float
         Supply (saturation) pressure in bar, the slope of the ideal line.
+    sweep : pandas.DataFrame, optional
+        Table 3 of every setting (``modulator``, ``setting``, ``fit``, optionally
+        ``paper_fit``): drawn as a second panel, FIT per setting.
+    note : str, optional
+        Added to the title (e.g. which settings stand in for missing paper settings).
     """
     _require(levels, ["modulator", "setting", "gain", "xi", "p_eq", "fit"], "levels")
-    fig = Figure(figsize=(6.0, 4.5), layout="constrained")
-    ax = fig.add_subplot()
+    fig = Figure(figsize=(6.0 if sweep is None else 11.0, 4.8), layout="constrained")
+    axes = fig.subplots(1, 1 if sweep is None else 2, squeeze=False)[0]
+    ax = axes[0]
     ax.plot([0.0, 1.0], [0.0, k2], "k--", lw=1.0, label=f"ideal: k2·ξ (k2 = {k2:.3f} bar)")
     for setting, g in levels.groupby("setting", sort=False):
         kind, gained = g["modulator"].iloc[0], g["gain"].iloc[0] != 1.0
@@ -123,22 +179,39 @@ def fig7a(levels: pd.DataFrame, k2: float) -> Figure:
     ax.set_xlim(0.0, 1.0)
     ax.grid(True, lw=0.3, alpha=0.5)
     ax.legend(fontsize=8, loc="upper left")
-    ax.set_title("Static linearity: best setting of each modulator", fontsize=10)
+    ax.set_title(_title("Static linearity", note), fontsize=9)
+    if sweep is not None:
+        _require(sweep, ["modulator", "setting", "fit"], "sweep")
+        _sweep_panel(
+            axes[1], sweep, "fit", shown=levels["setting"].unique(), paper="paper_fit",
+            ylabel="FIT of the line through the levels (%)",
+        )  # fmt: skip
+        axes[1].set_title("Every setting (outlined: shown on the left)", fontsize=9)
     return fig
 
 
-def fig7b(steps: pd.DataFrame) -> Figure:
+def _title(text: str, note: str) -> str:
+    return f"{text}\n{note}" if note else text
+
+
+def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = "") -> Figure:
     """Fig. 7b: time constant of each staircase step against the level stepped to.
 
     Parameters
     ----------
     steps : pandas.DataFrame
-        Columns ``modulator``, ``setting``, ``gain`` (as in `fig7a`), ``xi_to`` and ``tau``
-        (s, NaN skipped).
+        The steps of the settings shown: columns ``modulator``, ``setting``, ``gain`` (as in
+        `fig7a`), ``xi_to`` and ``tau`` (s, NaN skipped).
+    sweep : pandas.DataFrame, optional
+        Table 3 of every setting (``modulator``, ``setting``, ``tau_mean``, ``tau_sd``):
+        drawn as a second panel, mean ± sd per setting.
+    note : str, optional
+        Added to the title.
     """
     _require(steps, ["modulator", "setting", "gain", "xi_to", "tau"], "steps")
-    fig = Figure(figsize=(6.0, 4.5), layout="constrained")
-    ax = fig.add_subplot()
+    fig = Figure(figsize=(6.0 if sweep is None else 11.0, 4.8), layout="constrained")
+    axes = fig.subplots(1, 1 if sweep is None else 2, squeeze=False)[0]
+    ax = axes[0]
     for setting, g in steps.groupby("setting", sort=False):
         kind, gained = g["modulator"].iloc[0], g["gain"].iloc[0] != 1.0
         g = g[np.isfinite(g["tau"])]
@@ -161,11 +234,18 @@ def fig7b(steps: pd.DataFrame) -> Figure:
     ax.set_ylabel("time constant (s), 63.2 % of the step")
     ax.grid(True, lw=0.3, alpha=0.5)
     ax.legend(fontsize=8, loc="lower right", title="mean ± sd", title_fontsize=8)
-    ax.set_title(f"Step time constants (paper, bench: {paper})", fontsize=9)
+    ax.set_title(_title(f"Step time constants (paper, bench: {paper})", note), fontsize=9)
+    if sweep is not None:
+        _require(sweep, ["modulator", "setting", "tau_mean", "tau_sd"], "sweep")
+        _sweep_panel(
+            axes[1], sweep, "tau_mean", shown=steps["setting"].unique(), error="tau_sd",
+            ylabel="time constant, mean ± sd over the steps (s)",
+        )  # fmt: skip
+        axes[1].set_title("Every setting (outlined: shown on the left)", fontsize=9)
     return fig
 
 
-def fig8(aligned: pd.DataFrame) -> Figure:
+def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str = "") -> Figure:
     """Fig. 8: normalised pressure against input fraction after lag compensation.
 
     Parameters
@@ -173,15 +253,26 @@ def fig8(aligned: pd.DataFrame) -> Figure:
     aligned : pandas.DataFrame
         Columns ``modulator``, ``setting``, ``xi`` and ``p_norm``, and ``rms`` (the setting's
         RMS deviation from the line, shown in the legend).
+    reference : pandas.DataFrame, optional
+        The linear reference's ``xi``, ``p_norm`` and ``rms``, drawn in grey on every panel.
+    note : str, optional
+        The figure's title (e.g. the sine frequency against the plant's corner frequency).
     """
     _require(aligned, ["modulator", "setting", "xi", "p_norm", "rms"], "aligned")
     kinds = _kinds(aligned)
     if not kinds:
         raise ValueError("aligned: no known modulator")
-    fig = Figure(figsize=(3.2 * len(kinds), 3.6), layout="constrained")
+    fig = Figure(figsize=(3.2 * len(kinds), 3.9), layout="constrained")
     axes = fig.subplots(1, len(kinds), sharey=True, squeeze=False)[0]
     for ax, kind in zip(axes, kinds, strict=True):
         ax.plot([0, 1], [0, 1], "k--", lw=1.0, label="ideal")
+        if reference is not None:
+            _require(reference, ["xi", "p_norm", "rms"], "reference")
+            rms = float(reference["rms"].iloc[0])
+            ax.plot(
+                reference["xi"], reference["p_norm"], color="0.55", lw=0.8,
+                label=f"{REFERENCE} reference (RMS {rms:.3f})",
+            )  # fmt: skip
         for setting, g in aligned[aligned["modulator"] == kind].groupby("setting", sort=False):
             ax.plot(g["xi"], g["p_norm"], lw=0.6, label=f"{setting} (RMS {g['rms'].iloc[0]:.3f})")
         ax.set_title(_LABELS[kind], fontsize=9)
@@ -192,41 +283,75 @@ def fig8(aligned: pd.DataFrame) -> Figure:
         ax.grid(True, lw=0.3, alpha=0.5)
         ax.legend(fontsize=6, loc="upper left")
     axes[0].set_ylabel("P / max(P)")
+    if note:
+        fig.suptitle(note, fontsize=9)
     return fig
 
 
-def fig9(maps: Sequence[tuple[str, np.ndarray, np.ndarray]], vmax: float | None = None) -> Figure:
-    """Fig. 9: bicoherence over the principal domain, one panel per map.
+def fig9(
+    maps: Sequence[tuple[str, np.ndarray, np.ndarray, float, float]],
+    sweep: pd.DataFrame | None = None,
+    shown: Sequence[str] = (),
+    note: str = "",
+) -> Figure:
+    """Fig. 9: bicoherence over the principal domain, one panel per map, on a fixed [0, 1] scale.
 
     Parameters
     ----------
-    maps : sequence of (title, f, bic)
-        Frequency axis (Hz) and map as returned by `spa.openloop.spectra.bicoherence`.
-    vmax : float, optional
-        Top of the common colour scale (default: the largest value in the panels' domains,
-        capped at 1 so a few near-empty bins do not wash out the maps).
+    maps : sequence of (title, f, bic, threshold, fmin)
+        Frequency axis (Hz), map (`spa.openloop.spectra.bicoherence`), significance
+        threshold and the lowest ``f2`` summarised (Hz): bins at or below the threshold, and
+        the rows below ``fmin``, are masked (drawn light grey). A NaN threshold masks nothing
+        (HOSA's normalisation has none).
+    sweep : pandas.DataFrame, optional
+        The bicoherence table of every setting (``modulator``, ``setting``,
+        ``significant_fraction``, optionally ``significant_fraction_min``/``_max`` over noise
+        seeds), with the linear reference's row (``modulator == "linear"``): drawn below the
+        maps, the significant fraction per setting.
+    shown : sequence of str, optional
+        The settings whose maps are shown (outlined in the sweep panel).
+    note : str, optional
+        The figure's title.
     """
     if not maps:
         raise ValueError("maps: nothing to plot")
-    fig = Figure(figsize=(3.4 * len(maps), 3.4), layout="constrained")
-    axes = fig.subplots(1, len(maps), squeeze=False)[0]
-    shown = []
-    for _, f, bic in maps:
-        mask = principal_domain_mask(f)
-        shown.append(np.where(mask, bic, np.nan))
-    top = vmax if vmax is not None else min(1.0, float(max(np.nanmax(s) for s in shown)))
+    n = len(maps)
+    fig = Figure(figsize=(max(3.0 * n, 8.0), 3.3 if sweep is None else 7.0), layout="constrained")
+    grid = fig.add_gridspec(
+        1 if sweep is None else 2, n, height_ratios=None if sweep is None else [1.1, 1]
+    )
     image = None
-    for ax, (title, f, _), z in zip(axes, maps, shown, strict=True):
+    axes = [fig.add_subplot(grid[0, i]) for i in range(n)]
+    for ax, (title, f, bic, threshold, fmin) in zip(axes, maps, strict=True):
+        domain = principal_domain_mask(f)
+        visible = principal_domain_mask(f, fmin)
+        if np.isfinite(threshold):
+            visible &= bic > threshold
         pos = f >= 0
         fp = f[pos]
-        zz = z[np.ix_(pos, pos)]  # rows f1, columns f2
         step = fp[1] - fp[0] if fp.size > 1 else 1.0
         edges = np.concatenate((fp - step / 2, [fp[-1] + step / 2]))
-        image = ax.pcolormesh(edges, edges, zz.T, vmin=0.0, vmax=top, cmap="viridis")
+        grey = np.where(domain, 1.0, np.nan)[np.ix_(pos, pos)]  # rows f1, columns f2
+        ax.pcolormesh(edges, edges, grey.T, vmin=0.0, vmax=1.0, cmap="Greys", alpha=0.15)
+        z = np.where(visible, bic, np.nan)[np.ix_(pos, pos)]
+        image = ax.pcolormesh(edges, edges, z.T, vmin=0.0, vmax=1.0, cmap="viridis")
         ax.set_xlim(0.0, fp[-1])
         ax.set_ylim(0.0, fp[-1] / 2)
         ax.set_xlabel("f1 (Hz)")
-        ax.set_title(title, fontsize=9)
+        ax.set_title(title, fontsize=8)
     axes[0].set_ylabel("f2 (Hz)")
-    fig.colorbar(image, ax=list(axes), label="bicoherence", shrink=0.9)
+    fig.colorbar(image, ax=axes, label="bicoherence (significant bins)", shrink=0.9)
+    if sweep is not None:
+        _require(sweep, ["modulator", "setting", "significant_fraction"], "sweep")
+        runs = sweep[sweep["modulator"] != REFERENCE]
+        ref = sweep.loc[sweep["modulator"] == REFERENCE, "significant_fraction"]
+        _sweep_panel(
+            fig.add_subplot(grid[1, :]), runs, "significant_fraction",
+            shown=shown,
+            error=("significant_fraction_min", "significant_fraction_max"),
+            reference=float(ref.iloc[0]) if ref.size else None,
+            ylabel="fraction of the domain significant",
+        )  # fmt: skip
+    if note:
+        fig.suptitle(note, fontsize=9)
     return fig

@@ -85,8 +85,9 @@ def chirp_input(
     duration: float | None = None,
     offset: float = 0.5,
     amplitude: float = 0.25,
+    method: str = "linear",
 ) -> np.ndarray:
-    """Linear chirp of the input fraction (Fig. 9's input: 0.1 to 100 Hz, 0.5 ± 0.25).
+    """Chirp of the input fraction (Fig. 9's input: 0.1 to 100 Hz, 0.5 ± 0.25).
 
     Parameters
     ----------
@@ -98,16 +99,30 @@ def chirp_input(
         Sweep time in s (default: the span of ``t``).
     offset, amplitude : float
         Mean and amplitude of the input fraction.
+    method : {"linear", "logarithmic"}, default "linear"
+        How the frequency sweeps: linearly in time (the paper's chirp), or geometrically
+        (``f0 > 0``), which spends as long on each decade.
 
     Returns
     -------
     numpy.ndarray
-        ``offset + amplitude * sin(2*pi*(f0*t + (f1 - f0)*t**2/(2*duration)))``.
+        ``offset + amplitude*sin(phase)``; linear:
+        ``phase = 2*pi*(f0*t + (f1 - f0)*t**2/(2*duration))``, logarithmic:
+        ``phase = 2*pi*f0*duration*(k**(t/duration) - 1)/ln(k)`` with ``k = f1/f0``
+        (instantaneous frequency ``f0*k**(t/duration)``).
     """
     t = np.asarray(t, dtype=np.float64)
     if duration is None:
         duration = float(t[-1]) if t.size > 1 else 1.0
     if f0 < 0 or f1 <= 0 or duration <= 0:
         raise ValueError("need f0 >= 0, f1 > 0 and duration > 0")
-    phase = 2 * np.pi * (f0 * t + (f1 - f0) * t**2 / (2 * duration))
+    if method == "linear":
+        phase = 2 * np.pi * (f0 * t + (f1 - f0) * t**2 / (2 * duration))
+    elif method == "logarithmic":
+        if f0 <= 0 or f1 == f0:
+            raise ValueError("a logarithmic chirp needs f0 > 0 and f1 != f0")
+        log_k = np.log(f1 / f0)
+        phase = 2 * np.pi * f0 * duration * np.expm1(log_k * t / duration) / log_k
+    else:
+        raise ValueError(f"method must be 'linear' or 'logarithmic', got {method!r}")
     return offset + amplitude * np.sin(phase)

@@ -1,4 +1,4 @@
-"""Tuning the modulators for linearity by optimisation (MODEL.md section 4, paper Section 5).
+"""Tuning the modulators for linearity by optimisation (docs/model.md section 4, paper Section 5).
 
 One concept per module, all re-exported here:
 

@@ -66,7 +66,7 @@ UNITS: Mapping[str, str] = {
     "tau_m": "s",
     "fit": "%",
     "mse": "bar^2",
-    "md": "bar",
+    "max_dev": "bar",
     "mad": "bar",
 }
 
@@ -102,7 +102,7 @@ class TuningOptions:
         ``1 + t_on/t_l``.
     staircase : mapping
         ``step``, ``hold`` (s) and ``dt`` (controller step, s) of the staircase simulated
-        for the predicted ``fit``, ``mse``, ``md``, ``mad`` (the paper's: 0.1, 5 s).
+        for the predicted ``fit``, ``mse``, ``max_dev``, ``mad`` (the paper's: 0.1, 5 s).
 
     Examples
     --------
@@ -335,7 +335,7 @@ def _excluded_by(rows: pd.DataFrame) -> list[str]:
 
 
 def _staircase(mod: Modulator, params: ValveParams, options: TuningOptions, **analysis: Any):
-    """Fit, MSE, MD and MAD of a noise-free simulated staircase (Table 3's metrics)."""
+    """Fit, MSE, max_dev and MAD of a noise-free simulated staircase (Table 3's metrics)."""
     step, hold, dt = (options.staircase[k] for k in ("step", "hold", "dt"))
     levels = math.floor(1.0 / step + 1e-9) + 1
     t = np.arange(round(levels * hold / dt)) * dt
@@ -343,7 +343,7 @@ def _staircase(mod: Modulator, params: ValveParams, options: TuningOptions, **an
     u = mod.modulate(xi, dt)
     run = pd.DataFrame({"t": t, "p": simulate(u, dt, params), "valve": u, "u": xi})
     _, _, summary = staircase_analysis(run, mod.to_mapping(), params, **analysis)
-    return {k: float(summary[k]) for k in ("fit", "mse", "md", "mad")}
+    return {k: float(summary[k]) for k in ("fit", "mse", "max_dev", "mad")}
 
 
 def predict(
@@ -373,7 +373,7 @@ def predict(
     dict
         ``dead_zone``, ``saturation`` (Table 1), ``chattering``, ``switching_rate``,
         ``min_pulse`` (:func:`setting_metrics`), ``tau_m`` (``{min, max}`` of Eq. 9 over the
-        ``xi`` where it is defined, s), and ``fit``, ``mse``, ``md``, ``mad`` of the paper's
+        ``xi`` where it is defined, s), and ``fit``, ``mse``, ``max_dev``, ``mad`` of the paper's
         staircase simulated with the exact plant, noise-free, analysed like a measured one.
     """
     opts = options or TuningOptions()

@@ -25,6 +25,7 @@ rule staircase:
 rule sine:
     input:
         **inputs_from("runs"),
+        params=rules.identify.output.params,
     output:
         **outputs("sine"),
     log:
@@ -43,6 +44,7 @@ rule sine:
 rule chirp:
     input:
         **inputs_from("runs"),
+        params=rules.identify.output.params,
     output:
         **outputs("chirp"),
     log:

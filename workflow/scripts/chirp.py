@@ -1,9 +1,18 @@
-"""Bicoherence of the response to every chirp run of a dataset: table and Fig. 9."""
+"""Bicoherence of the response to every chirp run of a dataset and of the linear reference."""
 
 import pandas as pd
 
-from spa.io import get_logger, read_runs, save_figure, write_csv
-from spa.openloop import best_settings, chirp_analysis, run_tags, runs_of_kind
+from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
+from spa.openloop import (
+    chirp_analysis,
+    chirp_reference,
+    fallback_note,
+    is_simulated,
+    noise_spread,
+    paper_settings,
+    run_tags,
+    runs_of_kind,
+)
 from spa.plots.openloop import fig9, write_no_runs
 from spa.status import naming_run, run_stage
 
@@ -11,29 +20,56 @@ log = get_logger("chirp", snakemake.log[0])
 
 
 def main() -> None:
+    cfg = dict(snakemake.params.cfg)
+    seeds = cfg.pop("seeds")
     runs, metas = read_runs(snakemake.input.runs)
     ids = runs_of_kind(metas, "chirp")
     tags = run_tags(metas, ids)
     rows, maps = [], {}
     for i, rid in enumerate(ids, 1):
         with naming_run(rid, "chirp"):
-            f, bic, summary = chirp_analysis(runs[rid], **snakemake.params.cfg)
+            f, bic, summary = chirp_analysis(runs[rid], **cfg)
+            if is_simulated(metas[rid]) and seeds > 1:  # the spread over sensor-noise seeds
+                summary.update(noise_spread(metas[rid], summary, seeds, **cfg))
         rows.append({"run": rid, **tags.loc[rid], **summary})
-        maps[rid] = (f, bic)
-        log.info("[%d/%d] %s: mean bicoherence %.4f", i, len(ids), rid, summary["mean_bicoherence"])
+        maps[rid] = (f, bic, summary["threshold"], summary["fmin"])
+        log.info(
+            "[%d/%d] %s: significant fraction %.4f (seeds %.4f-%.4f), mean bicoherence %.4f",
+            i, len(ids), rid, summary["significant_fraction"],
+            summary.get("significant_fraction_min", float("nan")),
+            summary.get("significant_fraction_max", float("nan")), summary["mean_bicoherence"],
+        )  # fmt: skip
 
     if ids:
-        table = pd.DataFrame(rows)
+        # The same input (the first run's) through the linear first-order reference.
+        params = read_params(snakemake.input.params)
+        mods = [metas[r]["modulator"] for r in ids]
+        f, bic, ref = chirp_reference(runs[ids[0]], params, mods, **cfg)
+        log.info("linear reference: tau_m %.3f s, significant fraction %.4f",
+                 ref["tau_m"], ref["significant_fraction"])  # fmt: skip
+        table = pd.DataFrame([*rows, ref])
         write_csv(table, snakemake.output.table)
-        best = best_settings(table, score="mean_bicoherence", higher=False)
-        panels = [
-            (f"{r.setting}: mean {r.mean_bicoherence:.3f}", *maps[r.run]) for r in best.itertuples()
-        ]
-        save_figure(fig9(panels), snakemake.output.fig9)
+        bounded = cfg["normalisation"] == "bounded"
+        score = "significant_fraction" if bounded else "mean_bicoherence"
+        shown, fallbacks = paper_settings(table.iloc[:-1], score=score, higher=False)
+        panels = [(_title(r), *maps[r["run"]]) for _, r in shown.iterrows()]
+        panels.append((_title(ref), f, bic, ref["threshold"], ref["fmin"]))
+        note = (
+            f"{cfg['normalisation']} bicoherence, {ref['n_segments']} segments, bins above "
+            f"{ref['threshold']:.3f} (α = {cfg['alpha']}) coloured; "
+            + fallback_note(fallbacks, score)
+        )
+        figure = fig9(panels, sweep=table, shown=list(shown["setting"]), note=note)
+        save_figure(figure, snakemake.output.fig9)
     else:
         log.info("no chirp runs in this dataset: empty table, placeholder figure")
         message = f"{snakemake.wildcards.dataset}: no chirp runs"
         write_no_runs(message, [snakemake.output.table], [snakemake.output.fig9])
+
+
+def _title(row) -> str:
+    """A map's title: its setting and the fraction of its domain that is significant."""
+    return f"{row['setting']}: {row['significant_fraction']:.1%} significant"
 
 
 run_stage(snakemake, "chirp", main, log)

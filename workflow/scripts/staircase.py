@@ -1,11 +1,16 @@
 """Staircase linearity of every staircase run of a dataset: Table 3, Figs. 6, 7a and 7b."""
 
 import pandas as pd
-import yaml
 
-from spa.identification import load_params
-from spa.io import get_logger, read_runs, save_figure, write_csv
-from spa.openloop import best_settings, run_tags, runs_of_kind, staircase_analysis
+from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
+from spa.openloop import (
+    fallback_note,
+    noise_free_pressure,
+    paper_settings,
+    run_tags,
+    runs_of_kind,
+    staircase_analysis,
+)
 from spa.plots.openloop import fig6, fig7a, fig7b, thin, write_no_runs
 from spa.status import naming_run, run_stage
 
@@ -15,25 +20,33 @@ log = get_logger("staircase", snakemake.log[0])
 def main() -> None:
     out = snakemake.output
     runs, metas = read_runs(snakemake.input.runs)
-    with open(snakemake.input.params) as fh:
-        params = load_params(yaml.safe_load(fh))
+    params = read_params(snakemake.input.params)
     ids = runs_of_kind(metas, "staircase")
     tags = run_tags(metas, ids)
     rows, levels, steps, traces = [], [], [], []
     for i, rid in enumerate(ids, 1):
+        # simulated runs: the chattering of the true pressure, and of the sensor without noise
         with naming_run(rid, "staircase"):
+            clean = {
+                name: noise_free_pressure(runs[rid], metas[rid], ringing=ringing)
+                for name, ringing in (("noise_free", False), ("ringing", True))
+            }
             lv, st, summary = staircase_analysis(
-                runs[rid], metas[rid]["modulator"], params, **snakemake.params.cfg
-            )
+                runs[rid], metas[rid]["modulator"], params, **snakemake.params.cfg,
+                clean={k: v for k, v in clean.items() if v is not None},
+            )  # fmt: skip
         tag = {"run": rid, **tags.loc[rid]}
         rows.append({**summary, **tag})
         levels.append(lv.assign(**tag))
         steps.append(st.assign(**tag))
         traces.append(thin(runs[rid][["t", "p"]], 6000).assign(**tag))
         log.info(
-            "[%d/%d] %s: FIT %.2f %%, MSE %.3g bar², tau %.3f ± %.3f s",
+            "[%d/%d] %s: FIT %.2f %%, MSE %.3g bar², tau %.3f ± %.3f s, ripple %.1f mbar "
+            "(noise %.1f mbar subtracted: %.1f; noise-free %.1f)",
             i, len(ids), rid, summary["fit"], summary["mse"],
-            summary["tau_mean"], summary["tau_sd"],
+            summary["tau_mean"], summary["tau_sd"], 1e3 * summary["ripple_mean"],
+            1e3 * summary["noise_sd"], 1e3 * summary["ripple_corrected_mean"],
+            1e3 * summary.get("ripple_noise_free_mean", float("nan")),
         )  # fmt: skip
 
     if not ids:
@@ -51,11 +64,13 @@ def main() -> None:
         write_csv(levels, out.levels)
         write_csv(steps, out.time_constants)
         save_figure(fig6(pd.concat(traces)), out.fig6)
-        best = best_settings(table3)
-        chosen = levels.merge(best[["run", "fit"]], on="run")
-        save_figure(fig7a(chosen, params.k2), out.fig7a)
-        save_figure(fig7b(steps[steps["run"].isin(best["run"])]), out.fig7b)
-        log.info("best settings (Fig. 7): %s", ", ".join(best["setting"]))
+        shown, fallbacks = paper_settings(table3)
+        note = fallback_note(fallbacks, "FIT")
+        chosen = levels.merge(shown[["run", "fit"]], on="run")
+        save_figure(fig7a(chosen, params.k2, sweep=table3, note=note), out.fig7a)
+        chosen_steps = steps[steps["run"].isin(shown["run"])]
+        save_figure(fig7b(chosen_steps, sweep=table3, note=note), out.fig7b)
+        log.info("Figs. 7a/7b show %s", note)
 
 
 run_stage(snakemake, "staircase", main, log)
