@@ -498,3 +498,20 @@ def test_a_simulated_staircase_reports_its_noise_free_chattering(simulated):
     assert {"p_ripple_noise_free", "p_ripple_ringing", "p_ripple_corrected"} <= set(levels)
     # the sensor's ringing after each edge adds to the chattering; the noise adds far more
     assert row["ripple_noise_free_mean"] < row["ripple_ringing_mean"] < row["ripple_mean"]
+
+
+def test_an_input_of_another_shape_is_named_with_its_kind():
+    from spa.openloop.shapes import check_input_shape, input_shape_problem
+
+    t = np.arange(0, 60, 1e-3)
+    sine = 0.5 + 0.3 * np.sin(2 * np.pi * 0.2 * t)
+    chirp = 0.5 + 0.25 * np.sin(2 * np.pi * (0.1 * t + (5.0 - 0.1) * t**2 / (2 * 60)))
+    stairs = np.minimum(np.floor(t / 5) / 10, 1.0)
+    for kind, good in (("staircase", stairs), ("sine", sine), ("chirp", chirp)):
+        assert input_shape_problem(kind, good) is None, kind
+    assert "crosses its mean 1 times" in input_shape_problem("sine", stairs)
+    noise = 0.5 + 0.1 * np.random.default_rng(1).standard_normal(t.size)
+    assert "strongest frequency carries" in input_shape_problem("sine", noise)
+    assert "does not speed up" in input_shape_problem("chirp", sine)
+    with pytest.raises(ValueError, match="run 'r1' is labelled staircase but u goes down"):
+        check_input_shape("r1", "staircase", sine)

@@ -223,5 +223,5 @@ def test_fallback_identification_and_a_run_that_is_not_its_kind(tmp_path):
     assert (out / "nopulse" / "identification" / "fig2c.png").stat().st_size > 1000
     stair = json.loads((out / "nopulse" / "status" / "staircase.json").read_text())
     assert not stair["ok"]
-    assert "run 'staircase_pwm-20Hz' (staircase)" in stair["errors"][0]
+    assert "run 'staircase_pwm-20Hz' is labelled staircase but u goes down" in stair["errors"][0]
     assert "Traceback" in (out / "logs" / "nopulse" / "staircase.log").read_text()

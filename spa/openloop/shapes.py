@@ -31,6 +31,9 @@ def _staircase(u: np.ndarray) -> str | None:
 
 def _sine(u: np.ndarray) -> str | None:
     x = u - u.mean()
+    crossings = int(np.count_nonzero(np.signbit(x[1:]) != np.signbit(x[:-1])))
+    if crossings < 4:
+        return f"u crosses its mean {crossings} times: a sine oscillates (two periods or more)"
     power = np.abs(np.fft.rfft(x)) ** 2
     power[0] = 0.0
     total = power.sum()

@@ -13,6 +13,7 @@ from spa.openloop import (
     run_tags,
     runs_of_kind,
 )
+from spa.openloop.shapes import check_input_shape
 from spa.plots.openloop import fig9, write_no_runs
 from spa.status import naming_run, run_stage
 
@@ -27,6 +28,7 @@ def main() -> None:
     tags = run_tags(metas, ids)
     rows, maps = [], {}
     for i, rid in enumerate(ids, 1):
+        check_input_shape(rid, "chirp", runs[rid]["u"])
         with naming_run(rid, "chirp"):
             f, bic, summary = chirp_analysis(runs[rid], **cfg)
             if is_simulated(metas[rid]) and seeds > 1:  # the spread over sensor-noise seeds

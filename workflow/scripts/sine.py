@@ -4,6 +4,7 @@ import pandas as pd
 
 from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
 from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, sine_reference
+from spa.openloop.shapes import check_input_shape
 from spa.plots.openloop import fig8, thin, write_no_runs
 from spa.status import naming_run, run_stage
 
@@ -21,6 +22,7 @@ def main() -> None:
         if settle is None:  # the hold before the sine, as recorded by the simulator
             settle = float((metas[rid].get("experiment") or {}).get("settle", 0.0))
         settles[rid] = settle
+        check_input_shape(rid, "sine", runs[rid]["u"])
         with naming_run(rid, "sine"):
             aligned, summary = sine_analysis(runs[rid], settle=settle, max_lag=cfg["max_lag"])
         tag = {"run": rid, **tags.loc[rid]}

@@ -11,6 +11,7 @@ from spa.openloop import (
     runs_of_kind,
     staircase_analysis,
 )
+from spa.openloop.shapes import check_input_shape
 from spa.plots.openloop import fig6, fig7a, fig7b, thin, write_no_runs
 from spa.status import naming_run, run_stage
 
@@ -26,6 +27,7 @@ def main() -> None:
     rows, levels, steps, traces = [], [], [], []
     for i, rid in enumerate(ids, 1):
         # simulated runs: the chattering of the true pressure, and of the sensor without noise
+        check_input_shape(rid, "staircase", runs[rid]["u"])
         with naming_run(rid, "staircase"):
             clean = {
                 name: noise_free_pressure(runs[rid], metas[rid], ringing=ringing)
