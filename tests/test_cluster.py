@@ -40,8 +40,8 @@ def planned_jobs(log: str) -> dict[str, dict[str, str]]:
     Jobs of local rules (`localrule ...:`) are left out: they never reach the executor.
     """
     jobs = {}
-    for block in re.split(r"\n(?=\[[^\]]+\]\n)", log):
-        head = re.search(r"^rule (\S+):$", block, re.M)
+    for block in re.split(r"\n(?=\s*\[[^\]]+\]\n)", log):  # group jobs' are indented
+        head = re.search(r"^\s*rule (\S+):$", block, re.M)
         jobid = re.search(r"^\s+jobid: (\d+)$", block, re.M)
         if not (head and jobid):
             continue
@@ -107,6 +107,8 @@ def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path, isolated_conf
         assert job["mem_mb"] and job["runtime"], job
     assert "This was a dry-run" in text
     assert not any(tmp_path.iterdir())
+    # one submission per dataset: each dataset's chain is one group job (sim, example)
+    assert text.count("Group job dataset") == 2
 
 
 @pytest.fixture(scope="module")
