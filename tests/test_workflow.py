@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import sys
@@ -225,3 +226,39 @@ def test_fallback_identification_and_a_run_that_is_not_its_kind(tmp_path):
     assert not stair["ok"]
     assert "run 'staircase_pwm-20Hz' is labelled staircase but u goes down" in stair["errors"][0]
     assert "Traceback" in (out / "logs" / "nopulse" / "staircase.log").read_text()
+
+
+def test_staleness_follows_content_not_modification_times(tmp_path):
+    """Touching a raw file reruns nothing; new content with an older modification time (a
+    restored backup, rsync -t) reruns the ingest; a deleted run table is rebuilt."""
+    import os
+
+    raw = tmp_path / "raw"
+    shutil.copytree(ROOT / "raw" / "example", raw / "example")
+    out = tmp_path / "results"
+    # the run tables are a target, as in reproduce-all (a deleted member is rebuilt then)
+    targets = [f"{out}/example/runs", f"{out}/example/identification/params.yaml"]
+    args = [*targets, "--configfile", "config/small.yaml", "--config", f"results={out}",
+            f"datasets={{'raw_dir': '{raw}'}}", "-c2"]  # fmt: skip
+    assert run(*args).returncode == 0
+
+    def planned() -> set[str]:
+        res = run(*args, "-n")
+        assert res.returncode == 0, res.stderr[-2000:]
+        return set(re.findall(r"^rule (\w+):", res.stdout, flags=re.M))
+
+    csv = raw / "example" / "charge.csv"
+    old = csv.stat().st_mtime
+    os.utime(csv, (old + 3600, old + 3600))  # a touch: newer, same content
+    assert planned() == set()
+    lines = csv.read_text().splitlines(keepends=True)
+    fields = lines[10].split(",")
+    fields[1] = f"{float(fields[1]) + 0.5:g}"
+    lines[10] = ",".join(fields)
+    csv.write_text("".join(lines))
+    os.utime(csv, (old - 3600, old - 3600))  # new content, an older time
+    assert {"raw_manifest", "ingest_dataset", "identify"} <= planned()
+    assert run(*args).returncode == 0
+    assert planned() == set()
+    (out / "example" / "runs" / "pulse.parquet").unlink()
+    assert {"ingest_dataset", "identify"} <= planned()
