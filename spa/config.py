@@ -127,6 +127,17 @@ def _number(text: str) -> int | float | None:
     return value
 
 
+def _coerce(value: Any, schema: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
+    """One value: a string read as the number its schema wants, or a container walked into."""
+    kind = schema.get("type")
+    if isinstance(value, str) and kind in ("number", "integer"):
+        number = _number(value)
+        if number is not None and (kind == "number" or float(number).is_integer()):
+            return int(number) if kind == "integer" else number
+        return value
+    return coerce_numbers(value, schema, root)
+
+
 def coerce_numbers(config: Any, schema: Mapping[str, Any], root: Mapping[str, Any] | None = None):
     """Turn strings into numbers where the schema wants a number, in place.
 
@@ -155,24 +166,12 @@ def coerce_numbers(config: Any, schema: Mapping[str, Any], root: Mapping[str, An
         extra = node.get("additionalProperties")
         for key, value in config.items():
             sub = props.get(key, extra if isinstance(extra, Mapping) else None)
-            if sub is None:
-                continue
-            sub = _resolve(sub, root)
-            if isinstance(value, str) and sub.get("type") in ("number", "integer"):
-                number = _number(value)
-                if number is not None and (sub["type"] == "number" or float(number).is_integer()):
-                    config[key] = int(number) if sub["type"] == "integer" else number
-            else:
-                coerce_numbers(value, sub, root)
+            if sub is not None:
+                config[key] = _coerce(value, _resolve(sub, root), root)
     elif isinstance(config, list) and isinstance(node.get("items"), Mapping):
+        sub = _resolve(node["items"], root)
         for i, value in enumerate(config):
-            sub = _resolve(node["items"], root)
-            if isinstance(value, str) and sub.get("type") in ("number", "integer"):
-                number = _number(value)
-                if number is not None:
-                    config[i] = number
-            else:
-                coerce_numbers(value, sub, root)
+            config[i] = _coerce(value, sub, root)
     return config
 
 
@@ -223,7 +222,7 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
         If a dataset is named like an entry of the results folder (``logs``, ``analytic``,
         ``report.html``).
     """
-    from spa.datasets import find_datasets  # TODO(merge): spa.datasets.select_datasets
+    from spa.datasets import find_datasets
     from spa.safety import check_dataset_names
 
     datasets = config["datasets"]

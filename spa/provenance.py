@@ -139,8 +139,13 @@ def dataset_digest(
     >>> dataset_digest(d) == before
     False
     """
+    return _combined(file_digests(folder, cache))
+
+
+def _combined(files: Mapping[str, str]) -> str:
+    """One sha256 over (relative path, sha256) pairs, in their order."""
     h = hashlib.sha256()
-    for rel, digest in file_digests(folder, cache).items():
+    for rel, digest in files.items():
         h.update(rel.encode() + b"\0" + digest.encode() + b"\0")
     return h.hexdigest()
 
@@ -158,10 +163,7 @@ def write_manifest(
         What was written: ``{"folder", "digest", "files": {relative path: sha256}}``.
     """
     files = file_digests(folder, cache)
-    h = hashlib.sha256()
-    for rel, digest in files.items():
-        h.update(rel.encode() + b"\0" + digest.encode() + b"\0")
-    manifest = {"folder": str(folder), "digest": h.hexdigest(), "files": files}
+    manifest = {"folder": str(folder), "digest": _combined(files), "files": files}
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
