@@ -15,8 +15,7 @@ The top level re-exports the public API. Names are imported on first use (PEP 56
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from spa._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -62,14 +61,4 @@ _EXPORTS: dict[str, str] = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'spa' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_EXPORTS])
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import shutil
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -180,7 +181,7 @@ def run_stage(
         write_status(status_path, stage, dataset, errors, upstream=str(failed["stage"]))
         return False
     try:
-        work()
+        _profiled(work, stage, dataset)
     except Exception as exc:
         problems = getattr(exc, "problems", None)
         if problems:
@@ -195,6 +196,26 @@ def run_stage(
         return False
     write_status(status_path, stage, dataset)
     return True
+
+
+def _profiled(work: Callable[[], None], stage: str, dataset: str) -> None:
+    """Run ``work``; with ``SPA_PROFILE_DIR`` set, under cProfile, stats to that folder.
+
+    A development aid for the benchmarks (``benchmarks/README.md``): the stats file is
+    ``<SPA_PROFILE_DIR>/<stage>-<dataset>.prof``, readable with :mod:`pstats`.
+    """
+    folder = os.environ.get("SPA_PROFILE_DIR")
+    if not folder:
+        work()
+        return
+    import cProfile
+
+    profile = cProfile.Profile()
+    try:
+        profile.runcall(work)
+    finally:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        profile.dump_stats(Path(folder) / f"{stage}-{dataset}.prof")
 
 
 def _fill(smk: Any, stage: str, message: str) -> None:

@@ -28,37 +28,32 @@ median sample step (linear interpolation), the delay fit on the raw sample times
 
 from __future__ import annotations
 
-from spa.identification.delays import fit_delays
-from spa.identification.experiments import identification_commands, simulate_identification
-from spa.identification.identify import identify, identify_runs
-from spa.identification.rate_fits import fit_charge, fit_discharge
-from spa.identification.rates import pressure_rate
-from spa.identification.results import (
-    UNITS,
-    ChargeFit,
-    DelayFit,
-    DischargeFit,
-    Estimate,
-    IdentificationError,
-    IdentificationResult,
-    load_params,
-)
+from spa._lazy import lazy_exports
 
-__all__ = [
-    "UNITS",
-    "ChargeFit",
-    "DelayFit",
-    "DischargeFit",
-    "Estimate",
-    "IdentificationError",
-    "IdentificationResult",
-    "fit_charge",
-    "fit_delays",
-    "fit_discharge",
-    "identification_commands",
-    "identify",
-    "identify_runs",
-    "load_params",
-    "pressure_rate",
-    "simulate_identification",
-]
+#: Public name -> the module that defines it (imported on first use).
+_EXPORTS: dict[str, str] = {
+    "fit_delays": "spa.identification.delays",
+    **dict.fromkeys(
+        ("identification_commands", "simulate_identification"), "spa.identification.experiments"
+    ),
+    **dict.fromkeys(("identify", "identify_runs"), "spa.identification.identify"),
+    **dict.fromkeys(("fit_charge", "fit_discharge"), "spa.identification.rate_fits"),
+    "pressure_rate": "spa.identification.rates",
+    **dict.fromkeys(
+        (
+            "UNITS",
+            "ChargeFit",
+            "DelayFit",
+            "DischargeFit",
+            "Estimate",
+            "IdentificationError",
+            "IdentificationResult",
+            "load_params",
+        ),
+        "spa.identification.results",
+    ),
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = sorted(_EXPORTS)

@@ -24,78 +24,58 @@ shows in :mod:`~spa.openloop.selection`.
 
 from __future__ import annotations
 
-from spa.model.modulators import MODULATOR_ORDER
-from spa.openloop.chirp import chirp_analysis, chirp_bicoherence, chirp_reference, noise_spread
-from spa.openloop.levels import linear_fit_metrics, staircase_levels
-from spa.openloop.noise import corrected_ripple, sensor_noise
-from spa.openloop.paper import PAPER_SETTINGS, PAPER_TABLE3, PAPER_TIME_CONSTANTS, paper_case
-from spa.openloop.reference import (
-    REFERENCE,
-    first_order_response,
-    linear_reference,
-    reference_run,
-    reference_time_constant,
-)
-from spa.openloop.replicas import is_simulated, noise_free_pressure, noise_replicates
-from spa.openloop.selection import (
-    best_settings,
-    fallback_note,
-    paper_settings,
-    run_tags,
-    runs_of_kind,
-)
-from spa.openloop.sine import frequency_note, sine_analysis, sine_frequency, sine_reference
-from spa.openloop.sine_fit import compensate_lag, sine_linearity
-from spa.openloop.spectra import (
-    bicoherence,
-    mean_bicoherence,
-    principal_domain_mask,
-    significance_threshold,
-    significant_fraction,
-)
-from spa.openloop.staircase import measured_thresholds, predicted_levels, staircase_analysis
-from spa.openloop.steps import step_time_constants
+from spa._lazy import lazy_exports
 
-__all__ = [
-    "MODULATOR_ORDER",
-    "PAPER_SETTINGS",
-    "PAPER_TABLE3",
-    "PAPER_TIME_CONSTANTS",
-    "REFERENCE",
-    "best_settings",
-    "bicoherence",
-    "chirp_analysis",
-    "chirp_bicoherence",
-    "chirp_reference",
-    "compensate_lag",
-    "corrected_ripple",
-    "fallback_note",
-    "first_order_response",
-    "frequency_note",
-    "is_simulated",
-    "linear_fit_metrics",
-    "linear_reference",
-    "mean_bicoherence",
-    "measured_thresholds",
-    "noise_free_pressure",
-    "noise_replicates",
-    "noise_spread",
-    "paper_case",
-    "paper_settings",
-    "predicted_levels",
-    "principal_domain_mask",
-    "reference_run",
-    "reference_time_constant",
-    "run_tags",
-    "runs_of_kind",
-    "sensor_noise",
-    "significance_threshold",
-    "significant_fraction",
-    "sine_analysis",
-    "sine_frequency",
-    "sine_linearity",
-    "sine_reference",
-    "staircase_analysis",
-    "staircase_levels",
-    "step_time_constants",
-]
+#: Public name -> the module that defines it (imported on first use).
+_EXPORTS: dict[str, str] = {
+    "MODULATOR_ORDER": "spa.model.modulators",
+    **dict.fromkeys(
+        ("chirp_analysis", "chirp_bicoherence", "chirp_reference", "noise_spread"),
+        "spa.openloop.chirp",
+    ),
+    **dict.fromkeys(("linear_fit_metrics", "staircase_levels"), "spa.openloop.levels"),
+    **dict.fromkeys(("corrected_ripple", "sensor_noise"), "spa.openloop.noise"),
+    **dict.fromkeys(
+        ("PAPER_SETTINGS", "PAPER_TABLE3", "PAPER_TIME_CONSTANTS", "paper_case"),
+        "spa.openloop.paper",
+    ),
+    **dict.fromkeys(
+        (
+            "REFERENCE",
+            "first_order_response",
+            "linear_reference",
+            "reference_run",
+            "reference_time_constant",
+        ),
+        "spa.openloop.reference",
+    ),
+    **dict.fromkeys(
+        ("is_simulated", "noise_free_pressure", "noise_replicates"), "spa.openloop.replicas"
+    ),
+    **dict.fromkeys(
+        ("best_settings", "fallback_note", "paper_settings", "run_tags", "runs_of_kind"),
+        "spa.openloop.selection",
+    ),
+    **dict.fromkeys(
+        ("frequency_note", "sine_analysis", "sine_frequency", "sine_reference"), "spa.openloop.sine"
+    ),
+    **dict.fromkeys(("compensate_lag", "sine_linearity"), "spa.openloop.sine_fit"),
+    **dict.fromkeys(
+        (
+            "bicoherence",
+            "mean_bicoherence",
+            "principal_domain_mask",
+            "significance_threshold",
+            "significant_fraction",
+        ),
+        "spa.openloop.spectra",
+    ),
+    **dict.fromkeys(
+        ("measured_thresholds", "predicted_levels", "staircase_analysis"), "spa.openloop.staircase"
+    ),
+    "step_time_constants": "spa.openloop.steps",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = sorted(_EXPORTS)

@@ -9,32 +9,27 @@ The result is the canonical run table (``t`` s, ``p`` bar, ``valve`` 0/1, ``u`` 
 
 from __future__ import annotations
 
-from spa.synthetic.example import EXAMPLE_PARAMS, write_example_dataset
-from spa.synthetic.inputs import chirp_input, sine_input, staircase_input
-from spa.synthetic.runs import (
-    RunSpec,
-    dataset_runs,
-    generate_dataset,
-    identification_runs,
-    modulated_runs,
-    run_seed,
-    simulate_run,
-)
-from spa.synthetic.sensor import Ringing, Sensor
+from spa._lazy import lazy_exports
 
-__all__ = [
-    "EXAMPLE_PARAMS",
-    "Ringing",
-    "RunSpec",
-    "Sensor",
-    "chirp_input",
-    "dataset_runs",
-    "generate_dataset",
-    "identification_runs",
-    "modulated_runs",
-    "run_seed",
-    "simulate_run",
-    "sine_input",
-    "staircase_input",
-    "write_example_dataset",
-]
+#: Public name -> the module that defines it (imported on first use).
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("EXAMPLE_PARAMS", "write_example_dataset"), "spa.synthetic.example"),
+    **dict.fromkeys(("chirp_input", "sine_input", "staircase_input"), "spa.synthetic.inputs"),
+    **dict.fromkeys(
+        (
+            "RunSpec",
+            "dataset_runs",
+            "generate_dataset",
+            "identification_runs",
+            "modulated_runs",
+            "run_seed",
+            "simulate_run",
+        ),
+        "spa.synthetic.runs",
+    ),
+    **dict.fromkeys(("Ringing", "Sensor"), "spa.synthetic.sensor"),
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = sorted(_EXPORTS)

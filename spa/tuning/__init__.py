@@ -13,85 +13,64 @@ One concept per module, all re-exported here:
 * :mod:`spa.tuning.stage` – :func:`tune`, the whole stage for one valve.
 """
 
-from spa.tuning.cost import (
-    DEFAULT_SWEEPS,
-    PAPER_SETTING,
-    PAPER_TABLE2,
-    SWEPT_PARAMETER,
-    check_sweeps,
-    constraint,
-    deviation_cost,
-    feasible,
-    iipfm_optimal_t_l,
-    linearity_cost,
-    modulator_settings,
-    optimum,
-    paper_setting,
-    setting,
-    sweep,
-    sweep_grid,
-)
-from spa.tuning.exact import exact_cost, exact_curve
-from spa.tuning.intervals import INTERVAL_METHOD, corners, propagate, read_intervals
-from spa.tuning.recommend import (
-    CONSTRAINTS,
-    TuningOptions,
-    candidate_frame,
-    predict,
-    recommend,
-    recommendation_sentence,
-    setting_metrics,
-)
-from spa.tuning.stage import (
-    Identified,
-    TuningError,
-    TuningResult,
-    format_result,
-    read_identified,
-    tune,
-    tune_with_config,
-)
-from spa.tuning.tables import equilibrium_frame, optimum_table, sweep_frame, tuning_table
+from spa._lazy import lazy_exports
 
-__all__ = [
-    "CONSTRAINTS",
-    "DEFAULT_SWEEPS",
-    "INTERVAL_METHOD",
-    "PAPER_SETTING",
-    "PAPER_TABLE2",
-    "SWEPT_PARAMETER",
-    "Identified",
-    "TuningError",
-    "TuningOptions",
-    "TuningResult",
-    "candidate_frame",
-    "check_sweeps",
-    "constraint",
-    "corners",
-    "deviation_cost",
-    "equilibrium_frame",
-    "exact_cost",
-    "exact_curve",
-    "feasible",
-    "format_result",
-    "iipfm_optimal_t_l",
-    "linearity_cost",
-    "modulator_settings",
-    "optimum",
-    "optimum_table",
-    "paper_setting",
-    "predict",
-    "propagate",
-    "read_identified",
-    "read_intervals",
-    "recommend",
-    "recommendation_sentence",
-    "setting",
-    "setting_metrics",
-    "sweep",
-    "sweep_frame",
-    "sweep_grid",
-    "tune",
-    "tune_with_config",
-    "tuning_table",
-]
+#: Public name -> the module that defines it (imported on first use).
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(
+        (
+            "DEFAULT_SWEEPS",
+            "PAPER_SETTING",
+            "PAPER_TABLE2",
+            "SWEPT_PARAMETER",
+            "check_sweeps",
+            "constraint",
+            "deviation_cost",
+            "feasible",
+            "iipfm_optimal_t_l",
+            "linearity_cost",
+            "modulator_settings",
+            "optimum",
+            "paper_setting",
+            "setting",
+            "sweep",
+            "sweep_grid",
+        ),
+        "spa.tuning.cost",
+    ),
+    **dict.fromkeys(("exact_cost", "exact_curve"), "spa.tuning.exact"),
+    **dict.fromkeys(
+        ("INTERVAL_METHOD", "corners", "propagate", "read_intervals"), "spa.tuning.intervals"
+    ),
+    **dict.fromkeys(
+        (
+            "CONSTRAINTS",
+            "TuningOptions",
+            "candidate_frame",
+            "predict",
+            "recommend",
+            "recommendation_sentence",
+            "setting_metrics",
+        ),
+        "spa.tuning.recommend",
+    ),
+    **dict.fromkeys(
+        (
+            "Identified",
+            "TuningError",
+            "TuningResult",
+            "format_result",
+            "read_identified",
+            "tune",
+            "tune_with_config",
+        ),
+        "spa.tuning.stage",
+    ),
+    **dict.fromkeys(
+        ("equilibrium_frame", "optimum_table", "sweep_frame", "tuning_table"), "spa.tuning.tables"
+    ),
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+__all__ = sorted(_EXPORTS)
