@@ -215,3 +215,49 @@ def test_keep_going_on_the_cluster_finishes_good_datasets(tmp_path):
     jobs = assert_every_job_went_through_submit(res.stdout + res.stderr, cluster_dir)
     failed = [i for i in jobs if (cluster_dir / f"{i}.exit").read_text().strip() != "0"]
     assert failed == []
+
+
+def test_local_cluster_receives_one_submission_per_dataset(tmp_path, isolated_config):
+    """The SLURM profile's grouping, through the stand-in cluster: a bench dataset's whole
+    chain (raw_manifest ... chirp) is one submission, which runs every job of the chain."""
+    import yaml
+
+    groups = yaml.safe_load((ROOT / "profiles" / "slurm" / "config.yaml").read_text())["groups"]
+    out, cluster_dir = tmp_path / "results", tmp_path / "cluster"
+    per_dataset = _dataset_targets(out, "example")
+    res = run(
+        *map(str, per_dataset),
+        "--profile",
+        "profiles/local-cluster",
+        "--configfile",
+        "config/small.yaml",
+        str(isolated_config),
+        "--config",
+        f"results={out}",
+        "--groups",
+        *groups,
+        env={"LOCAL_CLUSTER_DIR": str(cluster_dir)},
+    )
+    text = res.stdout + res.stderr
+    assert res.returncode == 0, text[-3000:]
+    recorded = submissions(cluster_dir)
+    assert len(recorded) == 1, recorded
+    (job,) = recorded.values()
+    assert job["rule"] == "GROUP", job  # how the cluster-generic executor names a group job
+    # the one submission ran the dataset's every stage, each to success
+    for target in per_dataset:
+        assert json.loads(target.read_text())["ok"] is True, target
+    ext_id = next(iter(recorded))
+    assert (cluster_dir / f"{ext_id}.exit").read_text().strip() == "0"
+
+
+def _dataset_targets(out: Path, dataset: str) -> list[Path]:
+    """The status file of every per-dataset stage of ``dataset``: written last by each."""
+    from spa.outputs import STAGES, stage_outputs
+
+    paths = []
+    for stage in STAGES:
+        if stage.per_dataset and stage.name != "raw_manifest":
+            path = stage_outputs(stage.name, str(out))["status"]
+            paths.append(Path(path.format(dataset=dataset)))
+    return paths
