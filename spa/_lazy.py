@@ -1,45 +1,79 @@
 """Lazy re-exports for a package's ``__init__`` (PEP 562).
 
-A package lists its public names and the module defining each; a name is imported on first
-use, so that importing one module of a stage does not import every other (a workflow job
-pays only for what it uses: ``benchmarks/bench_imports.py``).
+A package names the submodules whose public names (their ``__all__``) it re-exports; a name
+is imported on first use, so that importing one module of a stage does not import every
+other (a workflow job pays only for what it uses: ``benchmarks/bench_imports.py``). The
+``__all__`` lists are read from the submodules' source, not by importing them, so each
+public name is listed once, in the module that defines it.
 """
 
 from __future__ import annotations
 
+import ast
 import importlib
 import importlib.util
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
 from typing import Any
 
 
+def declared_names(path: Path) -> list[str]:
+    """The names in the literal ``__all__ = [...]`` of a module's source file.
+
+    Examples
+    --------
+    >>> import spa.model.params
+    >>> declared_names(Path(spa.model.params.__file__))
+    ['ValveParams']
+    """
+    for node in ast.parse(path.read_text(encoding="utf-8")).body:
+        if (
+            isinstance(node, ast.Assign)
+            and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets)
+            and isinstance(node.value, ast.List | ast.Tuple)
+        ):
+            return [ast.literal_eval(elt) for elt in node.value.elts]
+    raise ValueError(f"{path}: no literal __all__ list to re-export")
+
+
 def lazy_exports(
-    package: str, exports: Mapping[str, str]
-) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
-    """The ``__getattr__`` and ``__dir__`` of a package that re-exports names lazily.
+    package: str, modules: Iterable[str], extra: Mapping[str, str] | None = None
+) -> tuple[dict[str, str], Callable[[str], Any], Callable[[], list[str]]]:
+    """The export map, ``__getattr__`` and ``__dir__`` of a package that re-exports lazily.
 
     Parameters
     ----------
     package : str
         The package's ``__name__``.
-    exports : mapping
-        Public name → the module that defines it.
+    modules : iterable of str
+        Submodules (short names) whose ``__all__`` the package re-exports; a name declared by
+        two of them is taken from the first.
+    extra : mapping, optional
+        More public names → the module (full name) that defines each.
 
     Returns
     -------
+    exports : dict
+        Public name → the module that defines it (its keys are the package's ``__all__``).
     getattr, dir : callable
         Assign them to the package's ``__getattr__`` and ``__dir__``. ``getattr`` also
         imports a submodule of the package by name (``spa.openloop.chirp``).
 
     Examples
     --------
-    >>> getattr_, dir_ = lazy_exports("spa.model", {"ValveParams": "spa.model.params"})
+    >>> exports, getattr_, dir_ = lazy_exports("spa.model", ["params"])
+    >>> exports
+    {'ValveParams': 'spa.model.params'}
     >>> getattr_("ValveParams").__name__
     'ValveParams'
-    >>> "ValveParams" in dir_()
-    True
     """
     namespace = importlib.import_module(package).__dict__
+    folder = Path(namespace["__file__"]).parent
+    exports: dict[str, str] = {}
+    for module in modules:
+        for name in declared_names(folder / f"{module}.py"):
+            exports.setdefault(name, f"{package}.{module}")
+    exports.update(extra or {})
 
     def __getattr__(name: str) -> Any:
         module = exports.get(name)
@@ -55,4 +89,4 @@ def lazy_exports(
     def __dir__() -> list[str]:
         return sorted({*namespace, *exports})
 
-    return __getattr__, __dir__
+    return exports, __getattr__, __dir__

@@ -30,30 +30,8 @@ from __future__ import annotations
 
 from spa._lazy import lazy_exports
 
-#: Public name -> the module that defines it (imported on first use).
-_EXPORTS: dict[str, str] = {
-    "fit_delays": "spa.identification.delays",
-    **dict.fromkeys(
-        ("identification_commands", "simulate_identification"), "spa.identification.experiments"
-    ),
-    **dict.fromkeys(("identify", "identify_runs"), "spa.identification.identify"),
-    **dict.fromkeys(("fit_charge", "fit_discharge"), "spa.identification.rate_fits"),
-    "pressure_rate": "spa.identification.rates",
-    **dict.fromkeys(
-        (
-            "UNITS",
-            "ChargeFit",
-            "DelayFit",
-            "DischargeFit",
-            "Estimate",
-            "IdentificationError",
-            "IdentificationResult",
-            "load_params",
-        ),
-        "spa.identification.results",
-    ),
-}
-
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+#: Submodules whose ``__all__`` the package re-exports (imported on first use).
+_MODULES = ("delays", "experiments", "identify", "rate_fits", "rates", "results")
+_EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
 __all__ = sorted(_EXPORTS)

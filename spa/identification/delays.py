@@ -26,6 +26,8 @@ from spa.model.params import ValveParams
 from spa.model.plant import replay, segment_pressure
 from spa.validation import _edges
 
+__all__ = ["fit_delays"]
+
 # Relative prior standard deviation given to c1, k2, tau2 in the pulse fit when they come from
 # a fallback rather than from experiments 1-2 (weak: the pulse run then pins them itself).
 _FALLBACK_PRIOR_REL_SD = 0.2

@@ -14,6 +14,8 @@ import pandas as pd
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 
+__all__ = ["identification_commands", "simulate_identification"]
+
 # --------------------------------------------------------------------------------------------
 # Experiment design
 # --------------------------------------------------------------------------------------------

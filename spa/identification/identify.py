@@ -22,6 +22,8 @@ from spa.identification.results import (
 )
 from spa.model.params import ValveParams
 
+__all__ = ["identify", "identify_runs"]
+
 # --------------------------------------------------------------------------------------------
 # The whole identification
 # --------------------------------------------------------------------------------------------

@@ -22,6 +22,8 @@ from spa.identification.results import (
     Runs,
 )
 
+__all__ = ["fit_charge", "fit_discharge"]
+
 # Replicates per chunk of the bootstrap are limited to about this many samples in memory.
 _CHUNK_SAMPLES = 2_000_000
 

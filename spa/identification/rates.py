@@ -15,6 +15,8 @@ from scipy.signal import savgol_filter
 from spa.identification.results import FloatArray, IdentificationError, Runs
 from spa.validation import _edges
 
+__all__ = ["pressure_rate"]
+
 # --------------------------------------------------------------------------------------------
 # Run tables and derivatives
 # --------------------------------------------------------------------------------------------

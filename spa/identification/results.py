@@ -13,6 +13,17 @@ import pandas as pd
 
 from spa.model.params import ValveParams
 
+__all__ = [
+    "UNITS",
+    "ChargeFit",
+    "DelayFit",
+    "DischargeFit",
+    "Estimate",
+    "IdentificationError",
+    "IdentificationResult",
+    "load_params",
+]
+
 Runs = Mapping[str, pd.DataFrame] | Sequence[pd.DataFrame]
 
 

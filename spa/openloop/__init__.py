@@ -26,56 +26,22 @@ from __future__ import annotations
 
 from spa._lazy import lazy_exports
 
-#: Public name -> the module that defines it (imported on first use).
-_EXPORTS: dict[str, str] = {
-    "MODULATOR_ORDER": "spa.model.modulators",
-    **dict.fromkeys(
-        ("chirp_analysis", "chirp_bicoherence", "chirp_reference", "noise_spread"),
-        "spa.openloop.chirp",
-    ),
-    **dict.fromkeys(("linear_fit_metrics", "staircase_levels"), "spa.openloop.levels"),
-    **dict.fromkeys(("corrected_ripple", "sensor_noise"), "spa.openloop.noise"),
-    **dict.fromkeys(
-        ("PAPER_SETTINGS", "PAPER_TABLE3", "PAPER_TIME_CONSTANTS", "paper_case"),
-        "spa.openloop.paper",
-    ),
-    **dict.fromkeys(
-        (
-            "REFERENCE",
-            "first_order_response",
-            "linear_reference",
-            "reference_run",
-            "reference_time_constant",
-        ),
-        "spa.openloop.reference",
-    ),
-    **dict.fromkeys(
-        ("is_simulated", "noise_free_pressure", "noise_replicates"), "spa.openloop.replicas"
-    ),
-    **dict.fromkeys(
-        ("best_settings", "fallback_note", "paper_settings", "run_tags", "runs_of_kind"),
-        "spa.openloop.selection",
-    ),
-    **dict.fromkeys(
-        ("frequency_note", "sine_analysis", "sine_frequency", "sine_reference"), "spa.openloop.sine"
-    ),
-    **dict.fromkeys(("compensate_lag", "sine_linearity"), "spa.openloop.sine_fit"),
-    **dict.fromkeys(
-        (
-            "bicoherence",
-            "mean_bicoherence",
-            "principal_domain_mask",
-            "significance_threshold",
-            "significant_fraction",
-        ),
-        "spa.openloop.spectra",
-    ),
-    **dict.fromkeys(
-        ("measured_thresholds", "predicted_levels", "staircase_analysis"), "spa.openloop.staircase"
-    ),
-    "step_time_constants": "spa.openloop.steps",
-}
-
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+#: Submodules whose ``__all__`` the package re-exports (imported on first use).
+_MODULES = (
+    "chirp",
+    "levels",
+    "noise",
+    "paper",
+    "reference",
+    "replicas",
+    "selection",
+    "sine",
+    "sine_fit",
+    "spectra",
+    "staircase",
+    "steps",
+)
+_EXTRA = {"MODULATOR_ORDER": "spa.model.modulators"}
+_EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES, _EXTRA)
 
 __all__ = sorted(_EXPORTS)

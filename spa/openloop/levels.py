@@ -10,6 +10,8 @@ import pandas as pd
 
 from spa.openloop._arrays import _array, _fraction, _nonnegative, _time, _valve
 
+__all__ = ["linear_fit_metrics", "staircase_levels"]
+
 # ---------------------------------------------------------------- staircase
 
 

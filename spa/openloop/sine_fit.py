@@ -10,6 +10,8 @@ from scipy.signal import correlate, correlation_lags
 
 from spa.openloop._arrays import _array, _nonnegative, _time
 
+__all__ = ["compensate_lag", "sine_linearity"]
+
 # ---------------------------------------------------------------- sine
 
 

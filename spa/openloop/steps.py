@@ -9,6 +9,8 @@ import pandas as pd
 from spa.openloop._arrays import TAU_FRACTION, _array, _fraction, _nonnegative, _time
 from spa.openloop.levels import _staircase
 
+__all__ = ["step_time_constants"]
+
 
 def _moving_average(t: np.ndarray, p: np.ndarray, width: float) -> np.ndarray:
     """Centred moving average of ``p`` over ``[t - width/2, t + width/2]`` (shrinks at the ends)."""

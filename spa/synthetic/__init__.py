@@ -11,25 +11,8 @@ from __future__ import annotations
 
 from spa._lazy import lazy_exports
 
-#: Public name -> the module that defines it (imported on first use).
-_EXPORTS: dict[str, str] = {
-    **dict.fromkeys(("EXAMPLE_PARAMS", "write_example_dataset"), "spa.synthetic.example"),
-    **dict.fromkeys(("chirp_input", "sine_input", "staircase_input"), "spa.synthetic.inputs"),
-    **dict.fromkeys(
-        (
-            "RunSpec",
-            "dataset_runs",
-            "generate_dataset",
-            "identification_runs",
-            "modulated_runs",
-            "run_seed",
-            "simulate_run",
-        ),
-        "spa.synthetic.runs",
-    ),
-    **dict.fromkeys(("Ringing", "Sensor"), "spa.synthetic.sensor"),
-}
-
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+#: Submodules whose ``__all__`` the package re-exports (imported on first use).
+_MODULES = ("example", "inputs", "runs", "sensor")
+_EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
 __all__ = sorted(_EXPORTS)

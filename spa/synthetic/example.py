@@ -11,6 +11,8 @@ from spa.model.params import ValveParams
 from spa.synthetic.runs import identification_runs, modulated_runs, run_seed, simulate_run
 from spa.synthetic.sensor import Ringing, Sensor
 
+__all__ = ["EXAMPLE_PARAMS", "write_example_dataset"]
+
 #: The example bench export shipped in ``raw/example`` (see :func:`write_example_dataset`).
 EXAMPLE_PARAMS = ValveParams(c1=0.45, k2=1.05, tau2=0.70, t_on=0.004, t_off=0.009)
 

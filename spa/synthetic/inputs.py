@@ -7,6 +7,8 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+__all__ = ["chirp_input", "sine_input", "staircase_input"]
+
 # ---- input signals ----------------------------------------------------------------------
 
 

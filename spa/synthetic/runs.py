@@ -20,6 +20,16 @@ from spa.model.plant import simulate
 from spa.synthetic.inputs import chirp_input, sine_input, staircase_input
 from spa.synthetic.sensor import Sensor, _ringing
 
+__all__ = [
+    "RunSpec",
+    "dataset_runs",
+    "generate_dataset",
+    "identification_runs",
+    "modulated_runs",
+    "run_seed",
+    "simulate_run",
+]
+
 # ---- runs -------------------------------------------------------------------------------
 
 

@@ -15,62 +15,8 @@ One concept per module, all re-exported here:
 
 from spa._lazy import lazy_exports
 
-#: Public name -> the module that defines it (imported on first use).
-_EXPORTS: dict[str, str] = {
-    **dict.fromkeys(
-        (
-            "DEFAULT_SWEEPS",
-            "PAPER_SETTING",
-            "PAPER_TABLE2",
-            "SWEPT_PARAMETER",
-            "check_sweeps",
-            "constraint",
-            "deviation_cost",
-            "feasible",
-            "iipfm_optimal_t_l",
-            "linearity_cost",
-            "modulator_settings",
-            "optimum",
-            "paper_setting",
-            "setting",
-            "sweep",
-            "sweep_grid",
-        ),
-        "spa.tuning.cost",
-    ),
-    **dict.fromkeys(("exact_cost", "exact_curve"), "spa.tuning.exact"),
-    **dict.fromkeys(
-        ("INTERVAL_METHOD", "corners", "propagate", "read_intervals"), "spa.tuning.intervals"
-    ),
-    **dict.fromkeys(
-        (
-            "CONSTRAINTS",
-            "TuningOptions",
-            "candidate_frame",
-            "predict",
-            "recommend",
-            "recommendation_sentence",
-            "setting_metrics",
-        ),
-        "spa.tuning.recommend",
-    ),
-    **dict.fromkeys(
-        (
-            "Identified",
-            "TuningError",
-            "TuningResult",
-            "format_result",
-            "read_identified",
-            "tune",
-            "tune_with_config",
-        ),
-        "spa.tuning.stage",
-    ),
-    **dict.fromkeys(
-        ("equilibrium_frame", "optimum_table", "sweep_frame", "tuning_table"), "spa.tuning.tables"
-    ),
-}
-
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+#: Submodules whose ``__all__`` the package re-exports (imported on first use).
+_MODULES = ("cost", "exact", "intervals", "recommend", "stage", "tables")
+_EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
 __all__ = sorted(_EXPORTS)
