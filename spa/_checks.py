@@ -180,12 +180,7 @@ def finite_array(
     ...
     ValueError: xi must be finite; xi[1] = nan
     """
-    if isinstance(value, str | bytes):
-        raise ArgumentTypeError(f"{name} must be numeric, got {value!r}")
-    try:
-        x = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ArgumentTypeError(f"{name} must be numeric, got {value!r}") from None
+    x = _numeric(name, value)
     if ndim is not None and x.ndim != ndim:
         what = "one-dimensional" if ndim == 1 else f"{ndim}-dimensional"
         raise ValueError(f"{name} must be a {what} array, got shape {x.shape}")
@@ -195,6 +190,16 @@ def finite_array(
     if np.any(bad):
         raise ValueError(f"{name} must be finite; {_where(name, bad, x)}")
     return x
+
+
+def _numeric(name: str, value: Any) -> npt.NDArray[np.float64]:
+    """``value`` as a float64 array; ArgumentTypeError naming ``name`` when not numeric."""
+    if isinstance(value, str | bytes):
+        raise ArgumentTypeError(f"{name} must be numeric, got {value!r}")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ArgumentTypeError(f"{name} must be numeric, got {value!r}") from None
 
 
 def positive_array(name: str, value: Any) -> npt.NDArray[np.float64]:
@@ -214,12 +219,7 @@ def positive_array(name: str, value: Any) -> npt.NDArray[np.float64]:
     ...
     ValueError: period must be finite and > 0 everywhere; period[1] = 0.0
     """
-    if isinstance(value, str | bytes):
-        raise ArgumentTypeError(f"{name} must be numeric, got {value!r}")
-    try:
-        x = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ArgumentTypeError(f"{name} must be numeric, got {value!r}") from None
+    x = _numeric(name, value)
     bad = ~(np.isfinite(x) & (x > 0.0))
     if np.any(bad):
         raise ValueError(f"{name} must be finite and > 0 everywhere; {_where(name, bad, x)}")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import pandas as pd
@@ -12,9 +12,6 @@ from spa.identification.rate_fits import fit_charge, fit_discharge
 from spa.identification.results import (
     _Z95,
     UNITS,
-    ChargeFit,
-    DelayFit,
-    DischargeFit,
     Estimate,
     IdentificationError,
     IdentificationResult,
@@ -109,34 +106,24 @@ def identify(
             getattr(fallback, name), None, None, UNITS[name], (), "fallback", fallback=reason
         )
 
-    cf: ChargeFit | None = None
-    try:
-        cf = fit_charge(
-            charge or {},
-            onset_fraction=onset_fraction,
-            supply_fraction=supply_fraction,
-            seed=seed,
-            **common,
-        )
-        k2, tau2 = cf.k2, cf.tau2
-    except IdentificationError as err:
-        if fallback is None:
-            raise
-        k2, tau2 = nominal("k2", str(err)), nominal("tau2", str(err))
-    df: DischargeFit | None = None
-    try:
-        df = fit_discharge(
-            discharge or {},
-            onset_fraction=onset_fraction,
-            tail_fraction=tail_fraction,
-            seed=seed,
-            **common,
-        )
-        c1 = df.c1
-    except IdentificationError as err:
-        if fallback is None:
-            raise
-        c1 = nominal("c1", str(err))
+    def attempt(fit: Callable[..., Any], names: tuple[str, ...], *args: Any, **kw: Any) -> Any:
+        """``fit(*args, **kw)`` and its estimates ``names``; the fallback's when it fails."""
+        try:
+            result = fit(*args, **kw)
+        except IdentificationError as err:
+            if fallback is None:
+                raise
+            return None, [nominal(name, str(err)) for name in names]
+        return result, [getattr(result, name) for name in names]
+
+    cf, (k2, tau2) = attempt(
+        fit_charge, ("k2", "tau2"), charge or {},
+        onset_fraction=onset_fraction, supply_fraction=supply_fraction, seed=seed, **common,
+    )  # fmt: skip
+    df, (c1,) = attempt(
+        fit_discharge, ("c1",), discharge or {},
+        onset_fraction=onset_fraction, tail_fraction=tail_fraction, seed=seed, **common,
+    )  # fmt: skip
 
     prior_sd = {}
     for name, est in (("c1", c1), ("k2", k2), ("tau2", tau2)):
@@ -145,16 +132,10 @@ def identify(
         else:
             prior_sd[name] = _FALLBACK_PRIOR_REL_SD * est.value
     start = ValveParams(c1.value, k2.value, tau2.value)  # t_on, t_off: found by grid search
-    dfit: DelayFit | None = None
-    try:
-        dfit = fit_delays(
-            pulse or {}, start, prior_sd=prior_sd, max_delay=max_delay, min_edges=min_edges
-        )
-        t_on, t_off = dfit.t_on, dfit.t_off
-    except IdentificationError as err:
-        if fallback is None:
-            raise
-        t_on, t_off = nominal("t_on", str(err)), nominal("t_off", str(err))
+    dfit, (t_on, t_off) = attempt(
+        fit_delays, ("t_on", "t_off"), pulse or {}, start,
+        prior_sd=prior_sd, max_delay=max_delay, min_edges=min_edges,
+    )  # fmt: skip
     return IdentificationResult(
         c1=c1,
         k2=k2,

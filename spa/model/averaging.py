@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.model._broadcast import (
     Floats,
     as_output,
@@ -58,15 +59,14 @@ __all__ = [
 ]
 
 
+@fill_doc
 def pulse_times(kind: str, xi: npt.ArrayLike, **settings: Any) -> tuple[Floats, Floats]:
     """Steady high and low durations of a modulator's pulse train for a constant input.
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
-    xi : array_like of float
-        Input fraction; clipped to [0, 1].
+    %(kind)s
+    %(xi)s
     **settings
         ``f_w`` (Hz) for PWM; ``t_h`` (s) and ``gain`` (default 1) for IPFM; ``t_l`` (s) and
         ``gain`` (default 1) for IIPFM; ``period`` (s) for ΔΣM. Scalars or arrays that
@@ -127,6 +127,7 @@ def pulse_times(kind: str, xi: npt.ArrayLike, **settings: Any) -> tuple[Floats, 
     return as_output(np.asarray(t_h)), as_output(np.asarray(t_l))
 
 
+@fill_doc
 def time_fractions(
     kind: str, xi: npt.ArrayLike, params: ValveParams | None = None, **settings: Any
 ) -> tuple[Floats, Floats]:
@@ -134,14 +135,11 @@ def time_fractions(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
-    xi : array_like of float
-        Input fraction; clipped to [0, 1].
+    %(kind)s
+    %(xi)s
     params : ValveParams, optional
         Valve parameters (``t_on``, ``t_off`` are used); nominal when omitted.
-    **settings
-        Modulator settings as in :func:`pulse_times`; may be arrays broadcasting with ``xi``.
+    %(settings)s
 
     Returns
     -------
@@ -261,6 +259,7 @@ def equilibrium_pressure(
     return as_output(peq)
 
 
+@fill_doc
 def equilibrium(
     kind: str, xi: npt.ArrayLike, params: ValveParams | None = None, **settings: Any
 ) -> Floats:
@@ -268,14 +267,10 @@ def equilibrium(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
-    xi : array_like of float
-        Input fraction; clipped to [0, 1].
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
-    **settings
-        Modulator settings as in :func:`pulse_times`; may be arrays broadcasting with ``xi``.
+    %(kind)s
+    %(xi)s
+    %(params)s
+    %(settings)s
 
     Returns
     -------

@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.model._broadcast import Floats, as_output
 from spa.model.params import ValveParams
 
@@ -66,6 +67,7 @@ def chattering_estimate(
     return as_output(np.where(gap > 0.0, d, 0.0))
 
 
+@fill_doc
 def pseudo_steady_state(
     t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | None = None
 ) -> tuple[Floats, Floats]:
@@ -73,10 +75,8 @@ def pseudo_steady_state(
 
     Parameters
     ----------
-    t_h, t_l : array_like of float
-        High and low durations of the command in s (>= 0, may be ``inf``); broadcast.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(train)s
+    %(params)s
 
     Returns
     -------
@@ -137,6 +137,7 @@ def pseudo_steady_state(
     return as_output(p_plus), as_output(p_minus)
 
 
+@fill_doc
 def pseudo_steady_mean(
     t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | None = None
 ) -> Floats:
@@ -146,8 +147,7 @@ def pseudo_steady_mean(
     ----------
     t_h, t_l : array_like of float
         High and low durations in s; broadcast.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
 
     Returns
     -------

@@ -33,6 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.model._broadcast import Floats, as_output, settings_arrays
 from spa.model.averaging import pulse_times
 from spa.model.chattering import pseudo_steady_state
@@ -96,15 +97,14 @@ def discharge_integral(
     return (2.0 * params.c1 / 3.0) * (s0**3 - s1**3)
 
 
+@fill_doc
 def train_mean(t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | None = None) -> Floats:
     """Exact time mean of the periodic orbit of a train of high ``t_h``, low ``t_l`` (bar).
 
     Parameters
     ----------
-    t_h, t_l : array_like of float
-        High and low durations of the command in s (>= 0, may be ``inf``); broadcast.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(train)s
+    %(params)s
 
     Returns
     -------
@@ -273,6 +273,7 @@ def _dsm_orbit(
     return area / (table.sum(axis=1)[pattern] * period)
 
 
+@fill_doc
 def dsm_mean(
     xi: npt.ArrayLike,
     period: npt.ArrayLike,
@@ -288,8 +289,7 @@ def dsm_mean(
         :func:`dsm_runs` (the tuning grid ``i/(N - 1)`` exactly).
     period : array_like of float
         Clock period ``T_DS`` in s (> 0); broadcasts with ``xi``.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
     max_denominator : int, default 1000
         As :func:`dsm_runs`.
 
@@ -340,6 +340,7 @@ def dsm_mean(
     return as_output(out.reshape(shape))
 
 
+@fill_doc
 def periodic_mean(
     kind: str, xi: npt.ArrayLike, params: ValveParams | None = None, **settings: Any
 ) -> Floats:
@@ -347,14 +348,10 @@ def periodic_mean(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
-    xi : array_like of float
-        Input fraction; clipped to [0, 1].
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
-    **settings
-        As :func:`spa.model.averaging.pulse_times`; may be arrays broadcasting with ``xi``.
+    %(kind)s
+    %(xi)s
+    %(params)s
+    %(settings)s
 
     Returns
     -------

@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.model._broadcast import Floats, as_output, settings_arrays
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
@@ -33,6 +34,7 @@ THRESHOLD_FORMULAS: Mapping[str, tuple[str, str]] = {
 }
 
 
+@fill_doc
 def thresholds(
     kind: str, params: ValveParams | None = None, **settings: Any
 ) -> tuple[Floats, Floats]:
@@ -40,8 +42,7 @@ def thresholds(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    %(kind)s
     params : ValveParams, optional
         Valve parameters (``t_on``, ``t_off``); nominal when omitted.
     **settings
@@ -106,6 +107,7 @@ def thresholds(
     )
 
 
+@fill_doc
 def threshold_table(
     selected: Iterable[Mapping[str, Any] | Modulator], params: ValveParams | None = None
 ) -> pd.DataFrame:
@@ -116,8 +118,7 @@ def threshold_table(
     selected : iterable of mapping or Modulator
         Entries like ``{"type": "iipfm", "t_l": 0.02, "gain": 1.15}`` (the ``analytic.selected``
         section of the configuration) or :class:`~spa.model.modulators.Modulator` values.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
 
     Returns
     -------

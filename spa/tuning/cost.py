@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.model.averaging import Floats, equilibrium_pressure, time_fractions
 from spa.model.modulators import MODULATOR_ORDER, MODULATORS, PARAMETER, Modulator
 from spa.model.params import ValveParams
@@ -78,6 +79,7 @@ def _value(kind: str, value: npt.ArrayLike) -> npt.NDArray[np.float64]:
     return checks.positive_array(f"{kind}: {SWEPT_PARAMETER[kind][0]}", value)
 
 
+@fill_doc
 def modulator_settings(
     kind: str,
     value: npt.ArrayLike,
@@ -88,8 +90,7 @@ def modulator_settings(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    %(kind)s
     value : array_like of float
         ``f_w`` in Hz (PWM) or ``t_h``, ``t_l``, ``period`` in s.
     params : ValveParams, optional
@@ -175,6 +176,7 @@ def constraint(kind: str, params: ValveParams | None = None) -> str:
     }[_kind(kind)]
 
 
+@fill_doc
 def feasible(
     kind: str, value: npt.ArrayLike, params: ValveParams | None = None
 ) -> npt.NDArray[np.bool_] | np.bool_:
@@ -182,12 +184,10 @@ def feasible(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    %(kind)s
     value : array_like of float
         Swept parameter value(s), as in :func:`modulator_settings`.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
 
     Returns
     -------
@@ -218,6 +218,7 @@ def feasible(
     return np.asarray(ok)[()]
 
 
+@fill_doc
 def linearity_cost(
     kind: str,
     value: npt.ArrayLike,
@@ -230,12 +231,10 @@ def linearity_cost(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    %(kind)s
     value : array_like of float
         Swept parameter value(s) (:func:`modulator_settings`); an array gives one ``J`` each.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
     n_xi : int, default 100
         Number ``N`` of equally spaced input fractions in [0, 1], both ends included.
     gain : array_like of float, optional
@@ -310,6 +309,7 @@ def sweep_grid(start: float, stop: float, step: float) -> npt.NDArray[np.float64
     return np.round(start + step * np.arange(n), 12)
 
 
+@fill_doc
 def sweep(
     kind: str,
     params: ValveParams | None,
@@ -323,8 +323,7 @@ def sweep(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    %(kind)s
     params : ValveParams or None
         Valve parameters; nominal when None.
     start, stop, step : float
@@ -401,13 +400,13 @@ def optimum(
     return float(values[i]), float(j[i])
 
 
+@fill_doc
 def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
     """Analytic IIPFM pulse separation that best linearises the valve (Eq. 29).
 
     Parameters
     ----------
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
 
     Returns
     -------
@@ -438,6 +437,7 @@ def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
     return float((p.t_off + r * p.t_on) / (1.0 - r))
 
 
+@fill_doc
 def check_sweeps(
     sweeps: Mapping[str, Mapping[str, float]], params: ValveParams | None = None
 ) -> dict[str, Mapping[str, float]]:
@@ -447,8 +447,7 @@ def check_sweeps(
     ----------
     sweeps : mapping
         ``kind -> {"start", "stop", "step"}`` for all four kinds (``analytic.sweeps``).
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
 
     Returns
     -------

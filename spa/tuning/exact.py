@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.model._broadcast import Floats
 from spa.model.averaging import pulse_times
 from spa.model.params import ValveParams
@@ -23,6 +24,7 @@ from spa.tuning.cost import deviation_cost, modulator_settings
 __all__ = ["exact_cost", "exact_curve"]
 
 
+@fill_doc
 def exact_curve(
     kind: str,
     value: npt.ArrayLike,
@@ -35,12 +37,10 @@ def exact_curve(
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    %(kind)s
     value : array_like of float
         Swept parameter value(s) (:func:`spa.tuning.cost.modulator_settings`).
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
     n_xi : int, default 100
         Points ``xi_i = i/(n_xi - 1)``.
     gain : array_like of float, optional

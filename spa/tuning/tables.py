@@ -18,6 +18,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.model.averaging import equilibrium_pressure, time_constant, time_fractions
 from spa.model.modulators import MODULATOR_ORDER
 from spa.model.params import ValveParams
@@ -40,6 +41,7 @@ from spa.tuning.intervals import INTERVAL_METHOD, propagate
 __all__ = ["equilibrium_frame", "optimum_table", "sweep_frame", "tuning_table"]
 
 
+@fill_doc
 def sweep_frame(
     sweeps: Mapping[str, Mapping[str, float]],
     params: ValveParams | None = None,
@@ -52,8 +54,7 @@ def sweep_frame(
     ----------
     sweeps : mapping
         ``kind -> {"start", "stop", "step"}`` for all four kinds (``analytic.sweeps``).
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
     n_xi : int, default 100
         Points of ``xi`` in the cost.
     exact : bool, default False
@@ -142,6 +143,7 @@ def optimum_table(
     return pd.DataFrame(rows)
 
 
+@fill_doc
 def equilibrium_frame(
     optima: Mapping[str, float],
     params: ValveParams | None = None,
@@ -155,8 +157,7 @@ def equilibrium_frame(
     optima : mapping
         ``kind -> value`` of the swept parameter (Hz for PWM, s otherwise); settings from
         :func:`modulator_settings`.
-    params : ValveParams, optional
-        Valve parameters; nominal when omitted.
+    %(params)s
     n_xi : int, default 100
         Points of ``xi`` in [0, 1].
     exact : bool, default False

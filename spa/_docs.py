@@ -1,0 +1,54 @@
+"""Shared parameter descriptions for numpydoc docstrings (the ``fill_doc`` idiom of MNE-Python).
+
+A docstring line that holds only ``%(name)s`` is replaced, at its indentation, by the entry
+``name`` of :data:`DOCDICT`; a parameter shared by many functions is described once.
+"""
+
+from __future__ import annotations
+
+import re
+import textwrap
+from collections.abc import Callable
+from typing import TypeVar
+
+F = TypeVar("F", bound=Callable[..., object])
+
+#: Parameter descriptions, unindented; ``%(name)s`` in a docstring stands for one.
+DOCDICT: dict[str, str] = {
+    "kind": 'kind : {"pwm", "ipfm", "iipfm", "dsm"}\n    Modulator type.',
+    "xi": "xi : array_like of float\n    Input fraction; clipped to [0, 1].",
+    "params": "params : ValveParams, optional\n    Valve parameters; nominal when omitted.",
+    "settings": (
+        "**settings\n    Modulator settings as in :func:`spa.model.averaging.pulse_times`; may "
+        "be arrays\n    broadcasting with ``xi``."
+    ),
+    "train": (
+        "t_h, t_l : array_like of float\n    High and low durations of the command in s "
+        "(>= 0, may be ``inf``); broadcast."
+    ),
+}
+
+_SLOT = re.compile(r"^([ \t]*)%\((\w+)\)s[ \t]*$", re.M)
+
+
+def fill_doc(func: F) -> F:
+    """Replace each ``%(name)s`` line of ``func``'s docstring by ``DOCDICT[name]``.
+
+    Examples
+    --------
+    >>> @fill_doc
+    ... def f(xi):
+    ...     '''Do nothing.
+    ...
+    ...     Parameters
+    ...     ----------
+    ...     %(xi)s
+    ...     '''
+    >>> print(f.__doc__.splitlines()[4])
+        xi : array_like of float
+    """
+    if func.__doc__:
+        func.__doc__ = _SLOT.sub(
+            lambda m: textwrap.indent(DOCDICT[m.group(2)], m.group(1)), func.__doc__
+        )
+    return func
