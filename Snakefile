@@ -16,7 +16,7 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/analytic.smk"
 include: "workflow/rules/datasets.smk"
 include: "workflow/rules/identify.smk"
-include: "workflow/rules/linearity.smk"
+include: "workflow/rules/characterise.smk"
 include: "workflow/rules/tuning.smk"
 include: "workflow/rules/report.smk"
 

@@ -8,14 +8,15 @@ Run from the repository root:
 For every script in ``workflow/scripts/``, the script's top-level ``import`` and ``from ...
 import`` statements (found with :mod:`ast`, nothing else of the script runs) are executed in a
 fresh interpreter, together with the ``snakemake.script`` module Snakemake's script directive
-loads first; the wall time of that interpreter, minus that of an empty one, is the script's
-import cost. The table goes to stdout as Markdown.
+loads first; the wall and CPU time of that interpreter, minus those of an empty one, are the
+script's import cost. The table goes to stdout as Markdown.
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
+import resource
 import statistics
 import subprocess
 import sys
@@ -38,27 +39,31 @@ def imports_of(script: Path) -> str:
     return "\n".join(["import snakemake.script", *lines])
 
 
-def wall(code: str, repeat: int) -> float:
-    """Median wall time (s) of a fresh interpreter running ``code``."""
-    times = []
+def cost(code: str, repeat: int) -> tuple[float, float]:
+    """Median wall time and CPU time (user + system, s) of a fresh interpreter running
+    ``code``; CPU time is what a busy machine barely changes."""
+    walls, cpus = [], []
     for _ in range(repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
         subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+        walls.append(time.perf_counter() - start)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return statistics.median(walls), statistics.median(cpus)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
-    empty = wall("pass", args.repeat)
-    print(f"empty interpreter: {empty:.3f} s (subtracted)\n")
-    print("| script | imports (s) | heavy modules loaded |")
-    print("|---|---:|---|")
+    empty_wall, empty_cpu = cost("pass", args.repeat)
+    print(f"empty interpreter: {empty_wall:.3f} s wall, {empty_cpu:.3f} s CPU (subtracted)\n")
+    print("| script | imports, wall (s) | imports, CPU (s) | heavy modules loaded |")
+    print("|---|---:|---:|---|")
     for script in sorted(SCRIPTS.glob("*.py")):
         code = imports_of(script)
-        cost = wall(code, args.repeat) - empty
+        wall, cpu = cost(code, args.repeat)
         probe = code + (
             "\nimport sys; print(','.join(m for m in ('matplotlib.pyplot', 'scipy.signal', "
             "'scipy.optimize', 'scipy.stats', 'pandas') if m in sys.modules))"
@@ -66,7 +71,8 @@ def main() -> None:
         heavy = subprocess.run(
             [sys.executable, "-c", probe], cwd=ROOT, check=True, capture_output=True, text=True
         ).stdout.strip()
-        print(f"| {script.stem} | {cost:.2f} | {heavy.replace(',', ', ') or '-'} |")
+        heavy = heavy.replace(",", ", ") or "-"
+        print(f"| {script.stem} | {wall - empty_wall:.2f} | {cpu - empty_cpu:.2f} | {heavy} |")
 
 
 if __name__ == "__main__":

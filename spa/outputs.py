@@ -146,6 +146,9 @@ class Stage:
     target : bool
         False for an intermediate step that only some datasets have (the raw-data manifest
         of bench datasets): ``reproduce-all`` gets it through the stages that read it.
+    upstream : tuple of str or None
+        The dataset stages whose outputs it reads (a failure there skips it, spa.status);
+        None: every dataset stage before it.
     """
 
     name: str
@@ -154,6 +157,7 @@ class Stage:
     logs: dict[str, str] = field(default_factory=dict)
     section: str | None = None
     target: bool = True
+    upstream: tuple[str, ...] | None = None
 
 
 def _analytic(name: str, *outputs: Output) -> Stage:
@@ -162,12 +166,17 @@ def _analytic(name: str, *outputs: Output) -> Stage:
     return Stage(rule, False, outputs, {rule: f"analytic/{name}.log"}, section="analytic")
 
 
-def _per_dataset(name: str, *outputs: Output, logs: dict[str, str] | None = None) -> Stage:
-    """A per-dataset step: by default written by the rule ``name``, which logs to
-    ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
+def _per_dataset(
+    name: str,
+    *outputs: Output,
+    logs: dict[str, str] | None = None,
+    upstream: tuple[str, ...] = ("runs", "identify"),
+) -> Stage:
+    """A per-dataset step, after ``upstream``: by default written by the rule ``name``, which
+    logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
-    return Stage(name, True, (*outputs, status), logs, section="dataset")
+    return Stage(name, True, (*outputs, status), logs, section="dataset", upstream=upstream)
 
 
 STAGES: tuple[Stage, ...] = (
@@ -230,6 +239,7 @@ STAGES: tuple[Stage, ...] = (
             "simulate_dataset": "{dataset}/simulate.log",
             "ingest_dataset": "{dataset}/ingest.log",
         },
+        upstream=(),
     ),
     _per_dataset(
         "identify",
@@ -265,6 +275,7 @@ STAGES: tuple[Stage, ...] = (
             "The pulse run: command, measured and model pressure, with a zoom on one edge.",
         ),
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
+        upstream=("runs",),
     ),
     _per_dataset(
         "tune",

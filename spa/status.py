@@ -172,7 +172,9 @@ def run_stage(
     dataset = str(smk.wildcards.dataset)
     status_path = Path(smk.output.status)
     names = [s.name for s in STAGES if s.per_dataset]
-    before = names[: names.index(stage)] if stage in names else []
+    known = {s.name: s for s in STAGES}
+    upstream = known[stage].upstream if stage in known else None
+    before = names[: names.index(stage)] if upstream is None and stage in names else upstream
     failed = _upstream_failure(status_path.parent, before)
     if failed is not None:
         errors = [f"skipped: stage {failed['stage']} failed"]
@@ -199,23 +201,43 @@ def run_stage(
 
 
 def _profiled(work: Callable[[], None], stage: str, dataset: str) -> None:
-    """Run ``work``; with ``SPA_PROFILE_DIR`` set, under cProfile, stats to that folder.
+    """Run ``work``; with ``SPA_PROFILE_DIR`` set, record where the job's time went.
 
-    A development aid for the benchmarks (``benchmarks/README.md``): the stats file is
-    ``<SPA_PROFILE_DIR>/<stage>-<dataset>.prof``, readable with :mod:`pstats`.
+    A development aid for the benchmarks (``benchmarks/README.md``): the job's CPU seconds
+    before its work (interpreter start and imports) and in all go to
+    ``<SPA_PROFILE_DIR>/<stage>-<dataset>.json``; with ``SPA_PROFILE=cprofile`` also, the
+    work runs under cProfile, stats to ``<stage>-<dataset>.prof`` (readable with
+    :mod:`pstats`).
     """
     folder = os.environ.get("SPA_PROFILE_DIR")
     if not folder:
         work()
         return
-    import cProfile
+    import resource
+    import time
 
-    profile = cProfile.Profile()
+    def cpu() -> float:
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        return usage.ru_utime + usage.ru_stime
+
+    out = Path(folder) / f"{stage}-{dataset}"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    before, start = cpu(), time.perf_counter()
     try:
-        profile.runcall(work)
+        if os.environ.get("SPA_PROFILE") == "cprofile":
+            import cProfile
+
+            profile = cProfile.Profile()
+            try:
+                profile.runcall(work)
+            finally:
+                profile.dump_stats(out.with_suffix(".prof"))
+        else:
+            work()
     finally:
-        Path(folder).mkdir(parents=True, exist_ok=True)
-        profile.dump_stats(Path(folder) / f"{stage}-{dataset}.prof")
+        timing = {"cpu_before_work": before, "cpu_total": cpu()}
+        timing["wall_work"] = time.perf_counter() - start
+        out.with_suffix(".json").write_text(json.dumps(timing))
 
 
 def _fill(smk: Any, stage: str, message: str) -> None:

@@ -165,7 +165,7 @@ def test_every_cluster_job_went_through_submit_with_its_resources(cluster_run):
         "simulate_dataset",
         "ingest_dataset",
         "identify",
-        "validate_model",
+        "characterise",
     } <= set(by_rule)
     assert by_rule["analytic_table1"]["threads"] == "2"
     assert by_rule["analytic_table1"]["mem_mb"] == "700"

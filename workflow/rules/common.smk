@@ -6,6 +6,7 @@ from snakemake.logging import logger
 
 from spa.config import discover_datasets, validate_config
 from spa.io import package_digest
+from spa.jobs import joined_outputs
 from spa.provenance import dataset_digest, remove_damaged_run_folders
 from spa.outputs import all_targets, log_path, stage_outputs, wildcard_choice
 from spa.safety import check_results_dir

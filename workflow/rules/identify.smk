@@ -1,5 +1,6 @@
-# Identification of the valve from each dataset (paper Section 3.2, Fig. 2), then validation
-# of the identified model against every run of the dataset.
+# Identification of the valve from each dataset (paper Section 3.2, Fig. 2). The validation of
+# the identified model against every run shares a job with the open-loop analyses
+# (characterise.smk).
 
 
 rule identify:
@@ -20,21 +21,3 @@ rule identify:
         seed=config["seed"],
     script:
         "../scripts/identify.py"
-
-
-rule validate_model:
-    input:
-        **inputs_from("runs"),
-        params=rules.identify.output.params,
-    output:
-        **outputs("validate_model"),
-    log:
-        logfile("validate_model"),
-    threads: 1
-    resources:
-        mem_mb=2000,
-        runtime=20,
-    params:
-        code=SPA_CODE,
-    script:
-        "../scripts/validate_model.py"

@@ -1,0 +1,80 @@
+"""spa.jobs: a shared job's view for each of its stages."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pytest
+
+from spa.jobs import Names, joined_outputs, stage_job
+from spa.outputs import stage_outputs
+
+
+def shared_job(stages: list[str]) -> SimpleNamespace:
+    outputs = joined_outputs(stages, lambda s: stage_outputs(s, "res", "d1"))
+    return SimpleNamespace(
+        input=Names({"runs": "res/d1/runs", "params": "res/d1/identification/params.yaml"}),
+        output=Names(outputs),
+        log=Names({s: f"res/logs/d1/{s}.log" for s in stages}),
+        params=Names({"code": "abc", "stages": stages, "cfg": {"sine": {"settle": 2}}}),
+        wildcards=Names({"dataset": "d1"}),
+    )
+
+
+def test_each_stage_sees_exactly_its_own_outputs_log_and_settings() -> None:
+    stages = ["validate_model", "staircase", "sine", "chirp"]
+    job = shared_job(stages)
+    seen: set[str] = set()
+    for stage in stages:
+        view = stage_job(job, stage)
+        own = stage_outputs(stage, "res", "d1")
+        assert dict(view.output.items()) == own  # same keys and paths as a rule of its own
+        assert view.output.status == f"res/d1/status/{stage}.json"
+        assert view.log[0] == f"res/logs/d1/{stage}.log"
+        assert view.params.code == "abc"
+        assert view.params.cfg == ({"settle": 2} if stage == "sine" else {})
+        assert view.wildcards.dataset == "d1" and view.input.runs == "res/d1/runs"
+        assert not seen & set(own.values())  # no output shared between stages
+        seen |= set(own.values())
+    assert seen == set(job.output)
+
+
+def test_a_stage_the_job_does_not_run_is_refused() -> None:
+    with pytest.raises(KeyError, match="no outputs of stage 'tune'"):
+        stage_job(shared_job(["sine"]), "tune")
+
+
+def test_names_behaves_like_a_snakemake_namedlist() -> None:
+    n = Names({"a": 1, "b": 2})
+    assert (n.a, n["b"], n[0], len(n), list(n)) == (1, 2, 1, 2, [1, 2])
+    with pytest.raises(AttributeError):
+        _ = n.c
+
+
+def test_a_failed_stage_skips_the_stages_that_read_it_and_no_other(tmp_path) -> None:
+    """In a shared job the stages run in turn: a staircase failure must not skip sine (which
+    reads runs and params only), while a failed identification skips both."""
+    import logging
+
+    from spa.status import read_status, run_stage, write_status
+
+    stages = ["staircase", "sine"]
+    job = shared_job(stages)
+    out = {k: str(tmp_path / v) for k, v in job.output.items()}
+    job.output = Names(out)
+    log = logging.getLogger("test_jobs")
+    status_dir = tmp_path / "res" / "d1" / "status"
+    status_dir.mkdir(parents=True)
+
+    def boom() -> None:
+        raise ValueError("no steps")
+
+    ran = []
+    assert not run_stage(stage_job(job, "staircase"), "staircase", boom, log)
+    assert run_stage(stage_job(job, "sine"), "sine", lambda: ran.append("sine"), log)
+    assert ran == ["sine"]
+    assert read_status(status_dir / "sine.json")["ok"] is True
+    write_status(status_dir / "identify.json", "identify", "d1", ["IdentificationError: x"])
+    assert not run_stage(stage_job(job, "sine"), "sine", lambda: ran.append("again"), log)
+    assert ran == ["sine"]
+    assert read_status(status_dir / "sine.json")["upstream"] == "identify"
