@@ -17,15 +17,17 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
   (99.9th percentile, robust to a spike) is in bar up to 6, psi up to 90, kPa up to 600 and
   mbar up to 6000; above, undecided. Ranges overlap: 0.5 bar read in kPa (50) looks like psi.
 * **kind**: an input ``u`` that moves gives a modulated run, by the shape of ``u``: piecewise
-  constant with at least 3 levels held at least 0.2 s → staircase; crossings of its mean at a
-  steady period → sine; crossings whose period shrinks (or grows) by a factor > 2 → chirp.
+  constant with at least 3 levels held at least 0.2 s → staircase; upward crossings of its
+  mid-range at a steady period (spread < 10 %) → sine; crossings whose period shrinks (or
+  grows) steadily (rank correlation with time above 0.7 in magnitude) by a factor > 2 → chirp.
   Without a moving ``u``: valve held at 1 → charge, held at 0 → discharge, toggling → pulse;
   without a valve either, pressure rising → charge, falling → discharge.
 * **modulator** (from the valve's edges): rising edges on a fixed period → PWM,
   ``f_w = 1/period``; every edge on a clock of at least 3 samples with varying high and low
   times → ΔΣ, ``period`` = the clock; constant high time → IPFM, ``t_h`` = it,
-  ``gain = ∫u / ∫valve``; constant low time → IIPFM, ``t_l`` = it,
-  ``gain = ∫(1 - u) / ∫(1 - valve)`` (the mean duty of IPFM is ``u/G``, Appendix A).
+  ``gain`` = the integral of ``u`` from the first pulse to the last over ``(N - 1) t_h``
+  (the integrator fires every ``G t_h`` of it); constant low time → IIPFM, ``t_l`` = it,
+  ``gain`` the same with ``1 - u`` and ``t_l``.
 """
 
 from __future__ import annotations
@@ -249,7 +251,7 @@ def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
     p = p[np.isfinite(p)]
     if p.size == 0:
         return Guess(None, "no pressure readings")
-    top = float(np.percentile(np.abs(p), 99.9))
+    top = float(np.percentile(np.abs(p), 99.9, method="higher"))
     for unit, limit in PRESSURE_LIMITS:
         if top <= limit:
             return Guess(unit, f"|p| up to {top:.4g}: within {limit:g} {unit} (0 to ~4 bar)")
@@ -266,6 +268,15 @@ def _crossing_times(t: _Array, x: _Array) -> _Array:
     up = np.flatnonzero(s[:-1] & ~s[1:])
     frac = -centred[up] / (centred[up + 1] - centred[up])
     return t[up] + frac * (t[up + 1] - t[up])
+
+
+def _rank_correlation(x: _Array, y: _Array) -> float:
+    """Spearman's rank correlation of ``x`` and ``y`` (0 when either is constant)."""
+    rx = np.argsort(np.argsort(x)).astype(np.float64)
+    ry = np.argsort(np.argsort(y, kind="stable")).astype(np.float64)
+    if x.size < 3 or np.ptp(rx) == 0 or np.ptp(ry) == 0:
+        return 0.0
+    return float(np.corrcoef(rx, ry)[0, 1])
 
 
 def _shape_of_u(t: _Array, u: _Array) -> Guess:
@@ -290,7 +301,8 @@ def _shape_of_u(t: _Array, u: _Array) -> Guess:
     q = max(1, min(5, periods.size // 4))  # the first and last few periods
     first, last = float(np.median(periods[:q])), float(np.median(periods[-q:]))
     spread = float(np.std(periods) / np.mean(periods))
-    if first / last > 2 or last / first > 2:
+    rho = _rank_correlation(ups[1:], periods)
+    if (first / last > 2 or last / first > 2) and abs(rho) > 0.7:
         way = "rising" if first > last else "falling"
         return Guess(
             "chirp",
@@ -299,7 +311,15 @@ def _shape_of_u(t: _Array, u: _Array) -> Guess:
         )
     if spread < 0.1:
         f = 1.0 / float(np.median(periods))
-        return Guess("sine", f"u oscillates at a steady {f:.4g} Hz ({ups.size} periods)")
+        basis = np.column_stack(
+            [np.ones_like(t), np.sin(2 * np.pi * f * t), np.cos(2 * np.pi * f * t)]
+        )
+        coef = np.linalg.lstsq(basis, u, rcond=None)[0]
+        return Guess(
+            "sine",
+            f"u oscillates at a steady {f:.4g} Hz ({ups.size} periods); best-fit sinusoid "
+            f"{coef[0]:.3g} + {np.hypot(coef[1], coef[2]):.3g} sin(2π {f:.4g} t + φ)",
+        )
     return Guess(
         None,
         f"could not tell: u oscillates with uneven periods (spread {spread:.0%}), "
@@ -352,24 +372,29 @@ def guess_kind(
         return Guess("pulse", f"valve switches {edges} times{note}")
     if p is None:
         return Guess(None, "could not tell: no pressure, valve or u")
-    trend = _trend(p)
-    x = np.asarray(p, dtype=np.float64).ravel()
-    m = max(1, x.size // 20)
-    start, end = float(np.mean(x[:m])), float(np.mean(x[-m:]))
-    span = float(np.ptp(x))
+    start, end = _ends(p)
+    span = float(np.ptp(np.asarray(p, dtype=np.float64)))
     if span > 0 and abs(end - start) > 0.5 * span:
-        return Guess("charge" if end > start else "discharge", f"no valve column{trend}")
-    return Guess(None, f"could not tell: no valve or u column, and pressure{trend or ' flat'}")
+        return Guess("charge" if end > start else "discharge", f"no valve column{_trend(p)}")
+    return Guess(
+        None,
+        "could not tell: no valve or u column, and the pressure neither rises nor falls by "
+        f"half its range (from {start:.4g} to {end:.4g}, range {span:.4g})",
+    )
+
+
+def _ends(p: npt.ArrayLike) -> tuple[float, float]:
+    """Median of the first and of the last 1 % of ``p``."""
+    x = np.asarray(p, dtype=np.float64).ravel()
+    m = max(1, x.size // 100)
+    return float(np.median(x[:m])), float(np.median(x[-m:]))
 
 
 def _trend(p: npt.ArrayLike | None) -> str:
     if p is None:
         return ""
-    x = np.asarray(p, dtype=np.float64).ravel()
-    m = max(1, x.size // 100)
-    start, end = float(np.median(x[:m])), float(np.median(x[-m:]))
-    way = "rises" if end > start else "falls"
-    return f"; pressure {way} from {start:.4g} to {end:.4g}"
+    start, end = _ends(p)
+    return f"; pressure {'rises' if end > start else 'falls'} from {start:.4g} to {end:.4g}"
 
 
 # --------------------------------------------------------------------------- modulator
@@ -444,8 +469,8 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
     lows = rise[nxt_rise[ok]] - fall[ok]
     n = f"{highs.size} high and {lows.size} low pulses"
 
-    period = _steady(np.diff(rise), tol)[0]
-    if _on_grid(np.diff(rise), period, tol) >= 0.98 and _steady(highs, tol)[1] < 0.9:
+    period = _steady(np.diff(rise), tol)[0]  # rises may jitter by a sample (float clock)
+    if _on_grid(np.diff(rise), period, 1.01 * dt) >= 0.98 and _steady(highs, tol)[1] < 0.9:
         f_w = _sig(1.0 / period, 4)
         return Guess(
             {"type": "pwm", "f_w": f_w},
@@ -473,14 +498,13 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
             mod: dict[str, Any] = {"type": kind, width: w}
             gain_text = "gain unknown without u, left at 1"
             if iu is not None:
-                on = v if kind == "ipfm" else 1.0 - v
                 drive = iu if kind == "ipfm" else 1.0 - iu
-                if np.sum(on) > 0:
-                    gain = _sig(float(np.sum(drive) / np.sum(on)), 3)
-                    gain_text = f"gain {gain:g} = ∫{'u' if kind == 'ipfm' else '(1-u)'} / "
-                    gain_text += f"∫{'valve' if kind == 'ipfm' else '(1-valve)'}"
-                    if not math.isclose(gain, 1.0):
-                        mod["gain"] = gain
+                starts = np.flatnonzero(d > 0 if kind == "ipfm" else d < 0) + 1
+                gain = _sig(_threshold_gain(drive, starts, dt, w), 3)
+                integral = "∫u" if kind == "ipfm" else "∫(1 - u)"
+                gain_text = f"gain {gain:g} = {integral} between pulses / {width}"
+                if not math.isclose(gain, 1.0):
+                    mod["gain"] = gain
             return Guess(
                 mod,
                 f"{what} time constant at {w * 1e3:g} ms in {share:.0%} of pulses, the other "
@@ -491,6 +515,17 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
         f"could not tell the modulator: rises not periodic, neither high nor low time "
         f"constant ({_share_text(h_share, l_share)}), edges not on a clock ({n})",
     )
+
+
+def _threshold_gain(drive: _Array, starts: npt.NDArray[np.intp], dt: float, width: float) -> float:
+    """Gain G of an integrate-and-fire modulator from its firings.
+
+    Between two consecutive firings the integral of ``drive`` (``u`` for IPFM, ``1 - u`` for
+    IIPFM) grows by the threshold ``G*width``, so from the first firing to the last,
+    ``∫drive = (N - 1) G width``.
+    """
+    c = np.concatenate([[0.0], np.cumsum(drive)]) * dt
+    return float((c[starts[-1]] - c[starts[0]]) / ((starts.size - 1) * width))
 
 
 def _share_text(h_share: float, l_share: float) -> str:
