@@ -39,10 +39,12 @@ MODULATORS: list[dict[str, Any]] = [
     {"type": "ipfm", "t_h": 0.01},
     {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
     {"type": "dsm", "period": 0.005},
+    {"type": "dsm", "period": 0.01},  # around u = 0.5 most highs and lows last one clock
 ]
 EXPERIMENTS = {
     "staircase": {"step": 0.25, "hold": 1.5},
-    "sine": {"frequency": 0.5, "amplitudes": [0.4, 0.3, 0.2], "periods_per_level": 2},
+    # u reaches 0 and 1 mid-run: back-to-back IPFM (IIPFM) pulses merge there
+    "sine": {"frequency": 0.5, "amplitudes": [0.5, 0.3, 0.2], "periods_per_level": 2},
     "chirp": {"f0": 0.5, "f1": 20.0, "duration": 12.0},
 }
 
@@ -165,6 +167,29 @@ def test_kind_and_modulator_of_modulated_runs(mod: dict[str, Any]) -> None:
             if key != "type":
                 assert g.value[key] == pytest.approx(value, rel=0.03), f"{spec.id}: {g.reason}"
         assert g.value.get("gain", 1.0) == pytest.approx(mod.get("gain", 1.0), rel=0.03)
+
+
+def test_every_configured_modulator_on_short_runs() -> None:
+    """The modulators of config/config.yaml's simulated dataset, each on a staircase, a sine
+    and a chirp (short ones): every kind, type and setting is recognised."""
+    cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    mods = cfg["simulated"]["sim"]["modulators"]
+    wrong = []
+    for spec in modulated_runs(mods, DT, EXPERIMENTS):
+        run = _simulated(spec)
+        kind = guess_kind(run["t"], run["p"], run["valve"], run["u"]).value
+        mod = guess_modulator(run["t"], run["valve"], run["u"]).value
+        want = dict(spec.modulator)
+        if want["type"] in ("ipfm", "iipfm"):
+            want.setdefault("gain", 1.0)
+            if mod is not None:
+                mod.setdefault("gain", 1.0)
+        kind_of = want.pop("type")
+        if kind != spec.kind or mod is None or mod.pop("type") != kind_of:
+            wrong.append((spec.id, kind, mod))
+        elif mod != pytest.approx(want, rel=0.02):
+            wrong.append((spec.id, kind, mod))
+    assert not wrong and len(mods) >= 19
 
 
 def test_modulator_settings_in_s_and_hz_whatever_the_sampling() -> None:

@@ -22,12 +22,13 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
   grows) steadily (rank correlation with time above 0.7 in magnitude) by a factor > 2 → chirp.
   Without a moving ``u``: valve held at 1 → charge, held at 0 → discharge, toggling → pulse;
   without a valve either, pressure rising → charge, falling → discharge.
-* **modulator** (from the valve's edges): rising edges on a fixed period → PWM,
-  ``f_w = 1/period``; every edge on a clock of at least 3 samples with varying high and low
-  times → ΔΣ, ``period`` = the clock; constant high time → IPFM, ``t_h`` = it,
-  ``gain`` = the integral of ``u`` from the first pulse to the last over ``(N - 1) t_h``
-  (the integrator fires every ``G t_h`` of it); constant low time → IIPFM, ``t_l`` = it,
-  ``gain`` the same with ``1 - u`` and ``t_l``.
+* **modulator** (from the valve's edges): rising edges on a fixed period (or a multiple, to
+  a sample) → PWM, ``f_w = 1/period``; every edge on a clock of at least 2.5 samples, the
+  shortest high or low time, and high or low times varying → ΔΣ, ``period`` = the clock;
+  constant high time → IPFM, ``t_h`` = it,
+  ``gain = ∫u / ∫valve`` from the first pulse to the last (each firing adds ``t_h`` of
+  opening per ``G t_h`` of integral); constant low time → IIPFM, ``t_l`` = it,
+  ``gain = ∫(1 - u) / ∫(1 - valve)``.
 """
 
 from __future__ import annotations
@@ -462,15 +463,20 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
         )
     # whole high and low pulses: between a rise and the next fall, a fall and the next rise
     nxt_fall = np.searchsorted(fall, rise)
-    ok = nxt_fall < fall.size
-    highs = fall[nxt_fall[ok]] - rise[ok]
+    ok_h = nxt_fall < fall.size
+    highs = fall[nxt_fall[ok_h]] - rise[ok_h]
     nxt_rise = np.searchsorted(rise, fall)
     ok = nxt_rise < rise.size
     lows = rise[nxt_rise[ok]] - fall[ok]
     n = f"{highs.size} high and {lows.size} low pulses"
 
+    iu = None if u is None else np.asarray(u, dtype=np.float64).ravel()
     period = _steady(np.diff(rise), tol)[0]  # rises may jitter by a sample (float clock)
-    if _on_grid(np.diff(rise), period, 1.01 * dt) >= 0.98 and _steady(highs, tol)[1] < 0.9:
+    if (
+        _on_grid(np.diff(rise), period, 1.01 * dt) >= 0.98
+        and _steady(highs, tol)[1] < 0.9
+        and (iu is None or _duty_matches(iu[1:][d > 0][ok_h], highs / period, dt / period))
+    ):
         f_w = _sig(1.0 / period, 4)
         return Guess(
             {"type": "pwm", "f_w": f_w},
@@ -481,13 +487,12 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
     edges = np.sort(np.concatenate([rise, fall]))
     h_share, l_share = _steady(highs, tol)[1], _steady(lows, tol)[1]
     if clock >= 2.5 * dt and _on_grid(edges - edges[0], clock, tol) >= 0.98:
-        if h_share < 0.9 and l_share < 0.9:
+        if min(h_share, l_share) < 0.98:  # not a plain square wave
             c = _sig(clock, 4)
             return Guess(
                 {"type": "dsm", "period": c},
-                f"every edge on a {c * 1e3:g} ms clock, high and low times vary: ΔΣ ({n})",
+                f"every edge on a {c * 1e3:g} ms clock, high or low times vary: ΔΣ ({n})",
             )
-    iu = None if u is None else np.asarray(u, dtype=np.float64).ravel()
     for kind, width, share, pulses, what in (
         ("ipfm", "t_h", h_share, highs, "high"),
         ("iipfm", "t_l", l_share, lows, "low"),
@@ -499,10 +504,11 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
             gain_text = "gain unknown without u, left at 1"
             if iu is not None:
                 drive = iu if kind == "ipfm" else 1.0 - iu
+                on = v if kind == "ipfm" else 1.0 - v
                 starts = np.flatnonzero(d > 0 if kind == "ipfm" else d < 0) + 1
-                gain = _sig(_threshold_gain(drive, starts, dt, w), 3)
-                integral = "∫u" if kind == "ipfm" else "∫(1 - u)"
-                gain_text = f"gain {gain:g} = {integral} between pulses / {width}"
+                gain = _sig(_threshold_gain(drive, on, starts), 3)
+                ratio = "∫u / ∫valve" if kind == "ipfm" else "∫(1 - u) / ∫(1 - valve)"
+                gain_text = f"gain {gain:g} = {ratio} from the first pulse to the last"
                 if not math.isclose(gain, 1.0):
                     mod["gain"] = gain
             return Guess(
@@ -517,15 +523,24 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
     )
 
 
-def _threshold_gain(drive: _Array, starts: npt.NDArray[np.intp], dt: float, width: float) -> float:
+def _duty_matches(u_at_rise: _Array, duty: _Array, step: float) -> bool:
+    """True when 90 % of PWM pulses last ``u`` of the period (``u`` read at the rise), to two
+    samples (``step`` = sample step / period) and 2 %: what tells PWM from a ΔΣ pattern
+    that repeats on the same period."""
+    return float(np.mean(np.abs(duty - u_at_rise) <= 2 * step + 0.02)) >= 0.9
+
+
+def _threshold_gain(drive: _Array, on: _Array, starts: npt.NDArray[np.intp]) -> float:
     """Gain G of an integrate-and-fire modulator from its firings.
 
-    Between two consecutive firings the integral of ``drive`` (``u`` for IPFM, ``1 - u`` for
-    IIPFM) grows by the threshold ``G*width``, so from the first firing to the last,
-    ``∫drive = (N - 1) G width``.
+    Each firing adds one pulse of width ``w`` (``on`` = the valve for IPFM, ``1 - valve`` for
+    IIPFM; back-to-back pulses merge into one long one) and comes ``G w`` of integral of
+    ``drive`` (``u`` for IPFM, ``1 - u`` for IIPFM) after the previous one, so from the first
+    pulse's start to the last one's, ``G = ∫drive / ∫on``.
     """
-    c = np.concatenate([[0.0], np.cumsum(drive)]) * dt
-    return float((c[starts[-1]] - c[starts[0]]) / ((starts.size - 1) * width))
+    span = slice(starts[0], starts[-1])
+    total = float(np.sum(on[span]))
+    return float(np.sum(drive[span]) / total) if total > 0 else math.nan
 
 
 def _share_text(h_share: float, l_share: float) -> str:
