@@ -340,3 +340,34 @@ def test_files_with_different_columns_get_per_run_columns(tmp_path: Path) -> Non
     assert "columns" not in doc and doc["units"] == {"time": "s", "pressure": "bar"}
     assert [r["columns"]["t"] for r in doc["runs"]] == ["time", "zeit"]
     assert [r["kind"] for r in doc["runs"]] == ["charge", "discharge"]
+
+
+def test_detected_file_options_are_written_once_or_per_run(
+    example: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(dy, "_detect_options", lambda path: {"sep": ",", "skip_rows": 0})
+    doc = yaml.load(dy.draft_dataset(example), Loader=_UniqueKeyLoader)
+    assert doc["csv"] == {"sep": ",", "skip_rows": 0}
+    assert all("csv" not in r for r in doc["runs"])
+    monkeypatch.setattr(dy, "_detect_options", lambda path: {"skip_rows": len(path.stem)})
+    doc = yaml.load(dy.draft_dataset(example), Loader=_UniqueKeyLoader)
+    assert "csv" not in doc
+    assert {r["file"]: r.get("csv") for r in doc["runs"]} == {
+        "charge.csv": {"skip_rows": 6},
+        "discharge.csv": {"skip_rows": 9},
+        "pulse.csv": {"skip_rows": 5},
+        "staircase_iipfm-20ms-G1.2.mat": None,
+        "staircase_pwm-20Hz.parquet": None,
+    }
+
+
+def test_data_files_search_sub_folders_and_skip_the_rest(tmp_path: Path) -> None:
+    for rel in ["a.csv", "dataset.yaml", "B.PARQUET", "id/x.mat", "id/deep/y.csv", "notes.md"]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("")
+    for rel in [".git/z.csv", "id/.y.csv", "a/b/c/too_deep.csv"]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("")
+    files, skipped = dy.data_files(tmp_path)
+    assert files == ["B.PARQUET", "a.csv", "id/deep/y.csv", "id/x.mat"]
+    assert skipped == ["notes.md"]
