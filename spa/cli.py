@@ -1,4 +1,4 @@
-"""Command line: ``spa validate``, ``spa ingest``, ``spa example`` and ``spa tune``.
+"""Command line: ``spa validate``, ``spa ingest``, ``spa init``, ``spa example`` and ``spa tune``.
 
 Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error
 (see ``spa --help``).
@@ -62,6 +62,24 @@ def _ingest(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _init(args: argparse.Namespace, out: TextIO) -> int:
+    from spa.datasets.draft_yaml import TODO, write_draft
+
+    try:
+        path, text = write_draft(args.folder, force=args.force)
+    except (FileExistsError, ValueError) as exc:
+        print(f"error: {exc}", file=out)
+        return 1
+    todos = sum(f": {TODO}" in line for line in text.splitlines())
+    runs = sum(line.startswith("  - id:") for line in text.splitlines())
+    print(f"{path}: drafted {runs} run(s), {todos} TODO(s)", file=out)
+    print(
+        f"check the guesses (their reasons are comments), then: spa validate {args.folder}",
+        file=out,
+    )
+    return 0
+
+
 def _example(args: argparse.Namespace, out: TextIO) -> int:
     from spa.synthetic import write_example_dataset
 
@@ -115,6 +133,17 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("folder", metavar="FOLDER", help="dataset folder, raw/<name>")
     p.add_argument("out_dir", metavar="OUT_DIR", help="output folder (not inside raw/)")
     p.set_defaults(func=_ingest)
+    p = sub.add_parser(
+        "init",
+        help="draft dataset.yaml for a folder of recordings",
+        description="Read every data file of FOLDER and write FOLDER/dataset.yaml: a draft "
+        "with guessed columns, units, kinds and modulators, each with its reason as a comment, "
+        "and TODO where a guess failed. This is the one file spa writes into raw/; it never "
+        "overwrites an existing dataset.yaml without --force and never touches data files.",
+    )
+    p.add_argument("folder", metavar="FOLDER", help="dataset folder, raw/<name>")
+    p.add_argument("--force", action="store_true", help="replace an existing dataset.yaml")
+    p.set_defaults(func=_init)
     p = sub.add_parser(
         "example",
         help="write the example bench export (what raw/example holds)",

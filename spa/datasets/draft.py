@@ -1,0 +1,548 @@
+"""Guesses for a draft ``dataset.yaml`` (``spa init``): the role of each column of a file, the
+units, the kind of run and the pulse modulator, each with the reason it was made.
+
+Every function here is pure: it takes the columns of one file as arrays and returns a
+:class:`Guess`, whose ``value`` is None when the data do not decide (the draft then writes a
+``TODO`` that ``spa validate`` rejects) and whose ``reason`` says why, in words a user can check.
+
+The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
+
+* **roles**: a strictly increasing column is time; a column holding only 0 and 1 is the valve
+  command; one within [0, 1] is the input fraction ``u``; the others are pressure candidates,
+  of which the one named like a pressure (``p``, ``pressure``, ``kPa``, ...) or else the one of
+  largest variance is the pressure. Names break ties (``time``, ``valve``, ``xi``, ...).
+* **time unit**: a bench samples at 100 Hz to 100 kHz, so a median step in
+  [1e-6, 1e-2] is in s, in (1e-2, 10] in ms; outside, undecided.
+* **pressure unit**: a soft actuator runs at 0 to about 4 bar, so the largest magnitude
+  (99.9th percentile, robust to a spike) is in bar up to 6, psi up to 90, kPa up to 600 and
+  mbar up to 6000; above, undecided. Ranges overlap: 0.5 bar read in kPa (50) looks like psi.
+* **kind**: an input ``u`` that moves gives a modulated run, by the shape of ``u``: piecewise
+  constant with at least 3 levels held at least 0.2 s → staircase; upward crossings of its
+  mid-range at a steady period (spread < 10 %) → sine; crossings whose period shrinks (or
+  grows) steadily (rank correlation with time above 0.7 in magnitude) by a factor > 2 → chirp.
+  Without a moving ``u``: valve held at 1 → charge, held at 0 → discharge, toggling → pulse;
+  without a valve either, pressure rising → charge, falling → discharge.
+* **modulator** (from the valve's edges): rising edges on a fixed period (or a multiple, to
+  a sample) → PWM, ``f_w = 1/period``; every edge on a clock of at least 2.5 samples, the
+  shortest high or low time, and high or low times varying → ΔΣ, ``period`` = the clock;
+  constant high time → IPFM, ``t_h`` = it,
+  ``gain = ∫u / ∫valve`` from the first pulse to the last (each firing adds ``t_h`` of
+  opening per ``G t_h`` of integral); constant low time → IIPFM, ``t_l`` = it,
+  ``gain = ∫(1 - u) / ∫(1 - valve)``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "Guess",
+    "guess_kind",
+    "guess_modulator",
+    "guess_pressure_unit",
+    "guess_roles",
+    "guess_time_unit",
+]
+
+_Array = npt.NDArray[np.float64]
+
+_NAME_HINTS: Mapping[str, re.Pattern[str]] = {
+    "t": re.compile(r"^(t|time|times|zeit|temps|tiempo|timestamp)([_ .\-\[(].*)?$|time", re.I),
+    "valve": re.compile(r"valve|vent|ventil|solenoid|cmd|command|switch|onoff|on_off", re.I),
+    "u": re.compile(r"^(u|xi|x|duty|d)([_ .\-\[(].*)?$|xi|duty|ref|input|frac|setpoint", re.I),
+    "p": re.compile(r"^(p|pa)([_ .\-\[(\d].*)?$|press|kpa|mbar|bar|psi|act", re.I),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Guess:
+    """One guess and why.
+
+    Attributes
+    ----------
+    value : Any
+        The guess (a column name, unit, kind or modulator mapping), or None if undecided.
+    reason : str
+        Why this value, or why none could be given (one line, for a YAML comment).
+    """
+
+    value: Any
+    reason: str
+
+    @property
+    def decided(self) -> bool:
+        """True when a value was guessed."""
+        return self.value is not None
+
+
+# --------------------------------------------------------------------------- roles
+
+
+def _strictly_increasing(x: _Array) -> bool:
+    return x.size >= 2 and bool(np.all(np.diff(x) > 0))
+
+
+def _binary(x: _Array) -> bool:
+    return x.size > 0 and bool(np.all((x == 0) | (x == 1)))
+
+
+def _fraction(x: _Array) -> bool:
+    return x.size > 0 and bool(np.all((x >= 0) & (x <= 1)))
+
+
+def _named(role: str, names: list[str]) -> list[str]:
+    return [n for n in names if _NAME_HINTS[role].search(n.strip())]
+
+
+def _pick(role: str, names: list[str], score: Mapping[str, float], what: str) -> Guess:
+    """Pick one column of ``names`` for ``role``: a single one, else one named for the role,
+    else the highest ``score``."""
+    if not names:
+        return Guess(None, f"no column is {what}")
+    if len(names) == 1:
+        return Guess(names[0], f"the only column {what}")
+    named = _named(role, names)
+    if len(named) == 1:
+        return Guess(named[0], f"{what}, and named like it (of {', '.join(names)})")
+    pool = named or names
+    best = max(pool, key=lambda n: score[n])
+    return Guess(best, f"{what}; picked from {', '.join(pool)} by {_SCORE_WORD[role]}")
+
+
+_SCORE_WORD = {
+    "t": "the most even step",
+    "valve": "the most switching",
+    "u": "the largest variance",
+    "p": "the largest variance",
+}
+
+
+def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
+    """Guess which column of a file is time, pressure, valve command and input fraction.
+
+    Parameters
+    ----------
+    columns : mapping of str to array_like
+        The numeric columns of one file, all of one length (missing values as NaN; a column
+        with a NaN or an infinity takes no role).
+
+    Returns
+    -------
+    dict of str to Guess
+        For each canonical name ``t``, ``p``, ``valve``, ``u``: the file column (None when no
+        column fits; ``valve`` and ``u`` are optional) and the reason.
+
+    Examples
+    --------
+    >>> g = guess_roles({"ms": [0, 1, 2, 3], "P": [0.0, 5.0, 9.0, 12.0], "v": [1, 1, 0, 1]})
+    >>> [g[k].value for k in ("t", "p", "valve", "u")]
+    ['ms', 'P', 'v', None]
+    """
+    arrays = {str(k): np.asarray(v, dtype=np.float64).ravel() for k, v in columns.items()}
+    finite = {k: v for k, v in arrays.items() if v.size and np.all(np.isfinite(v))}
+    increasing = [k for k, v in finite.items() if _strictly_increasing(v)]
+    out: dict[str, Guess] = {}
+
+    def even(name: str) -> float:
+        d = np.diff(finite[name])
+        return -float(np.std(d) / np.mean(d))
+
+    out["t"] = _pick("t", increasing, {k: even(k) for k in increasing}, "strictly increasing")
+    rest = [k for k in finite if k != out["t"].value]
+    binary = [k for k in rest if _binary(finite[k])]
+    switches = {k: float(np.count_nonzero(np.diff(finite[k]))) for k in binary}
+    out["valve"] = _pick("valve", binary, switches, "holding only 0 and 1")
+    rest = [k for k in rest if k != out["valve"].value]
+    named_p = set(_named("p", rest)) - set(_named("u", rest))
+    fractions = [k for k in rest if _fraction(finite[k]) and k not in named_p]
+    others = [k for k in rest if k not in fractions]
+    var = {k: float(np.var(finite[k])) for k in rest}
+    if not others and len(fractions) > 1:  # a pressure in bar may stay within [0, 1]
+        non_u = [k for k in fractions if k not in _named("u", fractions)] or fractions
+        best = max(non_u, key=lambda n: var[n])
+        others, fractions = [best], [k for k in fractions if k != best]
+    out["u"] = _pick("u", fractions, var, "within [0, 1] (not only 0/1)")
+    if not others and len(fractions) == 1 and not _named("u", fractions):
+        others, out["u"] = fractions, Guess(None, "no column left for u")
+    p = _pick("p", others, var, "numeric and not time, valve or a fraction")
+    if p.value is not None and len(others) == 1 and others[0] in fractions:
+        p = Guess(p.value, "the only numeric column left (within [0, 1]: pressure in bar?)")
+    out["p"] = p
+    return out
+
+
+# --------------------------------------------------------------------------- units
+
+
+#: Median time step (in the file's unit) bounding s and ms: a bench samples at 100 Hz to
+#: 100 kHz; a step of 0.01 is 100 Hz in s (taken) or 100 kHz in ms.
+TIME_STEP_BOUNDS = (1e-6, 1e-2, 10.0)
+
+
+#: Largest pressure magnitude for each unit (soft actuators run at 0 to ~4 bar).
+PRESSURE_LIMITS: tuple[tuple[str, float], ...] = (
+    ("bar", 6.0),
+    ("psi", 90.0),
+    ("kPa", 600.0),
+    ("mbar", 6000.0),
+)
+
+
+def guess_time_unit(t: npt.ArrayLike) -> Guess:
+    """Guess whether time is in s or ms from its median step.
+
+    Parameters
+    ----------
+    t : array_like
+        Time stamps in the file's unit (pooled steps of several files may be passed as
+        ``np.cumsum(steps)``; only the steps count).
+
+    Returns
+    -------
+    Guess
+        ``"s"`` for a median step in [1e-6, 1e-2], ``"ms"`` in (1e-2, 10], else None.
+
+    Examples
+    --------
+    >>> guess_time_unit([0, 1, 2, 3]).value, guess_time_unit([0, 1e-3, 2e-3]).value
+    ('ms', 's')
+    """
+    t = np.asarray(t, dtype=np.float64).ravel()
+    if t.size < 2:
+        return Guess(None, "fewer than 2 time stamps")
+    step = float(np.median(np.diff(t)))
+    low, mid, high = TIME_STEP_BOUNDS
+    if low <= step <= mid * (1 + 1e-9):
+        return Guess("s", f"median step {step:.4g}: {1 / step:.4g} Hz if in s")
+    if mid < step <= high:
+        return Guess("ms", f"median step {step:.4g}: {1e3 / step:.4g} Hz if in ms")
+    return Guess(
+        None,
+        f"median step {step:.4g} fits neither s ({low:g} to {mid:g}) nor ms ({mid:g} to {high:g})",
+    )
+
+
+def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
+    """Guess the pressure unit from the largest magnitude of the readings.
+
+    Parameters
+    ----------
+    p : array_like
+        Pressure readings in the file's unit (NaN ignored).
+
+    Returns
+    -------
+    Guess
+        The first unit of :data:`PRESSURE_LIMITS` whose limit is not exceeded by the 99.9th
+        percentile of ``|p|``, else None.
+
+    Examples
+    --------
+    >>> [guess_pressure_unit([0, x]).value for x in (2.5, 40, 250, 2500, 1e5)]
+    ['bar', 'psi', 'kPa', 'mbar', None]
+    """
+    p = np.asarray(p, dtype=np.float64).ravel()
+    p = p[np.isfinite(p)]
+    if p.size == 0:
+        return Guess(None, "no pressure readings")
+    top = float(np.percentile(np.abs(p), 99.9, method="higher"))
+    for unit, limit in PRESSURE_LIMITS:
+        if top <= limit:
+            return Guess(unit, f"|p| up to {top:.4g}: within {limit:g} {unit} (0 to ~4 bar)")
+    return Guess(None, f"|p| up to {top:.4g}: above {PRESSURE_LIMITS[-1][1]:g} mbar")
+
+
+# --------------------------------------------------------------------------- kind
+
+
+def _crossing_times(t: _Array, x: _Array) -> _Array:
+    """Times at which ``x`` crosses its mid-range upwards (linear interpolation)."""
+    centred = x - 0.5 * (np.min(x) + np.max(x))
+    s = np.signbit(centred)
+    up = np.flatnonzero(s[:-1] & ~s[1:])
+    frac = -centred[up] / (centred[up + 1] - centred[up])
+    return t[up] + frac * (t[up + 1] - t[up])
+
+
+def _rank_correlation(x: _Array, y: _Array) -> float:
+    """Spearman's rank correlation of ``x`` and ``y`` (0 when either is constant)."""
+    rx = np.argsort(np.argsort(x)).astype(np.float64)
+    ry = np.argsort(np.argsort(y, kind="stable")).astype(np.float64)
+    if x.size < 3 or np.ptp(rx) == 0 or np.ptp(ry) == 0:
+        return 0.0
+    return float(np.corrcoef(rx, ry)[0, 1])
+
+
+def _shape_of_u(t: _Array, u: _Array) -> Guess:
+    changes = np.flatnonzero(np.diff(u)) + 1
+    bounds = np.concatenate([[0], changes, [u.size]])
+    hold = np.diff(t[np.minimum(bounds, t.size - 1)])
+    levels = np.unique(u[bounds[:-1]])
+    if changes.size <= 200 and levels.size >= 3 and np.median(hold) >= 0.2:
+        return Guess(
+            "staircase",
+            f"u piecewise constant: {levels.size} levels from {levels[0]:g} to {levels[-1]:g}, "
+            f"held {np.median(hold):.3g} s (median)",
+        )
+    ups = _crossing_times(t, u)
+    if ups.size < 3:
+        return Guess(
+            None,
+            f"could not tell: u moves ({changes.size} changes, {levels.size} levels) but is "
+            f"neither a staircase nor oscillating ({ups.size} upward crossings of mid-range)",
+        )
+    periods = np.diff(ups)
+    q = max(1, min(5, periods.size // 4))  # the first and last few periods
+    first, last = float(np.median(periods[:q])), float(np.median(periods[-q:]))
+    spread = float(np.std(periods) / np.mean(periods))
+    rho = _rank_correlation(ups[1:], periods)
+    if (first / last > 2 or last / first > 2) and abs(rho) > 0.7:
+        way = "rising" if first > last else "falling"
+        return Guess(
+            "chirp",
+            f"u oscillates with frequency {way} from {1 / first:.3g} to {1 / last:.3g} Hz "
+            f"({ups.size} upward crossings)",
+        )
+    if spread < 0.1:
+        f = 1.0 / float(np.median(periods))
+        basis = np.column_stack(
+            [np.ones_like(t), np.sin(2 * np.pi * f * t), np.cos(2 * np.pi * f * t)]
+        )
+        coef = np.linalg.lstsq(basis, u, rcond=None)[0]
+        return Guess(
+            "sine",
+            f"u oscillates at a steady {f:.4g} Hz ({ups.size} periods); best-fit sinusoid "
+            f"{coef[0]:.3g} + {np.hypot(coef[1], coef[2]):.3g} sin(2π {f:.4g} t + φ)",
+        )
+    return Guess(
+        None,
+        f"could not tell: u oscillates with uneven periods (spread {spread:.0%}), "
+        "neither a sine nor a chirp",
+    )
+
+
+def guess_kind(
+    t: npt.ArrayLike,
+    p: npt.ArrayLike | None,
+    valve: npt.ArrayLike | None = None,
+    u: npt.ArrayLike | None = None,
+) -> Guess:
+    """Guess the kind of run from its signals.
+
+    Parameters
+    ----------
+    t : array_like
+        Time in s.
+    p : array_like or None
+        Pressure (any unit: only its trend is used).
+    valve : array_like, optional
+        0/1 valve command.
+    u : array_like, optional
+        Input fraction.
+
+    Returns
+    -------
+    Guess
+        ``charge``, ``discharge``, ``pulse``, ``staircase``, ``sine``, ``chirp`` or None.
+
+    Examples
+    --------
+    >>> t = np.arange(100) * 0.01
+    >>> guess_kind(t, 1 - np.exp(-t), np.ones(100)).value
+    'charge'
+    """
+    t = np.asarray(t, dtype=np.float64).ravel()
+    if u is not None:
+        u = np.asarray(u, dtype=np.float64).ravel()
+        if np.ptp(u) > 0:
+            return _shape_of_u(t, u)
+    if valve is not None:
+        v = np.asarray(valve, dtype=np.float64).ravel()
+        edges = int(np.count_nonzero(np.diff(v)))
+        if edges == 0:
+            kind = "charge" if v[0] == 1 else "discharge"
+            return Guess(kind, f"valve held at {int(v[0])} throughout{_trend(p)}")
+        note = "" if u is None else ", u constant"
+        return Guess("pulse", f"valve switches {edges} times{note}")
+    if p is None:
+        return Guess(None, "could not tell: no pressure, valve or u")
+    start, end = _ends(p)
+    span = float(np.ptp(np.asarray(p, dtype=np.float64)))
+    if span > 0 and abs(end - start) > 0.5 * span:
+        return Guess("charge" if end > start else "discharge", f"no valve column{_trend(p)}")
+    return Guess(
+        None,
+        "could not tell: no valve or u column, and the pressure neither rises nor falls by "
+        f"half its range (from {start:.4g} to {end:.4g}, range {span:.4g})",
+    )
+
+
+def _ends(p: npt.ArrayLike) -> tuple[float, float]:
+    """Median of the first and of the last 1 % of ``p``."""
+    x = np.asarray(p, dtype=np.float64).ravel()
+    m = max(1, x.size // 100)
+    return float(np.median(x[:m])), float(np.median(x[-m:]))
+
+
+def _trend(p: npt.ArrayLike | None) -> str:
+    if p is None:
+        return ""
+    start, end = _ends(p)
+    return f"; pressure {'rises' if end > start else 'falls'} from {start:.4g} to {end:.4g}"
+
+
+# --------------------------------------------------------------------------- modulator
+
+
+def _sig(x: float, digits: int = 3) -> float:
+    """``x`` rounded to ``digits`` significant digits."""
+    if x == 0 or not math.isfinite(x):
+        return x
+    return round(x, digits - 1 - math.floor(math.log10(abs(x))))
+
+
+def _steady(d: _Array, tol: float) -> tuple[float, float]:
+    """Median of ``d`` and the fraction of ``d`` within ``tol`` of it."""
+    if d.size == 0:
+        return math.nan, 0.0
+    m = float(np.median(d))
+    return m, float(np.mean(np.abs(d - m) <= tol))
+
+
+def _on_grid(d: _Array, step: float, tol: float) -> float:
+    """Fraction of ``d`` that are whole multiples of ``step`` (within ``tol``)."""
+    if d.size == 0 or step <= 0:
+        return 0.0
+    r = d / step
+    return float(np.mean(np.abs(r - np.round(r)) * step <= tol))
+
+
+def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | None) -> Guess:
+    """Guess the pulse modulator and its setting from the valve's edges.
+
+    Parameters
+    ----------
+    t : array_like
+        Time in s, evenly sampled.
+    valve : array_like
+        0/1 valve command.
+    u : array_like or None
+        Input fraction (needed for the IPFM/IIPFM gain; without it the gain is left at 1).
+
+    Returns
+    -------
+    Guess
+        A mapping as in ``dataset.yaml`` (settings in s and Hz) or None.
+
+    Examples
+    --------
+    >>> t = np.arange(2000) * 1e-3
+    >>> v = ((t % 0.05) < 0.05 * np.where(t < 1, 0.3, 0.6)).astype(float)
+    >>> guess_modulator(t, v, np.where(t < 1, 0.3, 0.6)).value
+    {'type': 'pwm', 'f_w': 20.0}
+    """
+    t = np.asarray(t, dtype=np.float64).ravel()
+    v = np.asarray(valve, dtype=np.float64).ravel()
+    if t.size < 3:
+        return Guess(None, "could not tell the modulator: fewer than 3 samples")
+    dt = float(np.median(np.diff(t)))
+    tol = 0.51 * dt + 1e-9
+    d = np.diff(v)
+    rise, fall = t[1:][d > 0], t[1:][d < 0]
+    if rise.size < 4 or fall.size < 4:
+        return Guess(
+            None,
+            f"could not tell the modulator: the valve switches only {rise.size + fall.size} times",
+        )
+    # whole high and low pulses: between a rise and the next fall, a fall and the next rise
+    nxt_fall = np.searchsorted(fall, rise)
+    ok_h = nxt_fall < fall.size
+    highs = fall[nxt_fall[ok_h]] - rise[ok_h]
+    nxt_rise = np.searchsorted(rise, fall)
+    ok = nxt_rise < rise.size
+    lows = rise[nxt_rise[ok]] - fall[ok]
+    n = f"{highs.size} high and {lows.size} low pulses"
+
+    iu = None if u is None else np.asarray(u, dtype=np.float64).ravel()
+    period = _steady(np.diff(rise), tol)[0]  # rises may jitter by a sample (float clock)
+    if (
+        _on_grid(np.diff(rise), period, 1.01 * dt) >= 0.98
+        and _steady(highs, tol)[1] < 0.9
+        and (iu is None or _duty_matches(iu[1:][d > 0][ok_h], highs / period, dt / period))
+    ):
+        f_w = _sig(1.0 / period, 4)
+        return Guess(
+            {"type": "pwm", "f_w": f_w},
+            f"rising edges every {period * 1e3:.4g} ms (or a multiple), widths vary: "
+            f"PWM at {f_w:g} Hz ({n})",
+        )
+    clock = float(min(np.min(highs), np.min(lows)))
+    edges = np.sort(np.concatenate([rise, fall]))
+    h_share, l_share = _steady(highs, tol)[1], _steady(lows, tol)[1]
+    if clock >= 2.5 * dt and _on_grid(edges - edges[0], clock, tol) >= 0.98:
+        if min(h_share, l_share) < 0.98:  # not a plain square wave
+            c = _sig(clock, 4)
+            return Guess(
+                {"type": "dsm", "period": c},
+                f"every edge on a {c * 1e3:g} ms clock, high or low times vary: ΔΣ ({n})",
+            )
+    for kind, width, share, pulses, what in (
+        ("ipfm", "t_h", h_share, highs, "high"),
+        ("iipfm", "t_l", l_share, lows, "low"),
+    ):
+        other = l_share if kind == "ipfm" else h_share
+        if share >= 0.9 and other < 0.9:
+            w = _sig(float(np.median(pulses)), 4)
+            mod: dict[str, Any] = {"type": kind, width: w}
+            gain_text = "gain unknown without u, left at 1"
+            if iu is not None:
+                drive = iu if kind == "ipfm" else 1.0 - iu
+                on = v if kind == "ipfm" else 1.0 - v
+                starts = np.flatnonzero(d > 0 if kind == "ipfm" else d < 0) + 1
+                gain = _sig(_threshold_gain(drive, on, starts), 3)
+                ratio = "∫u / ∫valve" if kind == "ipfm" else "∫(1 - u) / ∫(1 - valve)"
+                gain_text = f"gain {gain:g} = {ratio} from the first pulse to the last"
+                if not math.isclose(gain, 1.0):
+                    mod["gain"] = gain
+            return Guess(
+                mod,
+                f"{what} time constant at {w * 1e3:g} ms in {share:.0%} of pulses, the other "
+                f"varies: {kind.upper()}; {gain_text} ({n})",
+            )
+    return Guess(
+        None,
+        f"could not tell the modulator: rises not periodic, neither high nor low time "
+        f"constant ({_share_text(h_share, l_share)}), edges not on a clock ({n})",
+    )
+
+
+def _duty_matches(u_at_rise: _Array, duty: _Array, step: float) -> bool:
+    """True when 90 % of PWM pulses last ``u`` of the period (``u`` read at the rise), to two
+    samples (``step`` = sample step / period) and 2 %: what tells PWM from a ΔΣ pattern
+    that repeats on the same period."""
+    return float(np.mean(np.abs(duty - u_at_rise) <= 2 * step + 0.02)) >= 0.9
+
+
+def _threshold_gain(drive: _Array, on: _Array, starts: npt.NDArray[np.intp]) -> float:
+    """Gain G of an integrate-and-fire modulator from its firings.
+
+    Each firing adds one pulse of width ``w`` (``on`` = the valve for IPFM, ``1 - valve`` for
+    IIPFM; back-to-back pulses merge into one long one) and comes ``G w`` of integral of
+    ``drive`` (``u`` for IPFM, ``1 - u`` for IIPFM) after the previous one, so from the first
+    pulse's start to the last one's, ``G = ∫drive / ∫on``.
+    """
+    span = slice(starts[0], starts[-1])
+    total = float(np.sum(on[span]))
+    return float(np.sum(drive[span]) / total) if total > 0 else math.nan
+
+
+def _share_text(h_share: float, l_share: float) -> str:
+    """``"x% of highs, y% of lows at their median"`` for a reason string."""
+    return f"{h_share:.0%} of highs, {l_share:.0%} of lows at their median"

@@ -1,0 +1,373 @@
+"""``spa init``: the guessers of spa.datasets.draft against simulated runs whose truth is known,
+and the draft dataset.yaml written for a copy of raw/example."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+import spa.datasets.draft_yaml as dy
+from spa.cli import main
+from spa.datasets import check_dataset
+from spa.datasets.draft import (
+    guess_kind,
+    guess_modulator,
+    guess_pressure_unit,
+    guess_roles,
+    guess_time_unit,
+)
+from spa.datasets.yaml_loader import _UniqueKeyLoader
+from spa.synthetic.example import EXAMPLE_PARAMS
+from spa.synthetic.runs import identification_runs, modulated_runs, simulate_run
+from spa.synthetic.sensor import Sensor
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "raw" / "example"
+DT = 1e-3
+SENSOR = Sensor(fs=1000.0, noise=0.004, quantum=0.001)
+MODULATORS: list[dict[str, Any]] = [
+    {"type": "pwm", "f_w": 20.0},
+    {"type": "pwm", "f_w": 12.5},
+    {"type": "ipfm", "t_h": 0.02, "gain": 1.2},
+    {"type": "ipfm", "t_h": 0.01},
+    {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
+    {"type": "dsm", "period": 0.005},
+    {"type": "dsm", "period": 0.01},  # around u = 0.5 most highs and lows last one clock
+]
+EXPERIMENTS = {
+    "staircase": {"step": 0.25, "hold": 1.5},
+    # u reaches 0 and 1 mid-run: back-to-back IPFM (IIPFM) pulses merge there
+    "sine": {"frequency": 0.5, "amplitudes": [0.5, 0.3, 0.2], "periods_per_level": 2},
+    "chirp": {"f0": 0.5, "f1": 20.0, "duration": 12.0},
+}
+
+
+def _simulated(spec: Any) -> pd.DataFrame:
+    return simulate_run(spec, EXAMPLE_PARAMS, DT, SENSOR, np.random.default_rng(7))
+
+
+# --------------------------------------------------------------------------- roles
+
+
+def test_roles_of_the_example_columns() -> None:
+    t = np.arange(500.0)
+    g = guess_roles(
+        {
+            "xi_ref": np.repeat([0.0, 0.5, 1.0, 0.5, 0.2], 100),
+            "time_ms": t,
+            "valve_cmd": (t % 7 < 3).astype(float),
+            "P_act_kPa": 50 + 10 * np.sin(t / 30),
+        }
+    )
+    assert {k: v.value for k, v in g.items()} == {
+        "t": "time_ms",
+        "valve": "valve_cmd",
+        "u": "xi_ref",
+        "p": "P_act_kPa",
+    }
+    assert all(v.reason for v in g.values())
+
+
+def test_roles_pressure_in_bar_within_0_1_is_not_taken_for_u() -> None:
+    t = np.linspace(0, 5, 501)
+    g = guess_roles({"t": t, "p_bar": 0.8 * (1 - np.exp(-t)), "valve": np.ones_like(t)})
+    assert g["p"].value == "p_bar" and g["u"].value is None
+    # unnamed: the only column left is the pressure, and the reason says it may be bar
+    g = guess_roles({"a": t, "b": 0.8 * (1 - np.exp(-t))})
+    assert g["p"].value == "b" and "bar" in g["p"].reason and g["u"].value is None
+
+
+def test_roles_names_and_scores_break_ties() -> None:
+    n = np.arange(1000.0)
+    t = n * 1e-3 + 1e-7 * np.sin(n)  # uneven steps lose against the sample index...
+    g = guess_roles({"index": n, "time_s": t, "P1": np.sin(n), "P2": 3 * np.sin(n)})
+    assert g["t"].value == "time_s"  # ...but the name wins
+    assert g["p"].value == "P2" and "largest variance" in g["p"].reason
+    g = guess_roles({"x": np.sin(n)})
+    assert g["t"].value is None and "strictly increasing" in g["t"].reason
+
+
+def test_roles_skip_columns_with_nan() -> None:
+    t = np.arange(10.0)
+    g = guess_roles({"t": t, "p": np.where(t > 5, np.nan, t)})
+    assert g["p"].value is None
+
+
+# --------------------------------------------------------------------------- units
+
+
+@pytest.mark.parametrize(
+    ("step", "unit"),
+    [
+        (1e-3, "s"),  # 1 kHz in s
+        (1.0, "ms"),  # 1 kHz in ms
+        (1e-5, "s"),  # 100 kHz in s
+        (1e-2, "s"),  # 100 Hz in s (or 100 kHz in ms: the rule takes s)
+        (0.1, "ms"),  # 10 kHz in ms
+        (10.0, "ms"),  # 100 Hz in ms
+        (20.0, None),  # 50 Hz in ms or a sample counter: undecided
+        (1e-7, None),
+    ],
+)
+def test_time_unit_from_the_median_step(step: float, unit: str | None) -> None:
+    t = np.arange(200) * step
+    t[50:] += 3 * step  # a gap does not move the median
+    assert guess_time_unit(t).value == unit
+
+
+@pytest.mark.parametrize(
+    ("factor", "unit"),
+    [(1.0, "bar"), (1 / 0.0689475729, "psi"), (100.0, "kPa"), (1000.0, "mbar")],
+)
+def test_pressure_unit_from_4_bar_in_each_unit(factor: float, unit: str) -> None:
+    p = np.linspace(-0.02, 4.0, 1000) * factor
+    g = guess_pressure_unit(p)
+    assert g.value == unit and g.reason
+
+
+def test_pressure_unit_limits_and_a_spike() -> None:
+    assert guess_pressure_unit([0.0, 6.0]).value == "bar"
+    assert guess_pressure_unit([0.0, 6.1]).value == "psi"
+    assert guess_pressure_unit([0.0, 601.0]).value == "mbar"
+    assert guess_pressure_unit([0.0, 6001.0]).value is None
+    p = np.r_[np.linspace(0, 3, 5000), 900.0]  # one glitch above the 99.9th percentile
+    assert guess_pressure_unit(p).value == "bar"
+
+
+# --------------------------------------------------------------------------- kind, modulator
+
+
+def test_kind_of_the_identification_runs() -> None:
+    for spec in identification_runs(EXAMPLE_PARAMS, DT, repeats=1):
+        run = _simulated(spec)
+        g = guess_kind(run["t"], run["p"], run["valve"])
+        assert g.value == spec.kind, g.reason
+        # without the valve column: charge and discharge from the pressure's trend
+        if spec.kind != "pulse":
+            assert guess_kind(run["t"], run["p"]).value == spec.kind
+
+
+@pytest.mark.parametrize("mod", MODULATORS, ids=lambda m: "-".join(map(str, m.values())))
+def test_kind_and_modulator_of_modulated_runs(mod: dict[str, Any]) -> None:
+    for spec in modulated_runs([mod], DT, EXPERIMENTS):
+        run = _simulated(spec)
+        kind = guess_kind(run["t"], run["p"], run["valve"], run["u"])
+        assert kind.value == spec.kind, f"{spec.id}: {kind.reason}"
+        g = guess_modulator(run["t"], run["valve"], run["u"])
+        assert g.value is not None, f"{spec.id}: {g.reason}"
+        assert g.value["type"] == mod["type"], f"{spec.id}: {g.reason}"
+        for key, value in mod.items():
+            if key != "type":
+                assert g.value[key] == pytest.approx(value, rel=0.03), f"{spec.id}: {g.reason}"
+        assert g.value.get("gain", 1.0) == pytest.approx(mod.get("gain", 1.0), rel=0.03)
+
+
+def test_every_configured_modulator_on_short_runs() -> None:
+    """The modulators of config/config.yaml's simulated dataset, each on a staircase, a sine
+    and a chirp (short ones): every kind, type and setting is recognised."""
+    cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    mods = cfg["simulated"]["sim"]["modulators"]
+    wrong = []
+    for spec in modulated_runs(mods, DT, EXPERIMENTS):
+        run = _simulated(spec)
+        kind = guess_kind(run["t"], run["p"], run["valve"], run["u"]).value
+        mod = guess_modulator(run["t"], run["valve"], run["u"]).value
+        want = dict(spec.modulator)
+        if want["type"] in ("ipfm", "iipfm"):
+            want.setdefault("gain", 1.0)
+            if mod is not None:
+                mod.setdefault("gain", 1.0)
+        kind_of = want.pop("type")
+        if kind != spec.kind or mod is None or mod.pop("type") != kind_of:
+            wrong.append((spec.id, kind, mod))
+        elif mod != pytest.approx(want, rel=0.02):
+            wrong.append((spec.id, kind, mod))
+    assert not wrong and len(mods) >= 19
+
+
+def test_modulator_settings_in_s_and_hz_whatever_the_sampling() -> None:
+    t = np.arange(20000) * 1e-4  # 10 kHz
+    xi = np.where(t < 1, 0.3, 0.7)
+    from spa.model.modulators import modulate
+
+    v = modulate("iipfm", xi, 1e-4, t_l=0.0125, gain=1.0)
+    assert guess_modulator(t, v, xi).value == {"type": "iipfm", "t_l": 0.0125}
+
+
+def test_undecidable_input_and_valve() -> None:
+    rng = np.random.default_rng(1)
+    t = np.arange(5000) * DT
+    u = rng.uniform(0, 1, t.size)
+    kind = guess_kind(t, np.zeros_like(t), None, u)
+    assert kind.value is None and kind.reason.startswith("could not tell")
+    v = (rng.uniform(size=t.size) < 0.5).astype(float)
+    mod = guess_modulator(t, v, u)
+    assert mod.value is None and "could not tell" in mod.reason
+    assert guess_modulator(t, np.r_[np.zeros(100), np.ones(4900)], u).value is None
+    flat = guess_kind(t, np.zeros_like(t))
+    assert flat.value is None and "neither rises nor falls" in flat.reason
+
+
+def test_input_with_two_levels_is_not_a_staircase() -> None:
+    t = np.arange(4000) * DT
+    g = guess_kind(t, None, None, np.where(t < 2, 0.2, 0.8))
+    assert g.value is None and "neither a staircase" in g.reason
+
+
+# --------------------------------------------------------------------------- the YAML draft
+
+
+@pytest.mark.parametrize("value", ["1e3", "on", "no", "it's", "a: b", "12", "~", "x # y"])
+def test_scalar_reads_back_as_written(value: str) -> None:
+    assert yaml.load(f"k: {dy._scalar(value)}", Loader=_UniqueKeyLoader) == {"k": value}
+
+
+def test_run_ids_are_safe_and_unique() -> None:
+    files = ["a b.csv", "sub/A b.csv", "y.csv", "c.mat", "sub/c.parquet", "é.csv", "x/.y.csv"]
+    ids = dy._run_ids(files)
+    assert ids == ["a_b", "sub-A_b", "y", "c", "sub-c", "_", "y-2"]
+
+
+def test_options_pass_only_to_readers_that_take_them(monkeypatch, tmp_path: Path) -> None:
+    seen: dict[str, Any] = {}
+
+    class Old:
+        def __init__(self, path: Path) -> None:
+            seen["old"] = path
+
+    class New:
+        def __init__(self, path: Path, options: dict[str, Any] | None = None) -> None:
+            seen["new"] = options
+
+    monkeypatch.setattr(dy, "_SOURCES", {"old": Old, "new": New})
+    dy._open(tmp_path, "old", {"sep": ";"})
+    dy._open(tmp_path, "new", {"sep": ";"})
+    assert seen == {"old": tmp_path, "new": {"sep": ";"}}
+    assert isinstance(dy._detect_options(tmp_path / "nothing.csv"), dict)
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {
+        p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+@pytest.fixture
+def example(tmp_path: Path) -> Path:
+    """A copy of raw/example without its dataset.yaml."""
+    folder = tmp_path / "example"
+    shutil.copytree(EXAMPLE, folder)
+    (folder / "dataset.yaml").unlink()
+    return folder
+
+
+def test_init_drafts_the_example_as_its_author_described_it(example: Path, capsys) -> None:
+    before = _digests(example)
+    assert main(["init", str(example)]) == 0
+    assert "5 run(s), 0 TODO(s)" in capsys.readouterr().out
+    after = _digests(example)
+    assert set(after) - set(before) == {"dataset.yaml"}  # only the draft is written
+    assert {k: after[k] for k in before} == before  # data files untouched
+    draft = yaml.load((example / "dataset.yaml").read_text(), Loader=_UniqueKeyLoader)
+    truth = yaml.safe_load((EXAMPLE / "dataset.yaml").read_text())
+    assert draft["units"] == truth["units"] and draft["columns"] == truth["columns"]
+    got = {r["file"]: (r["id"], r["kind"], r.get("modulator")) for r in draft["runs"]}
+    want = {r["file"]: (r["id"], r["kind"], r.get("modulator")) for r in truth["runs"]}
+    assert got == want
+    assert main(["validate", str(example)]) == 0
+    assert "OK, 5 run(s), 0 warning(s)" in capsys.readouterr().out
+
+
+def test_init_refuses_to_overwrite_without_force(example: Path, capsys) -> None:
+    spec = example / "dataset.yaml"
+    spec.write_text("mine\n")
+    assert main(["init", str(example)]) == 1
+    assert "--force" in capsys.readouterr().out and spec.read_text() == "mine\n"
+    assert main(["init", str(example), "--force"]) == 0
+    assert spec.read_text().startswith("# Draft written by `spa init`")
+
+
+def test_init_refuses_a_folder_without_data(tmp_path: Path, capsys) -> None:
+    (tmp_path / "notes.txt").write_text("x")
+    assert main(["init", str(tmp_path)]) == 1
+    assert "no data file" in capsys.readouterr().out
+    assert main(["init", str(tmp_path / "missing")]) == 1
+    assert not (tmp_path / "dataset.yaml").exists()
+
+
+def test_init_marks_what_it_cannot_tell_and_validate_reports_it(example: Path, capsys) -> None:
+    rng = np.random.default_rng(3)
+    t = np.arange(3000.0)
+    pd.DataFrame(
+        {"time_ms": t, "P_act_kPa": rng.normal(50, 5, t.size), "xi_ref": rng.uniform(size=t.size)}
+    ).to_csv(example / "noise.csv", index=False)
+    (example / "broken.mat").write_bytes(b"not a mat file")
+    (example / "readme.txt").write_text("notes")
+    (example / ".hidden.csv").write_text("t,p\n0,1\n")
+    assert main(["init", str(example)]) == 0
+    assert "7 run(s), 3 TODO(s)" in capsys.readouterr().out
+    text = (example / "dataset.yaml").read_text()
+    assert "Not drafted (unknown file type): readme.txt" in text and ".hidden" not in text
+    assert "kind: TODO  # could not tell: cannot read it" in text
+    assert "kind: TODO  # could not tell: u oscillates with uneven periods" in text
+    assert "modulator: TODO  # could not tell the modulator: no valve column" in text
+    problems, _ = check_dataset(example)
+    todo = [str(p) for p in problems if "TODO" in str(p)]
+    assert len(todo) == 3, todo
+    assert any("run 'noise'" in p and "unknown kind 'TODO'" in p for p in todo)
+    assert any("run 'broken'" in p for p in todo)
+    assert main(["validate", str(example)]) == 1
+
+
+def test_files_with_different_columns_get_per_run_columns(tmp_path: Path) -> None:
+    folder = tmp_path / "mixed"
+    folder.mkdir()
+    t = np.arange(2000) * 1e-3
+    charge = 1.0 - np.exp(-t / 0.3)
+    pd.DataFrame({"time": t, "P": charge, "V": 1}).to_csv(folder / "a.csv", index=False)
+    pd.DataFrame({"zeit": t, "druck": charge[::-1], "V": 0}).to_csv(folder / "b.csv", index=False)
+    text = dy.draft_dataset(folder)
+    doc = yaml.load(text, Loader=_UniqueKeyLoader)
+    assert "columns" not in doc and doc["units"] == {"time": "s", "pressure": "bar"}
+    assert [r["columns"]["t"] for r in doc["runs"]] == ["time", "zeit"]
+    assert [r["kind"] for r in doc["runs"]] == ["charge", "discharge"]
+
+
+def test_detected_file_options_are_written_once_or_per_run(
+    example: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(dy, "_detect_options", lambda path: {"sep": ",", "skip_rows": 0})
+    doc = yaml.load(dy.draft_dataset(example), Loader=_UniqueKeyLoader)
+    assert doc["csv"] == {"sep": ",", "skip_rows": 0}
+    assert all("csv" not in r for r in doc["runs"])
+    monkeypatch.setattr(dy, "_detect_options", lambda path: {"skip_rows": len(path.stem)})
+    doc = yaml.load(dy.draft_dataset(example), Loader=_UniqueKeyLoader)
+    assert "csv" not in doc
+    assert {r["file"]: r.get("csv") for r in doc["runs"]} == {
+        "charge.csv": {"skip_rows": 6},
+        "discharge.csv": {"skip_rows": 9},
+        "pulse.csv": {"skip_rows": 5},
+        "staircase_iipfm-20ms-G1.2.mat": None,
+        "staircase_pwm-20Hz.parquet": None,
+    }
+
+
+def test_data_files_search_sub_folders_and_skip_the_rest(tmp_path: Path) -> None:
+    for rel in ["a.csv", "dataset.yaml", "B.PARQUET", "id/x.mat", "id/deep/y.csv", "notes.md"]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("")
+    for rel in [".git/z.csv", "id/.y.csv", "a/b/c/too_deep.csv"]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("")
+    files, skipped = dy.data_files(tmp_path)
+    assert files == ["B.PARQUET", "a.csv", "id/deep/y.csv", "id/x.mat"]
+    assert skipped == ["notes.md"]
