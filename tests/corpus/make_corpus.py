@@ -324,7 +324,7 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "unreadable_csv_header": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"\xff\xfe\x00t\x00,\n1,2\n"),
-        ["the file looks like UTF-16 text (it holds NUL bytes); save it as UTF-8"],
+        ["are not utf-16 text (truncated data)", "starts with a byte-order mark of that encoding"],
     ),
     "csv_utf16_no_bom": (
         lambda d: _case(d)
