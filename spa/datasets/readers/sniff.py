@@ -178,7 +178,10 @@ def csv_hint(path: Path, options: Mapping[str, Any]) -> str:
     if found["encoding"] not in ("utf-8", "utf-16", "utf-32") and _name(found["encoding"]) != given:
         if not (given != "UTF-8" and found["encoding"] in ("cp1252", "latin-1")):
             change["encoding"] = found["encoding"]
-            said.append(f"not {given}; the bytes fit {found['encoding']}: `csv: {_flow(change)}`")
+            said.append(
+                f"is not {given} (the bytes fit {found['encoding']}): "
+                f"`csv: {_flow({'encoding': found['encoding']})}`"
+            )
     layout = {k: found[k] for k in ("sep", "decimal") if found[k] != options.get(k)}
     if layout:
         change.update(layout)
@@ -190,22 +193,25 @@ def csv_hint(path: Path, options: Mapping[str, Any]) -> str:
     if found["skip_rows"] != options.get("skip_rows", 0):
         change["skip_rows"] = found["skip_rows"]
         said.append(
-            f"line {found['header_line']} looks like the header: "
+            f"has its header on line {found['header_line']}: "
             f"`csv: {_flow({'skip_rows': found['skip_rows']})}`"
         )
     if found["comment"] and found["comment"] != options.get("comment"):
         change["comment"] = found["comment"]
         said.append(
-            f"lines start with {found['comment']!r}: `csv: {_flow({'comment': found['comment']})}`"
+            f"has lines starting with {found['comment']!r}: "
+            f"`csv: {_flow({'comment': found['comment']})}`"
         )
     if found["units_row"] and not options.get("units_row"):
         change["units_row"] = True
         units = ", ".join(u for u in found["units"] if u)
         said.append(
-            f"line {found['header_line'] + 1} holds units ({units}): `csv: {{units_row: true}}`"
+            f"has units on line {found['header_line'] + 1} ({units}): `csv: {{units_row: true}}`"
         )
     if not said:
         return ""
     return (
-        "; the file " + "; ".join(said) + f"; add `csv: {_flow(change)}` to the run or the dataset"
+        "; judging by its content, the file "
+        + "; it ".join(said)
+        + f"; add `csv: {_flow(change)}` to the run or the dataset"
     )
