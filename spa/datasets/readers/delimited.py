@@ -312,7 +312,8 @@ class _CsvSource:
                     self.invalid.append(
                         (number, row.text, row.expected_columns, row.actual_columns)
                     )
-                self.blocks.append((offset + 1, line, table.num_rows == lines, kept))
+                table_rows = table.num_rows
+                self.blocks.append((offset + 1, line, table_rows == lines, kept))
                 values: dict[str, npt.NDArray[np.float64]] = {}
                 bad: dict[str, npt.NDArray[np.bool_]] = {}
                 for name in names:
@@ -321,8 +322,11 @@ class _CsvSource:
                         values[name], bad[name] = _text_to_float(col)
                     else:
                         values[name] = col.to_numpy().astype(np.float64, copy=False)
+                del table
                 yield offset, values, bad
-                offset += table.num_rows
+                offset += table_rows
+                # hand the parser's buffers back now: under load the allocator may keep them
+                pa.default_memory_pool().release_unused()
         except pa.ArrowInvalid as exc:
             if not as_text and "conversion error" in str(exc):
                 raise _Retry from exc

@@ -170,7 +170,7 @@ def csv_hint(path: Path, options: Mapping[str, Any]) -> str:
     options it was read with), and what to write; ``""`` when nothing differs."""
     try:
         found = _sniff(path)
-    except (OSError, IndexError):
+    except Exception:  # a hint is a courtesy: never let it hide the problem it explains
         return ""
     said = []
     change: dict[str, Any] = {}
