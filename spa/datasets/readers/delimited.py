@@ -94,7 +94,12 @@ class _CsvSource:
                 "line ends, e.g. `tr '\\r' '\\n' < in.csv > out.csv`"
             )
         comment = self.options["comment"]
-        self.comment = None if comment is None else comment.encode(self.work)
+        try:
+            self.comment = None if comment is None else comment.encode(self.work)
+        except UnicodeEncodeError:
+            raise _ReadError(
+                f"csv: comment {comment!r} cannot be written in {self.codec}; use ASCII"
+            ) from None
         self.comment_utf8 = None if comment is None else comment.encode("utf-8")
         self.skipped: list[str] = []
         self.units: list[str] = []
