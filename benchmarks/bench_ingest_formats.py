@@ -151,30 +151,44 @@ def run(name: str, fmt: Format, work: Path, rows: int, rate: float) -> dict[str,
         assert np.array_equal(t, np.arange(start, start + len(t)) / rate), start
         start += len(t)
     assert start == rows, (start, rows)
-    return {"size_gb": size / 1e9, "gen_s": t_gen, "wall_s": float(wall), "cpu_s": float(cpu),
-            "process_s": total,
-            "peak_mib": int(peak_kib) / 1024}
+    return {
+        "size_gb": size / 1e9,
+        "gen_s": t_gen,
+        "wall_s": float(wall),
+        "cpu_s": float(cpu),
+        "process_s": total,
+        "peak_mib": int(peak_kib) / 1024,
+    }
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hours", type=float, default=1.0)
     parser.add_argument("--rate", type=float, default=10_000.0, help="sample rate, Hz")
-    parser.add_argument("--only", action="append", choices=list(FORMATS),
-                        help="benchmark only this format (repeatable)")
+    parser.add_argument(
+        "--only",
+        action="append",
+        choices=list(FORMATS),
+        help="benchmark only this format (repeatable)",
+    )
     args = parser.parse_args()
     rows = round(args.hours * 3600 * args.rate)
-    print(f"rows: {rows:,} ({args.hours:g} h at {args.rate:g} Hz); python "
-          f"{platform.python_version()}, numpy {np.__version__}, pyarrow {pa.__version__}, "
-          f"{platform.machine()}")
+    print(
+        f"rows: {rows:,} ({args.hours:g} h at {args.rate:g} Hz); python "
+        f"{platform.python_version()}, numpy {np.__version__}, pyarrow {pa.__version__}, "
+        f"{platform.machine()}"
+    )
     print("| format | file | ingest wall | ingest CPU | whole process | peak RSS | rows/s |")
     print("|---|---:|---:|---:|---:|---:|---:|")
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.only or list(FORMATS):
             r = run(name, FORMATS[name], Path(tmp), rows, args.rate)
-            print(f"| {name} | {r['size_gb']:.2f} GB | {r['wall_s']:.1f} s | {r['cpu_s']:.1f} s | "
-                  f"{r['process_s']:.1f} s | {r['peak_mib']:.0f} MiB | "
-                  f"{rows / r['wall_s'] / 1e6:.2f} M |", flush=True)
+            print(
+                f"| {name} | {r['size_gb']:.2f} GB | {r['wall_s']:.1f} s | {r['cpu_s']:.1f} s | "
+                f"{r['process_s']:.1f} s | {r['peak_mib']:.0f} MiB | "
+                f"{rows / r['wall_s'] / 1e6:.2f} M |",
+                flush=True,
+            )
     return 0
 
 
