@@ -19,6 +19,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -48,29 +49,37 @@ runs:
 """
 
 
+def signal_chunks(
+    rows: int, rate: float
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """The recording, ``CHUNK`` rows at a time: sample index, pressure in kPa (2 decimals),
+    valve command and input fraction of a 20 Hz PWM staircase (5 s per level)."""
+    rng = np.random.default_rng(20251128)
+    hold = int(5 * rate)  # 5 s per level of the staircase
+    period = int(rate / 20)  # 20 Hz PWM
+    p = 0.0
+    for start in range(0, rows, CHUNK):
+        k = np.arange(start, min(start + CHUNK, rows))
+        xi = np.minimum(((k // hold) % 11) * 0.1, 1.0).round(1)
+        valve = ((k % period) < xi * period).astype(np.int8)
+        # first-order pressure response to the valve, 80 kPa supply, tau = 0.8 s
+        alpha = 1.0 - np.exp(-1.0 / (0.8 * rate))
+        target = 80.0 * valve
+        # p[i] = p[i-1] + alpha*(target[i] - p[i-1]), carried across chunks
+        resp, _ = lfilter([alpha], [1.0, alpha - 1.0], target, zi=[p * (1.0 - alpha)])
+        p = float(resp[-1])
+        yield k, np.round(resp + rng.normal(0.0, 0.2, k.size), 2), valve, xi
+
+
 def generate(folder: Path, rows: int, rate: float) -> int:
     """Write ``dataset.yaml`` and the CSV, ``CHUNK`` rows at a time; return the CSV's size."""
     folder.mkdir(parents=True)
     (folder / "dataset.yaml").write_text(SPEC.format(rate=rate))
     path = folder / "staircase_long.csv"
-    rng = np.random.default_rng(20251128)
-    hold = int(5 * rate)  # 5 s per level of the staircase
-    period = int(rate / 20)  # 20 Hz PWM
-    p = 0.0
     with path.open("wb") as fh:
         fh.write(b"time_ms,P_kPa,valve_cmd,xi\n")
         options = pacsv.WriteOptions(include_header=False)
-        for start in range(0, rows, CHUNK):
-            k = np.arange(start, min(start + CHUNK, rows))
-            xi = np.minimum(((k // hold) % 11) * 0.1, 1.0).round(1)
-            valve = ((k % period) < xi * period).astype(np.int8)
-            # first-order pressure response to the valve, 80 kPa supply, tau = 0.8 s
-            alpha = 1.0 - np.exp(-1.0 / (0.8 * rate))
-            target = 80.0 * valve
-            # p[i] = p[i-1] + alpha*(target[i] - p[i-1]), carried across chunks
-            resp, _ = lfilter([alpha], [1.0, alpha - 1.0], target, zi=[p * (1.0 - alpha)])
-            p = float(resp[-1])
-            noisy = np.round(resp + rng.normal(0.0, 0.2, k.size), 2)
+        for k, noisy, valve, xi in signal_chunks(rows, rate):
             table = pa.table({"time_ms": k * (1000.0 / rate), "P_kPa": noisy,
                               "valve_cmd": valve, "xi": xi})
             pacsv.write_csv(table, fh, write_options=options)

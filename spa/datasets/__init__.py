@@ -12,13 +12,16 @@ metadata key ``b"spa"``.
 
 The folder follows the stages of that work: ``contract`` (the vocabulary: kinds, columns,
 units), ``problems`` (what is wrong, with suggestions), ``spec`` (``dataset.yaml``),
-``readers`` (one module per file family behind one dispatcher by file ending), ``checks``
+``options`` (``columns:``, ``units:`` and ``csv:``, which a run may override key by key),
+``readers`` (one module per file family behind one dispatcher by file ending, and ``sniff``,
+which guesses how a delimited file is written, for messages), ``checks``
 (the data of one run, chunk by chunk), ``runtable`` (the canonical Parquet table) and
 ``ingest`` (validate and convert a whole folder).
 
-Recordings are read in chunks (CSV in line-aligned blocks parsed by ``pyarrow.csv``, Parquet
-by record batches), checked chunk by chunk (carrying the last time stamp across chunks) and
-written batch by batch, so the memory needed does not grow with the length of a recording.
+Recordings are read in chunks (delimited text in line-aligned blocks, normalised as its
+``csv:`` options say and parsed by ``pyarrow.csv``; Parquet by record batches), checked
+chunk by chunk (carrying the last time stamp across chunks) and written batch by batch, so
+the memory needed does not grow with the length of a recording.
 MATLAB files are loaded whole by ``scipy.io.loadmat``.
 """
 

@@ -74,16 +74,24 @@ RUN_TABLE_FORMAT = "spa.run/1"
 _DIVISORS = {"ms": 1000.0, "mbar": 1000.0, "kPa": 100.0}
 
 
-_FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
+# File ending -> reader (``spa.datasets.readers._SOURCES``); delimited text is "csv".
+_FORMATS = {
+    ".csv": "csv",
+    ".parquet": "parquet",
+    ".mat": "mat",
+    ".txt": "csv",
+    ".tsv": "csv",
+    ".dat": "csv",
+}
 
 
-_TOP_KEYS = ("name", "description", "origin", "rig", "units", "columns", "runs")
+_TOP_KEYS = ("name", "description", "origin", "rig", "units", "columns", "csv", "runs")
 
 
 _REQUIRED_TOP = ("name", "description", "origin", "rig", "runs")
 
 
-_RUN_KEYS = ("id", "kind", "file", "modulator", "notes")
+_RUN_KEYS = ("id", "kind", "file", "modulator", "notes", "columns", "units", "csv")
 
 
 _UNIT_KEYS = ("time", "pressure")

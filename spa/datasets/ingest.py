@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 from dataclasses import replace
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 from spa.datasets.checks import RunSummary, _RunCheck
 from spa.datasets.contract import (
@@ -18,13 +19,38 @@ from spa.datasets.contract import (
     RUN_TABLE_FORMAT,
     SPEC_FILE,
 )
+from spa.datasets.options import csv_options
 from spa.datasets.problems import DatasetError, Problem, _one_of, _suggest
 from spa.datasets.readers import _SOURCES
 from spa.datasets.readers.base import _ReadError, _Retry
+from spa.datasets.readers.sniff import csv_hint
 from spa.datasets.runtable import _meta_bytes, _RunWriter, _sha256
 from spa.datasets.spec import RunEntry, _parse_spec, _Parsed
 
 # --------------------------------------------------------------------------- scanning
+
+
+class _Hint:
+    """The sniffed layout of a delimited file where it differs from its options, told once
+    per run (computed on first use): ``""`` for other formats or when nothing differs."""
+
+    def __init__(self, path: Path, options: dict[str, Any] | None) -> None:
+        self.path = path
+        self.options = options
+        self.given = False
+
+    def __call__(self) -> str:
+        if self.options is None or self.given:
+            return ""
+        self.given = True
+        return csv_hint(self.path, self.options)
+
+
+def _reading(problem: Problem) -> bool:
+    """True for the errors that reading with wrong ``csv:`` options gives."""
+    return problem.is_error and problem.message.startswith(
+        ("non-numeric value", "malformed line", "cannot parse", "line ")
+    )
 
 
 def _scan_run(
@@ -33,7 +59,8 @@ def _scan_run(
     """Check one run's file; with ``out``, also write its run table there (if clean)."""
     path = parsed.folder / run.file
     fmt = _FORMATS[PurePosixPath(run.file).suffix.lower()]
-    what = {"csv": "column", "parquet": "column", "mat": "MATLAB variable"}[fmt]
+    what = {"mat": "MATLAB variable"}.get(fmt, "column")
+    hint = _Hint(path, run.csv if fmt == "csv" else None)
 
     def problem(
         message: str,
@@ -47,21 +74,21 @@ def _scan_run(
     if path.stat().st_size == 0:
         return [problem("file is empty (0 bytes)")], None
     try:
-        source = _SOURCES[fmt](path)
+        source = _SOURCES[fmt](path, run.csv)
     except _ReadError as exc:
-        return [problem(str(exc), exc.column, exc.row)], None
+        return [problem(f"{exc}{hint()}", exc.column, exc.row)], None
 
     problems: list[Problem] = []
     present: dict[str, str] = {}
     for canon in CANONICAL_COLUMNS:
-        name = parsed.columns[canon]
+        name = run.columns[canon]
         if name in source.columns:
             if source.columns.count(name) > 1:
                 problems.append(problem(f"{what} {name!r} appears more than once", name))
             present[canon] = name
             continue
         mapped = "" if name == canon else f" (mapped from {canon!r} under columns:)"
-        hint = (
+        hint_names = (
             f"; the file has {_one_of(repr(c) for c in source.columns)}"
             f"{_suggest(name, source.columns)}; map names under columns: in {SPEC_FILE}"
         )
@@ -69,7 +96,7 @@ def _scan_run(
             problems.append(
                 problem(
                     f"missing {what} {name!r}{mapped}: a {run.kind} run needs "
-                    f"{_QUANTITY[canon]} ({canon}){hint}",
+                    f"{_QUANTITY[canon]} ({canon}){hint_names}{hint()}",
                     name,
                 )
             )
@@ -93,32 +120,33 @@ def _scan_run(
 
     meta = None
     if out is not None:
-        meta = _meta_bytes(
-            {
-                "format": RUN_TABLE_FORMAT,
-                "dataset": parsed.name,
-                "description": parsed.description,
-                "origin": parsed.origin,
-                "rig": parsed.rig,
-                "run": run.id,
-                "kind": run.kind,
-                "modulator": run.modulator,
-                "notes": run.notes,
-                "source": {
-                    "file": run.file,
-                    "sha256": _sha256(path),
-                    "format": fmt,
-                    "columns": present,
-                },
-                "units": {"time": parsed.time_unit, "pressure": parsed.pressure_unit},
-            }
-        )
+        info = {
+            "format": RUN_TABLE_FORMAT,
+            "dataset": parsed.name,
+            "description": parsed.description,
+            "origin": parsed.origin,
+            "rig": parsed.rig,
+            "run": run.id,
+            "kind": run.kind,
+            "modulator": run.modulator,
+            "notes": run.notes,
+            "source": {
+                "file": run.file,
+                "sha256": _sha256(path),
+                "format": fmt,
+                "columns": present,
+            },
+            "units": dict(run.units),
+        }
+        if fmt == "csv" and run.csv != csv_options({}, path.suffix):
+            info["source"]["csv"] = run.csv  # how the text was read, when not the default
+        meta = _meta_bytes(info)
     rename = {v: k for k, v in present.items()}
-    check = _RunCheck(present, parsed.time_unit, parsed.pressure_unit)
+    check = _RunCheck(present, run.time_unit, run.pressure_unit)
 
     def scan(as_text: bool) -> _RunCheck:
         nonlocal check
-        check = _RunCheck(present, parsed.time_unit, parsed.pressure_unit)
+        check = _RunCheck(present, run.time_unit, run.pressure_unit)
         writer = None
         if out is not None:
             writer = _RunWriter(out, tuple(present), meta or b"")
@@ -159,12 +187,14 @@ def _scan_run(
         problems.append(problem(f"cannot read the file: {type(exc).__name__}: {exc}"))
 
     invalid = getattr(source, "invalid", [])
+    sep = {",": "comma", "\t": "tab", " ": "blank", ";": "semicolon"}
+    sep_name = sep.get(getattr(source, "sep", ","), repr(getattr(source, "sep", ",")))
     for line, text, expected, actual in invalid[:_MAX_ROWS_LISTED]:
         more = f" ({len(invalid)} such lines in all)" if len(invalid) > 1 else ""
         problems.append(
             problem(
-                f"malformed line: expected {expected} comma-separated fields, got {actual}: "
-                f"{text[:80]!r} (truncated file? ';' separators or decimal commas?){more}",
+                f"malformed line: expected {expected} {sep_name}-separated fields, got {actual}: "
+                f"{text[:80]!r} (truncated file? other separators or decimal commas?){more}",
                 line=line,
             )
         )
@@ -173,6 +203,9 @@ def _scan_run(
     if line_of is not None:
         found = [replace(p, line=line_of(p.row)) for p in found]
     problems += found
+    first = next((i for i, p in enumerate(problems) if _reading(p)), None)
+    if first is not None and not hint.given:
+        problems[first] = replace(problems[first], message=problems[first].message + hint())
     if any(p.is_error for p in problems):
         if out is not None:
             out.unlink(missing_ok=True)

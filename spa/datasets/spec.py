@@ -17,15 +17,13 @@ from spa.datasets.contract import (
     _REQUIRED_TOP,
     _RUN_KEYS,
     _TOP_KEYS,
-    _UNIT_KEYS,
     CANONICAL_COLUMNS,
     KINDS,
     MODULATED_KINDS,
     ORIGINS,
-    PRESSURE_UNITS,
     SPEC_FILE,
-    TIME_UNITS,
 )
+from spa.datasets.options import check_columns, check_csv, check_units, csv_options
 from spa.datasets.problems import DatasetError, Problem, _is_one_of, _one_of, _suggest, _unknown_key
 from spa.datasets.yaml_loader import (
     MAX_SPEC_BYTES,
@@ -55,6 +53,16 @@ class RunEntry:
         :func:`spa.model.modulators.check_settings`), or None.
     notes : str or None
         Free text.
+    columns : dict
+        Column name in the run's file for each canonical name: the dataset's ``columns:``
+        overridden key by key by the run's.
+    units : dict
+        ``{"time": unit, "pressure": unit}`` of the run's file: the dataset's ``units:``
+        overridden key by key by the run's.
+    csv : dict
+        How to read the run's file when it is delimited text: every key of
+        :data:`spa.datasets.options.CSV_DEFAULTS`, from the defaults (of its file ending),
+        the dataset's ``csv:`` and the run's; empty for other formats.
     """
 
     id: str
@@ -62,6 +70,19 @@ class RunEntry:
     file: str
     modulator: dict[str, Any] | None = None
     notes: str | None = None
+    columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
+    units: dict[str, str] = field(default_factory=lambda: {"time": "s", "pressure": "bar"})
+    csv: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def time_unit(self) -> str:
+        """Unit of time in the run's file."""
+        return self.units["time"]
+
+    @property
+    def pressure_unit(self) -> str:
+        """Unit of pressure in the run's file."""
+        return self.units["pressure"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +100,10 @@ class DatasetSpec:
     time_unit, pressure_unit : str
         Units of the files (keys of :data:`TIME_UNITS` and :data:`PRESSURE_UNITS`).
     columns : dict
-        Column name in the files for each canonical name in :data:`CANONICAL_COLUMNS`.
+        Column name in the files for each canonical name in :data:`CANONICAL_COLUMNS` (a run
+        may override it: see :attr:`RunEntry.columns`).
+    csv : dict
+        The dataset's ``csv:`` options, as written (runs hold the resolved ones).
     runs : tuple of RunEntry
         The runs, in file order.
     """
@@ -93,6 +117,7 @@ class DatasetSpec:
     pressure_unit: str
     columns: dict[str, str]
     runs: tuple[RunEntry, ...]
+    csv: dict[str, Any] = field(default_factory=dict)
 
     def run_path(self, run: RunEntry | str) -> Path:
         """Absolute path of a run's file."""
@@ -125,6 +150,7 @@ class _Parsed:
     time_unit: str = "s"
     pressure_unit: str = "bar"
     columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
+    csv: dict[str, Any] = field(default_factory=dict)
     runs: list[RunEntry] = field(default_factory=list)
     data_ok: bool = True  # units and columns are usable for checking the data
 
@@ -307,80 +333,24 @@ def _parse_spec(folder: Path) -> _Parsed:
         else:
             parsed.rig = _plain(rig)
 
-    _parse_units(parsed, doc.get("units"))
-    _parse_columns(parsed, doc.get("columns"))
+    _parse_options(parsed, doc)
     if "runs" in doc:
         _parse_runs(parsed, doc["runs"])
     return parsed
 
 
-def _parse_units(parsed: _Parsed, units: Any) -> None:
-    if units is None:
-        return
-    if not isinstance(units, Mapping):
-        parsed.error(
-            f"units must be a mapping like {{time: ms, pressure: kPa}}, got {units!r}", key="units"
-        )
-        parsed.data_ok = False
-        return
-    for key in units:
-        if key not in _UNIT_KEYS:
-            parsed.error(
-                _unknown_key(key, _UNIT_KEYS),
-                key=f"units.{key}",
-            )
-            parsed.data_ok = False
-    for key, table in (("time", TIME_UNITS), ("pressure", PRESSURE_UNITS)):
-        if key not in units:
-            continue
-        value = units[key]
-        if not _is_one_of(value, table):
-            parsed.error(
-                f"{key} unit {value!r} is not one of {_one_of(table)}{_suggest(value, table)}",
-                key=f"units.{key}",
-            )
-            parsed.data_ok = False
-        elif key == "time":
-            parsed.time_unit = value
-        else:
-            parsed.pressure_unit = value
-
-
-def _parse_columns(parsed: _Parsed, columns: Any) -> None:
-    if columns is None:
-        return
-    if not isinstance(columns, Mapping):
-        parsed.error(
-            f"columns must map canonical names ({_one_of(CANONICAL_COLUMNS)}) to the names in "
-            f"the files, e.g. {{t: time_ms, p: P_kPa}}; got {columns!r}",
-            key="columns",
-        )
-        parsed.data_ok = False
-        return
-    for key, value in columns.items():
-        if key not in CANONICAL_COLUMNS:
-            parsed.error(
-                f"unknown canonical column {key!r}{_suggest(key, CANONICAL_COLUMNS)}; "
-                f"allowed: {_one_of(CANONICAL_COLUMNS)}",
-                key=f"columns.{key}",
-            )
-            parsed.data_ok = False
-        elif not isinstance(value, str) or not value:
-            parsed.error(
-                f"column name for {key!r} must be a non-empty string, got {value!r}",
-                key=f"columns.{key}",
-            )
-            parsed.data_ok = False
-        else:
-            parsed.columns[key] = value
-    names = list(parsed.columns.values())
-    for dup in sorted({n for n in names if names.count(n) > 1}):
-        which = [c for c, n in parsed.columns.items() if n == dup]
-        parsed.error(
-            f"file column {dup!r} is used for several canonical columns {which} (a canonical "
-            "name not mapped under columns: stands for itself)",
-            key="columns",
-        )
+def _parse_options(parsed: _Parsed, doc: Mapping[str, Any]) -> None:
+    """The dataset-level ``units:``, ``columns:`` and ``csv:``, which runs inherit."""
+    units, found = check_units(
+        doc.get("units"), {"time": parsed.time_unit, "pressure": parsed.pressure_unit}, "units"
+    )
+    parsed.time_unit, parsed.pressure_unit = units["time"], units["pressure"]
+    columns, more = check_columns(doc.get("columns"), parsed.columns, "columns")
+    parsed.columns = columns
+    parsed.csv, csv_found = check_csv(doc.get("csv"), {}, "csv")
+    for key, message in found + more + csv_found:
+        parsed.error(message, key=key)
+    if found or more or csv_found:
         parsed.data_ok = False
 
 
@@ -457,8 +427,20 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
             rel, message = _check_run_file(parsed.folder, entry["file"])
             if message:
                 err(message, "file")
+        columns, found = check_columns(entry.get("columns"), parsed.columns, f"{key}.columns")
+        units, more = check_units(
+            entry.get("units"),
+            {"time": parsed.time_unit, "pressure": parsed.pressure_unit},
+            f"{key}.units",
+        )
+        options, csv_found = check_csv(entry.get("csv"), parsed.csv, f"{key}.csv")
+        for where, message in found + more + csv_found:
+            parsed.error(message, key=where, run=label)
         if len(parsed.problems) == before and rel is not None:
-            parsed.runs.append(RunEntry(rid, kind, rel, modulator, notes))
+            suffix = PurePosixPath(rel).suffix.lower()
+            delimited = _FORMATS[suffix] == "csv"
+            options = csv_options(options, suffix) if delimited else {}
+            parsed.runs.append(RunEntry(rid, kind, rel, modulator, notes, columns, units, options))
 
 
 def find_datasets(raw_dir: str | Path) -> list[str]:
@@ -516,4 +498,5 @@ def _spec_from(parsed: _Parsed) -> DatasetSpec:
         pressure_unit=parsed.pressure_unit,
         columns=dict(parsed.columns),
         runs=tuple(parsed.runs),
+        csv=dict(parsed.csv),
     )

@@ -192,6 +192,100 @@ def _v73(folder: Path) -> None:
     (folder / "m1.mat").write_bytes(bytes(header) + b"\x89HDF\r\n\x1a\n" + b"\x00" * 64)
 
 
+def _numbers(df: pd.DataFrame, sep: str = ",", decimal: str = ".") -> list[str]:
+    """Rows of ``df`` as text, each number as its shortest repr (``decimal`` as its mark)."""
+    cells = df.map(lambda v: repr(float(v)) if isinstance(v, float) else str(v))
+    if decimal != ".":
+        cells = cells.map(lambda v: v.replace(".", decimal))
+    return [sep.join(row) for row in cells.itertuples(index=False)]
+
+
+EU_PREAMBLE = ["Prüfstand: Ventil 3/2, Aktor PneuNet", "Datum: 23.11.2026", "Raumtemperatur: 21 °C"]
+EU_CSV = {"sep": ";", "decimal": ",", "encoding": "cp1252", "skip_rows": 3, "units_row": True}
+EU_COLUMNS = {"t": "Zeit", "p": "Druck", "valve": "Ventil"}
+EU_RUN = {"id": "pulse_eu", "kind": "pulse", "file": "pulse_eu.csv"}
+
+
+def _eu_frame(n: int = 400) -> pd.DataFrame:
+    df = _frame(n)
+    return df.assign(oil=np.round(21.0 + 0.01 * np.arange(n), 2))
+
+
+def _eu_file(folder: Path, name: str, df: pd.DataFrame) -> None:
+    """A European spreadsheet export: cp1252, 3 lines of metadata, a units row, ';' and ','."""
+    lines = [*EU_PREAMBLE, "Zeit;Druck;Ventil;Öltemperatur", "s;bar;-;°C"]
+    text = "\r\n".join([*lines, *_numbers(df, ";", ",")]) + "\r\n"
+    (folder / name).write_bytes(text.encode("cp1252"))
+
+
+def _european(folder: Path) -> None:
+    """The same pulse as a European CSV and as a plain CSV (the run overrides csv:, columns:)."""
+    df = _eu_frame()
+    plain = {"id": "pulse_plain", "kind": "pulse", "file": "pulse_plain.csv",
+             "columns": {"t": "t", "p": "p", "valve": "valve"},
+             "csv": {"sep": ",", "decimal": ".", "encoding": "utf-8", "skip_rows": 0,
+                     "units_row": False}}
+    _write_yaml(folder, _spec(folder.name, [EU_RUN, plain], columns=EU_COLUMNS, csv=EU_CSV))
+    _eu_file(folder, "pulse_eu.csv", df)
+    text = "\n".join(["t,p,valve,oil", *_numbers(df)]) + "\n"
+    (folder / "pulse_plain.csv").write_text(text)
+
+
+def _commented_tsv(folder: Path) -> None:
+    """Tab-separated (the default of .tsv) with '#' comment lines above and among the data."""
+    run = {"id": "charge_tsv", "kind": "charge", "file": "charge.tsv"}
+    _write_yaml(folder, _spec(folder.name, [run], csv={"comment": "#"}))
+    rows = _numbers(_frame(400), "\t")
+    rows.insert(200, "# valve re-seated here, recording went on")
+    text = "\n".join(["# logger v2.1", "# 1 kHz", "t\tp\tvalve", *rows, "# end"]) + "\n"
+    (folder / "charge.tsv").write_text(text)
+
+
+def _whitespace_txt(folder: Path) -> None:
+    """Columns aligned by runs of spaces (and a tab), as a fixed-width text export."""
+    run = {"id": "discharge_txt", "kind": "discharge", "file": "discharge.txt"}
+    _write_yaml(folder, _spec(folder.name, [run], csv={"sep": "whitespace"}))
+    df = _frame(400).assign(p=lambda d: d["p"].to_numpy()[::-1])
+    rows = [" ".join(f"{c:>12}" for c in row.split(",")) for row in _numbers(df)]
+    rows[7] = rows[7].replace(" ", "\t", 3)
+    text = "\n".join([f"{'t':>12} {'p':>12} {'valve':>12}", *rows]) + "\n"
+    (folder / "discharge.txt").write_text(text)
+
+
+def _per_run(folder: Path) -> None:
+    """Runs whose files name columns and units differently (run-level columns:, units:)."""
+    df = _frame(400, u=True)
+    runs = [
+        {"id": "stair_ms", "kind": "staircase", "file": "stair_ms.csv",
+         "modulator": {"type": "pwm", "f_w": 20}},
+        {"id": "stair_s", "kind": "staircase", "file": "stair_s.csv",
+         "modulator": {"type": "pwm", "f_w": 20},
+         "columns": {"t": "time", "p": "pressure", "u": "duty"},
+         "units": {"time": "s", "pressure": "bar"}},
+    ]
+    _write_yaml(folder, _spec(folder.name, runs, units={"time": "ms", "pressure": "kPa"},
+                              columns={"t": "t_ms", "p": "p_kPa"}))
+    ms = df.assign(t=np.round(df["t"] * 1000, 6), p=np.round(df["p"] * 100, 6))
+    _csv(folder, "stair_ms.csv", ms.rename(columns={"t": "t_ms", "p": "p_kPa"}))
+    _csv(folder, "stair_s.csv", df.rename(columns={"t": "time", "p": "pressure", "u": "duty"}))
+
+
+def _eu_case(folder: Path, csv: dict[str, Any] | None) -> None:
+    extra = {"csv": csv} if csv is not None else {}
+    _write_yaml(folder, _spec(folder.name, [EU_RUN], columns=EU_COLUMNS, **extra))
+    _eu_file(folder, "pulse_eu.csv", _eu_frame(40))
+
+
+def _preamble(folder: Path, units_row: bool = False) -> None:
+    _case(folder, runs=[CHARGE])
+    lines = ["t,p,valve", *_numbers(_frame())]
+    if units_row:
+        lines.insert(1, "s,bar,-")
+    else:
+        lines[:0] = ["Operator: A. Smith", "Sensor: 0-2 bar, serial 1234"]
+    (folder / "charge1.csv").write_text("\n".join(lines) + "\n")
+
+
 F = _frame()
 FU = _frame(u=True)
 T = np.arange(N) * 0.001
@@ -324,7 +418,7 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "unreadable_csv_header": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"\xff\xfe\x00t\x00,\n1,2\n"),
-        ["the file looks like UTF-16 text (it holds NUL bytes); save it as UTF-8"],
+        ["are not utf-16 text (truncated data)", "starts with a byte-order mark of that encoding"],
     ),
     "csv_utf16_no_bom": (
         lambda d: _case(d)
@@ -459,7 +553,58 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
 }
 
-GOOD: dict[str, Callable[[Path], None]] = {"spa_good": _good}
+BAD.update({
+    "european_no_options": (
+        lambda d: _eu_case(d, None),
+        ["it looks `;`-separated with `,` as decimal mark: `csv: {sep: ';', decimal: ','}`",
+         "the file is not UTF-8 (the bytes fit cp1252): `csv: {encoding: cp1252}`",
+         "it has its header on line 4: `csv: {skip_rows: 3}`",
+         "it has units on line 5 (s, bar, -, °C): `csv: {units_row: true}`",
+         "add `csv: {encoding: cp1252, sep: ';', decimal: ',', skip_rows: 3, units_row: true}` "
+         "to the run or the dataset"],
+    ),
+    "european_no_encoding": (
+        lambda d: _eu_case(d, {k: v for k, v in EU_CSV.items() if k != "encoding"}),
+        ["line 4 (the header) is not UTF-8 text (byte 0xd6)",
+         "the file is not UTF-8 (the bytes fit cp1252): `csv: {encoding: cp1252}`"],
+    ),
+    "preamble_no_skip_rows": (
+        _preamble,
+        ["missing column 't'", "the file has its header on line 3: `csv: {skip_rows: 2}`"],
+    ),
+    "units_row_missing": (
+        lambda d: _preamble(d, units_row=True),
+        ["row 1 (line 2)]: non-numeric value",
+         "has units on line 2 (s, bar, -): `csv: {units_row: true}`"],
+    ),
+    "bad_csv_options": (
+        lambda d: _case(d, runs=[{**CHARGE, "csv": {"decimal": ",", "sep": ","}}],
+                        csv={"sep": "::", "decimal": ";", "encoding": "utf-9", "skip_rows": -1,
+                             "comment": "", "units_row": "yes", "delim": ","}),
+        ["csv.sep: sep '::' is not one character, '\\t' or whitespace",
+         "csv.decimal: decimal ';' is not '.' or ','",
+         "csv.encoding: unknown encoding 'utf-9'",
+         "csv.skip_rows: skip_rows -1 is not an integer >= 0",
+         "csv.comment: comment '' is not a non-empty prefix",
+         "csv.units_row: units_row 'yes' is not true or false",
+         "csv.delim: unknown key 'delim'",
+         "runs[0].csv.decimal [run 'charge1']: decimal ',' needs a sep other than ','"],
+    ),
+    "bad_run_columns_units": (
+        lambda d: _case(d, runs=[{**CHARGE, "columns": {"valv": "V"},
+                                  "units": {"time": "sec"}}]),
+        ["runs[0].columns.valv [run 'charge1']: unknown canonical column 'valv'",
+         "runs[0].units.time [run 'charge1']: time unit 'sec' is not one of s, ms"],
+    ),
+})
+
+GOOD: dict[str, Callable[[Path], None]] = {
+    "spa_good": _good,
+    "european_csv": _european,
+    "commented_tsv": _commented_tsv,
+    "whitespace_txt": _whitespace_txt,
+    "per_run_units": _per_run,
+}
 
 
 def build(root: Path = HERE) -> None:

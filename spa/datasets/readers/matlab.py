@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -14,7 +15,8 @@ from spa.datasets.readers.base import _Chunk, _ReadError
 class _MatSource:
     """A MATLAB v4/v5/v7 ``.mat`` file holding one vector variable per column."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, options: Mapping[str, Any] | None = None) -> None:
+        del options  # nothing to choose: the file says how it is written
         import scipy.io
 
         self.path = path

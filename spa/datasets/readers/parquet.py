@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -24,7 +25,8 @@ def _beyond_float(col: pa.Array) -> bool:
 class _ParquetSource:
     """A Parquet file, read by record batches."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, options: Mapping[str, Any] | None = None) -> None:
+        del options  # nothing to choose: the file says how it is written
         self.path = path
         try:
             self.file = pq.ParquetFile(path)
