@@ -74,7 +74,13 @@ RUN_TABLE_FORMAT = "spa.run/1"
 _DIVISORS = {"ms": 1000.0, "mbar": 1000.0, "kPa": 100.0}
 
 
-_FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
+_FORMATS = {
+    ".csv": "csv",
+    ".parquet": "parquet",
+    ".mat": "mat",
+    ".lvm": "lvm",
+    ".tdms": "tdms",
+}
 
 
 _TOP_KEYS = ("name", "description", "origin", "rig", "units", "columns", "runs")
