@@ -266,3 +266,20 @@ def test_good_bench_corpus_passes_with_the_same_values_in_every_format(tmp_path:
     assert tables[0]["p"].max() == pytest.approx(
         8 * (1 - np.exp(-0.299 / 0.08)) * 0.0689475729, abs=1e-6
     )
+
+
+def test_v73_links_to_other_files_are_refused(tmp_path: Path) -> None:
+    folder = _folder(tmp_path, "links")
+    outside = tmp_path / "outside.h5"
+    with h5py.File(outside, "w") as f:
+        f["p"] = np.ones(5)
+    d = _data(5, 5)
+    write_mat73(folder / "r.mat", {"t": d["t"]})
+    with h5py.File(folder / "r.mat", "a") as f:
+        f["p"] = h5py.ExternalLink(str(outside), "p")
+    write_mat73(folder / "e.mat", {"t": d["t"]})
+    with h5py.File(folder / "e.mat", "a") as f:
+        f.create_dataset("p", shape=(1, 5), dtype="f8", external=[(str(outside), 0, 40)])
+    text = _problems(folder, [_run("r", "r.mat", "charge"), _run("e", "e.mat", "charge")])
+    assert "r.mat [run 'r']: /p is a link, not data" in text
+    assert "e.mat [run 'e']: /p keeps its data in other files" in text

@@ -30,12 +30,37 @@ def _reader(ds: Any) -> Any:
     return lambda a, b: np.asarray(ds[a:b], dtype=np.float64)
 
 
+def _member(group: Any, key: str) -> Any:
+    """``group[key]``, refusing soft and external links (MATLAB writes neither), so nothing
+    outside the file is ever opened."""
+    import h5py
+
+    if not isinstance(group.get(key, getlink=True), h5py.HardLink):
+        raise _ReadError(
+            f"{group.name.rstrip('/')}/{key} is a link, not data; a MATLAB file holds no "
+            "links (save the data again from MATLAB)"
+        )
+    return _own(group[key])
+
+
+def _own(node: Any) -> Any:
+    """``node``, refusing a dataset that keeps its data in other files."""
+    import h5py
+
+    if isinstance(node, h5py.Dataset) and (node.external or node.is_virtual):
+        raise _ReadError(
+            f"{node.name} keeps its data in other files (external or virtual dataset); "
+            "save the data again from MATLAB"
+        )
+    return node
+
+
 def _leaf(node: Any) -> _Leaf:
     import h5py
 
     kind = _class(node) or ("struct" if isinstance(node, h5py.Group) else "unknown")
     if isinstance(node, h5py.Group):
-        members = [node[f] for f in node]
+        members = [_member(node, f) for f in node]
         if members and all(
             isinstance(m, h5py.Dataset)
             and h5py.check_dtype(ref=m.dtype) is not None
@@ -64,13 +89,13 @@ def _entries(file: Any, node: Any) -> list[tuple[str, _Leaf]] | None:
 
     if not (isinstance(node, h5py.Group) and "Name" in node and "Data" in node):
         return None
-    names, data = node["Name"], node["Data"]
+    names, data = _member(node, "Name"), _member(node, "Data")
     if h5py.check_dtype(ref=names.dtype) is None:  # a 1×1 struct: fields hold the values
         return [(_text(names), _leaf(data))]
     if h5py.check_dtype(ref=data.dtype) is None or names.shape != data.shape:
         return None
     refs = zip(names[()].ravel(), data[()].ravel(), strict=True)
-    return [(_text(file[n]), _leaf(file[d])) for n, d in refs]
+    return [(_text(_own(file[n])), _leaf(_own(file[d]))) for n, d in refs]
 
 
 def _walk(
@@ -82,7 +107,7 @@ def _walk(
         return
     skip: tuple[str, ...] = ()
     if "X" in leaf.fields and "Y" in leaf.fields:
-        x, y = _entries(file, node["X"]), _entries(file, node["Y"])
+        x, y = _entries(file, _member(node, "X")), _entries(file, _member(node, "Y"))
         if x is not None and y is not None:
             recs.append(_Recording(name, x, y))
             skip = ("X", "Y")  # named by their signals
@@ -90,7 +115,7 @@ def _walk(
         if sub in skip:
             leaves[f"{name}.{sub}"] = _Leaf("struct array", (1, 1))
         else:
-            _walk(file, f"{name}.{sub}", node[sub], leaves, recs)
+            _walk(file, f"{name}.{sub}", _member(node, sub), leaves, recs)
 
 
 def _hdf5_tree(path: Path) -> tuple[Any, dict[str, _Leaf], list[_Recording]]:
@@ -108,7 +133,9 @@ def _hdf5_tree(path: Path) -> tuple[Any, dict[str, _Leaf], list[_Recording]]:
     try:
         for name in file:
             if not name.startswith("#"):
-                _walk(file, name, file[name], leaves, recs)
+                _walk(file, name, _member(file, name), leaves, recs)
+    except _ReadError:
+        raise
     except Exception as exc:
         raise _ReadError(
             f"unreadable MATLAB v7.3 (HDF5) file (damaged?): {type(exc).__name__}: {exc}"
