@@ -27,7 +27,7 @@ import pyarrow.parquet as pq
 from scipy.signal import lfilter
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from file_writers import mat73_file, write_lvm, write_tdms  # noqa: E402
+from file_writers import mat73_file, write_lvm, write_tdms
 
 CHUNK = 1_000_000  # rows generated per write
 PSI = 0.0689475729  # bar per psi
@@ -129,8 +129,12 @@ def run(fmt: str, work: Path, rows: int, rate: float) -> dict[str, float]:
     assert pq.ParquetFile(out / "staircase_long.parquet").metadata.num_rows == rows
     size = (folder / file).stat().st_size
     (folder / file).unlink()
-    return {"size_gb": size / 1e9, "gen": t_gen, "wall": figures["wall"],
-            "peak_mib": figures["peak_mib"]}
+    return {
+        "size_gb": size / 1e9,
+        "gen": t_gen,
+        "wall": figures["wall"],
+        "peak_mib": figures["peak_mib"],
+    }
 
 
 def main() -> int:
@@ -148,9 +152,11 @@ def main() -> int:
         work = args.keep or Path(tmp)
         for fmt in args.formats:
             r = run(fmt, work, rows, args.rate)
-            print(f"| {fmt} | {r['size_gb']:.2f} GB | {r['gen']:.0f} s | {r['wall']:.1f} s "
-                  f"({rows / r['wall'] / 1e6:.2f} M rows/s) | {r['peak_mib']:.0f} MiB |",
-                  flush=True)
+            print(
+                f"| {fmt} | {r['size_gb']:.2f} GB | {r['gen']:.0f} s | {r['wall']:.1f} s "
+                f"({rows / r['wall'] / 1e6:.2f} M rows/s) | {r['peak_mib']:.0f} MiB |",
+                flush=True,
+            )
     print(f"python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}")
     return 0
 
