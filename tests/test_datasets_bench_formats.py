@@ -73,6 +73,7 @@ def formats(tmp_path: Path) -> tuple[Path, dict[str, dict[str, np.ndarray]]]:
         {f"{SIG}/Sensors/p_act": d["p_act"], f"{SIG}/Out/valve": d["valve"], f"{SIG}/In/u": d["u"]},
     )
     scipy.io.savemat(folder / "dspace.mat", {"rec": to_savemat(rec)})
+    write_mat73(folder / "dspace73.mat", {"rec": rec})  # struct arrays of references
     v = data["v73"]
     write_mat73(
         folder / "v73.mat",
@@ -111,6 +112,7 @@ def formats(tmp_path: Path) -> tuple[Path, dict[str, dict[str, np.ndarray]]]:
     ]:
         runs += [_run(key, file), _run(f"{key}_csv", f"{key}.csv")]
         pd.DataFrame(data[key]).to_csv(folder / f"{key}.csv", index=False)
+    runs.append(_run("dspace73", "dspace73.mat"))
     _spec(
         folder, runs, units={"pressure": "psi"}, columns={"p": "p_act", "valve": "valve", "u": "u"}
     )
@@ -129,6 +131,7 @@ def test_every_format_ingests_to_the_values_of_its_csv(formats, tmp_path: Path) 
         np.testing.assert_array_equal(table["t"], data[key]["t"])  # s
         np.testing.assert_array_equal(table["p"], data[key]["p_act"] * 0.0689475729)  # bar
         assert len(table) == 300
+    pd.testing.assert_frame_equal(tables["dspace73"][0], tables["dspace_csv"][0])
     assert tables["lvm"][1]["source"]["format"] == "lvm"
     assert tables["tdms"][1]["source"]["format"] == "tdms"
 
@@ -190,6 +193,7 @@ def test_bad_mat_files_name_what_the_file_holds(tmp_path: Path) -> None:
         f"'{SIG}/A/p_act', '{SIG}/B/p_act'; give the full signal name"
     ) in text
     assert "missing signal 'u'" in text
+    assert "missing signal 't'" not in text  # the one X entry is the time
     assert ("types.mat [run 'typo', column 'p_act']: missing MATLAB variable 'p_act'") in text
     assert "the struct fields 'c.p_act', 's.a'" in text and "(did you mean 'c.p_act'?)" in text
     (folder / "types.mat").unlink()
@@ -283,3 +287,16 @@ def test_v73_links_to_other_files_are_refused(tmp_path: Path) -> None:
     text = _problems(folder, [_run("r", "r.mat", "charge"), _run("e", "e.mat", "charge")])
     assert "r.mat [run 'r']: /p is a link, not data" in text
     assert "e.mat [run 'e']: /p keeps its data in other files" in text
+
+
+def test_dspace_time_is_named_when_there_are_several_x_entries(tmp_path: Path) -> None:
+    folder = _folder(tmp_path, "twox")
+    d = _data(20, 6)
+    rec = dspace_recording("Time", d["t"], {f"{SIG}/p": d["p_act"]})
+    rec["X"].append({"Name": "Time2", "Data": d["t"].reshape(1, -1)})
+    scipy.io.savemat(folder / "r.mat", {"rec": to_savemat(rec)})
+    text = _problems(folder, [_run("r", "r.mat", "charge")])
+    assert "missing signal 't': a charge run needs time (t)" in text
+    assert "the dSpace signals 'Time', 'Time2', 'Platform/Model Root/p'" in text
+    _spec(folder, [_run("r", "r.mat", "charge")], columns={"t": "Time2", "p": "p"})
+    assert validate_dataset(folder) == []
