@@ -134,6 +134,13 @@ def test_every_format_ingests_to_the_values_of_its_csv(formats, tmp_path: Path) 
     pd.testing.assert_frame_equal(tables["dspace73"][0], tables["dspace_csv"][0])
     assert tables["lvm"][1]["source"]["format"] == "lvm"
     assert tables["tdms"][1]["source"]["format"] == "tdms"
+    assert tables["dspace"][1]["source"]["columns"] == {
+        "t": "Time",
+        "p": f"{SIG}/Sensors/p_act",
+        "valve": f"{SIG}/Out/valve",
+        "u": f"{SIG}/In/u",
+    }
+    assert tables["lvm"][1]["source"]["columns"]["t"] == "X_Value"
 
 
 def test_lvm_blocks_and_segments_do_not_change_the_table(

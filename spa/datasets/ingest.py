@@ -125,7 +125,9 @@ def _scan_run(
                     "file": run.file,
                     "sha256": _sha256(path),
                     "format": fmt,
-                    "columns": present,
+                    "columns": {  # as found in the file (a dSpace short name resolved)
+                        k: v if resolve is None else resolve(v) for k, v in present.items()
+                    },
                 },
                 "units": {"time": parsed.time_unit, "pressure": parsed.pressure_unit},
             }

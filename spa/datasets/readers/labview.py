@@ -191,7 +191,9 @@ class _LvmSource:
                 if not as_text and "conversion error" in str(exc):
                     raise _Retry from exc
                 raise _ReadError(
-                    f"cannot parse the data after row {offset}: {exc}", row=offset + 1
+                    f"cannot parse the data after row {offset}: {exc} (a truncated last line, "
+                    "or lines with more fields than the first?)",
+                    row=offset + 1,
                 ) from exc
             values: dict[str, npt.NDArray[np.float64]] = {}
             bad: dict[str, npt.NDArray[np.bool_]] = {}

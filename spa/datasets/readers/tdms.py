@@ -42,7 +42,7 @@ class _TdmsSource:
         except Exception as exc:  # npTDMS raises several types for a damaged file
             raise _ReadError(
                 f"unreadable TDMS file (truncated, damaged or not TDMS?): "
-                f"{type(exc).__name__}: {exc}"
+                f"{type(exc).__name__}: {exc}; copy it again from the acquisition PC"
             ) from exc
         self.columns = list(self.channels)
 
