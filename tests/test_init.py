@@ -316,7 +316,7 @@ def test_init_marks_what_it_cannot_tell_and_validate_reports_it(example: Path, c
     assert main(["init", str(example)]) == 0
     assert "7 run(s), 3 TODO(s)" in capsys.readouterr().out
     text = (example / "dataset.yaml").read_text()
-    assert "Not drafted (unknown file type): readme.txt" in text and ".hidden" not in text
+    assert "Not drafted (not a data table): readme.txt" in text and ".hidden" not in text
     assert "kind: TODO  # could not tell: cannot read it" in text
     assert "kind: TODO  # could not tell: u oscillates with uneven periods" in text
     assert "modulator: TODO  # could not tell the modulator: no valve column" in text

@@ -82,6 +82,8 @@ _FORMATS = {
     ".txt": "csv",
     ".tsv": "csv",
     ".dat": "csv",
+    ".lvm": "lvm",
+    ".tdms": "tdms",
 }
 
 

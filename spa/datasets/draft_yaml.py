@@ -20,7 +20,7 @@ import inspect
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 import numpy as np
@@ -91,16 +91,19 @@ class FileDraft:
 
 
 def _detect_options(path: Path) -> dict[str, Any]:
-    """File options of a delimited text file (separator, decimal mark, ...), when the
-    sniffer of the delimited reader is available; else none."""
+    """The ``csv:`` options of a delimited text file that differ from its ending's defaults
+    (separator, decimal mark, ...), as the delimited reader's sniffer finds them."""
+    from spa.datasets.options import csv_options
+    from spa.datasets.readers.sniff import sniff_delimited
+
     try:
-        from spa.datasets.readers.sniff import sniff_delimited  # type: ignore[import-not-found]
-    except ImportError:
-        return {}
-    try:
-        return dict(sniff_delimited(path))
+        found = dict(sniff_delimited(path))
     except Exception:  # a sniffer that cannot decide leaves the defaults
         return {}
+    if str(found.get("encoding", "")).lower().replace("_", "-") in ("utf-8", "utf-8-sig"):
+        found["encoding"] = None  # the default: UTF-8, with or without a byte-order mark
+    defaults = csv_options({}, path.suffix)
+    return {k: v for k, v in found.items() if v is not None and v != defaults.get(k)}
 
 
 def _open(path: Path, fmt: str, options: Mapping[str, Any]) -> Any:
@@ -248,11 +251,21 @@ def draft_files(folder: str | Path) -> tuple[list[FileDraft], list[str]]:
     drafts : list of FileDraft
         One per data file, sorted by path, with roles, units, kind and modulator guessed.
     skipped : list of str
-        Files not drafted (unknown ending).
+        Files not drafted: an unknown ending, or ``.txt``/``.dat`` text that holds no table
+        of numbers (notes).
     """
     folder = Path(folder)
     files, skipped = data_files(folder)
     drafts = [read_file(folder, f) for f in files]
+    # .txt and .dat are as often notes as data: one that holds no table of numbers is skipped
+    notes = {
+        d.file
+        for d in drafts
+        if d.error is not None and PurePosixPath(d.file).suffix.lower() in (".txt", ".dat")
+    }
+    skipped += sorted(notes)
+    files = [f for f in files if f not in notes]
+    drafts = [d for d in drafts if d.file not in notes]
     for d, rid in zip(drafts, _run_ids(files), strict=True):
         d.id = rid
         if d.error is None:
@@ -357,7 +370,7 @@ def render_draft(name: str, drafts: list[FileDraft], skipped: list[str]) -> str:
         "# marks what could not be guessed; spa validate rejects it until you replace it.",
     ]
     if skipped:
-        out.append(f"# Not drafted (unknown file type): {', '.join(skipped)}")
+        out.append(f"# Not drafted (not a data table): {', '.join(skipped)}")
     out += [
         f"name: {_scalar(name)}",
         f"description: {_scalar(f'Bench recordings {name}, drafted by spa init.')}"

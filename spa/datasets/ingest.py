@@ -59,7 +59,13 @@ def _scan_run(
     """Check one run's file; with ``out``, also write its run table there (if clean)."""
     path = parsed.folder / run.file
     fmt = _FORMATS[PurePosixPath(run.file).suffix.lower()]
-    what = {"mat": "MATLAB variable"}.get(fmt, "column")
+    what = {
+        "csv": "column",
+        "parquet": "column",
+        "mat": "MATLAB variable",
+        "lvm": "LabVIEW channel",
+        "tdms": "LabVIEW channel",
+    }[fmt]
     hint = _Hint(path, run.csv if fmt == "csv" else None)
 
     def problem(
@@ -78,20 +84,31 @@ def _scan_run(
     except _ReadError as exc:
         return [problem(f"{exc}{hint()}", exc.column, exc.row)], None
 
+    what = getattr(source, "what", what)  # a MATLAB file may hold a dSpace recording
+    resolve = getattr(source, "resolve", None)  # sources with more names than columns
     problems: list[Problem] = []
     present: dict[str, str] = {}
     for canon in CANONICAL_COLUMNS:
         name = run.columns[canon]
-        if name in source.columns:
+        try:
+            found = name in source.columns if resolve is None else resolve(name) is not None
+        except _ReadError as exc:
+            problems.append(problem(str(exc), name))
+            continue
+        if found:
             if source.columns.count(name) > 1:
                 problems.append(problem(f"{what} {name!r} appears more than once", name))
             present[canon] = name
             continue
         mapped = "" if name == canon else f" (mapped from {canon!r} under columns:)"
-        hint_names = (
-            f"; the file has {_one_of(repr(c) for c in source.columns)}"
-            f"{_suggest(name, source.columns)}; map names under columns: in {SPEC_FILE}"
+        describe = getattr(source, "describe", None)
+        holds = (
+            describe(name)
+            if describe is not None
+            else f"; the file has {_one_of(repr(c) for c in source.columns)}"
+            f"{_suggest(name, source.columns)}"
         )
+        hint_names = f"{holds}; map names under columns: in {SPEC_FILE}"
         if canon in REQUIRED_COLUMNS[run.kind]:
             problems.append(
                 problem(
@@ -134,7 +151,9 @@ def _scan_run(
                 "file": run.file,
                 "sha256": _sha256(path),
                 "format": fmt,
-                "columns": present,
+                "columns": {  # as found in the file (a dSpace short name resolved)
+                    k: v if resolve is None else resolve(v) for k, v in present.items()
+                },
             },
             "units": dict(run.units),
         }

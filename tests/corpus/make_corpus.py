@@ -11,6 +11,7 @@ case, and check the diff.
 from __future__ import annotations
 
 import shutil
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,15 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import scipy.io
 import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/, for file_writers
+from file_writers import (
+    dspace_recording,
+    to_savemat,
+    write_lvm,
+    write_mat73,
+    write_tdms,
+)
 
 HERE = Path(__file__).resolve().parent
 RIG = {
@@ -286,6 +296,47 @@ def _preamble(folder: Path, units_row: bool = False) -> None:
     (folder / "charge1.csv").write_text("\n".join(lines) + "\n")
 
 
+def _dspace_ambiguous(folder: Path) -> None:
+    _mat_case(folder, {})
+    t = np.arange(N) * 0.001
+    rec = dspace_recording("time", t, {"Model/A/p": t, "Model/B/p": t, "Model/A/ux": t})
+    scipy.io.savemat(folder / "m1.mat", {"rec": to_savemat(rec)})
+
+
+def _lvm_segments_differ(folder: Path) -> None:
+    _write_yaml(folder, _spec(folder.name, [{**CHARGE, "id": "r", "file": "r.lvm"}]))
+    df = _frame()
+    first = {"X_Value": df["t"].to_numpy()[:10], "p": df["p"].to_numpy()[:10]}
+    second = {"X_Value": df["t"].to_numpy()[10:], "p": df["p"].to_numpy()[10:],
+              "valve": df["valve"].to_numpy()[10:]}
+    write_lvm(folder / "r.lvm", [[first], [second]])
+
+
+def _good_bench(folder: Path) -> None:
+    """The bench formats: dSpace MAT, MAT v7.3 in psi, LabVIEW .lvm with ',' and TDMS."""
+    n = 300
+    t = np.round(np.arange(n) * 0.001, 6)
+    p = np.round(8 * (1 - np.exp(-t / 0.08)), 5)  # psi
+    valve = (np.arange(n) % 20 < 10).astype(float)
+    u = np.clip(np.floor(t / 0.1) * 0.25, 0, 1)
+    mod = {"type": "pwm", "f_w": 20}
+    runs = [{"id": f, "kind": "staircase", "file": f, "modulator": mod}
+            for f in ("dspace.mat", "v73.mat", "rec.lvm", "rec.tdms")]
+    doc = _spec(folder.name, runs, units={"time": "s", "pressure": "psi"},
+                columns={"p": "p_act"})
+    doc["description"] = "Small valid dataset in the bench formats: dSpace, v7.3, LVM, TDMS."
+    _write_yaml(folder, doc)
+    sig = {"Platform/Model Root/Sensors/p_act": p, "Platform/Model Root/Out/valve": valve,
+           "Platform/Model Root/In/u": u}
+    scipy.io.savemat(folder / "dspace.mat", {"rec": to_savemat(dspace_recording("t", t, sig))})
+    write_mat73(folder / "v73.mat", {"t": t, "p_act": p, "valve": valve.astype(bool), "u": u})
+    cols = {"X_Value": t, "p_act": p, "valve": valve, "u": u}
+    write_lvm(folder / "rec.lvm", [[{k: v[:100] for k, v in cols.items()}],
+                                   [{k: v[100:] for k, v in cols.items()}]])
+    write_tdms(folder / "rec.tdms", "Measured", [{"p_act": p, "valve": valve, "u": u}],
+               waveform=(0.0, 0.001))
+
+
 F = _frame()
 FU = _frame(u=True)
 T = np.arange(N) * 0.001
@@ -450,14 +501,39 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
         lambda d: _mat_case(d, {}) or (d / "m1.mat").write_bytes(b"not a MATLAB file " * 20),
         ["m1.mat [run 'm1']: unreadable MATLAB file"],
     ),
-    "mat_v73": (_v73, ["MATLAB v7.3 (HDF5) files are not supported"]),
+    "mat_v73_damaged": (_v73, ["m1.mat [run 'm1']: unreadable MATLAB v7.3 (HDF5) file"]),
+    "mat_v73_cell": (
+        lambda d: _mat_case(d, {})
+        or write_mat73(d / "m1.mat", {"t": T, "p": {"raw": T}, "u": "x"}),
+        ["column 'p']: MATLAB variable 'p' is a struct (fields 'raw'); name one of its fields",
+         "column 'u']: MATLAB variable 'u' holds char, not numbers"],
+    ),
+    "dspace_ambiguous_signal": (
+        _dspace_ambiguous,
+        ["column 'p']: signal name 'p' is ambiguous: it ends 'Model/A/p', 'Model/B/p'; give the "
+         "full signal name under columns: in dataset.yaml",
+         "column 'u']: missing signal 'u': a sine run needs input fraction u (u); the file holds "
+         "the variables 'rec', the dSpace signals 'time', 'Model/A/p', 'Model/B/p', 'Model/A/ux' "
+         "(did you mean 'ux'?)"],
+    ),
+    "lvm_segments_differ": (
+        _lvm_segments_differ,
+        ["r.lvm [run 'r']: segment 2 names the columns ['X_Value', 'p', 'valve'], segment 1 "
+         "['X_Value', 'p']; segments are joined and need the same channels"],
+    ),
+    "tdms_no_timing": (
+        lambda d: _write_yaml(d, _spec(d.name, [{**CHARGE, "file": "r.tdms"}]))
+        or write_tdms(d / "r.tdms", "G", [{"p": F["p"].to_numpy()}]),
+        ["r.tdms [run 'charge1', column 't']: missing LabVIEW channel 't': a charge run needs "
+         "time (t); the file has the channels 'G/p' and no waveform timing"],
+    ),
     "missing_mat_variable": (
         lambda d: _mat_case(d, {"t": T, "p": np.zeros(N)}),
         ["column 'u']: missing MATLAB variable 'u': a sine run needs input fraction u (u)"],
     ),
     "mat_not_vector": (
         lambda d: _mat_case(d, {"t": T, "p": np.zeros((N, 2)), "u": np.zeros(N)}),
-        ["MATLAB variable has shape (20, 2); expected a vector"],
+        ["MATLAB variable 'p' has shape 20×2; expected a vector"],
     ),
     "mat_lengths": (
         lambda d: _mat_case(d, {"t": T, "p": np.zeros(N - 1), "u": np.zeros(N)}),
@@ -465,7 +541,7 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "mat_text_variable": (
         lambda d: _mat_case(d, {"t": T, "p": "high", "u": np.zeros(N)}),
-        ["column 'p']: MATLAB variable holds <U4, not real numbers"],
+        ["column 'p']: MATLAB variable 'p' holds char, not numbers"],
     ),
     "missing_column": (
         lambda d: _case(d, df=F.rename(columns={"p": "pressure"})),
@@ -604,6 +680,7 @@ GOOD: dict[str, Callable[[Path], None]] = {
     "commented_tsv": _commented_tsv,
     "whitespace_txt": _whitespace_txt,
     "per_run_units": _per_run,
+    "spa_good_bench": _good_bench,
 }
 
 

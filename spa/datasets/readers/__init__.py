@@ -12,7 +12,15 @@ Every source is built as ``Source(path, options)``, ``options`` being the run's 
 from __future__ import annotations
 
 from spa.datasets.readers.delimited import _CsvSource
+from spa.datasets.readers.labview import _LvmSource
 from spa.datasets.readers.matlab import _MatSource
 from spa.datasets.readers.parquet import _ParquetSource
+from spa.datasets.readers.tdms import _TdmsSource
 
-_SOURCES = {"csv": _CsvSource, "parquet": _ParquetSource, "mat": _MatSource}
+_SOURCES = {
+    "csv": _CsvSource,
+    "parquet": _ParquetSource,
+    "mat": _MatSource,
+    "lvm": _LvmSource,
+    "tdms": _TdmsSource,
+}

@@ -1,73 +1,132 @@
-"""MATLAB ``.mat`` files (v5, flat vectors): loaded whole by ``scipy.io.loadmat``."""
+"""MATLAB ``.mat`` files: v4/v5/v7 through ``scipy.io.loadmat`` (loaded whole), v7.3 (HDF5)
+through ``h5py`` (read in blocks, see ``matlab_hdf5``); variables, struct fields and dSpace
+recordings are named as described in ``structs``."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from spa.datasets.contract import _BATCH_ROWS
-from spa.datasets.readers.base import _Chunk, _ReadError
+from spa.datasets.readers.base import _ReadError
+from spa.datasets.readers.structs import _Leaf, _Recording, _StructSource
+
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+_CLASS_OF_DTYPE = {
+    "f8": "double",
+    "f4": "single",
+    "b1": "logical",
+    **{f"i{b // 8}": f"int{b}" for b in (8, 16, 32, 64)},
+    **{f"u{b // 8}": f"uint{b}" for b in (8, 16, 32, 64)},
+}
 
 
-class _MatSource:
-    """A MATLAB v4/v5/v7 ``.mat`` file holding one vector variable per column."""
+def _is_hdf5(path: Path) -> bool:
+    """True for a MATLAB v7.3 file: a 512-byte MATLAB header (version 0x0200), then an HDF5
+    superblock."""
+    with path.open("rb") as fh:
+        head = fh.read(520)
+    return head[512:520] == _HDF5_SIGNATURE or head[124:128] == b"\x00\x02IM"
+
+
+def _v5_kind(value: Any) -> str:
+    if not isinstance(value, np.ndarray):
+        return type(value).__name__
+    if value.dtype.names:
+        return "struct" if value.size == 1 else "struct array"
+    if value.dtype.kind in "US":
+        return "char"
+    if value.dtype.kind == "O":
+        return "cell"
+    return _CLASS_OF_DTYPE.get(f"{value.dtype.kind}{value.dtype.itemsize}", str(value.dtype))
+
+
+def _v5_reader(value: npt.NDArray[Any]) -> Any:
+    flat = value.ravel()
+    return lambda a, b: np.asarray(flat[a:b], dtype=np.float64)
+
+
+def _v5_text(value: Any) -> str:
+    if isinstance(value, np.ndarray) and value.dtype.kind in "US" and value.size:
+        return str(value.ravel()[0])
+    raise ValueError("not text")
+
+
+def _v5_entries(value: Any) -> list[tuple[str, _Leaf]] | None:
+    """The (Name, Data) entries of a dSpace X or Y struct array, or None if it is not one."""
+    if not (isinstance(value, np.ndarray) and value.dtype.names):
+        return None
+    if not {"Name", "Data"} <= set(value.dtype.names):
+        return None
+    entries = []
+    for item in value.ravel():
+        try:
+            name = _v5_text(item["Name"])
+        except ValueError:
+            return None
+        data = item["Data"]
+        entries.append((name, _v5_leaf(data)))
+    return entries
+
+
+def _v5_leaf(value: Any) -> _Leaf:
+    kind = _v5_kind(value)
+    shape = tuple(getattr(value, "shape", ()))
+    fields = tuple(value.dtype.names or ()) if isinstance(value, np.ndarray) else ()
+    if kind in ("char", "cell", "struct", "struct array") or not isinstance(value, np.ndarray):
+        return _Leaf(kind, shape, fields=fields)
+    return _Leaf(kind, shape, _v5_reader(value))
+
+
+def _v5_walk(name: str, value: Any, leaves: dict[str, _Leaf], recs: list[_Recording]) -> None:
+    leaves[name] = _v5_leaf(value)
+    if leaves[name].kind != "struct":
+        return
+    record = value.ravel()[0]
+    names = value.dtype.names
+    skip: tuple[str, ...] = ()
+    if "X" in names and "Y" in names:
+        x, y = _v5_entries(record["X"]), _v5_entries(record["Y"])
+        if x is not None and y is not None:
+            recs.append(_Recording(name, x, y))
+            skip = ("X", "Y")  # named by their signals
+    for sub in names:
+        if sub in skip:
+            leaves[f"{name}.{sub}"] = _Leaf("struct array", record[sub].shape)
+        else:
+            _v5_walk(f"{name}.{sub}", record[sub], leaves, recs)
+
+
+def _v5_tree(path: Path) -> tuple[dict[str, _Leaf], list[_Recording]]:
+    import scipy.io
+
+    try:
+        data = scipy.io.loadmat(path, squeeze_me=False, mat_dtype=False)
+    except Exception as exc:  # scipy raises several types for a damaged file
+        raise _ReadError(
+            f"unreadable MATLAB file (truncated, damaged or not a .mat file?): "
+            f"{type(exc).__name__}: {exc}"
+        ) from exc
+    leaves: dict[str, _Leaf] = {}
+    recs: list[_Recording] = []
+    for name, value in data.items():
+        if not name.startswith("__"):
+            _v5_walk(name, value, leaves, recs)
+    return leaves, recs
+
+
+class _MatSource(_StructSource):
+    """A MATLAB ``.mat`` file (v4 to v7.3) holding vectors, structs or a dSpace recording."""
 
     def __init__(self, path: Path, options: Mapping[str, Any] | None = None) -> None:
-        del options  # nothing to choose: the file says how it is written
-        import scipy.io
+        if _is_hdf5(path):
+            from spa.datasets.readers.matlab_hdf5 import _hdf5_tree
 
-        self.path = path
-        try:
-            self.data = scipy.io.loadmat(path, squeeze_me=False, mat_dtype=False)
-        except NotImplementedError as exc:
-            raise _ReadError(
-                "MATLAB v7.3 (HDF5) files are not supported; save with "
-                "save(..., '-v7') or export CSV/Parquet"
-            ) from exc
-        except Exception as exc:  # scipy raises several types for a damaged file
-            raise _ReadError(
-                f"unreadable MATLAB file (truncated, damaged or not a .mat file?): "
-                f"{type(exc).__name__}: {exc}"
-            ) from exc
-        self.columns = [k for k in self.data if not k.startswith("__")]
-
-    def check_types(self, names: list[str]) -> list[_ReadError]:
-        errors = []
-        lengths: dict[str, int] = {}
-        for name in names:
-            value = self.data[name]
-            if not isinstance(value, np.ndarray) or value.dtype.kind not in "biuf":
-                kind = getattr(value, "dtype", type(value).__name__)
-                errors.append(
-                    _ReadError(
-                        f"MATLAB variable holds {kind}, not real numbers; "
-                        "expected a numeric vector",
-                        column=name,
-                    )
-                )
-            elif value.ndim > 2 or (value.ndim == 2 and min(value.shape) > 1):
-                errors.append(
-                    _ReadError(
-                        f"MATLAB variable has shape {value.shape}; expected a vector (n×1 or 1×n)",
-                        column=name,
-                    )
-                )
-            else:
-                lengths[name] = value.size
-        if len(set(lengths.values())) > 1:
-            sizes = ", ".join(f"{k}: {v}" for k, v in lengths.items())
-            errors.append(
-                _ReadError(
-                    f"MATLAB variables have different lengths ({sizes}); expected one length"
-                )
-            )
-        return errors
-
-    def chunks(self, names: list[str], as_text: bool = False) -> Iterator[_Chunk]:
-        arrays = {n: np.asarray(self.data[n], dtype=np.float64).ravel() for n in names}
-        n = len(next(iter(arrays.values()))) if arrays else 0
-        for start in range(0, n, _BATCH_ROWS):
-            yield start, {k: v[start : start + _BATCH_ROWS] for k, v in arrays.items()}, {}
+            self.file, leaves, recs = _hdf5_tree(path)
+        else:
+            leaves, recs = _v5_tree(path)
+        super().__init__(path, leaves, recs)
