@@ -39,6 +39,7 @@ __all__ = [
     "RUNS",
     "STAGES",
     "TABLE",
+    "VECTOR",
     "Output",
     "Stage",
     "all_targets",
@@ -57,8 +58,12 @@ DATA: Final = "data"
 """A CSV of numbers (a figure's data, a long table): written, not shown in the report."""
 PARAMS: Final = "params"
 """The identified parameters (``params.yaml``), shown as a table of the five parameters."""
+VECTOR: Final = "vector"
+"""The SVG copy of a :data:`FIGURE`, beside its PNG (:func:`spa.plots.save.save_figure`):
+written, not shown. Every figure of :data:`STAGES` gets one (key ``<figure key>_svg``)."""
 FIGURES: Final = "figures"
-"""A folder of PNG figures (with their CSV data), each embedded in the report."""
+"""A folder of PNG figures (with their SVG copies and CSV data), each PNG embedded in the
+report."""
 RUNS: Final = "runs"
 """A folder of canonical run tables (``<run id>.parquet``)."""
 PAGE: Final = "page"
@@ -66,8 +71,10 @@ PAGE: Final = "page"
 RECOMMENDATION: Final = "recommendation"
 """The tuning stage's ``recommendation.yaml``, shown as its one-sentence summary."""
 
-Kind = Literal["table", "figure", "data", "params", "figures", "runs", "page", "recommendation"]
-_KINDS = (TABLE, FIGURE, DATA, PARAMS, FIGURES, RUNS, PAGE, RECOMMENDATION)
+Kind = Literal[
+    "table", "figure", "vector", "data", "params", "figures", "runs", "page", "recommendation"
+]
+_KINDS = (TABLE, FIGURE, VECTOR, DATA, PARAMS, FIGURES, RUNS, PAGE, RECOMMENDATION)
 
 
 @dataclass(frozen=True)
@@ -81,8 +88,8 @@ class Output:
     path : str
         Relative to the results folder, or to ``results/<dataset>`` for a per-dataset stage.
     kind : str
-        One of :data:`TABLE`, :data:`FIGURE`, :data:`DATA`, :data:`PARAMS`, :data:`FIGURES`,
-        :data:`RUNS`, :data:`PAGE`.
+        One of :data:`TABLE`, :data:`FIGURE`, :data:`VECTOR`, :data:`DATA`, :data:`PARAMS`,
+        :data:`FIGURES`, :data:`RUNS`, :data:`PAGE`, :data:`RECOMMENDATION`.
     title : str, optional
         Heading in the report, also its entry in the table of contents; ``None`` (default):
         the report does not show it. For a :data:`FIGURES` folder, ``{name}`` in the title and
@@ -156,10 +163,21 @@ class Stage:
     target: bool = True
 
 
+def _with_vectors(outputs: tuple[Output, ...]) -> tuple[Output, ...]:
+    """The outputs, each figure followed by its SVG copy (:data:`VECTOR`)."""
+    out: list[Output] = []
+    for o in outputs:
+        out.append(o)
+        if o.kind == FIGURE:
+            out.append(Output(f"{o.key}_svg", str(Path(o.path).with_suffix(".svg")), VECTOR))
+    return tuple(out)
+
+
 def _analytic(name: str, *outputs: Output) -> Stage:
     """An analytic step: rule ``analytic_<name>``, log ``logs/analytic/<name>.log``."""
     rule = f"analytic_{name}"
-    return Stage(rule, False, outputs, {rule: f"analytic/{name}.log"}, section="analytic")
+    logs = {rule: f"analytic/{name}.log"}
+    return Stage(rule, False, _with_vectors(outputs), logs, section="analytic")
 
 
 def _per_dataset(name: str, *outputs: Output, logs: dict[str, str] | None = None) -> Stage:
@@ -167,7 +185,7 @@ def _per_dataset(name: str, *outputs: Output, logs: dict[str, str] | None = None
     ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
-    return Stage(name, True, (*outputs, status), logs, section="dataset")
+    return Stage(name, True, _with_vectors((*outputs, status)), logs, section="dataset")
 
 
 STAGES: tuple[Stage, ...] = (
@@ -367,6 +385,7 @@ STAGES: tuple[Stage, ...] = (
             "(every setting).",
             required=False,
         ),
+        Output("fig6_csv", "staircase/fig6.csv", DATA),
         Output(
             "fig7a",
             "staircase/fig7a.png",
@@ -378,6 +397,7 @@ STAGES: tuple[Stage, ...] = (
             "every setting.",
             required=False,
         ),
+        Output("fig7a_csv", "staircase/fig7a.csv", DATA),
         Output(
             "fig7b",
             "staircase/fig7b.png",
@@ -387,6 +407,7 @@ STAGES: tuple[Stage, ...] = (
             "the paper's settings; right: mean ± sd of every setting.",
             required=False,
         ),
+        Output("fig7b_csv", "staircase/fig7b.csv", DATA),
     ),
     _per_dataset(
         "sine",
@@ -414,6 +435,7 @@ STAGES: tuple[Stage, ...] = (
             "title gives the sine's frequency against the plant's corner frequency.",
             required=False,
         ),
+        Output("fig8_csv", "sine/fig8.csv", DATA),
     ),
     _per_dataset(
         "chirp",
@@ -442,6 +464,7 @@ STAGES: tuple[Stage, ...] = (
             "noise seeds; dashed: the linear reference).",
             required=False,
         ),
+        Output("fig9_csv", "chirp/fig9.csv", DATA),
     ),
     Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
     # Last: fails the run, naming them, when any dataset failed (spa.status).
