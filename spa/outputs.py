@@ -218,7 +218,10 @@ STAGES: tuple[Stage, ...] = (
             "analytic/fig4.png",
             FIGURE,
             "Fig. 4: linearity cost",
-            "Linearity cost J against the modulator parameter, all four modulators on one axis.",
+            "Linearity cost J against the modulator parameter, all four modulators on one axis. "
+            "Grey: PWM periods below t_on + t_off (above 76.9 Hz for the nominal valve), where "
+            "PWM has no linear range (dead-zone and saturation meet): P_eq is a 0 → k2 step, "
+            "and J moves in plateaus and jumps as the step passes the points of the ξ grid.",
         ),
         Output("data", "analytic/fig4.csv", DATA),
     ),
@@ -280,7 +283,8 @@ STAGES: tuple[Stage, ...] = (
             "identification/fig2c.png",
             FIGURE,
             "Fig. 2c: pulse run",
-            "The pulse run: command, measured and model pressure, with a zoom on one edge.",
+            "The pulse run: command, measured and model pressure; below, a zoom on the opening "
+            "edge after which the pressure rises most, showing the t_on hold before the rise.",
         ),
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
     ),
@@ -313,7 +317,9 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 4 for this valve: linearity cost",
             "Linearity cost J (solid) and J_exact from the exact periodic steady state (dashed) "
-            "against each modulator's parameter, for this dataset's identified valve.",
+            "against each modulator's parameter, for this dataset's identified valve. Grey: PWM "
+            "periods below t_on + t_off, where PWM has no linear range and J moves in steps "
+            "with the ξ grid (see Fig. 4 of the analytic section).",
             required=False,
         ),
         Output("fig4_csv", "tuning/fig4.csv", DATA),
@@ -404,7 +410,10 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 7b: time constants",
             "Time constant of each staircase step (time to 63.2 % of the step's change) for "
-            "the paper's settings; right: mean ± sd of every setting.",
+            "the paper's settings; right: mean ± sd of every setting. Crosses: outliers, over "
+            "ten times off the median time constant of all the dataset's steps (a crossing of "
+            "the 63.2 % level by one pulse or by the chattering of a long-period modulator on a "
+            "step of a few mbar); they are marked, not removed: the means include them.",
             required=False,
         ),
         Output("fig7b_csv", "staircase/fig7b.csv", DATA),
@@ -431,8 +440,9 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 8: sine linearity",
             "Lag-compensated P/max(P) against the input fraction of the sine runs, one panel "
-            "per modulator, with the line (0, 0)–(1, 1) and the linear reference (grey); the "
-            "title gives the sine's frequency against the plant's corner frequency.",
+            "per modulator with its settings in numeric order, with the line (0, 0)–(1, 1) and "
+            "the linear reference (grey); the title gives the sine's frequency against the "
+            "plant's corner frequency.",
             required=False,
         ),
         Output("fig8_csv", "sine/fig8.csv", DATA),
