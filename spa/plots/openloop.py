@@ -162,7 +162,7 @@ def _sweep_panel(
         ax.axhline(
             reference, color="0.3", ls="--", lw=1.0, label=f"linear reference {reference:.3g}"
         )
-    ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=7)
+    ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=8)
     ax.set_ylabel(ylabel, fontsize=8)
     ax.grid(True, axis="y", lw=0.3, alpha=0.5)
     if ax.get_legend_handles_labels()[0]:
@@ -444,12 +444,13 @@ def fig9(
     if not maps:
         raise ValueError("maps: nothing to plot")
     n = len(maps)
-    fig = Figure(figsize=(max(3.0 * n, 8.0), 3.3 if sweep is None else 7.0), layout="constrained")
-    grid = fig.add_gridspec(
-        1 if sweep is None else 2, n, height_ratios=None if sweep is None else [1.1, 1]
-    )
+    ncols = min(n, 3)  # a page wide: at most three maps a row
+    nrows = -(-n // ncols)
+    heights = [1.0] * nrows + ([1.4] if sweep is not None else [])
+    fig = Figure(figsize=(8.0, 2.3 * sum(heights) + 0.4), layout="constrained")
+    grid = fig.add_gridspec(len(heights), ncols, height_ratios=heights)
     image = None
-    axes = [fig.add_subplot(grid[0, i]) for i in range(n)]
+    axes = [fig.add_subplot(grid[i // ncols, i % ncols]) for i in range(n)]
     for ax, (title, f, bic, threshold, fmin) in zip(axes, maps, strict=True):
         domain = principal_domain_mask(f)
         visible = principal_domain_mask(f, fmin)
@@ -470,20 +471,20 @@ def fig9(
         ax.set_xlim(0.0, fp[-1])
         ax.set_ylim(0.0, fp[-1] / 2)
         ax.set_xlabel("f1 (Hz)")
-        ax.set_title(title, fontsize=8)
-    axes[0].set_ylabel("f2 (Hz)")
+        ax.set_ylabel("f2 (Hz)")
+        ax.set_title(title, fontsize=9)
     fig.colorbar(image, ax=axes, label="bicoherence (significant bins)", shrink=0.9)
     if sweep is not None:
         _require(sweep, ["modulator", "setting", "significant_fraction"], "sweep")
         runs = sweep[sweep["modulator"] != REFERENCE]
         ref = sweep.loc[sweep["modulator"] == REFERENCE, "significant_fraction"]
         _sweep_panel(
-            fig.add_subplot(grid[1, :]), runs, "significant_fraction",
+            fig.add_subplot(grid[nrows, :]), runs, "significant_fraction",
             shown=shown,
             error=("significant_fraction_min", "significant_fraction_max"),
             reference=float(ref.iloc[0]) if ref.size else None,
             ylabel="fraction of the domain significant",
         )  # fmt: skip
     if note:
-        fig.suptitle(note, fontsize=9)
+        fig.suptitle(textwrap.fill(note, 120), fontsize=9)
     return fig
