@@ -413,7 +413,8 @@ STAGES: tuple[Stage, ...] = (
             "the paper's settings; right: mean ± sd of every setting. Crosses: outliers, over "
             "ten times off the median time constant of all the dataset's steps (a crossing of "
             "the 63.2 % level by one pulse or by the chattering of a long-period modulator on a "
-            "step of a few mbar); they are marked, not removed: the means include them.",
+            "step of a few mbar); they are marked, not removed: the means include them (×n "
+            "above a bar: that setting's outliers).",
             required=False,
         ),
         Output("fig7b_csv", "staircase/fig7b.csv", DATA),

@@ -82,7 +82,8 @@ def _aligned(settings: list[tuple[str, str]]) -> pd.DataFrame:
 
 
 def test_legends_and_colours_follow_the_numeric_order():
-    # the data list 100 ms first; the legend and the colours put 10 ms first
+    # the data list 100 ms first; the legend and the colours put 10 ms first (curves above the
+    # line fill the upper left: the legend sits lower right)
     data = _aligned([("ipfm", "ipfm-100ms"), ("ipfm", "ipfm-10ms"), ("ipfm", "ipfm-20ms")])
     ax = fig8(data).axes[0]
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
@@ -209,6 +210,18 @@ def test_fig7b_marks_the_outliers():
     ax = fig7b(steps).axes[0]
     marked = [ln for ln in ax.get_lines() if ln.get_label().startswith("outlier")]
     assert len(marked) == 1 and marked[0].get_xydata().tolist() == [[0.2, 0.013]]
+    sweep = pd.DataFrame(
+        {
+            "modulator": ["pwm", "pwm"],
+            "setting": ["pwm-5Hz", "pwm-20Hz"],
+            "tau_mean": [0.5, 0.6],
+            "tau_sd": [0.1, 0.2],
+            "n_outliers": [2, 0],
+        }
+    )
+    right = fig7b(steps, sweep=sweep).axes[1]
+    notes = [(t.get_text(), t.xy) for t in right.texts]
+    assert notes == [("×2", (0, pytest.approx(0.6)))]  # pwm-5Hz first, above mean + sd
     assert not any(
         ln.get_label().startswith("outlier")
         for ln in fig7b(steps.drop(columns="outlier")).axes[0].get_lines()

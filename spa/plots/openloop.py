@@ -280,7 +280,8 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
         mean ± sd are over every step, as Table 3's.
     sweep : pandas.DataFrame, optional
         Table 3 of every setting (``modulator``, ``setting``, ``tau_mean``, ``tau_sd``):
-        drawn as a second panel, mean ± sd per setting.
+        drawn as a second panel, mean ± sd per setting; optionally ``n_outliers``, the
+        setting's outlying steps, written as "×n" above its bar.
     note : str, optional
         Added to the title.
     """
@@ -315,6 +316,19 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
             ylabel="time constant, mean ± sd over the steps (s)",
         )  # fmt: skip
         axes[1].set_title("Every setting (outlined: shown on the left)", fontsize=9)
+        if "n_outliers" in sweep.columns:
+            table = _sorted(sweep)
+            top = (table["tau_mean"] + table["tau_sd"].fillna(0.0)).to_numpy(dtype=float)
+            for x, (n, y) in enumerate(zip(table["n_outliers"], top, strict=True)):
+                if n > 0:
+                    axes[1].annotate(
+                        f"×{int(n)}", (x, y), xytext=(0, 2), textcoords="offset points",
+                        ha="center", va="bottom", fontsize=8,
+                    )  # fmt: skip
+            axes[1].set_title(
+                "Every setting (outlined: shown on the left; ×n: n outliers in the mean)",
+                fontsize=9,
+            )
     return fig
 
 
@@ -366,7 +380,7 @@ def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str
         handles, labels = ax.get_legend_handles_labels()
         n_common = 2 if reference is not None else 1
         ax.legend(
-            handles[n_common:], labels[n_common:], fontsize=8, loc="upper left",
+            handles[n_common:], labels[n_common:], fontsize=8, loc="lower right",
             title="setting (RMS deviation)", title_fontsize=8, framealpha=0.9,
         )  # fmt: skip
     for ax in axes:

@@ -76,7 +76,9 @@ def main() -> None:
         steps["outlier"] = tau_outliers(steps["tau"])  # over all the dataset's steps
         chosen_steps = steps[steps["run"].isin(shown["run"])]
         write_csv(chosen_steps, out.fig7b_csv)
-        save_figure(fig7b(chosen_steps, sweep=table3, note=note), out.fig7b)
+        counts = steps.groupby("setting")["outlier"].sum().rename("n_outliers")
+        sweep = table3.join(counts, on="setting")
+        save_figure(fig7b(chosen_steps, sweep=sweep, note=note), out.fig7b)
         log.info("Figs. 7a/7b show %s", note)
 
 
