@@ -29,7 +29,8 @@ from pathlib import Path
 
 import yaml
 
-from spa.io import save_figure, write_csv
+from spa.io import write_csv
+from spa.plots.save import save_figure
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
 from spa.tuning import DEFAULT_SWEEPS, read_identified, tune
 

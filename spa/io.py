@@ -6,6 +6,8 @@ import logging
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from spa.plots.save import save_figure  # the one saving function (PNG + SVG), re-exported
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -50,15 +52,6 @@ def write_csv(df: pd.DataFrame, path: str | Path) -> None:
     """Write a table as CSV with full float precision and no index (byte-stable)."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(path, index=False, float_format="%.10g", lineterminator="\n")
-
-
-def save_figure(fig: Any, path: str | Path, dpi: int = 120) -> None:
-    """Save a matplotlib figure as PNG without time stamps or version strings (byte-stable)."""
-    import matplotlib.pyplot as plt
-
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi, metadata={"Software": None})
-    plt.close(fig)
 
 
 def read_runs(run_dir: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, dict[str, Any]]]:

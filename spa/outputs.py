@@ -39,6 +39,7 @@ __all__ = [
     "RUNS",
     "STAGES",
     "TABLE",
+    "VECTOR",
     "Output",
     "Stage",
     "all_targets",
@@ -57,8 +58,12 @@ DATA: Final = "data"
 """A CSV of numbers (a figure's data, a long table): written, not shown in the report."""
 PARAMS: Final = "params"
 """The identified parameters (``params.yaml``), shown as a table of the five parameters."""
+VECTOR: Final = "vector"
+"""The SVG copy of a :data:`FIGURE`, beside its PNG (:func:`spa.plots.save.save_figure`):
+written, not shown. Every figure of :data:`STAGES` gets one (key ``<figure key>_svg``)."""
 FIGURES: Final = "figures"
-"""A folder of PNG figures (with their CSV data), each embedded in the report."""
+"""A folder of PNG figures (with their SVG copies and CSV data), each PNG embedded in the
+report."""
 RUNS: Final = "runs"
 """A folder of canonical run tables (``<run id>.parquet``)."""
 PAGE: Final = "page"
@@ -66,8 +71,10 @@ PAGE: Final = "page"
 RECOMMENDATION: Final = "recommendation"
 """The tuning stage's ``recommendation.yaml``, shown as its one-sentence summary."""
 
-Kind = Literal["table", "figure", "data", "params", "figures", "runs", "page", "recommendation"]
-_KINDS = (TABLE, FIGURE, DATA, PARAMS, FIGURES, RUNS, PAGE, RECOMMENDATION)
+Kind = Literal[
+    "table", "figure", "vector", "data", "params", "figures", "runs", "page", "recommendation"
+]
+_KINDS = (TABLE, FIGURE, VECTOR, DATA, PARAMS, FIGURES, RUNS, PAGE, RECOMMENDATION)
 
 
 @dataclass(frozen=True)
@@ -81,8 +88,8 @@ class Output:
     path : str
         Relative to the results folder, or to ``results/<dataset>`` for a per-dataset stage.
     kind : str
-        One of :data:`TABLE`, :data:`FIGURE`, :data:`DATA`, :data:`PARAMS`, :data:`FIGURES`,
-        :data:`RUNS`, :data:`PAGE`.
+        One of :data:`TABLE`, :data:`FIGURE`, :data:`VECTOR`, :data:`DATA`, :data:`PARAMS`,
+        :data:`FIGURES`, :data:`RUNS`, :data:`PAGE`, :data:`RECOMMENDATION`.
     title : str, optional
         Heading in the report, also its entry in the table of contents; ``None`` (default):
         the report does not show it. For a :data:`FIGURES` folder, ``{name}`` in the title and
@@ -160,10 +167,21 @@ class Stage:
     upstream: tuple[str, ...] | None = None
 
 
+def _with_vectors(outputs: tuple[Output, ...]) -> tuple[Output, ...]:
+    """The outputs, each figure followed by its SVG copy (:data:`VECTOR`)."""
+    out: list[Output] = []
+    for o in outputs:
+        out.append(o)
+        if o.kind == FIGURE:
+            out.append(Output(f"{o.key}_svg", str(Path(o.path).with_suffix(".svg")), VECTOR))
+    return tuple(out)
+
+
 def _analytic(name: str, *outputs: Output) -> Stage:
     """An analytic step: rule ``analytic_<name>``, log ``logs/analytic/<name>.log``."""
     rule = f"analytic_{name}"
-    return Stage(rule, False, outputs, {rule: f"analytic/{name}.log"}, section="analytic")
+    logs = {rule: f"analytic/{name}.log"}
+    return Stage(rule, False, _with_vectors(outputs), logs, section="analytic")
 
 
 def _per_dataset(
@@ -176,7 +194,8 @@ def _per_dataset(
     logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
-    return Stage(name, True, (*outputs, status), logs, section="dataset", upstream=upstream)
+    outputs = _with_vectors((*outputs, status))
+    return Stage(name, True, outputs, logs, section="dataset", upstream=upstream)
 
 
 STAGES: tuple[Stage, ...] = (
@@ -209,7 +228,10 @@ STAGES: tuple[Stage, ...] = (
             "analytic/fig4.png",
             FIGURE,
             "Fig. 4: linearity cost",
-            "Linearity cost J against the modulator parameter, all four modulators on one axis.",
+            "Linearity cost J against the modulator parameter, all four modulators on one axis. "
+            "Grey: PWM periods below t_on + t_off (above 76.9 Hz for the nominal valve), where "
+            "PWM has no linear range (dead-zone and saturation meet): P_eq is a 0 → k2 step, "
+            "and J moves in plateaus and jumps as the step passes the points of the ξ grid.",
         ),
         Output("data", "analytic/fig4.csv", DATA),
     ),
@@ -272,7 +294,8 @@ STAGES: tuple[Stage, ...] = (
             "identification/fig2c.png",
             FIGURE,
             "Fig. 2c: pulse run",
-            "The pulse run: command, measured and model pressure, with a zoom on one edge.",
+            "The pulse run: command, measured and model pressure; below, a zoom on the opening "
+            "edge after which the pressure rises most, showing the t_on hold before the rise.",
         ),
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
         upstream=("runs",),
@@ -306,7 +329,9 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 4 for this valve: linearity cost",
             "Linearity cost J (solid) and J_exact from the exact periodic steady state (dashed) "
-            "against each modulator's parameter, for this dataset's identified valve.",
+            "against each modulator's parameter, for this dataset's identified valve. Grey: PWM "
+            "periods below t_on + t_off, where PWM has no linear range and J moves in steps "
+            "with the ξ grid (see Fig. 4 of the analytic section).",
             required=False,
         ),
         Output("fig4_csv", "tuning/fig4.csv", DATA),
@@ -378,6 +403,7 @@ STAGES: tuple[Stage, ...] = (
             "(every setting).",
             required=False,
         ),
+        Output("fig6_csv", "staircase/fig6.csv", DATA),
         Output(
             "fig7a",
             "staircase/fig7a.png",
@@ -389,15 +415,21 @@ STAGES: tuple[Stage, ...] = (
             "every setting.",
             required=False,
         ),
+        Output("fig7a_csv", "staircase/fig7a.csv", DATA),
         Output(
             "fig7b",
             "staircase/fig7b.png",
             FIGURE,
             "Fig. 7b: time constants",
             "Time constant of each staircase step (time to 63.2 % of the step's change) for "
-            "the paper's settings; right: mean ± sd of every setting.",
+            "the paper's settings; right: mean ± sd of every setting. Crosses: outliers, over "
+            "ten times off the median time constant of all the dataset's steps (a crossing of "
+            "the 63.2 % level by one pulse or by the chattering of a long-period modulator on a "
+            "step of a few mbar); they are marked, not removed: the means include them (×n "
+            "above a bar: that setting's outliers).",
             required=False,
         ),
+        Output("fig7b_csv", "staircase/fig7b.csv", DATA),
     ),
     _per_dataset(
         "sine",
@@ -421,10 +453,12 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 8: sine linearity",
             "Lag-compensated P/max(P) against the input fraction of the sine runs, one panel "
-            "per modulator, with the line (0, 0)–(1, 1) and the linear reference (grey); the "
-            "title gives the sine's frequency against the plant's corner frequency.",
+            "per modulator with its settings in numeric order, with the line (0, 0)–(1, 1) and "
+            "the linear reference (grey); the title gives the sine's frequency against the "
+            "plant's corner frequency.",
             required=False,
         ),
+        Output("fig8_csv", "sine/fig8.csv", DATA),
     ),
     _per_dataset(
         "chirp",
@@ -453,6 +487,7 @@ STAGES: tuple[Stage, ...] = (
             "noise seeds; dashed: the linear reference).",
             required=False,
         ),
+        Output("fig9_csv", "chirp/fig9.csv", DATA),
     ),
     Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
     # Last: fails the run, naming them, when any dataset failed (spa.status).

@@ -48,6 +48,9 @@ _EMPTY_PNG = bytes.fromhex(
     "0000000d49444154789c6360000002000001e221bc330000000049454e44ae426082"
 )
 
+# Its SVG copy: an empty 1x1 drawing.
+_EMPTY_SVG = '<svg xmlns="http://www.w3.org/2000/svg" width="1" height="1"/>\n'
+
 
 class RunError(ValueError):
     """An analysis of one run failed; the message names the run and its kind."""
@@ -129,6 +132,8 @@ def write_placeholder(path: str | Path, kind: str, message: str) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     if out.suffix == ".png":
         out.write_bytes(_EMPTY_PNG)
+    elif out.suffix == ".svg":
+        out.write_text(_EMPTY_SVG)
     elif out.suffix in (".yaml", ".yml"):
         out.write_text(json.dumps({"failed": message}) + "\n")
     else:

@@ -55,7 +55,8 @@ def fake_results(tmp_path_factory):
     import yaml
     from matplotlib.figure import Figure
 
-    from spa.io import save_figure, write_csv
+    from spa.io import write_csv
+    from spa.plots.save import save_figure
 
     root = tmp_path_factory.mktemp("fake_results")
     pngs: list[Path] = []
@@ -64,7 +65,7 @@ def fake_results(tmp_path_factory):
     def png(path: Path) -> None:
         fig = Figure(figsize=(1.2, 0.6))
         fig.set_facecolor((len(pngs) / 40, 0.5, 0.5))  # a different image in every file
-        save_figure(fig, path, dpi=40)
+        save_figure(fig, path, dpi=40, min_width=0)
         pngs.append(path)
 
     def csv(path: Path, df: pd.DataFrame) -> None:

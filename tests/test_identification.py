@@ -350,7 +350,6 @@ def test_simulate_identification_starts():
 
 
 def test_figures_build(case, tmp_path):
-    from spa.io import save_figure
     from spa.plots.identification import (
         fig2a,
         fig2a_data,
@@ -361,6 +360,7 @@ def test_figures_build(case, tmp_path):
         validation_data,
         validation_figure,
     )
+    from spa.plots.save import save_figure
 
     _truth, runs, res = case
     a = fig2a_data(res.charge)

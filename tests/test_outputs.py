@@ -57,6 +57,7 @@ def test_stage_outputs_for_a_rule_and_for_one_dataset():
     assert marked == {"runs": ("dir", "r/{dataset}/runs"), "status": "r/{dataset}/status/runs.json"}
     assert stage_outputs("analytic_fig4", "r", "ignored") == {
         "figure": "r/analytic/fig4.png",
+        "figure_svg": "r/analytic/fig4.svg",
         "data": "r/analytic/fig4.csv",
     }
     with pytest.raises(KeyError, match=r"'tables'.*'analytic_table1'"):

@@ -40,6 +40,35 @@ def test_small_config_produces_every_target(small_run):
     assert (small_run / "status.yaml").is_file()  # the check found no failed dataset
 
 
+def test_every_figure_is_for_print_with_its_vector_copy_and_data(small_run):
+    """Every PNG of the run (registered figures and the validation folders): at least 1000 px
+    wide at 200 dpi or more, an SVG copy beside it and the plotted data as CSV."""
+    import struct
+
+    from spa.outputs import FIGURE, STAGES, VECTOR
+
+    pngs = sorted(small_run.rglob("*.png"))
+    registered = {o.path for s in STAGES for o in s.outputs if o.kind == FIGURE}
+    for dataset in ["sim", "example"]:  # every registered figure of each dataset is a PNG here
+        assert {p for p in registered if not p.startswith("analytic/")} <= {
+            str(p.relative_to(small_run / dataset))
+            for p in pngs
+            if p.is_relative_to(small_run / dataset)
+        }
+    assert len(pngs) >= 30
+    for png in pngs:
+        data = png.read_bytes()
+        width = struct.unpack(">I", data[16:20])[0]
+        assert width >= 1000, (png, width)
+        ppm = struct.unpack(">II", data[data.index(b"pHYs") + 4 :][:8])  # pixels per metre
+        assert min(ppm) >= 200 / 0.0254 - 1, (png, ppm)
+        svg = png.with_suffix(".svg")
+        assert svg.read_text().startswith("<?xml") and "<svg" in svg.read_text()[:600], svg
+        assert png.with_suffix(".csv").stat().st_size > 0, png
+    vectors = [o for s in STAGES for o in s.outputs if o.kind == VECTOR]
+    assert {v.path for v in vectors} == {p.replace(".png", ".svg") for p in registered}
+
+
 def test_small_config_produces_the_open_loop_analyses(small_run):
     import pandas as pd
 

@@ -3,7 +3,7 @@
 Each function takes the exact table that is written as CSV beside the PNG and returns a
 matplotlib Figure built without pyplot (no global state, no backend switch; PNG output goes
 through Agg). Save it with
-:func:`spa.io.save_figure`.
+:func:`spa.plots.save.save_figure`.
 """
 
 from __future__ import annotations
@@ -13,11 +13,15 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullFormatter
 
+from spa.model.modulators import MODULATOR_ORDER
+from spa.model.params import ValveParams
+from spa.plots.style import MODULATOR_COLOURS, MODULATOR_NAMES
+
 __all__ = ["plot_cost_sweeps", "plot_equilibrium"]
 
-#: Display names and colours, in the paper's panel order of Fig. 5.
-_LABELS = {"pwm": "PWM", "ipfm": "IPFM", "dsm": "ΔΣM", "iipfm": "IIPFM"}
-_COLOURS = {"pwm": "tab:blue", "ipfm": "tab:orange", "dsm": "tab:green", "iipfm": "tab:red"}
+#: Display names, in the paper's panel order of Fig. 5, and colours (:mod:`spa.plots.style`).
+_LABELS = {k: MODULATOR_NAMES[k] for k in ("pwm", "ipfm", "dsm", "iipfm")}
+_COLOURS = MODULATOR_COLOURS
 _AXIS_NAMES = {"pwm": "T_W = 1/f_W", "ipfm": "t_h", "iipfm": "t_l", "dsm": "T_ΔΣ"}
 _MS_TICKS = [12.5, 20, 30, 50, 100, 200, 500, 1000]
 _HZ_TICKS = [1, 2, 5, 10, 20, 50, 80]
@@ -29,7 +33,7 @@ def _require(df: pd.DataFrame, columns: list[str], what: str) -> None:
         raise ValueError(f"{what}: missing column(s) {missing}; got {list(df.columns)}")
 
 
-def plot_cost_sweeps(sweeps: pd.DataFrame) -> Figure:
+def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) -> Figure:
     """Fig. 4: the linearity cost ``J`` of the four modulators on one axis.
 
     Parameters
@@ -37,6 +41,8 @@ def plot_cost_sweeps(sweeps: pd.DataFrame) -> Figure:
     sweeps : pandas.DataFrame
         Tidy sweep table (:func:`spa.tuning.sweep_frame`) with columns ``modulator``,
         ``x_ms`` and ``J`` (NaN points are left out).
+    params : ValveParams, optional
+        The valve: PWM periods below ``t_on + t_off`` are shaded and marked (see Notes).
 
     Returns
     -------
@@ -54,11 +60,18 @@ def plot_cost_sweeps(sweeps: pd.DataFrame) -> Figure:
     is logarithmic (the grids span 12.5–1000 ms and all minima lie near 20–50 ms); a
     secondary top axis reads the PWM frequency ``f_W = 1000/T_W`` in Hz. Each curve's minimum
     is marked and given in the legend.
+
+    PWM's linear range ``t_on/T_W < ξ < 1 - t_off/T_W`` closes at ``T_W = t_on + t_off``
+    (13 ms, 76.9 Hz, for the nominal valve): at shorter periods no pulse both opens and
+    closes the valve, the averaged (and the exact) equilibrium is a step from 0 to ``k2`` at
+    ``ξ = t_on/T_W``, and ``J`` on its grid of ``N`` input fractions moves in plateaus and
+    jumps as that step passes the grid's points. With ``params`` that range is shaded.
     """
     _require(sweeps, ["modulator", "x_ms", "J"], "sweeps")
     fig = Figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
-    for kind, label in _LABELS.items():
+    for kind in MODULATOR_ORDER:  # legend in the order of every table
+        label = _LABELS[kind]
         d = sweeps[(sweeps["modulator"] == kind) & np.isfinite(sweeps["J"])]
         if d.empty:
             continue
@@ -69,6 +82,15 @@ def plot_cost_sweeps(sweeps: pd.DataFrame) -> Figure:
             label += f" ({1e3 / best['x_ms']:.4g} Hz)"
         ax.plot(d["x_ms"], d["J"], color=_COLOURS[kind], lw=1.5, label=label)
         ax.plot(best["x_ms"], best["J"], "o", color=_COLOURS[kind], ms=5)
+    if params is not None:
+        limit = 1e3 * (params.t_on + params.t_off)
+        lo = float(sweeps.loc[sweeps["modulator"] == "pwm", "x_ms"].min())
+        if lo < limit:
+            ax.axvspan(
+                lo, limit, color="0.85", lw=0, zorder=0,
+                label=f"PWM T_W < t_on + t_off = {limit:.3g} ms ({1e3 / limit:.3g} Hz): "
+                "no linear range,\nP_eq is a 0 → k2 step; J steps as it crosses the ξ grid",
+            )  # fmt: skip
     ax.set_xscale("log")
     ax.xaxis.set_major_locator(FixedLocator(_MS_TICKS))
     ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))

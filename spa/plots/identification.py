@@ -4,7 +4,7 @@ Every figure comes in two steps: ``*_data`` builds a tidy DataFrame (save it as 
 the PNG) and the plotting function draws exactly that table and returns a
 :class:`matplotlib.figure.Figure`. The figures are built with the object-oriented API (no
 pyplot state, no GUI backend), so they render headless; save them with
-:func:`spa.io.save_figure`.
+:func:`spa.plots.save.save_figure`.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from spa.identification import ChargeFit, DischargeFit
+from spa.plots.style import OKABE_ITO
 from spa.validation import ValidationResult
 
 __all__ = [
@@ -28,6 +29,10 @@ __all__ = [
     "validation_data",
     "validation_figure",
 ]
+
+
+#: Measured in vermillion, model and fits in blue (Okabe–Ito, :mod:`spa.plots.style`).
+_MEASURED, _MODEL = OKABE_ITO[6], OKABE_ITO[5]
 
 
 def _check_columns(data: pd.DataFrame, columns: list[str], name: str = "data") -> None:
@@ -97,7 +102,7 @@ def fig2a(data: pd.DataFrame) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    return _rate_figure(data, {"fit": {"color": "tab:red", "lw": 1.5}}, "(a) charging")
+    return _rate_figure(data, {"fit": {"color": _MEASURED, "lw": 1.5}}, "(a) charging")
 
 
 def fig2b_data(fit: DischargeFit, n_line: int = 100) -> pd.DataFrame:
@@ -142,8 +147,8 @@ def fig2b(data: pd.DataFrame) -> Figure:
     matplotlib.figure.Figure
     """
     lines = {
-        "power law": {"color": "tab:red", "lw": 1.5},
-        "b = 0.5": {"color": "tab:blue", "lw": 1.0, "ls": "--"},
+        "power law": {"color": _MEASURED, "lw": 1.5},
+        "b = 0.5": {"color": _MODEL, "lw": 1.0, "ls": "--"},
     }
     return _rate_figure(data, lines, "(b) discharging")
 
@@ -166,21 +171,26 @@ def fig2c_data(trace: pd.DataFrame) -> pd.DataFrame:
     return trace[["t", "valve", "p", "p_model"]].reset_index(drop=True)
 
 
-def _zoom_edge(data: pd.DataFrame) -> float:
-    """A rising edge near the middle of the run (the paper zooms on one at 3 s)."""
+def _zoom_edge(data: pd.DataFrame, after: float = 0.03) -> float:
+    """The rising edge after which the model pressure rises most within ``after`` s.
+
+    There the hold of ``t_on`` before the rise stands out of the sensor's noise best (the
+    paper zooms on one edge at 3 s); without rising edges, the middle of the run.
+    """
     t = data["t"].to_numpy()
     v = data["valve"].to_numpy()
     rising = np.flatnonzero((v[1:] == 1) & (v[:-1] == 0)) + 1
     if rising.size == 0:
         return float(t[t.size // 2])
-    mid = 0.5 * (t[0] + t[-1])
-    return float(t[rising[np.argmin(np.abs(t[rising] - mid))]])
+    p = data["p_model"].to_numpy(dtype=float)
+    end = np.minimum(np.searchsorted(t, t[rising] + after), t.size - 1)
+    return float(t[rising[np.argmax(p[end] - p[rising])]])
 
 
 def fig2c(
     data: pd.DataFrame,
     zoom_at: float | None = None,
-    zoom_span: tuple[float, float] = (-0.01, 0.03),
+    zoom_span: tuple[float, float] = (-0.01, 0.04),
 ) -> Figure:
     """Fig. 2c: the pulse run, command and measured vs model pressure, with a zoom on an edge.
 
@@ -189,7 +199,8 @@ def fig2c(
     data : pandas.DataFrame
         Output of :func:`fig2c_data`.
     zoom_at : float, optional
-        Time (s) of the edge to zoom on; by default the rising edge nearest the middle.
+        Time (s) of the edge to zoom on; by default the rising edge after which the model
+        pressure rises most (:func:`_zoom_edge`).
     zoom_span : (float, float), optional
         Zoom window relative to ``zoom_at``, s.
 
@@ -202,21 +213,23 @@ def fig2c(
     _check_columns(data, ["t", "valve", "p", "p_model"])
     if zoom_span[0] >= zoom_span[1]:
         raise ValueError(f"zoom_span must be increasing, got {zoom_span!r}")
-    at = _zoom_edge(data) if zoom_at is None else float(zoom_at)
-    fig = Figure(figsize=(7.0, 5.0), layout="constrained")
-    ax, az = fig.subplots(2, 1, height_ratios=[2, 1])
+    at = _zoom_edge(data, zoom_span[1]) if zoom_at is None else float(zoom_at)
+    fig = Figure(figsize=(7.0, 5.6), layout="constrained")
+    ax, az = fig.subplots(2, 1, height_ratios=[3, 2])
     for a, marker in ((ax, ""), (az, ".")):
-        a.plot(data["t"], data["p"], color="tab:red", lw=1.0, marker=marker, ms=3, label="measured")
-        a.plot(data["t"], data["p_model"], color="tab:blue", lw=1.0, ls="--", label="model")
+        a.plot(data["t"], data["p"], color=_MEASURED, lw=1.0, marker=marker, ms=4, label="measured")
+        a.plot(data["t"], data["p_model"], color=_MODEL, lw=1.5, ls="--", label="model")
         a.set_ylabel("P (bar)")
+        a.grid(True, lw=0.3, alpha=0.5)
         cmd = a.twinx()
-        cmd.step(data["t"], data["valve"], where="post", color="k", lw=0.8)
+        cmd.step(data["t"], data["valve"], where="post", color="0.35", lw=0.8)
         cmd.set_ylim(-0.05, 3.0)
         cmd.set_yticks([0, 1])
-        cmd.set_ylabel("command")
+        cmd.set_ylabel("valve command")
     ax.legend(frameon=False, loc="upper left")
     ax.set_title("(c) pulse response")
-    ax.axvspan(at + zoom_span[0], at + zoom_span[1], color="0.9")
+    ax.axvspan(at + zoom_span[0], at + zoom_span[1], color="0.8")
+    ax.set_xlabel("t (s)")
     sel = (data["t"] >= at + zoom_span[0]) & (data["t"] <= at + zoom_span[1])
     if sel.any():
         lo = float(min(data.loc[sel, "p"].min(), data.loc[sel, "p_model"].min()))
@@ -224,7 +237,12 @@ def fig2c(
         pad = 0.1 * (hi - lo) + 1e-3
         az.set_ylim(lo - pad, hi + pad)
     az.set_xlim(at + zoom_span[0], at + zoom_span[1])
-    az.axvline(at, color="0.5", lw=0.8, ls=":")
+    az.axvline(at, color="0.3", lw=1.0, ls=":")
+    az.annotate(
+        "valve opened", xy=(at, 1.0), xycoords=("data", "axes fraction"), xytext=(3, -12),
+        textcoords="offset points", fontsize=8, color="0.3",
+    )  # fmt: skip
+    az.set_title(f"zoom on the edge at {at:.3f} s (grey band above)", fontsize=9)
     az.set_xlabel("t (s)")
     return fig
 
@@ -271,8 +289,8 @@ def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
     _check_columns(data, ["t", "p", "p_model"])
     fig = Figure(figsize=(7.0, 4.5), layout="constrained")
     ax, ae = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
-    ax.plot(data["t"], data["p"], color="tab:red", lw=0.8, label="measured")
-    ax.plot(data["t"], data["p_model"], color="tab:blue", lw=1.0, ls="--", label="model")
+    ax.plot(data["t"], data["p"], color=_MEASURED, lw=0.8, label="measured")
+    ax.plot(data["t"], data["p_model"], color=_MODEL, lw=1.0, ls="--", label="model")
     ax.set_ylabel("P (bar)")
     ax.legend(frameon=False, loc="upper left")
     if title:

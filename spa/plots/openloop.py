@@ -2,7 +2,7 @@
 
 Each function takes the table the workflow writes beside the PNG (or, for Fig. 9, the maps)
 and returns a matplotlib Figure built without pyplot; save it with
-:func:`spa.io.save_figure`. `no_data_figure` stands in when a dataset has no run of a kind.
+:func:`spa.plots.save.save_figure`. `no_data_figure` stands in when a dataset has no run of a kind.
 
 Figs. 7a, 7b and 9 show the settings the paper shows (chosen by
 :func:`spa.openloop.selection.paper_settings`) and, in a panel of their own, the sweep over
@@ -11,6 +11,7 @@ every setting of the dataset; Figs. 8 and 9 show the linear reference beside the
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -24,13 +25,41 @@ from spa.openloop.paper import PAPER_TIME_CONSTANTS
 from spa.openloop.reference import REFERENCE
 from spa.openloop.spectra import principal_domain_mask
 from spa.plots.analytic import _COLOURS, _LABELS, _require
+from spa.plots.style import ordered_settings, setting_colours, setting_sort_key
 
-__all__ = ["fig6", "fig7a", "fig7b", "fig8", "fig9", "no_data_figure", "thin"]
+__all__ = [
+    "DECADE",
+    "fig6",
+    "fig7a",
+    "fig7b",
+    "fig8",
+    "fig9",
+    "fig9_data",
+    "no_data_figure",
+    "tau_outliers",
+    "thin",
+]
+
+DECADE = 10.0
+"""A step time constant this many times off the dataset's median is an outlier
+(:func:`tau_outliers`)."""
 
 
 def _kinds(df: pd.DataFrame) -> list[str]:
     """The modulators present, in the paper's Table 3 order."""
     return [k for k in MODULATOR_ORDER if (df["modulator"] == k).any()]
+
+
+def _groups(df: pd.DataFrame):
+    """``(setting, rows)`` in the settings' numeric order (:mod:`spa.plots.style`)."""
+    for setting in ordered_settings(df["setting"]):
+        yield setting, df[df["setting"] == setting]
+
+
+def _sorted(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows in the numeric order of their ``setting`` (stable)."""
+    keys = table["setting"].map(setting_sort_key)
+    return table.iloc[sorted(range(len(table)), key=lambda i: keys.iloc[i])]
 
 
 def thin(df: pd.DataFrame, max_points: int) -> pd.DataFrame:
@@ -61,7 +90,8 @@ def write_no_runs(
 ) -> None:
     """The outputs of an analysis for a dataset without runs of its kind: tables with the
     tag columns and no row, and figures that say ``message``."""
-    from spa.io import save_figure, write_csv
+    from spa.io import write_csv
+    from spa.plots.save import save_figure
 
     empty = pd.DataFrame(columns=["run", "modulator", "setting", "gain"])
     for path in tables:
@@ -85,14 +115,14 @@ def fig6(traces: pd.DataFrame) -> Figure:
     fig = Figure(figsize=(10.0, 2.4 * len(kinds)), layout="constrained")
     axes = fig.subplots(len(kinds), 1, sharex=True, squeeze=False)[:, 0]
     for ax, kind in zip(axes, kinds, strict=True):
-        d = traces[traces["modulator"] == kind]
-        for setting, g in d.groupby("setting", sort=False):
-            ax.plot(g["t"], g["p"], lw=0.7, label=setting)
+        groups = list(_groups(traces[traces["modulator"] == kind]))
+        for (setting, g), colour in zip(groups, setting_colours(len(groups)), strict=True):
+            ax.plot(g["t"], g["p"], lw=0.8, color=colour, label=setting)
         ax.set_title(_LABELS[kind], fontsize=9, loc="left")
         ax.set_ylabel("P (bar)")
         ax.grid(True, lw=0.3, alpha=0.5)
-        ax.legend(fontsize=7, loc="upper left", ncol=2)
-    axes[-1].set_xlabel("time (s)")
+        ax.legend(fontsize=8, loc="upper left", ncol=2)
+    axes[-1].set_xlabel("time t (s)")
     return fig
 
 
@@ -113,6 +143,7 @@ def _sweep_panel(
     columns (low, high); ``paper`` a column of the paper's values (black diamonds);
     ``reference`` a level drawn as a dashed line (the linear reference).
     """
+    table = _sorted(table)
     x = np.arange(len(table))
     y = table[value].to_numpy(dtype=float)
     # alpha in the colours, not as an argument: it would turn the edge colour "none" black
@@ -131,7 +162,7 @@ def _sweep_panel(
         ax.axhline(
             reference, color="0.3", ls="--", lw=1.0, label=f"linear reference {reference:.3g}"
         )
-    ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=7)
+    ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=8)
     ax.set_ylabel(ylabel, fontsize=8)
     ax.grid(True, axis="y", lw=0.3, alpha=0.5)
     if ax.get_legend_handles_labels()[0]:
@@ -162,18 +193,11 @@ def fig7a(
     axes = fig.subplots(1, 1 if sweep is None else 2, squeeze=False)[0]
     ax = axes[0]
     ax.plot([0.0, 1.0], [0.0, k2], "k--", lw=1.0, label=f"ideal: k2·ξ (k2 = {k2:.3f} bar)")
-    for setting, g in levels.groupby("setting", sort=False):
-        kind, gained = g["modulator"].iloc[0], g["gain"].iloc[0] != 1.0
+    for setting, g in _groups(levels):
         ax.plot(
-            g["xi"],
-            g["p_eq"],
-            "s-" if gained else "o-",
-            ms=4,
-            lw=1.2,
-            color=_COLOURS.get(kind),
-            alpha=0.6 if gained else 1.0,
+            g["xi"], g["p_eq"], **_style(g), lw=1.2,
             label=f"{setting} (FIT {g['fit'].iloc[0]:.1f} %)",
-        )
+        )  # fmt: skip
     ax.set_xlabel("input fraction ξ")
     ax.set_ylabel("equilibrium pressure (bar)")
     ax.set_xlim(0.0, 1.0)
@@ -194,6 +218,56 @@ def _title(text: str, note: str) -> str:
     return f"{text}\n{note}" if note else text
 
 
+def _style(g: pd.DataFrame) -> dict:
+    """A setting's line: its modulator's colour; a gain other than 1 dashed, with squares."""
+    gained = bool(g["gain"].iloc[0] != 1.0)
+    colour = _COLOURS.get(g["modulator"].iloc[0], "0.5")
+    return {
+        "color": colour,
+        "marker": "s" if gained else "o",
+        "ms": 4,
+        "ls": "--" if gained else "-",
+    }
+
+
+def tau_outliers(tau: pd.Series | np.ndarray, factor: float = DECADE) -> np.ndarray:
+    """Outlying step time constants: more than ``factor`` times below or above the median of
+    all the steps of a dataset (a robust rule: the median, unlike the mean or the sd, does
+    not move with the outliers themselves).
+
+    A time constant a decade below the others is not the plant's response but a crossing of
+    the 63.2 % level by a single pulse or by the chattering of a long-period modulator on a
+    step of a few mbar (full config: 13 ms for IPFM 50 ms and 14 ms for PWM 5 Hz, both
+    0.1 -> 0.2 with steps of 11 and 15 mbar, against a median of 0.75 s).
+
+    Parameters
+    ----------
+    tau : array_like
+        Time constants in s (NaN: no time constant, never an outlier).
+    factor : float, optional
+        How many times off the median (default :data:`DECADE`).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+
+    Examples
+    --------
+    >>> tau_outliers([0.5, 0.6, 0.7, 0.8, 0.9, 0.013, np.nan]).tolist()
+    [False, False, False, False, False, True, False]
+    """
+    if not factor > 1.0:
+        raise ValueError(f"factor must be > 1, got {factor}")
+    t = np.asarray(tau, dtype=float)
+    ok = np.isfinite(t) & (t > 0)
+    out = np.zeros(t.shape, dtype=bool)
+    if not ok.any():
+        return out
+    median = float(np.median(t[ok]))
+    out[ok] = (t[ok] < median / factor) | (t[ok] > median * factor)
+    return out
+
+
 def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = "") -> Figure:
     """Fig. 7b: time constant of each staircase step against the level stepped to.
 
@@ -201,10 +275,13 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
     ----------
     steps : pandas.DataFrame
         The steps of the settings shown: columns ``modulator``, ``setting``, ``gain`` (as in
-        `fig7a`), ``xi_to`` and ``tau`` (s, NaN skipped).
+        `fig7a`), ``xi_to`` and ``tau`` (s, NaN skipped); optionally ``outlier``
+        (:func:`tau_outliers`), drawn as black crosses and named in the legend. The legend's
+        mean ± sd are over every step, as Table 3's.
     sweep : pandas.DataFrame, optional
         Table 3 of every setting (``modulator``, ``setting``, ``tau_mean``, ``tau_sd``):
-        drawn as a second panel, mean ± sd per setting.
+        drawn as a second panel, mean ± sd per setting; optionally ``n_outliers``, the
+        setting's outlying steps, written as "×n" above its bar.
     note : str, optional
         Added to the title.
     """
@@ -212,21 +289,18 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
     fig = Figure(figsize=(6.0 if sweep is None else 11.0, 4.8), layout="constrained")
     axes = fig.subplots(1, 1 if sweep is None else 2, squeeze=False)[0]
     ax = axes[0]
-    for setting, g in steps.groupby("setting", sort=False):
-        kind, gained = g["modulator"].iloc[0], g["gain"].iloc[0] != 1.0
+    for setting, g in _groups(steps):
         g = g[np.isfinite(g["tau"])]
         if g.empty:
             continue
         label = f"{setting}: {g['tau'].mean():.3f} ± {g['tau'].std():.3f} s"
+        ax.plot(g["xi_to"], g["tau"], **_style(g), label=label)
+    if "outlier" in steps.columns and steps["outlier"].astype(bool).any():
+        far = steps[steps["outlier"].astype(bool)]
         ax.plot(
-            g["xi_to"],
-            g["tau"],
-            "s-" if gained else "o-",
-            ms=4,
-            color=_COLOURS.get(kind),
-            alpha=0.6 if gained else 1.0,
-            label=label,
-        )
+            far["xi_to"], far["tau"], "x", color="k", ms=9, mew=2,
+            label=f"outlier: over {DECADE:g}× off the dataset's median τ",
+        )  # fmt: skip
     paper = ", ".join(
         f"{_LABELS[k]} {m:.3f} ± {s:.3f} s" for k, (m, s) in PAPER_TIME_CONSTANTS.items()
     )
@@ -242,6 +316,19 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
             ylabel="time constant, mean ± sd over the steps (s)",
         )  # fmt: skip
         axes[1].set_title("Every setting (outlined: shown on the left)", fontsize=9)
+        if "n_outliers" in sweep.columns:
+            table = _sorted(sweep)
+            top = (table["tau_mean"] + table["tau_sd"].fillna(0.0)).to_numpy(dtype=float)
+            for x, (n, y) in enumerate(zip(table["n_outliers"], top, strict=True)):
+                if n > 0:
+                    axes[1].annotate(
+                        f"×{int(n)}", (x, y), xytext=(0, 2), textcoords="offset points",
+                        ha="center", va="bottom", fontsize=8,
+                    )  # fmt: skip
+            axes[1].set_title(
+                "Every setting (outlined: shown on the left; ×n: n outliers in the mean)",
+                fontsize=9,
+            )
     return fig
 
 
@@ -262,30 +349,85 @@ def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str
     kinds = _kinds(aligned)
     if not kinds:
         raise ValueError("aligned: no known modulator")
-    fig = Figure(figsize=(3.2 * len(kinds), 3.9), layout="constrained")
-    axes = fig.subplots(1, len(kinds), sharey=True, squeeze=False)[0]
+    if reference is not None:
+        _require(reference, ["xi", "p_norm", "rms"], "reference")
+    ncols = min(len(kinds), 2)
+    nrows = -(-len(kinds) // ncols)
+    fig = Figure(figsize=(3.6 * ncols, 3.9 * nrows + 0.5), layout="constrained")
+    grid = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False).ravel()
+    for ax in grid[len(kinds) :]:
+        fig.delaxes(ax)
+    axes = grid[: len(kinds)]
     for ax, kind in zip(axes, kinds, strict=True):
-        ax.plot([0, 1], [0, 1], "k--", lw=1.0, label="ideal")
+        ax.plot([0, 1], [0, 1], "k--", lw=1.0, label="ideal: P/max(P) = ξ")
         if reference is not None:
-            _require(reference, ["xi", "p_norm", "rms"], "reference")
             rms = float(reference["rms"].iloc[0])
             ax.plot(
-                reference["xi"], reference["p_norm"], color="0.55", lw=0.8,
-                label=f"{REFERENCE} reference (RMS {rms:.3f})",
+                reference["xi"], reference["p_norm"], color="0.6", lw=1.0,
+                label=f"{REFERENCE} first-order plant (RMS {rms:.3f})",
             )  # fmt: skip
-        for setting, g in aligned[aligned["modulator"] == kind].groupby("setting", sort=False):
-            ax.plot(g["xi"], g["p_norm"], lw=0.6, label=f"{setting} (RMS {g['rms'].iloc[0]:.3f})")
-        ax.set_title(_LABELS[kind], fontsize=9)
-        ax.set_xlabel("input fraction ξ")
+        groups = list(_groups(aligned[aligned["modulator"] == kind]))
+        for (setting, g), colour in zip(groups, setting_colours(len(groups)), strict=True):
+            ax.plot(
+                g["xi"], g["p_norm"], lw=0.9, color=colour,
+                label=f"{setting} (RMS {g['rms'].iloc[0]:.3f})",
+            )  # fmt: skip
+        ax.set_title(_LABELS[kind], fontsize=10)
         ax.set_xlim(0.0, 1.0)
         ax.set_ylim(0.0, 1.05)
         ax.set_aspect("equal")
         ax.grid(True, lw=0.3, alpha=0.5)
-        ax.legend(fontsize=6, loc="upper left")
-    axes[0].set_ylabel("P / max(P)")
+        handles, labels = ax.get_legend_handles_labels()
+        n_common = 2 if reference is not None else 1
+        ax.legend(
+            handles[n_common:], labels[n_common:], fontsize=8, loc="lower right",
+            title="setting (RMS deviation)", title_fontsize=8, framealpha=0.9,
+        )  # fmt: skip
+    for ax in axes:
+        ax.set_xlabel("input fraction ξ")
+        ax.set_ylabel("P / max(P)")
+        ax.label_outer()
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(
+        handles[:n_common], labels[:n_common], loc="outside lower center", ncol=2, fontsize=8
+    )
     if note:
-        fig.suptitle(note, fontsize=9)
+        fig.suptitle(textwrap.fill(note, int(15 * 3.6 * ncols)), fontsize=9)
     return fig
+
+
+def fig9_data(maps: Sequence[tuple[str, np.ndarray, np.ndarray, float, float]]) -> pd.DataFrame:
+    """Tidy data of Fig. 9's maps: every bin of each principal domain.
+
+    Parameters
+    ----------
+    maps : sequence of (name, f, bic, threshold, fmin)
+        As :func:`fig9`'s ``maps``, with the setting's name first.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``setting``, ``f1``, ``f2`` (Hz), ``bicoherence``, ``significant`` (coloured in the
+        figure: above the threshold and ``f2 >= fmin``).
+    """
+    parts = []
+    for name, f, bic, threshold, fmin in maps:
+        i, j = np.nonzero(principal_domain_mask(f))
+        shown = principal_domain_mask(f, fmin)
+        if np.isfinite(threshold):
+            shown &= bic > threshold
+        parts.append(
+            pd.DataFrame(
+                {
+                    "setting": name,
+                    "f1": f[i],
+                    "f2": f[j],
+                    "bicoherence": bic[i, j],
+                    "significant": shown[i, j],
+                }
+            )
+        )
+    return pd.concat(parts, ignore_index=True)
 
 
 def fig9(
@@ -316,12 +458,13 @@ def fig9(
     if not maps:
         raise ValueError("maps: nothing to plot")
     n = len(maps)
-    fig = Figure(figsize=(max(3.0 * n, 8.0), 3.3 if sweep is None else 7.0), layout="constrained")
-    grid = fig.add_gridspec(
-        1 if sweep is None else 2, n, height_ratios=None if sweep is None else [1.1, 1]
-    )
+    ncols = min(n, 3)  # a page wide: at most three maps a row
+    nrows = -(-n // ncols)
+    heights = [1.0] * nrows + ([1.4] if sweep is not None else [])
+    fig = Figure(figsize=(8.0, 2.3 * sum(heights) + 0.4), layout="constrained")
+    grid = fig.add_gridspec(len(heights), ncols, height_ratios=heights)
     image = None
-    axes = [fig.add_subplot(grid[0, i]) for i in range(n)]
+    axes = [fig.add_subplot(grid[i // ncols, i % ncols]) for i in range(n)]
     for ax, (title, f, bic, threshold, fmin) in zip(axes, maps, strict=True):
         domain = principal_domain_mask(f)
         visible = principal_domain_mask(f, fmin)
@@ -332,26 +475,30 @@ def fig9(
         step = fp[1] - fp[0] if fp.size > 1 else 1.0
         edges = np.concatenate((fp - step / 2, [fp[-1] + step / 2]))
         grey = np.where(domain, 1.0, np.nan)[np.ix_(pos, pos)]  # rows f1, columns f2
-        ax.pcolormesh(edges, edges, grey.T, vmin=0.0, vmax=1.0, cmap="Greys", alpha=0.15)
+        ax.pcolormesh(
+            edges, edges, grey.T, vmin=0.0, vmax=1.0, cmap="Greys", alpha=0.15, rasterized=True
+        )
         z = np.where(visible, bic, np.nan)[np.ix_(pos, pos)]
-        image = ax.pcolormesh(edges, edges, z.T, vmin=0.0, vmax=1.0, cmap="viridis")
+        image = ax.pcolormesh(
+            edges, edges, z.T, vmin=0.0, vmax=1.0, cmap="viridis", rasterized=True
+        )
         ax.set_xlim(0.0, fp[-1])
         ax.set_ylim(0.0, fp[-1] / 2)
         ax.set_xlabel("f1 (Hz)")
-        ax.set_title(title, fontsize=8)
-    axes[0].set_ylabel("f2 (Hz)")
+        ax.set_ylabel("f2 (Hz)")
+        ax.set_title(title, fontsize=9)
     fig.colorbar(image, ax=axes, label="bicoherence (significant bins)", shrink=0.9)
     if sweep is not None:
         _require(sweep, ["modulator", "setting", "significant_fraction"], "sweep")
         runs = sweep[sweep["modulator"] != REFERENCE]
         ref = sweep.loc[sweep["modulator"] == REFERENCE, "significant_fraction"]
         _sweep_panel(
-            fig.add_subplot(grid[1, :]), runs, "significant_fraction",
+            fig.add_subplot(grid[nrows, :]), runs, "significant_fraction",
             shown=shown,
             error=("significant_fraction_min", "significant_fraction_max"),
             reference=float(ref.iloc[0]) if ref.size else None,
             ylabel="fraction of the domain significant",
         )  # fmt: skip
     if note:
-        fig.suptitle(note, fontsize=9)
+        fig.suptitle(textwrap.fill(note, 120), fontsize=9)
     return fig

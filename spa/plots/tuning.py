@@ -13,12 +13,15 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from spa.model.params import ValveParams
 from spa.plots.analytic import _COLOURS, _LABELS, _require, plot_cost_sweeps, plot_equilibrium
 
 __all__ = ["plot_tuning_equilibrium", "plot_tuning_sweeps"]
 
 
-def plot_tuning_sweeps(sweeps: pd.DataFrame, title: str | None = None) -> Figure:
+def plot_tuning_sweeps(
+    sweeps: pd.DataFrame, title: str | None = None, params: ValveParams | None = None
+) -> Figure:
     """Fig. 4 for one valve: ``J`` (solid, Eq. 25) and ``J_exact`` (dashed) per modulator.
 
     Parameters
@@ -28,6 +31,9 @@ def plot_tuning_sweeps(sweeps: pd.DataFrame, title: str | None = None) -> Figure
         ``J`` and ``J_exact`` (NaN points are left out).
     title : str, optional
         Figure title (e.g. the dataset's name).
+    params : ValveParams, optional
+        The valve: marks PWM's periods below ``t_on + t_off``
+        (:func:`spa.plots.analytic.plot_cost_sweeps`).
 
     Returns
     -------
@@ -46,7 +52,7 @@ def plot_tuning_sweeps(sweeps: pd.DataFrame, title: str | None = None) -> Figure
     almost linear in the duty while the chattering grows.
     """
     _require(sweeps, ["modulator", "x_ms", "J", "J_exact"], "sweeps")
-    fig = plot_cost_sweeps(sweeps)
+    fig = plot_cost_sweeps(sweeps, params=params)
     ax = fig.axes[0]
     for kind in _LABELS:
         d = sweeps[(sweeps["modulator"] == kind) & np.isfinite(sweeps["J_exact"])]

@@ -12,6 +12,7 @@ import pandas as pd
 import yaml
 
 from spa.outputs import FIGURE, FIGURES, PARAMS, RECOMMENDATION, Output, section_outputs
+from spa.plots.save import PNG_DPI
 from spa.report.html import (
     STYLE,
     embed_png,
@@ -76,7 +77,8 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
     caption = item.caption
     attrs = ""
     if item.kind == FIGURE:
-        width, height = png_size(path.read_bytes())
+        # print resolution (PNG_DPI) shown at 100 CSS px per inch: sharp on high-density screens
+        width, height = (max(1, round(n * 100 / PNG_DPI)) for n in png_size(path.read_bytes()))
         alt = html.escape(title)
         body = f'<img src="{embed_png(path)}" alt="{alt}" width="{width}" height="{height}">'
         attrs = f' class="fig" style="max-width:{width + 2}px"'

@@ -2,9 +2,10 @@
 
 import pandas as pd
 
-from spa.io import get_logger, save_figure, write_csv
+from spa.io import get_logger, write_csv
 from spa.model.params import ValveParams
 from spa.plots.analytic import plot_equilibrium
+from spa.plots.save import save_figure
 from spa.tuning import equilibrium_frame
 
 log = get_logger("analytic.fig5", snakemake.log[0])

@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
+from spa.io import get_logger, read_params, read_runs, write_csv
 from spa.openloop import (
     chirp_analysis,
     chirp_reference,
@@ -14,7 +14,8 @@ from spa.openloop import (
     runs_of_kind,
 )
 from spa.openloop.shapes import check_input_shape
-from spa.plots.openloop import fig9, write_no_runs
+from spa.plots.openloop import fig9, fig9_data, write_no_runs
+from spa.plots.save import save_figure
 from spa.status import naming_run, run_stage
 
 log = get_logger("chirp", snakemake.log[0])
@@ -54,8 +55,11 @@ def main() -> None:
         bounded = cfg["normalisation"] == "bounded"
         score = "significant_fraction" if bounded else "mean_bicoherence"
         shown, fallbacks = paper_settings(table.iloc[:-1], score=score, higher=False)
-        panels = [(_title(r), *maps[r["run"]]) for _, r in shown.iterrows()]
-        panels.append((_title(ref), f, bic, ref["threshold"], ref["fmin"]))
+        named = [(r["setting"], *maps[r["run"]]) for _, r in shown.iterrows()]
+        named.append((ref["setting"], f, bic, ref["threshold"], ref["fmin"]))
+        write_csv(fig9_data(named), snakemake.output.fig9_csv)
+        titles = [*(_title(r) for _, r in shown.iterrows()), _title(ref)]
+        panels = [(title, *rest) for title, (_, *rest) in zip(titles, named, strict=True)]
         note = (
             f"{cfg['normalisation']} bicoherence, {ref['n_segments']} segments, bins above "
             f"{ref['threshold']:.3f} (α = {cfg['alpha']}) coloured; "
@@ -66,7 +70,8 @@ def main() -> None:
     else:
         log.info("no chirp runs in this dataset: empty table, placeholder figure")
         message = f"{snakemake.wildcards.dataset}: no chirp runs"
-        write_no_runs(message, [snakemake.output.table], [snakemake.output.fig9])
+        tables = [snakemake.output.table, snakemake.output.fig9_csv]
+        write_no_runs(message, tables, [snakemake.output.fig9])
 
 
 def _title(row) -> str:

@@ -4,9 +4,10 @@ import yaml
 
 from spa import ValveParams
 from spa.identification import identify_runs
-from spa.io import get_logger, read_runs, save_figure, write_csv
+from spa.io import get_logger, read_runs, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
 from spa.plots.openloop import write_no_runs
+from spa.plots.save import save_figure
 from spa.status import run_stage
 from spa.validation import validate_run
 

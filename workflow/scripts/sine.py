@@ -2,10 +2,12 @@
 
 import pandas as pd
 
-from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
+from spa.io import get_logger, read_params, read_runs, write_csv
 from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, sine_reference
+from spa.openloop.reference import REFERENCE
 from spa.openloop.shapes import check_input_shape
 from spa.plots.openloop import fig8, thin, write_no_runs
+from spa.plots.save import save_figure
 from spa.status import naming_run, run_stage
 
 log = get_logger("sine", snakemake.log[0])
@@ -44,12 +46,16 @@ def main() -> None:
         log.info("linear reference: tau_m %.3f s, RMS %.4f", ref["tau_m"], ref["rms"])
         write_csv(pd.DataFrame(rows), snakemake.output.table)
         reference = thin(aligned, 5000).assign(rms=ref["rms"])
-        figure = fig8(pd.concat(curves), reference=reference, note=frequency_note(ref))
+        curves = pd.concat(curves)
+        ref_rows = reference.assign(modulator=REFERENCE, setting=REFERENCE)
+        write_csv(pd.concat([curves, ref_rows], ignore_index=True), snakemake.output.fig8_csv)
+        figure = fig8(curves, reference=reference, note=frequency_note(ref))
         save_figure(figure, snakemake.output.fig8)
     else:
         log.info("no sine runs in this dataset: empty table, placeholder figure")
         message = f"{snakemake.wildcards.dataset}: no sine runs"
-        write_no_runs(message, [snakemake.output.table], [snakemake.output.fig8])
+        tables = [snakemake.output.table, snakemake.output.fig8_csv]
+        write_no_runs(message, tables, [snakemake.output.fig8])
 
 
 run_stage(snakemake, "sine", main, log)

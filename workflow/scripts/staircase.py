@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
+from spa.io import get_logger, read_params, read_runs, write_csv
 from spa.openloop import (
     fallback_note,
     noise_free_pressure,
@@ -12,7 +12,8 @@ from spa.openloop import (
     staircase_analysis,
 )
 from spa.openloop.shapes import check_input_shape
-from spa.plots.openloop import fig6, fig7a, fig7b, thin, write_no_runs
+from spa.plots.openloop import fig6, fig7a, fig7b, tau_outliers, thin, write_no_runs
+from spa.plots.save import save_figure
 from spa.status import naming_run, run_stage
 
 log = get_logger("staircase", snakemake.log[0])
@@ -54,9 +55,8 @@ def main() -> None:
     if not ids:
         log.info("no staircase runs in this dataset: empty tables, placeholder figures")
         message = f"{snakemake.wildcards.dataset}: no staircase runs"
-        write_no_runs(
-            message, [out.table3, out.levels, out.time_constants], [out.fig6, out.fig7a, out.fig7b]
-        )
+        tables = [out.table3, out.levels, out.time_constants, out.fig6_csv, out.fig7a_csv]
+        write_no_runs(message, [*tables, out.fig7b_csv], [out.fig6, out.fig7a, out.fig7b])
     else:
         table3 = pd.DataFrame(rows)
         first = ["run", "modulator", "setting", "gain", "paper_case"]
@@ -65,13 +65,20 @@ def main() -> None:
         write_csv(table3, out.table3)
         write_csv(levels, out.levels)
         write_csv(steps, out.time_constants)
-        save_figure(fig6(pd.concat(traces)), out.fig6)
+        traces = pd.concat(traces)
+        write_csv(traces, out.fig6_csv)
+        save_figure(fig6(traces), out.fig6)
         shown, fallbacks = paper_settings(table3)
         note = fallback_note(fallbacks, "FIT")
         chosen = levels.merge(shown[["run", "fit"]], on="run")
+        write_csv(chosen, out.fig7a_csv)
         save_figure(fig7a(chosen, params.k2, sweep=table3, note=note), out.fig7a)
+        steps["outlier"] = tau_outliers(steps["tau"])  # over all the dataset's steps
         chosen_steps = steps[steps["run"].isin(shown["run"])]
-        save_figure(fig7b(chosen_steps, sweep=table3, note=note), out.fig7b)
+        write_csv(chosen_steps, out.fig7b_csv)
+        counts = steps.groupby("setting")["outlier"].sum().rename("n_outliers")
+        sweep = table3.join(counts, on="setting")
+        save_figure(fig7b(chosen_steps, sweep=sweep, note=note), out.fig7b)
         log.info("Figs. 7a/7b show %s", note)
 
 

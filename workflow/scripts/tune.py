@@ -2,7 +2,8 @@
 
 import yaml
 
-from spa.io import get_logger, save_figure, write_csv
+from spa.io import get_logger, write_csv
+from spa.plots.save import save_figure
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
 from spa.status import run_stage
 from spa.tuning import tune
@@ -28,7 +29,8 @@ def main() -> None:
     write_csv(result.table1, out.table1)
     write_csv(result.table2, out.table2)
     write_csv(result.sweeps, out.fig4_csv)
-    save_figure(plot_tuning_sweeps(result.sweeps, title=dataset), out.fig4)
+    fig4 = plot_tuning_sweeps(result.sweeps, title=dataset, params=result.identified.params)
+    save_figure(fig4, out.fig4)
     write_csv(result.curves, out.fig5_csv)
     save_figure(plot_tuning_equilibrium(result.curves), out.fig5)
     with open(out.recommendation, "w") as fh:

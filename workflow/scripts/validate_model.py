@@ -2,8 +2,9 @@
 
 from pathlib import Path
 
-from spa.io import get_logger, read_params, read_runs, save_figure, write_csv
+from spa.io import get_logger, read_params, read_runs, write_csv
 from spa.plots.identification import validation_data, validation_figure
+from spa.plots.save import save_figure
 from spa.status import run_stage
 from spa.validation import validate_run, validate_runs
 
