@@ -307,3 +307,21 @@ def test_dspace_time_is_named_when_there_are_several_x_entries(tmp_path: Path) -
     assert "the dSpace signals 'Time', 'Time2', 'Platform/Model Root/p'" in text
     _spec(folder, [_run("r", "r.mat", "charge")], columns={"t": "Time2", "p": "p"})
     assert validate_dataset(folder) == []
+
+
+def test_lvm_text_value_and_tdms_text_channel_are_named(tmp_path: Path) -> None:
+    folder = _folder(tmp_path, "texts")
+    d = _data(20, 8)
+    write_lvm(folder / "a.lvm", [[{"X_Value": d["t"], "p": d["p_act"]}]])
+    data = (folder / "a.lvm").read_bytes()
+    (folder / "a.lvm").write_bytes(
+        data.replace(b"\t" + str(d["p_act"][4]).replace(".", ",").encode(), b"\tabc", 1)
+    )
+    from nptdms import ChannelObject, TdmsWriter
+
+    with TdmsWriter(str(folder / "b.tdms")) as w:
+        w.write_segment([ChannelObject("G", "t", d["t"]), ChannelObject("G", "p", ["x"] * 20)])
+    text = _problems(folder, [_run("a", "a.lvm", "charge"), _run("b", "b.tdms", "charge")])
+    assert "a.lvm [run 'a', column 'p', row 5]: non-numeric value" in text
+    assert "b.tdms [run 'b', column 'p']: LabVIEW channel 'G/p' holds" in text
+    assert "not numbers; expected a numeric channel" in text
