@@ -82,12 +82,8 @@ STAIR = {
 }
 
 
-def _case(
-    folder: Path,
-    runs: list[dict[str, Any]] | None = None,
-    df: pd.DataFrame | None = None,
-    **extra: Any,
-) -> None:
+def _case(folder: Path, runs: list[dict[str, Any]] | None = None, df: pd.DataFrame | None = None,
+          **extra: Any) -> None:
     """A dataset with one charge run (or ``runs``) whose CSV holds ``df``."""
     runs = [dict(CHARGE)] if runs is None else runs
     _write_yaml(folder, _spec(folder.name, runs, **extra))
@@ -118,45 +114,21 @@ def _good(folder: Path) -> None:
     valve = (np.arange(n) % 20 < 10).astype(np.int8)
     p_kpa = np.round(60 * (1 - np.exp(-t / 0.08)), 5)
     runs = [
-        {
-            "id": "charge",
-            "kind": "charge",
-            "file": "csv/charge.csv",
-            "notes": "valve opened at t = 0",
-        },
+        {"id": "charge", "kind": "charge", "file": "csv/charge.csv",
+         "notes": "valve opened at t = 0"},
         {"id": "discharge", "kind": "discharge", "file": "csv/discharge.csv"},
         {"id": "pulse-10ms", "kind": "pulse", "file": "csv/pulse.csv"},
-        {
-            "id": "stair_pwm",
-            "kind": "staircase",
-            "file": "stair_pwm.parquet",
-            "modulator": {"type": "pwm", "f_w": 20},
-        },
-        {
-            "id": "sine_ipfm",
-            "kind": "sine",
-            "file": "sine_ipfm.mat",
-            "modulator": {"type": "ipfm", "t_h": 0.02},
-        },
-        {
-            "id": "chirp_iipfm",
-            "kind": "chirp",
-            "file": "chirp_iipfm.csv",
-            "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
-        },
-        {
-            "id": "stair_dsm",
-            "kind": "staircase",
-            "file": "stair_dsm.csv",
-            "modulator": {"type": "dsm", "period": 0.02},
-        },
+        {"id": "stair_pwm", "kind": "staircase", "file": "stair_pwm.parquet",
+         "modulator": {"type": "pwm", "f_w": 20}},
+        {"id": "sine_ipfm", "kind": "sine", "file": "sine_ipfm.mat",
+         "modulator": {"type": "ipfm", "t_h": 0.02}},
+        {"id": "chirp_iipfm", "kind": "chirp", "file": "chirp_iipfm.csv",
+         "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15}},
+        {"id": "stair_dsm", "kind": "staircase", "file": "stair_dsm.csv",
+         "modulator": {"type": "dsm", "period": 0.02}},
     ]
-    doc = _spec(
-        folder.name,
-        runs,
-        units={"time": "ms", "pressure": "kPa"},
-        columns={"t": "time_ms", "p": "P_kPa", "valve": "V", "u": "xi"},
-    )
+    doc = _spec(folder.name, runs, units={"time": "ms", "pressure": "kPa"},
+                columns={"t": "time_ms", "p": "P_kPa", "valve": "V", "u": "xi"})
     doc["description"] = "Small valid dataset exercising every kind, modulator and file format."
     _write_yaml(folder, doc)
     (folder / "csv").mkdir()
@@ -167,10 +139,8 @@ def _good(folder: Path) -> None:
     with_u = frame.assign(xi=xi)
     table = pa.Table.from_pandas(with_u, preserve_index=False)
     pq.write_table(table, folder / "stair_pwm.parquet")
-    scipy.io.savemat(
-        folder / "sine_ipfm.mat",
-        {"time_ms": t_ms, "P_kPa": p_kpa, "V": valve.astype(float), "xi": xi},
-    )
+    scipy.io.savemat(folder / "sine_ipfm.mat",
+                     {"time_ms": t_ms, "P_kPa": p_kpa, "V": valve.astype(float), "xi": xi})
     _csv(folder, "chirp_iipfm.csv", with_u)
     _csv(folder, "stair_dsm.csv", with_u)
 
@@ -179,12 +149,8 @@ def _multi(folder: Path) -> None:
     runs = [
         {"id": "charge1", "kind": "charge", "file": "charge1.csv"},
         {"id": "pulse1", "kind": "pulse", "file": "pulse1.csv"},
-        {
-            "id": "sine1",
-            "kind": "sin",
-            "file": "sine1.csv",
-            "modulator": {"type": "pwm", "f_w": 20},
-        },
+        {"id": "sine1", "kind": "sin", "file": "sine1.csv",
+         "modulator": {"type": "pwm", "f_w": 20}},
     ]
     doc = _spec(folder.name, runs)
     doc["orign"] = doc.pop("origin")
@@ -388,36 +354,21 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
         ["cannot parse YAML", "found duplicate key 'name'"],
     ),
     "unknown_key_typo": (
-        lambda d: (
-            _write_yaml(
-                d,
-                {
-                    ("descripton" if k == "description" else k): v
-                    for k, v in _spec(d.name, [CHARGE]).items()
-                },
-            )
-            or _csv(d, "charge1.csv", F)
-        ),
-        [
-            "unknown key 'descripton' (did you mean 'description'?)",
-            "missing required key 'description'",
-        ],
+        lambda d: _write_yaml(d, {("descripton" if k == "description" else k): v
+                                  for k, v in _spec(d.name, [CHARGE]).items()})
+        or _csv(d, "charge1.csv", F),
+        ["unknown key 'descripton' (did you mean 'description'?)",
+         "missing required key 'description'"],
     ),
     "missing_required_key": (
-        lambda d: (
-            _write_yaml(d, {k: v for k, v in _spec(d.name, [CHARGE]).items() if k != "origin"})
-            or _csv(d, "charge1.csv", F)
-        ),
+        lambda d: _write_yaml(d, {k: v for k, v in _spec(d.name, [CHARGE]).items()
+                                  if k != "origin"}) or _csv(d, "charge1.csv", F),
         ["missing required key 'origin'"],
     ),
-    "name_mismatch": (
-        lambda d: _case(d, name="other_name"),
-        ["name 'other_name' differs from the folder name 'name_mismatch'"],
-    ),
-    "bad_name": (
-        lambda d: _case(d, name="my data!"),
-        ["name 'my data!' must be a string of letters, digits"],
-    ),
+    "name_mismatch": (lambda d: _case(d, name="other_name"),
+                      ["name 'other_name' differs from the folder name 'name_mismatch'"]),
+    "bad_name": (lambda d: _case(d, name="my data!"),
+                 ["name 'my data!' must be a string of letters, digits"]),
     "bad_origin": (
         lambda d: _case(d, origin="synthetc"),
         ["origin 'synthetc' is not one of bench, synthetic (did you mean 'synthetic'?)"],
@@ -425,33 +376,23 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     "bad_rig": (lambda d: _case(d, rig="an Arduino"), ["rig must be a mapping"]),
     "bad_units": (
         lambda d: _case(d, units={"time": "sec", "pressure": "kpa"}),
-        [
-            "units.time: time unit 'sec' is not one of s, ms",
-            "pressure unit 'kpa' is not one of bar, mbar, kPa, psi (did you mean 'kPa'?)",
-        ],
+        ["units.time: time unit 'sec' is not one of s, ms",
+         "pressure unit 'kpa' is not one of bar, mbar, kPa, psi (did you mean 'kPa'?)"],
     ),
-    "unknown_units_key": (
-        lambda d: _case(d, units={"presure": "kPa"}),
-        ["unknown key 'presure' (did you mean 'pressure'?)"],
-    ),
-    "bad_columns_key": (
-        lambda d: _case(d, columns={"valv": "V"}),
-        ["unknown canonical column 'valv' (did you mean 'valve'?)"],
-    ),
-    "columns_duplicate": (
-        lambda d: _case(d, columns={"p": "x", "u": "x"}),
-        ["file column 'x' is used for several canonical columns"],
-    ),
+    "unknown_units_key": (lambda d: _case(d, units={"presure": "kPa"}),
+                          ["unknown key 'presure' (did you mean 'pressure'?)"]),
+    "bad_columns_key": (lambda d: _case(d, columns={"valv": "V"}),
+                        ["unknown canonical column 'valv' (did you mean 'valve'?)"]),
+    "columns_duplicate": (lambda d: _case(d, columns={"p": "x", "u": "x"}),
+                          ["file column 'x' is used for several canonical columns"]),
     "unknown_kind": (
         lambda d: _case(d, runs=[{**CHARGE, "kind": "stair"}]),
         ["runs[0].kind [run 'charge1']: unknown kind 'stair'", "(did you mean 'staircase'?)"],
     ),
     "unknown_modulator_type": (
         lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "pfm", "f_w": 20}}]),
-        [
-            "runs[0].modulator [run 'stair1']: unknown modulator type 'pfm'",
-            "(did you mean 'ipfm'?)",
-        ],
+        ["runs[0].modulator [run 'stair1']: unknown modulator type 'pfm'",
+         "(did you mean 'ipfm'?)"],
     ),
     "bad_modulator_settings": (
         lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "pwm", "f_w": -5}}]),
@@ -504,50 +445,40 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "path_symlink": (_symlink, ["outside the dataset folder (a symlink pointing out?)"]),
     "missing_file": (
-        lambda d: (
-            _case(d, runs=[{**CHARGE, "file": "nothere.csv"}]) or (d / "nothere.csv").unlink()
-        ),
+        lambda d: _case(d, runs=[{**CHARGE, "file": "nothere.csv"}])
+        or (d / "nothere.csv").unlink(),
         ["runs[0].file [run 'charge1']: file 'nothere.csv' not found"],
     ),
     "unsupported_extension": (
-        lambda d: (
-            _case(d, runs=[{**CHARGE, "file": "charge1.xlsx"}])
-            or (d / "charge1.xlsx").write_bytes(b"PK\x03\x04")
-        ),
+        lambda d: _case(d, runs=[{**CHARGE, "file": "charge1.xlsx"}])
+        or (d / "charge1.xlsx").write_bytes(b"PK\x03\x04"),
         ["unsupported file type '.xlsx'", "expected one of .csv, .parquet, .mat"],
     ),
     "empty_file": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b""),
         ["charge1.csv [run 'charge1']: file is empty (0 bytes)"],
     ),
-    "header_only": (
-        lambda d: _case(d, df=F.iloc[:0]),
-        ["0 data row(s); a run needs at least 2 samples"],
-    ),
-    "one_row": (
-        lambda d: _case(d, df=F.iloc[:1]),
-        ["1 data row(s); a run needs at least 2 samples"],
-    ),
+    "header_only": (lambda d: _case(d, df=F.iloc[:0]),
+                    ["0 data row(s); a run needs at least 2 samples"]),
+    "one_row": (lambda d: _case(d, df=F.iloc[:1]),
+                ["1 data row(s); a run needs at least 2 samples"]),
     "truncated_csv": (
         _truncated_csv,
-        [
-            f"[run 'charge1', line {N + 1}]: malformed line",
-            "expected 3 comma-separated fields, got 2",
-        ],
+        [f"[run 'charge1', line {N + 1}]: malformed line",
+         "expected 3 comma-separated fields, got 2"],
     ),
     "unreadable_csv_header": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"\xff\xfe\x00t\x00,\n1,2\n"),
         ["are not utf-16 text (truncated data)", "starts with a byte-order mark of that encoding"],
     ),
     "csv_utf16_no_bom": (
-        lambda d: (
-            _case(d)
-            or (d / "charge1.csv").write_bytes("t,p,valve\n0,0,1\n1,1,1\n".encode("utf-16-le"))
-        ),
+        lambda d: _case(d)
+        or (d / "charge1.csv").write_bytes("t,p,valve\n0,0,1\n1,1,1\n".encode("utf-16-le")),
         ["UTF-16 text without a byte-order mark"],
     ),
     "csv_cr_line_ends": (
-        lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"t,p,valve\r0,0,1\r0.001,0.1,1\r"),
+        lambda d: _case(d)
+        or (d / "charge1.csv").write_bytes(b"t,p,valve\r0,0,1\r0.001,0.1,1\r"),
         ["the lines end in CR alone (old Mac OS text)"],
     ),
     "truncated_parquet": (
@@ -614,18 +545,12 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "missing_column": (
         lambda d: _case(d, df=F.rename(columns={"p": "pressure"})),
-        [
-            "column 'p']: missing column 'p': a charge run needs pressure (p)",
-            "map names under columns: in dataset.yaml",
-        ],
+        ["column 'p']: missing column 'p': a charge run needs pressure (p)",
+         "map names under columns: in dataset.yaml"],
     ),
     "missing_column_mapped": (
-        lambda d: _case(
-            d,
-            columns={"p": "P_kPa"},
-            units={"pressure": "kPa"},
-            df=F.rename(columns={"p": "P_kpa"}),
-        ),
+        lambda d: _case(d, columns={"p": "P_kPa"}, units={"pressure": "kPa"},
+                        df=F.rename(columns={"p": "P_kpa"})),
         ["missing column 'P_kPa' (mapped from 'p' under columns:)", "(did you mean 'P_kpa'?)"],
     ),
     "duplicate_csv_column": (
@@ -646,17 +571,13 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "nan_inf": (
         lambda d: _case(d, df=_with(_with(F, "p", 3, "NaN"), "t", 7, "inf")),
-        [
-            "column 'p', row 3 (line 4)]: missing value (empty cell or NaN)",
-            "column 't', row 7 (line 8)]: infinite value (inf)",
-        ],
+        ["column 'p', row 3 (line 4)]: missing value (empty cell or NaN)",
+         "column 't', row 7 (line 8)]: infinite value (inf)"],
     ),
     "empty_cells": (
         lambda d: _case(d, df=_with(_with(F, "valve", 4, ""), "valve", 9, "")),
-        [
-            "column 'valve', row 4 (line 5)]: missing value (empty cell or NaN)",
-            "(2 rows in all: 4, 9)",
-        ],
+        ["column 'valve', row 4 (line 5)]: missing value (empty cell or NaN)",
+         "(2 rows in all: 4, 9)"],
     ),
     "time_backwards": (
         lambda d: _case(d, df=_with(F, "t", 10, 0.002)),
@@ -676,11 +597,8 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "pressure_looks_kpa": (
         lambda d: _case(d, df=F.assign(p=F["p"] * 100)),
-        [
-            "is outside the plausible gauge range -1.1 to 20 bar",
-            "the values look like kPa (0 to 0.2529 bar); or psi",
-            "set units: {pressure: kPa}",
-        ],
+        ["is outside the plausible gauge range -1.1 to 20 bar",
+         "the values look like kPa (0 to 0.2529 bar); or psi", "set units: {pressure: kPa}"],
     ),
     "pressure_looks_mbar": (
         lambda d: _case(d, units={"pressure": "kPa"}, df=F.assign(p=F["p"] * 10_000)),
@@ -690,7 +608,9 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
         lambda d: _raw(
             d,
             "name: yaml_alias_bomb\na0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n"
-            + "".join(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]\n" for i in range(1, 10))
+            + "".join(
+                f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]\n" for i in range(1, 10)
+            )
             + "runs: *a9\n",
         ),
         ["too complex to be a dataset description", "once its aliases are expanded"],
@@ -701,13 +621,11 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "many_problems": (
         _multi,
-        [
-            "unknown key 'orign' (did you mean 'origin'?)",
-            "unknown kind 'sin'",
-            "charge1.csv [run 'charge1', column 'p', row 5 (line 6)]: non-numeric value",
-            "pulse1.csv [run 'pulse1', column 't', row 10 (line 11)]: time goes backwards",
-            "pulse1.csv [run 'pulse1', column 'valve', row 4 (line 5)]: valve = 3",
-        ],
+        ["unknown key 'orign' (did you mean 'origin'?)",
+         "unknown kind 'sin'",
+         "charge1.csv [run 'charge1', column 'p', row 5 (line 6)]: non-numeric value",
+         "pulse1.csv [run 'pulse1', column 't', row 10 (line 11)]: time goes backwards",
+         "pulse1.csv [run 'pulse1', column 'valve', row 4 (line 5)]: valve = 3"],
     ),
 }
 
