@@ -21,7 +21,7 @@ reproduce: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/snakefmt --check Snakefile workflow/rules
+	$(BIN)/snakefmt --check workflow/Snakefile workflow/rules
 
 # Debian's Chromium and its driver, for the browser test of the HTML report
 # (tests/test_report_browser.py); installed with apt-get only when missing.

@@ -146,6 +146,8 @@ class Stage:
     target : bool
         False for an intermediate step that only some datasets have (the raw-data manifest
         of bench datasets): ``reproduce-all`` gets it through the stages that read it.
+    category : str
+        Its category in ``snakemake --report`` (:mod:`spa.workflow_report`); ``""``: none.
     """
 
     name: str
@@ -154,20 +156,24 @@ class Stage:
     logs: dict[str, str] = field(default_factory=dict)
     section: str | None = None
     target: bool = True
+    category: str = ""
 
 
 def _analytic(name: str, *outputs: Output) -> Stage:
     """An analytic step: rule ``analytic_<name>``, log ``logs/analytic/<name>.log``."""
     rule = f"analytic_{name}"
-    return Stage(rule, False, outputs, {rule: f"analytic/{name}.log"}, section="analytic")
+    logs = {rule: f"analytic/{name}.log"}
+    return Stage(rule, False, outputs, logs, section="analytic", category="Analytic")
 
 
-def _per_dataset(name: str, *outputs: Output, logs: dict[str, str] | None = None) -> Stage:
+def _per_dataset(
+    name: str, *outputs: Output, logs: dict[str, str] | None = None, category: str = ""
+) -> Stage:
     """A per-dataset step: by default written by the rule ``name``, which logs to
     ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
-    return Stage(name, True, (*outputs, status), logs, section="dataset")
+    return Stage(name, True, (*outputs, status), logs, section="dataset", category=category)
 
 
 STAGES: tuple[Stage, ...] = (
@@ -265,6 +271,7 @@ STAGES: tuple[Stage, ...] = (
             "The pulse run: command, measured and model pressure, with a zoom on one edge.",
         ),
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
+        category="Identification",
     ),
     _per_dataset(
         "tune",
@@ -318,6 +325,7 @@ STAGES: tuple[Stage, ...] = (
             required=False,
         ),
         Output("fig5_csv", "tuning/fig5.csv", DATA),
+        category="Tuning",
     ),
     _per_dataset(
         "validate_model",
@@ -336,6 +344,7 @@ STAGES: tuple[Stage, ...] = (
             "Validation: {name}",
             "Measured against model pressure for the lowest-FIT {name} run.",
         ),
+        category="Validation",
     ),
     _per_dataset(
         "staircase",
@@ -387,6 +396,7 @@ STAGES: tuple[Stage, ...] = (
             "the paper's settings; right: mean ± sd of every setting.",
             required=False,
         ),
+        category="Staircase",
     ),
     _per_dataset(
         "sine",
@@ -414,6 +424,7 @@ STAGES: tuple[Stage, ...] = (
             "title gives the sine's frequency against the plant's corner frequency.",
             required=False,
         ),
+        category="Sine",
     ),
     _per_dataset(
         "chirp",
@@ -442,6 +453,7 @@ STAGES: tuple[Stage, ...] = (
             "noise seeds; dashed: the linear reference).",
             required=False,
         ),
+        category="Chirp",
     ),
     Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
     # Last: fails the run, naming them, when any dataset failed (spa.status).
