@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from spa.identification.delays import fit_delays
 from spa.identification.experiments import identification_commands, simulate_identification
-from spa.identification.identify import identify, identify_runs
+from spa.identification.identify import identify, identify_runs, identify_with_config
 from spa.identification.rate_fits import fit_charge, fit_discharge
 from spa.identification.rates import pressure_rate
 from spa.identification.results import (
@@ -58,6 +58,7 @@ __all__ = [
     "identification_commands",
     "identify",
     "identify_runs",
+    "identify_with_config",
     "load_params",
     "pressure_rate",
     "simulate_identification",

@@ -309,7 +309,8 @@ def generate_dataset(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for spec in dataset_runs(cfg, experiments):
+    specs = list(dataset_runs(cfg, experiments))
+    for spec in progress(specs, f"simulating {name}"):
         table = simulate_run(spec, params, dt, sensor, run_seed(seed, name, spec.id))
         meta = {
             "dataset": name,

@@ -2,7 +2,16 @@
 # output and log files (spa.outputs), the digest of spa's code. No logic and no paths here.
 from pathlib import Path
 
+from snakemake.exceptions import WorkflowError
 from snakemake.logging import logger
+
+from spa._guard import ShadowedPackageError, check_package
+
+# A clone folder named `spa` in the current folder shadows the package: say so, first.
+try:
+    check_package()
+except ShadowedPackageError as _exc:
+    raise WorkflowError(str(_exc)) from None
 
 from spa.config import discover_datasets, validate_config
 from spa.io import package_digest
