@@ -176,3 +176,20 @@ def test_no_progress_bar_in_a_workflow_job(monkeypatch):
     monkeypatch.setattr(sys.modules["__main__"], "snakemake", job, raising=False)
     items = [1, 2]
     assert progress(items, "runs") is items
+
+
+def test_simulating_a_dataset_shows_a_bar_and_still_calls_back(tmp_path, monkeypatch):
+    """The bar of spa.synthetic.generate_dataset does not replace its progress callback."""
+    from spa.model.params import ValveParams
+    from spa.synthetic import generate_dataset
+
+    monkeypatch.delenv("SPA_PROGRESS", raising=False)
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    cfg = {"params": ValveParams().as_dict(), "controller_dt": 1e-3, "sensor": {"fs": 1000.0},
+           "modulators": [{"type": "pwm", "f_w": 20.0}]}  # fmt: skip
+    experiments = {"staircase": {"step": 0.5, "hold": 0.5}}
+    lines: list[str] = []
+    paths = generate_dataset("mini", cfg, experiments, 1, tmp_path / "runs", progress=lines.append)
+    assert len(paths) == len(lines) >= 1
+    assert "simulating mini:" in term.getvalue()
