@@ -7,6 +7,11 @@ min_version("9.0")
 configfile: "config/config.yaml"
 
 
+# The front page of `snakemake --report report.zip`; each table and figure has its own
+# caption and category (workflow/report/, spa.workflow_report).
+report: "workflow/report/workflow.rst"
+
+
 # `snakemake --lint` has one finding, "Specify a conda environment or container for each
 # rule", for every rule; it is deliberately not followed. Every rule runs the same pinned
 # Python environment (requirements.lock, installed by `make setup`; on a cluster, the same

@@ -1,4 +1,5 @@
-"""Command line: ``spa validate``, ``spa ingest``, ``spa init``, ``spa example`` and ``spa tune``.
+"""Command line: ``spa validate``, ``spa ingest``, ``spa init``, ``spa example``,
+``spa identify`` and ``spa tune``; ``spa --version``.
 
 Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error
 (see ``spa --help``).
@@ -88,6 +89,72 @@ def _example(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _run_folder(folder: Path, tmp: Path) -> Path:
+    """The folder of run tables of ``folder``: ingested into ``tmp`` from a bench dataset
+    (``dataset.yaml``), ``runs/`` of a results folder, or ``folder`` itself."""
+    from spa.datasets import ingest_dataset
+
+    if (folder / "dataset.yaml").is_file():
+        ingest_dataset(folder, tmp / "runs")  # validates first; raises DatasetError
+        return tmp / "runs"
+    if (folder / "runs").is_dir():
+        return folder / "runs"
+    if any(folder.glob("*.parquet")):
+        return folder
+    raise ValueError(
+        f"{folder}: expected a bench dataset folder (with dataset.yaml, e.g. raw/example), a "
+        "results folder with runs/ (results/<name>) or a folder of run tables (*.parquet)"
+    )
+
+
+def _identify(args: argparse.Namespace, out: TextIO) -> int:
+    import json
+    import tempfile
+
+    import yaml
+
+    from spa.datasets import DatasetError
+    from spa.identification import identify_with_config
+    from spa.io import read_runs
+    from spa.report.params import fits_note, params_table
+
+    try:
+        config = yaml.safe_load(Path(args.config).read_text()) if args.config else None
+        with tempfile.TemporaryDirectory(prefix="spa-identify-") as tmp:
+            runs, metas = read_runs(_run_folder(Path(args.dataset), Path(tmp)))
+        kinds = {rid: m["kind"] for rid, m in metas.items()}
+        result = identify_with_config(runs, kinds, config, seed=args.seed).to_dict()
+    except DatasetError as exc:
+        for p in exc.problems:
+            print(p, file=out)
+        print(f"{args.dataset}: not identified: the dataset has errors", file=out)
+        return 1
+    except (ValueError, OSError, yaml.YAMLError) as exc:
+        print(f"error: {exc}", file=out)
+        return 1
+    if args.json:
+        print(json.dumps(result, indent=2, default=float), file=out)
+        return 0
+    table = params_table(result).drop(columns="method")
+    print(f"{args.dataset}: {len(runs)} run(s); 95 % intervals", file=out)
+    print(table.to_string(index=False, float_format=lambda x: f"{x:.5g}"), file=out)
+    note = fits_note(result).strip()
+    if note:
+        print(note, file=out)
+    return 0
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("spa")
+    except PackageNotFoundError:  # run from a source tree that is not installed
+        import spa
+
+        return spa.__version__
+
+
 def _tune(args: argparse.Namespace, out: TextIO) -> int:
     import yaml
 
@@ -114,9 +181,12 @@ def _tune(args: argparse.Namespace, out: TextIO) -> int:
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="spa",
-        description="Soft pneumatic actuator characterisation: dataset tools.",
+        description="Soft pneumatic actuator characterisation: dataset tools. The pipeline "
+        "itself runs with `snakemake reproduce-all`.",
+        epilog="`spa COMMAND --help` describes a command's arguments.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    parser.add_argument("--version", action="version", version=f"spa {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
     p = sub.add_parser(
         "validate",
         help="check dataset folders against the contract (raw/README.md)",
@@ -154,10 +224,28 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=2025, help="noise seed (default 2025)")
     p.set_defaults(func=_example)
     p = sub.add_parser(
+        "identify",
+        help="identify a valve's parameters (95 %% intervals) from a dataset",
+        description="Identify c1, k2, tau2, t_on and t_off (paper Section 3.2) from the "
+        "charge, discharge and pulse runs of DATASET, as the workflow's identify rule does, "
+        "without Snakemake; print them with their 95 % intervals. DATASET is a bench dataset "
+        "folder (validated and ingested into a temporary folder; nothing is written next to "
+        "it), a results folder with runs/ (results/<name>) or a folder of run tables.",
+    )
+    p.add_argument("dataset", metavar="DATASET", help="raw/<name>, results/<name> or a runs/")
+    p.add_argument(
+        "--config",
+        metavar="CONFIG.yaml",
+        help="take identification:, nominal: and seed: from this configuration",
+    )
+    p.add_argument("--seed", type=int, help="bootstrap seed (default: the config's, else 0)")
+    p.add_argument("--json", action="store_true", help="print params.yaml's content as JSON")
+    p.set_defaults(func=_identify)
+    p = sub.add_parser(
         "tune",
         help="tune the four modulators for a valve and recommend a setting",
         description="Sweep each modulator's parameter for the valve of PARAMS.yaml (an "
-        "identification's params.yaml, whose 95 %% intervals are propagated) or of the five "
+        "identification's params.yaml, whose 95 % intervals are propagated) or of the five "
         "parameters given; print Table 2 and the recommended setting. Exit 1 for a valve "
         "that cannot be tuned.",
     )
@@ -194,6 +282,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         0 on success, 1 if a dataset has an error, 2 for a usage error.
     """
+    from spa._guard import ShadowedPackageError, check_package
+
+    try:
+        check_package()
+    except ShadowedPackageError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     parser = _parser()
     try:
         args = parser.parse_args(argv)

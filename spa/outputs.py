@@ -156,6 +156,8 @@ class Stage:
     upstream : tuple of str or None
         The dataset stages whose outputs it reads (a failure there skips it, spa.status);
         None: every dataset stage before it.
+    category : str
+        Its category in ``snakemake --report`` (:mod:`spa.workflow_report`); ``""``: none.
     """
 
     name: str
@@ -165,6 +167,7 @@ class Stage:
     section: str | None = None
     target: bool = True
     upstream: tuple[str, ...] | None = None
+    category: str = ""
 
 
 def _with_vectors(outputs: tuple[Output, ...]) -> tuple[Output, ...]:
@@ -181,7 +184,7 @@ def _analytic(name: str, *outputs: Output) -> Stage:
     """An analytic step: rule ``analytic_<name>``, log ``logs/analytic/<name>.log``."""
     rule = f"analytic_{name}"
     logs = {rule: f"analytic/{name}.log"}
-    return Stage(rule, False, _with_vectors(outputs), logs, section="analytic")
+    return Stage(rule, False, _with_vectors(outputs), logs, section="analytic", category="Analytic")
 
 
 def _per_dataset(
@@ -189,13 +192,14 @@ def _per_dataset(
     *outputs: Output,
     logs: dict[str, str] | None = None,
     upstream: tuple[str, ...] = ("runs", "identify"),
+    category: str = "",
 ) -> Stage:
     """A per-dataset step, after ``upstream``: by default written by the rule ``name``, which
     logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
     outputs = _with_vectors((*outputs, status))
-    return Stage(name, True, outputs, logs, section="dataset", upstream=upstream)
+    return Stage(name, True, outputs, logs, section="dataset", upstream=upstream, category=category)
 
 
 STAGES: tuple[Stage, ...] = (
@@ -299,6 +303,7 @@ STAGES: tuple[Stage, ...] = (
         ),
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
         upstream=("runs",),
+        category="Identification",
     ),
     _per_dataset(
         "tune",
@@ -354,6 +359,7 @@ STAGES: tuple[Stage, ...] = (
             required=False,
         ),
         Output("fig5_csv", "tuning/fig5.csv", DATA),
+        category="Tuning",
     ),
     _per_dataset(
         "validate_model",
@@ -372,6 +378,7 @@ STAGES: tuple[Stage, ...] = (
             "Validation: {name}",
             "Measured against model pressure for the lowest-FIT {name} run.",
         ),
+        category="Validation",
     ),
     _per_dataset(
         "staircase",
@@ -430,6 +437,7 @@ STAGES: tuple[Stage, ...] = (
             required=False,
         ),
         Output("fig7b_csv", "staircase/fig7b.csv", DATA),
+        category="Staircase",
     ),
     _per_dataset(
         "sine",
@@ -459,6 +467,7 @@ STAGES: tuple[Stage, ...] = (
             required=False,
         ),
         Output("fig8_csv", "sine/fig8.csv", DATA),
+        category="Sine",
     ),
     _per_dataset(
         "chirp",
@@ -488,6 +497,7 @@ STAGES: tuple[Stage, ...] = (
             required=False,
         ),
         Output("fig9_csv", "chirp/fig9.csv", DATA),
+        category="Chirp",
     ),
     Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
     # Last: fails the run, naming them, when any dataset failed (spa.status).

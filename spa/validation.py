@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from spa._progress import progress
 from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
 from spa.model.plant import replay
@@ -380,7 +381,7 @@ def validate_runs(
     """
     items = list(runs.items()) if isinstance(runs, Mapping) else list(enumerate(runs))
     rows = []
-    for rid, table in items:
+    for rid, table in progress(items, "replaying runs"):
         mod = None if modulators is None else modulators.get(str(rid))
         res = validate_run(table, params, mod)
         kind = None if kinds is None else kinds.get(str(rid))

@@ -43,11 +43,14 @@ def test_every_figure_is_embedded_once(fake_results, report):
 
 
 def test_every_table_is_shown_and_nothing_else(fake_results, report):
-    assert report.count("<table>") == len(fake_results.tables)
+    # every table once, and the summary table (one row per dataset)
+    assert report.count("<table") == len(fake_results.tables) + 1
     # numbers to about 4 significant digits, missing values empty, paper's values beside
     assert '<td class="num">97.45</td>' in report
     assert '<td class="num">5.405</td><td class="num paper">10.5</td>' in report
-    assert '<td class="num">0.007952</td><td class="num paper">0.0073</td>' in report
+    # Table 3 grouped, in short units (10⁻³ bar²), the paper's beside ours
+    assert '<td class="num">7.95</td><td class="paper">7.3</td>' in report
+    assert '<th colspan="2">MSE (10⁻³ bar²)</th>' in report
     assert '<td class="num"></td><td>ms</td>' not in report  # column order: J_min, paper_J_min
     # the long staircase tables are mentioned, the CSVs beside the figures are not shown
     assert "sim/staircase/levels.csv and sim/staircase/time_constants.csv" in report
@@ -80,7 +83,7 @@ def test_html_special_characters_are_escaped(fake_results, report):
 
 def test_optional_outputs_are_skipped_when_missing(report):
     secs = sections(report)
-    assert list(secs) == ["analytic", "dataset-sim", "dataset-a-b-c"]
+    assert list(secs) == ["summary", "analytic", "dataset-sim", "dataset-a-b-c"]
     full, bare = secs["dataset-sim"], secs["dataset-a-b-c"]
     for title in (
         "Table 3",
@@ -152,7 +155,7 @@ def test_every_figure_and_table_has_a_caption(report):
     blocks = re.findall(r"<figure .*?</figure>", report, flags=re.S)
     recommendations = report.count('<p class="lead">')  # the tuning stage's sentence
     assert recommendations == 1
-    assert len(blocks) == report.count("<img ") + report.count("<table>") + recommendations
+    assert len(blocks) == report.count("<img ") + report.count("<table") + recommendations
     for block in blocks:
         caption = re.search(r"<figcaption>(.+?)</figcaption>", block, flags=re.S)
         assert caption and len(caption[1]) > 20, block[:200]
@@ -245,3 +248,33 @@ def test_datasets_must_be_a_list_of_distinct_names(fake_results):
 def test_table_without_rows_says_so():
     out = html_table(pd.DataFrame(columns=["run", "modulator", "setting"]))
     assert '<tbody>\n<tr><td class="empty" colspan="3">no rows</td></tr>\n</tbody>' in out
+
+
+def test_report_opens_with_a_summary_per_dataset(fake_results, report):
+    summary = sections(report)["summary"]
+    assert report.index('<section id="summary">') < report.index('<section id="analytic">')
+    rows = re.findall(r"<tr>(.*?)</tr>", summary, flags=re.S)
+    assert len(rows) == 1 + len(fake_results.datasets)  # header, one row per dataset
+    sim = rows[1]
+    assert '<a href="#dataset-sim">sim</a>' in sim
+    # c1 = 0.533 * 1.0012345 with its interval [0.98, 1.02] * 0.533; t_on in ms
+    assert "0.5337<br><small>[0.5223, 0.5437]</small>" in sim
+    assert "3.004<br><small>[2.94, 3.06]</small>" in sim
+    assert "median 54.73 %, lowest 12 %" in sim  # validation FIT of the two runs
+    assert "Use IIPFM with t_l = 19.5 ms and G = 1.154 &lt;best&gt;." in sim
+    assert "(nominal)" in rows[2] and "not tuned" in rows[2]  # t_off from the fallback
+    assert "<figcaption>Per dataset: each identified valve parameter" in summary
+
+
+def test_summary_names_a_failed_dataset_and_its_first_errors(fake_results, tmp_path):
+    from spa.status import write_status
+
+    root = tmp_path / "results"
+    shutil.copytree(fake_results.root, root)
+    write_status(
+        root / "a<b&c" / "status" / "identify.json", "identify", "a<b&c", ["no <charge> run"]
+    )
+    summary = sections(build_report(root, fake_results.datasets, META))["summary"]
+    failed = re.search(r'<tr class="failed">(.*?)</tr>', summary, flags=re.S)[1]
+    assert "a&lt;b&amp;c" in failed and "<code>identify</code>" in failed
+    assert "<li><code>no &lt;charge&gt; run</code></li>" in failed

@@ -46,6 +46,19 @@ return {
   resources: performance.getEntriesByType('resource').map(e => e.name),
   dangling_links: links.filter(a => !document.getElementById(a.hash.slice(1))).length,
   title: document.title,
+  window_width: window.innerWidth,
+  page_width: document.documentElement.scrollWidth,
+  // Table 3 and the summary: [table's scrollWidth, its container's width]
+  table3: Array.from(document.querySelectorAll('table.t3'))
+    .map(t => [t.scrollWidth, t.parentElement.clientWidth]),
+  summary: Array.from(document.querySelectorAll('#summary table'))
+    .map(t => [t.scrollWidth, t.parentElement.clientWidth, t.rows.length]),
+  figures: document.querySelectorAll('figure').length,
+  uncaptioned: Array.from(document.querySelectorAll('figure'))
+    .filter(f => { const c = f.querySelector('figcaption');
+                   return !c || !shown(c) || c.textContent.trim().length < 20; })
+    .map(f => f.id),
+  images_outside_figures: imgs.filter(i => !i.closest('figure')).length,
 };
 """
 
@@ -88,6 +101,7 @@ def browser(tmp_path_factory):
     # The driver's path is given, so selenium never looks for (or downloads) one.
     driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
     driver.set_page_load_timeout(60)
+    driver.set_window_size(1280, 900)  # a laptop's window: Table 3 must fit its width
     yield driver
     driver.quit()
 
@@ -127,13 +141,28 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
     return datasets, len(figures), len(tables)
 
 
-def check_page(stats: dict, console: list[dict], n_figures: int, n_tables: int) -> None:
+def check_page(
+    stats: dict, console: list[dict], n_figures: int, n_tables: int, n_datasets: int
+) -> None:
     assert [m for m in console if m["level"] in ("SEVERE", "WARNING")] == [], console
     assert stats["scripts"] == 0
     assert stats["resources"] == []  # nothing fetched: images are data: URIs
     assert stats["images"] == stats["images_shown"] == n_figures
-    assert stats["tables"] == stats["tables_shown"] == n_tables
+    # every table of the results, and the summary table
+    assert stats["tables"] == stats["tables_shown"] == n_tables + 1
     assert stats["dangling_links"] == 0
+    # the summary opens the page: a header row and one row per dataset
+    ((width, room, rows),) = stats["summary"]
+    assert rows == 1 + n_datasets and width <= room
+    # every figure (and table) has a visible caption; every image is in a captioned figure
+    assert stats["figures"] >= n_figures and stats["uncaptioned"] == []
+    assert stats["images_outside_figures"] == 0
+    # Table 3 fits a 1280 px window: no horizontal scrolling, in its box or on the page
+    assert stats["window_width"] == 1280
+    assert stats["table3"], "no Table 3 shown"
+    for width, room in stats["table3"]:
+        assert width <= room <= stats["window_width"], stats["table3"]
+    assert stats["page_width"] <= stats["window_width"]
 
 
 def test_fabricated_report_shows_every_figure_and_table(browser, fake_results, tmp_path):
@@ -141,7 +170,9 @@ def test_fabricated_report_shows_every_figure_and_table(browser, fake_results, t
     meta = {"seed": 1, "spa version": spa.__version__}
     path.write_text(build_report(fake_results.root, fake_results.datasets, meta), encoding="utf-8")
     stats, console = open_report(browser, path)
-    check_page(stats, console, len(fake_results.pngs), len(fake_results.tables))
+    check_page(
+        stats, console, len(fake_results.pngs), len(fake_results.tables), len(fake_results.datasets)
+    )
     assert stats["title"] == "spa: reproduction report"
 
 
@@ -156,4 +187,4 @@ def test_small_config_report_in_the_browser(browser, request):
     assert f"<dt>seed</dt><dd>{seed}</dd>" in text
     assert f"<dt>spa version</dt><dd>{spa.__version__}</dd>" in text
     stats, console = open_report(browser, path)
-    check_page(stats, console, n_figures, n_tables)
+    check_page(stats, console, n_figures, n_tables, len(datasets))

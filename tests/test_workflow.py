@@ -173,6 +173,10 @@ def test_bad_raw_dataset_fails_alone_and_the_report_names_it(tmp_path):
     page = (out / "report.html").read_text()
     assert "Failed datasets" in page and "pulsed" in page
     assert "Dataset broken (failed)" in page
+    # the summary at the top names it too, with the stage that failed
+    summary = page[page.index('<section id="summary">') : page.index('<section id="failed">')]
+    assert '<tr class="failed"><th scope="row">broken</th>' in summary
+    assert "FAILED at stage <code>runs</code>" in summary and "pulsed" in summary
     assert not (out / "status.yaml").exists()
     # a second run does nothing new and still fails, naming the dataset
     again = run(

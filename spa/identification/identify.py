@@ -19,7 +19,7 @@ from spa.identification.results import (
 )
 from spa.model.params import ValveParams
 
-__all__ = ["identify", "identify_runs"]
+__all__ = ["identify", "identify_runs", "identify_with_config"]
 
 # --------------------------------------------------------------------------------------------
 # The whole identification
@@ -181,3 +181,45 @@ def identify_runs(
         if kinds[rid] in groups:
             groups[kinds[rid]][rid] = table
     return identify(groups["charge"], groups["discharge"], groups["pulse"], **kwargs)
+
+
+def identify_with_config(
+    runs: Mapping[str, pd.DataFrame],
+    kinds: Mapping[str, str],
+    config: Mapping[str, Any] | None = None,
+    seed: int | None = None,
+) -> IdentificationResult:
+    """:func:`identify_runs` with the sections of a pipeline configuration, as the workflow's
+    identify rule runs it (and ``spa identify``).
+
+    Parameters
+    ----------
+    runs, kinds
+        As :func:`identify_runs`.
+    config : mapping, optional
+        A configuration (``config/config.yaml``): its ``identification`` section (``savgol``,
+        ``use_fallback`` and the keyword arguments of :func:`identify`), ``nominal`` (the
+        fallback's values) and ``seed``; :func:`identify`'s defaults where absent.
+    seed : int, optional
+        The bootstrap's seed; default the configuration's ``seed``, else 0.
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    IdentificationError, ValueError
+        As :func:`identify`; ``use_fallback`` without ``nominal`` is a ValueError.
+    """
+    config = config or {}
+    cfg = dict(config.get("identification") or {})
+    use_fallback = bool(cfg.pop("use_fallback", False))
+    savgol = dict(cfg.pop("savgol", None) or {})
+    fallback = None
+    if use_fallback:
+        if "nominal" not in config:
+            raise ValueError("identification.use_fallback needs the config's nominal: section")
+        fallback = ValveParams(**config["nominal"])
+    seed = int(config.get("seed", 0) if seed is None else seed)
+    return identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=fallback)

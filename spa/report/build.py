@@ -23,6 +23,8 @@ from spa.report.html import (
     unique_anchor,
 )
 from spa.report.params import fits_note, params_table
+from spa.report.summary import summary_html
+from spa.report.table3 import csv_download, table3_html
 from spa.status import dataset_failures
 
 __all__ = ["build_report", "section_items"]
@@ -31,6 +33,9 @@ _PAPER = (
     "Serrano-Balbontín et al., Open-Loop Characterisation of Soft Actuator Pressure Regulated "
     "by Pulse-Driven Solenoid Valve, Robotics 2025, 14(12), 177."
 )
+
+
+_TABLE3 = "staircase/table3.csv"  # shown grouped and narrowed (spa.report.table3)
 
 
 def section_items(section: str, folder: str | Path) -> list[Output]:
@@ -94,6 +99,11 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
         params = yaml.safe_load(path.read_text(encoding="utf-8"))
         body = f'<div class="scroll">{html_table(params_table(params))}</div>'
         caption += fits_note(params)
+    elif item.path == _TABLE3:
+        table = pd.read_csv(path)
+        link = csv_download(path, "table3.csv", f"the full table ({table.shape[1]} columns)")
+        body = f'<div class="scroll">{table3_html(table)}</div>\n<p class="note">Download {link}'
+        body += f" as CSV: every column, as in {html.escape(_TABLE3)}.</p>"
     else:
         body = f'<div class="scroll">{html_table(pair_paper_columns(pd.read_csv(path)))}</div>'
     return (
@@ -199,10 +209,13 @@ def build_report(
     if len(set(datasets)) != len(datasets):
         raise ValueError(f"datasets names a dataset twice: {list(datasets)}")
     results = Path(results_dir)
-    taken: set[str] = {"contents", "analytic"}
+    taken: set[str] = {"contents", "analytic", "summary", "summary-table"}
     sections: list[tuple[str, str, str, list[tuple[str, str]]]] = []
+    anchors = {name: unique_anchor(f"dataset-{name}", taken) for name in datasets}
 
     failures = dataset_failures(results, datasets)
+    summary = summary_html(results, datasets, failures, anchors)
+    sections.append(("summary", "Summary", summary, [("summary-table", "Summary per dataset")]))
     if failures:
         sections.append(("failed", "Failed datasets", _failures_html(failures), []))
         taken.add("failed")
@@ -210,7 +223,7 @@ def build_report(
     sections.append(("analytic", "Analytic (averaged model)", body, toc))
     for name in datasets:
         folder = results / name
-        anchor = unique_anchor(f"dataset-{name}", taken)
+        anchor = anchors[name]
         if name in failures:
             body = _failures_html({name: failures[name]})
             sections.append((anchor, f"Dataset {name} (failed)", body, []))

@@ -67,6 +67,10 @@ th.paper{background:#f6ead2}td.paper{background:#fdf6e8;font-style:italic}
 .scroll{overflow-x:auto}
 .key{border:2px solid #345;background:#f7fafc;padding:.2em 1em .6em;margin:1em 0}
 p.note{font-size:.9em;color:#444}
+table.t3{font-size:.82em}table.t3 th{text-align:center}table.t3 td{padding:.2em .35em}
+table.t3 td.text{min-width:0}
+table.summary td small{color:#555}table.summary td{white-space:nowrap}
+table.summary td.text{white-space:normal;min-width:10em}tr.failed td{background:#fdf3f3}
 """
 """The page's one inline style sheet."""
 

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa._progress import progress as progress_bar
 from spa.identification.experiments import identification_commands
 from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
@@ -319,7 +320,8 @@ def generate_dataset(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for spec in dataset_runs(cfg, experiments):
+    specs = list(dataset_runs(cfg, experiments))
+    for spec in progress_bar(specs, f"simulating {name}"):
         table = simulate_run(spec, params, dt, sensor, run_seed(seed, name, spec.id))
         meta = {
             "dataset": name,

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._progress import progress
 from spa.model.params import ValveParams
 
 __all__ = ["INTERVAL_METHOD", "PARAMETERS", "corners", "propagate", "read_intervals"]
@@ -142,8 +143,12 @@ def propagate(
     >>> round(float(lo), 4), round(float(hi), 4)
     (0.4185, 0.5022)
     """
+    points = [params, *corners(params, intervals)]
     values = np.array(
-        [np.asarray(result(p), dtype=np.float64) for p in [params, *corners(params, intervals)]]
+        [
+            np.asarray(result(p), dtype=np.float64)
+            for p in progress(points, "95 % box corners", unit="valve")
+        ]
     )
     with warnings.catch_warnings():  # an all-NaN column gives NaN, as documented
         warnings.simplefilter("ignore", RuntimeWarning)

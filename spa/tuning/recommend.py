@@ -24,6 +24,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from spa import _checks as checks
+from spa._progress import progress
 from spa.model.averaging import pulse_times, time_constant, time_fractions
 from spa.model.chattering import pseudo_steady_state
 from spa.model.modulators import MODULATOR_ORDER, Modulator
@@ -268,7 +269,7 @@ def candidate_frame(
     """
     opts = options or TuningOptions()
     parts = []
-    for kind, g in grids.items():
+    for kind, g in progress(grids.items(), "sweeps", total=len(grids), unit="modulator"):
         values = sweep_grid(g["start"], g["stop"], g["step"])
         keep = np.asarray(feasible(kind, values, params), dtype=bool)
         values = values[keep]

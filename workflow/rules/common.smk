@@ -2,7 +2,16 @@
 # output and log files (spa.outputs), the digest of spa's code. No logic and no paths here.
 from pathlib import Path
 
+from snakemake.exceptions import WorkflowError
 from snakemake.logging import logger
+
+from spa._guard import ShadowedPackageError, check_package
+
+# A clone folder named `spa` in the current folder shadows the package: say so, first.
+try:
+    check_package()
+except ShadowedPackageError as _exc:
+    raise WorkflowError(str(_exc)) from None
 
 from spa.config import discover_datasets, validate_config
 from spa.io import package_digest
@@ -10,12 +19,15 @@ from spa.jobs import joined_outputs
 from spa.provenance import dataset_digest, remove_damaged_run_folders
 from spa.outputs import all_targets, log_path, stage_outputs, wildcard_choice
 from spa.safety import check_results_dir
+from spa.workflow_report import report_flags
 
 validate_config(
     config, Path(workflow.basedir) / "workflow" / "schemas" / "config.schema.yaml"
 )
 
 RESULTS = config.get("results", "results")
+# Captions of the tables and figures in `snakemake --report` (spa.workflow_report).
+CAPTIONS = Path(workflow.basedir) / "workflow" / "report"
 # Refuse, before anything runs, a results folder that overlaps raw data (spa.safety).
 check_results_dir(RESULTS, config["datasets"]["raw_dir"])
 # Passed to every job as `params: code=...`: editing spa/ reruns the jobs (a params change).
@@ -26,8 +38,13 @@ DATASETS = SIM_DATASETS + RAW_DATASETS
 
 
 def outputs(stage):
-    """A stage's named outputs (spa.outputs.STAGES), folders marked for Snakemake."""
-    return stage_outputs(stage, RESULTS, mark_directory=directory)
+    """A stage's named outputs (spa.outputs.STAGES), folders marked for Snakemake, tables
+    and figures marked for `snakemake --report` with their captions (spa.workflow_report).
+    """
+    paths = stage_outputs(stage, RESULTS, mark_directory=directory)
+    for key, flags in report_flags(stage, CAPTIONS).items():
+        paths[key] = report(paths[key], **flags)
+    return paths
 
 
 def inputs_from(stage):

@@ -2,8 +2,7 @@
 
 import yaml
 
-from spa import ValveParams
-from spa.identification import identify_runs
+from spa.identification import identify_with_config
 from spa.io import get_logger, read_runs, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
 from spa.plots.openloop import write_no_runs
@@ -16,15 +15,14 @@ log = get_logger("identify", snakemake.log[0])
 
 def main() -> None:
     out = snakemake.output
-    cfg = dict(snakemake.params.cfg)
     runs, metas = read_runs(snakemake.input.runs)
     kinds = {rid: m["kind"] for rid, m in metas.items()}
-    use_fallback = cfg.pop("use_fallback", False)
-    savgol = cfg.pop("savgol", {})
-    fallback = ValveParams(**snakemake.params.nominal) if use_fallback else None
-    result = identify_runs(
-        runs, kinds, **savgol, **cfg, seed=snakemake.params.seed, fallback=fallback
-    )
+    config = {
+        "identification": snakemake.params.cfg,
+        "nominal": snakemake.params.nominal,
+        "seed": snakemake.params.seed,
+    }
+    result = identify_with_config(runs, kinds, config)
     for name, reason in result.fallback.items():
         log.warning(
             "%s: FALLBACK to the nominal value for %s: %s",

@@ -1,0 +1,146 @@
+"""The report's opening summary: one row per dataset with what a user came for.
+
+Per dataset: the identified valve parameters with their 95 % intervals
+(``identification/params.yaml``), the validation FIT over its runs (``validation/fit.csv``)
+and the recommended modulator (``tuning/recommendation.yaml``); a dataset that failed gets
+the stage that failed and its first errors instead (:func:`spa.status.dataset_failures`).
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import yaml
+
+from spa.report.html import format_value
+from spa.report.params import PARAM_NAMES
+
+__all__ = ["SUMMARY_CAPTION", "fit_summary", "param_cell", "summary_html"]
+
+# Shown in ms: the delays are milliseconds.
+_SCALE = {"t_on": (1e3, "ms"), "t_off": (1e3, "ms")}
+_UNITS = {"c1": "s·bar^-0.5", "k2": "bar", "tau2": "s"}
+
+SUMMARY_CAPTION = (
+    "Per dataset: each identified valve parameter, its 95 % interval below it; the validation "
+    "FIT (every run re-simulated with those parameters): median over the runs and the lowest, "
+    "with its run; the modulator setting the tuning recommends for this valve and its "
+    "linearity cost J. A dataset that failed shows the stage that failed and its first errors."
+)
+"""The summary table's caption."""
+
+
+def param_cell(entry: Mapping[str, Any], name: str) -> str:
+    """One parameter as HTML: value, and its 95 % interval on a second line.
+
+    Examples
+    --------
+    >>> print(param_cell({"value": 0.0034568, "lo": 0.0027, "hi": 0.0042}, "t_on"))
+    3.457<br><small>[2.7, 4.2]</small>
+    """
+    scale = _SCALE.get(name, (1.0, ""))[0]
+    value, lo, hi = (format_value(float(entry[k]) * scale) for k in ("value", "lo", "hi"))
+    fallback = " (nominal)" if entry.get("fallback") else ""
+    return (
+        f"{html.escape(value)}{fallback}<br><small>[{html.escape(lo)}, {html.escape(hi)}]</small>"
+    )
+
+
+def fit_summary(fit: pd.DataFrame) -> str:
+    """The validation FIT of a dataset in a few words: median and lowest (with its run).
+
+    Examples
+    --------
+    >>> fit_summary(pd.DataFrame({"run": ["a", "b", "c"], "fit_percent": [90.0, 80.0, 70.5]}))
+    'median 80 %, lowest 70.5 % (c), 3 runs'
+    """
+    values = pd.to_numeric(fit.get("fit_percent"), errors="coerce")
+    if values is None or values.dropna().empty:
+        return "no runs"
+    worst = int(values.idxmin())
+    median = format_value(float(values.median()))
+    return (
+        f"median {median} %, lowest {format_value(float(values[worst]))} % "
+        f"({fit['run'].iloc[worst]}), {int(values.notna().sum())} runs"
+    )
+
+
+def _recommendation(path: Path) -> str:
+    if not path.is_file():
+        return "not tuned"
+    rec = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    best = rec.get("recommended")
+    if isinstance(best, Mapping) and best.get("description"):
+        cost = f" (J = {format_value(best['J'])} bar)" if "J" in best else ""
+        return f"{best['description']}{cost}"
+    return str(rec.get("failed") or rec.get("sentence") or "no recommendation")
+
+
+def _dataset_row(folder: Path, name: str, anchor: str) -> str:
+    e = html.escape
+    params = yaml.safe_load((folder / "identification" / "params.yaml").read_text("utf-8"))
+    cells = [f'<th scope="row"><a href="#{e(anchor)}">{e(name)}</a></th>']
+    cells += [f'<td class="num">{param_cell(params[n], n)}</td>' for n in PARAM_NAMES]
+    fit_path = folder / "validation" / "fit.csv"
+    fit = fit_summary(pd.read_csv(fit_path)) if fit_path.is_file() else "not validated"
+    cells.append(f'<td class="text">{e(fit)}</td>')
+    rec = _recommendation(folder / "tuning" / "recommendation.yaml")
+    cells.append(f'<td class="text">{e(rec)}</td>')
+    return f"<tr>{''.join(cells)}</tr>\n"
+
+
+def _failed_row(name: str, records: list[dict[str, Any]]) -> str:
+    e = html.escape
+    first = next((r for r in records if not r.get("upstream")), records[0])
+    errors = "".join(f"<li><code>{e(str(x))}</code></li>" for x in first["errors"][:3])
+    return (
+        f'<tr class="failed"><th scope="row">{e(name)}</th>'
+        f'<td class="text" colspan="{len(PARAM_NAMES) + 2}">FAILED at stage '
+        f"<code>{e(str(first['stage']))}</code> (log: logs/{e(name)}/)<ul>{errors}</ul></td></tr>\n"
+    )
+
+
+def summary_html(
+    results: str | Path,
+    datasets: Sequence[str],
+    failures: Mapping[str, list[dict[str, Any]]],
+    anchors: Mapping[str, str],
+) -> str:
+    """The summary ``<figure>``: a table of one row per dataset, and its caption.
+
+    Parameters
+    ----------
+    results : str or Path
+        The results folder.
+    datasets : sequence of str
+        The datasets, in report order.
+    failures : mapping
+        :func:`spa.status.dataset_failures` of the run.
+    anchors : mapping of str to str
+        Dataset -> the id of its report section (the dataset's name links to it).
+
+    Returns
+    -------
+    str
+        HTML; every text escaped.
+    """
+    e = html.escape
+    head = "".join(
+        f"<th>{n} ({_SCALE[n][1] if n in _SCALE else _UNITS[n]})</th>" for n in PARAM_NAMES
+    )
+    rows = []
+    for name in datasets:
+        if name in failures:
+            rows.append(_failed_row(name, failures[name]))
+            continue
+        rows.append(_dataset_row(Path(results) / name, name, anchors[name]))
+    return (
+        '<figure id="summary-table">\n<h3>Summary per dataset</h3>\n<div class="scroll">'
+        f'<table class="summary">\n<thead><tr><th>dataset</th>{head}<th>validation FIT</th>'
+        f"<th>recommended modulator</th></tr></thead>\n<tbody>\n{''.join(rows)}</tbody>\n"
+        f"</table></div>\n<figcaption>{e(SUMMARY_CAPTION)}</figcaption>\n</figure>\n"
+    )

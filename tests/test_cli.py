@@ -1,0 +1,195 @@
+"""The command line (spa.cli): --version, --help, `spa identify`; the guard against a clone
+folder named `spa` (spa._guard); progress bars only on a terminal (spa._progress)."""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+import subprocess
+import sys
+from importlib.metadata import version
+from pathlib import Path
+
+import pytest
+
+from spa.cli import _parser, main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_cli(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "spa", *args], capture_output=True, text=True, cwd=cwd, timeout=300
+    )
+
+
+def test_version_is_the_installed_package_version():
+    res = run_cli("--version")
+    assert res.returncode == 0
+    assert res.stdout.strip() == f"spa {version('spa')}"
+
+
+def test_help_lists_every_command_on_one_line():
+    commands = list(_parser()._subparsers._group_actions[0].choices)
+    assert {"validate", "ingest", "example", "identify", "tune"} <= set(commands)
+    res = subprocess.run(
+        [sys.executable, "-m", "spa", "--help"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={"COLUMNS": "80", "PATH": ""},
+    )
+    assert res.returncode == 0
+    lines = res.stdout.splitlines()
+    for name in commands:
+        (i,) = [k for k, line in enumerate(lines) if line.split()[:1] == [name]]
+        assert len(lines[i].split()) > 3, lines[i]  # a description on the same line
+        assert not lines[i + 1].startswith(" " * 10), f"{name}'s help wraps: {lines[i + 1]!r}"
+    assert "--version" in res.stdout
+
+
+@pytest.fixture(scope="module")
+def example_copy(tmp_path_factory) -> Path:
+    """A copy of raw/example (the command must not write next to it)."""
+    dst = tmp_path_factory.mktemp("raw") / "example"
+    shutil.copytree(ROOT / "raw" / "example", dst)
+    return dst
+
+
+def _listing(folder: Path) -> dict[str, int]:
+    return {str(p.relative_to(folder)): p.stat().st_mtime_ns for p in folder.rglob("*")}
+
+
+def test_identify_a_bench_dataset_prints_the_parameters_with_intervals(example_copy, capsys):
+    from spa.synthetic import EXAMPLE_PARAMS
+
+    before = _listing(example_copy)
+    assert main(["identify", str(example_copy)]) == 0
+    text = capsys.readouterr().out
+    assert _listing(example_copy) == before  # nothing written in the dataset's folder
+    lines = text.splitlines()
+    assert lines[0] == f"{example_copy}: 5 run(s); 95 % intervals"
+    assert lines[1].split() == ["parameter", "value", "95", "%", "lo", "95", "%", "hi", "unit",
+                                "fallback"]  # fmt: skip
+    truth = EXAMPLE_PARAMS.as_dict()
+    for line, name in zip(lines[2:7], ("c1", "k2", "tau2", "t_on", "t_off"), strict=True):
+        cells = line.split()
+        assert cells[0] == name and cells[-1] == "no"
+        value, lo, hi = map(float, cells[1:4])
+        assert lo <= value <= hi and lo <= truth[name] <= hi, (name, cells, truth[name])
+    assert lines[7].startswith("R² of the fits: charge")
+
+
+def test_identify_json_is_what_params_yaml_holds(example_copy, tmp_path, capsys):
+    from spa.datasets import ingest_dataset
+
+    ingest_dataset(example_copy, tmp_path / "results" / "example" / "runs")
+    assert main(["identify", str(tmp_path / "results" / "example"), "--json", "--seed", "3"]) == 0
+    params = json.loads(capsys.readouterr().out)
+    assert params["k2"]["unit"] == "bar" and params["k2"]["lo"] < params["k2"]["hi"]
+    # the same runs folder given directly and the same seed: the same numbers
+    assert main(["identify", str(tmp_path / "results" / "example" / "runs"), "--json",
+                 "--seed", "3"]) == 0  # fmt: skip
+    assert json.loads(capsys.readouterr().out) == params
+
+
+def test_identify_names_what_is_wrong(tmp_path, capsys):
+    assert main(["identify", str(tmp_path)]) == 1
+    assert "expected a bench dataset folder (with dataset.yaml" in capsys.readouterr().out
+    broken = tmp_path / "broken"
+    shutil.copytree(ROOT / "raw" / "example", broken)
+    spec = broken / "dataset.yaml"
+    spec.write_text(spec.read_text().replace("name: example", "name: broken"))
+    (broken / "charge.csv").unlink()
+    assert main(["identify", str(broken)]) == 1
+    out = capsys.readouterr().out
+    assert "charge.csv" in out and "not identified: the dataset has errors" in out
+
+
+def _shadowing_clone(tmp_path: Path) -> Path:
+    """A parent folder holding a folder `spa` without __init__.py (a clone named spa)."""
+    (tmp_path / "spa" / "spa").mkdir(parents=True)
+    (tmp_path / "spa" / "README.md").write_text("a clone\n")
+    return tmp_path
+
+
+def test_cli_refuses_a_clone_folder_named_spa(tmp_path):
+    res = run_cli("--version", cwd=_shadowing_clone(tmp_path))
+    assert res.returncode == 2
+    assert f"'import spa' found the folder {tmp_path / 'spa'}" in res.stderr
+    assert "git clone <url> spa-pipeline" in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_workflow_refuses_a_clone_folder_named_spa(tmp_path):
+    res = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"),
+         "-d", str(ROOT), "-n", "--configfile", str(ROOT / "config" / "small.yaml")],
+        capture_output=True, text=True, cwd=_shadowing_clone(tmp_path), timeout=300,
+    )  # fmt: skip
+    assert res.returncode != 0
+    assert "namespace package), not the spa package" in res.stdout + res.stderr
+
+
+def test_guard_passes_the_real_package_and_names_a_namespace():
+    from types import ModuleType
+
+    from spa._guard import ShadowedPackageError, check_package, shadowing_folders
+
+    check_package()
+    fake = ModuleType("spa")
+    fake.__path__ = ["/somewhere/spa"]  # a namespace package has a path and no file
+    assert shadowing_folders(fake) == ["/somewhere/spa"]
+    with pytest.raises(ShadowedPackageError, match="/somewhere/spa"):
+        check_package(fake)
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_only_on_a_terminal(monkeypatch):
+    from spa._progress import progress
+
+    items = [1, 2, 3]
+    monkeypatch.delenv("SPA_PROGRESS", raising=False)
+    monkeypatch.setattr(sys, "stderr", io.StringIO())  # a log file or a pipe: nothing
+    assert progress(items, "runs") is items
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    assert list(progress(items, "simulating sim")) == items
+    assert "simulating sim:" in term.getvalue() and "/3 " in term.getvalue()  # a tqdm bar
+    monkeypatch.setenv("SPA_PROGRESS", "0")  # turned off
+    assert progress(items, "runs") is items
+
+
+def test_no_progress_bar_in_a_workflow_job(monkeypatch):
+    from snakemake.iocontainers import Snakemake
+
+    from spa._progress import progress
+
+    monkeypatch.delenv("SPA_PROGRESS", raising=False)
+    monkeypatch.setattr(sys, "stderr", _Terminal())
+    job = object.__new__(Snakemake)  # what a job's script finds as `snakemake`
+    monkeypatch.setattr(sys.modules["__main__"], "snakemake", job, raising=False)
+    items = [1, 2]
+    assert progress(items, "runs") is items
+
+
+def test_simulating_a_dataset_shows_a_bar_and_still_calls_back(tmp_path, monkeypatch):
+    """The bar of spa.synthetic.generate_dataset does not replace its progress callback."""
+    from spa.model.params import ValveParams
+    from spa.synthetic import generate_dataset
+
+    monkeypatch.delenv("SPA_PROGRESS", raising=False)
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    cfg = {"params": ValveParams().as_dict(), "controller_dt": 1e-3, "sensor": {"fs": 1000.0},
+           "modulators": [{"type": "pwm", "f_w": 20.0}]}  # fmt: skip
+    experiments = {"staircase": {"step": 0.5, "hold": 0.5}}
+    lines: list[str] = []
+    paths = generate_dataset("mini", cfg, experiments, 1, tmp_path / "runs", progress=lines.append)
+    assert len(paths) == len(lines) >= 1
+    assert "simulating mini:" in term.getvalue()
