@@ -12,6 +12,8 @@ from __future__ import annotations
 import ast
 import importlib
 import importlib.util
+import sys
+import types
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -34,6 +36,28 @@ def declared_names(path: Path) -> list[str]:
         ):
             return [ast.literal_eval(elt) for elt in node.value.elts]
     raise ValueError(f"{path}: no literal __all__ list to re-export")
+
+
+class _LazyPackage(types.ModuleType):
+    """A package whose public names win over its submodules of the same name.
+
+    Importing a submodule sets it as an attribute of its package: after
+    ``import spa.identification.identify``, ``spa.identification.identify`` would be the module,
+    not the function the package exports. A package with eager imports overwrote it; this one
+    keeps the exported name instead.
+    """
+
+    _spa_exports: dict[str, str]
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        exports = self.__dict__.get("_spa_exports", {})
+        if (
+            isinstance(value, types.ModuleType)
+            and name in exports
+            and value.__name__ == f"{self.__name__}.{name}"
+        ):
+            return
+        super().__setattr__(name, value)
 
 
 def lazy_exports(
@@ -74,6 +98,9 @@ def lazy_exports(
         for name in declared_names(folder / f"{module}.py"):
             exports.setdefault(name, f"{package}.{module}")
     exports.update(extra or {})
+    package_module = sys.modules[package]
+    package_module.__class__ = _LazyPackage
+    package_module.__dict__["_spa_exports"] = exports
 
     def __getattr__(name: str) -> Any:
         module = exports.get(name)

@@ -78,3 +78,21 @@ def test_a_failed_stage_skips_the_stages_that_read_it_and_no_other(tmp_path) -> 
     assert not run_stage(stage_job(job, "sine"), "sine", lambda: ran.append("again"), log)
     assert ran == ["sine"]
     assert read_status(status_dir / "sine.json")["upstream"] == "identify"
+
+
+def test_an_exported_name_wins_over_a_submodule_of_the_same_name() -> None:
+    """spa.identification exports the function identify from its submodule identify: once
+    the submodule is imported, the package's name must still be the function."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "import spa.identification.identify\n"
+        "m = sys.modules['spa.identification.identify']\n"
+        "from spa.identification import identify\n"
+        "import spa.identification as pkg\n"
+        "assert callable(identify) and identify is m.identify, identify\n"
+        "assert pkg.identify is m.identify\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from spa._progress import progress
 from spa.datasets.checks import RunSummary, _RunCheck
 from spa.datasets.contract import (
     _FORMATS,
@@ -170,7 +171,8 @@ def _scan_run(
         if out is not None:
             writer = _RunWriter(out, tuple(present), meta or b"")
         try:
-            for offset, values, bad in source.chunks(names, as_text):
+            blocks = progress(source.chunks(names, as_text), f"reading {run.file}", unit="block")
+            for offset, values, bad in blocks:
                 clean = check.feed(
                     offset,
                     {rename[k]: v for k, v in values.items()},
@@ -242,7 +244,7 @@ def _scan_dataset(
     if not parsed.data_ok:
         return parsed, problems, summaries, temps
     writing = out_dir is not None and not parsed.has_errors
-    for run in parsed.runs:
+    for run in progress(parsed.runs, f"ingesting {parsed.name or folder.name}"):
         tmp = out_dir / f".{run.id}.parquet.tmp" if writing and out_dir else None
         run_problems, summary = _scan_run(parsed, run, tmp)
         problems += run_problems

@@ -1,0 +1,163 @@
+"""What a pipeline stage and its outputs are: the vocabulary of :mod:`spa.outputs`.
+
+:class:`Output` (a key, a path, a kind, how the report shows it) and :class:`Stage` (a step of
+the pipeline, its outputs and logs), the kinds of output, and the two constructors the
+registry uses for analytic and per-dataset stages. Imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Final, Literal
+
+TABLE: Final = "table"
+"""A CSV table the report shows (``paper_*`` columns beside their own)."""
+FIGURE: Final = "figure"
+"""A PNG figure the report embeds."""
+DATA: Final = "data"
+"""A CSV of numbers (a figure's data, a long table): written, not shown in the report."""
+PARAMS: Final = "params"
+"""The identified parameters (``params.yaml``), shown as a table of the five parameters."""
+VECTOR: Final = "vector"
+"""The SVG copy of a :data:`FIGURE`, beside its PNG (:func:`spa.plots.save.save_figure`):
+written, not shown. Every figure of :data:`STAGES` gets one (key ``<figure key>_svg``)."""
+FIGURES: Final = "figures"
+"""A folder of PNG figures (with their SVG copies and CSV data), each PNG embedded in the
+report."""
+RUNS: Final = "runs"
+"""A folder of canonical run tables (``<run id>.parquet``)."""
+PAGE: Final = "page"
+"""The HTML report itself."""
+RECOMMENDATION: Final = "recommendation"
+"""The tuning stage's ``recommendation.yaml``, shown as its one-sentence summary."""
+
+Kind = Literal[
+    "table", "figure", "vector", "data", "params", "figures", "runs", "page", "recommendation"
+]
+_KINDS = (TABLE, FIGURE, VECTOR, DATA, PARAMS, FIGURES, RUNS, PAGE, RECOMMENDATION)
+
+
+@dataclass(frozen=True)
+class Output:
+    """One output of a stage.
+
+    Parameters
+    ----------
+    key : str
+        Its name in the rule's ``output:`` (``rules.<rule>.output.<key>``).
+    path : str
+        Relative to the results folder, or to ``results/<dataset>`` for a per-dataset stage.
+    kind : str
+        One of :data:`TABLE`, :data:`FIGURE`, :data:`VECTOR`, :data:`DATA`, :data:`PARAMS`,
+        :data:`FIGURES`, :data:`RUNS`, :data:`PAGE`, :data:`RECOMMENDATION`.
+    title : str, optional
+        Heading in the report, also its entry in the table of contents; ``None`` (default):
+        the report does not show it. For a :data:`FIGURES` folder, ``{name}`` in the title and
+        caption stands for each figure's file name without ``.png``.
+    caption : str, optional
+        What the table or figure shows, printed under it in the report.
+    required : bool, optional
+        The report fails when a required output it shows is missing and skips a missing
+        optional one.
+    key_item : bool, optional
+        Shown first in its report section, highlighted (Table 3 of a dataset).
+    mention : bool, optional
+        A long table the report names (where to find it) without reproducing it.
+    """
+
+    key: str
+    path: str
+    kind: Kind
+    title: str | None = None
+    caption: str = ""
+    required: bool = True
+    key_item: bool = False
+    mention: bool = False
+
+    def __post_init__(self) -> None:
+        if self.kind not in _KINDS:
+            raise ValueError(f"output {self.key!r}: kind {self.kind!r} is not one of {_KINDS}")
+        if self.title is not None and not self.caption:
+            raise ValueError(f"output {self.key!r} is shown in the report but has no caption")
+
+    @property
+    def directory(self) -> bool:
+        """True for a folder of files (:data:`RUNS`, :data:`FIGURES`)."""
+        return self.kind in (RUNS, FIGURES)
+
+    @property
+    def shown(self) -> bool:
+        """True when the report shows it."""
+        return self.title is not None
+
+
+@dataclass(frozen=True)
+class Stage:
+    """A step of the pipeline and the outputs it writes.
+
+    Parameters
+    ----------
+    name : str
+        What rules call it by (``outputs("<name>")``); the rule's name where one rule writes it.
+    per_dataset : bool
+        True: one set of outputs per dataset, under ``results/<dataset>``; False: one set under
+        ``results``.
+    outputs : tuple of Output
+        In the order the report shows them.
+    logs : mapping of str to str
+        Rule name -> its log file, relative to ``results/logs`` (``{dataset}`` for the
+        dataset). Several rules may write one stage's outputs (simulated and bench runs).
+    section : str or None
+        The report section its outputs belong to: ``"analytic"`` (paths relative to the
+        results folder) or ``"dataset"`` (one section per dataset); ``None``: none.
+    target : bool
+        False for an intermediate step that only some datasets have (the raw-data manifest
+        of bench datasets): ``reproduce-all`` gets it through the stages that read it.
+    upstream : tuple of str or None
+        The dataset stages whose outputs it reads (a failure there skips it, spa.status);
+        None: every dataset stage before it.
+    category : str
+        Its category in ``snakemake --report`` (:mod:`spa.workflow_report`); ``""``: none.
+    """
+
+    name: str
+    per_dataset: bool
+    outputs: tuple[Output, ...]
+    logs: dict[str, str] = field(default_factory=dict)
+    section: str | None = None
+    target: bool = True
+    upstream: tuple[str, ...] | None = None
+    category: str = ""
+
+
+def _with_vectors(outputs: tuple[Output, ...]) -> tuple[Output, ...]:
+    """The outputs, each figure followed by its SVG copy (:data:`VECTOR`)."""
+    out: list[Output] = []
+    for o in outputs:
+        out.append(o)
+        if o.kind == FIGURE:
+            out.append(Output(f"{o.key}_svg", str(Path(o.path).with_suffix(".svg")), VECTOR))
+    return tuple(out)
+
+
+def _analytic(name: str, *outputs: Output) -> Stage:
+    """An analytic step: rule ``analytic_<name>``, log ``logs/analytic/<name>.log``."""
+    rule = f"analytic_{name}"
+    logs = {rule: f"analytic/{name}.log"}
+    return Stage(rule, False, _with_vectors(outputs), logs, section="analytic", category="Analytic")
+
+
+def _per_dataset(
+    name: str,
+    *outputs: Output,
+    logs: dict[str, str] | None = None,
+    upstream: tuple[str, ...] = ("runs", "identify"),
+    category: str = "",
+) -> Stage:
+    """A per-dataset step, after ``upstream``: by default written by the rule ``name``, which
+    logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
+    logs = logs or {name: f"{{dataset}}/{name}.log"}
+    status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
+    outputs = _with_vectors((*outputs, status))
+    return Stage(name, True, outputs, logs, section="dataset", upstream=upstream, category=category)
