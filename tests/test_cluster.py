@@ -34,6 +34,24 @@ def run(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
     )
 
 
+def run_local_cluster(
+    targets: list[Path], out: Path, cluster_dir: Path, config: Path, *extra: str
+) -> subprocess.CompletedProcess:
+    """``targets`` of the small config through profiles/local-cluster into ``out``."""
+    return run(
+        *map(str, targets),
+        "--profile",
+        "profiles/local-cluster",
+        "--configfile",
+        "config/small.yaml",
+        str(config),
+        "--config",
+        f"results={out}",
+        *extra,
+        env={"LOCAL_CLUSTER_DIR": str(cluster_dir)},
+    )
+
+
 def planned_jobs(log: str) -> dict[str, dict[str, str]]:
     """Every job block of a Snakemake log: jobid -> rule, threads, mem_mb, runtime.
 
@@ -126,15 +144,11 @@ def cluster_run(tmp_path_factory, isolated_config):
         out / "sim" / "identification" / "params.yaml",
         out / "example" / "validation" / "fit.csv",
     ]
-    res = run(
-        *map(str, targets),
-        "--profile",
-        "profiles/local-cluster",
-        "--configfile",
-        "config/small.yaml",
-        str(isolated_config),
-        "--config",
-        f"results={out}",
+    res = run_local_cluster(
+        targets,
+        out,
+        cluster_dir,
+        isolated_config,
         # A non-default size for one rule, to show the values are the job's, not defaults.
         # --cores caps a job's threads (not the number of jobs) with a cluster executor.
         "--cores",
@@ -143,7 +157,6 @@ def cluster_run(tmp_path_factory, isolated_config):
         "analytic_table1=2",
         "--set-resources",
         "analytic_table1:mem_mb=700",
-        env={"LOCAL_CLUSTER_DIR": str(cluster_dir)},
     )
     return res, out, cluster_dir, targets
 
@@ -225,19 +238,7 @@ def test_local_cluster_receives_one_submission_per_dataset(tmp_path, isolated_co
     groups = yaml.safe_load((ROOT / "profiles" / "slurm" / "config.yaml").read_text())["groups"]
     out, cluster_dir = tmp_path / "results", tmp_path / "cluster"
     per_dataset = _dataset_targets(out, "example")
-    res = run(
-        *map(str, per_dataset),
-        "--profile",
-        "profiles/local-cluster",
-        "--configfile",
-        "config/small.yaml",
-        str(isolated_config),
-        "--config",
-        f"results={out}",
-        "--groups",
-        *groups,
-        env={"LOCAL_CLUSTER_DIR": str(cluster_dir)},
-    )
+    res = run_local_cluster(per_dataset, out, cluster_dir, isolated_config, "--groups", *groups)
     text = res.stdout + res.stderr
     assert res.returncode == 0, text[-3000:]
     recorded = submissions(cluster_dir)
