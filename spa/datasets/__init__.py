@@ -47,6 +47,7 @@ from spa.datasets.contract import _to_bar as _to_bar
 from spa.datasets.contract import _to_seconds as _to_seconds
 from spa.datasets.ingest import check_dataset, ingest_dataset, validate_dataset
 from spa.datasets.problems import DatasetError, Problem
+from spa.datasets.readers.sniff import sniff_delimited
 from spa.datasets.runtable import read_run_meta, read_run_table, write_run_table
 from spa.datasets.spec import DatasetSpec, RunEntry, find_datasets, load_spec
 
@@ -75,6 +76,7 @@ __all__ = [
     "load_spec",
     "read_run_meta",
     "read_run_table",
+    "sniff_delimited",
     "validate_dataset",
     "write_run_table",
 ]
