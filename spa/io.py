@@ -6,14 +6,12 @@ import logging
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from spa.plots.save import save_figure  # the one saving function (PNG + SVG), re-exported
-
 if TYPE_CHECKING:
     import pandas as pd
 
     from spa.model.params import ValveParams
 
-__all__ = ["get_logger", "package_digest", "read_params", "read_runs", "save_figure", "write_csv"]
+__all__ = ["get_logger", "package_digest", "read_params", "read_runs", "write_csv"]
 
 
 def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:

@@ -21,6 +21,17 @@ CORPUS = Path(__file__).parent / "corpus"
 GOOD = sorted(p for p in (CORPUS / "good").iterdir() if p.is_dir())
 
 
+#: The options of the European corpus file (good/european_csv/pulse_eu.csv), all six resolved.
+EU_OPTIONS = {
+    "sep": ";",
+    "decimal": ",",
+    "encoding": "cp1252",
+    "skip_rows": 3,
+    "comment": None,
+    "units_row": True,
+}
+
+
 def _dataset(root: Path, run: dict, content: bytes, name: str = "d", **extra) -> Path:
     folder = root / name
     folder.mkdir(parents=True)
@@ -57,14 +68,7 @@ def test_european_csv_holds_exactly_the_values_of_its_plain_twin(tmp_path: Path)
     assert df["valve"].tolist() == [int(c[2]) for c in cells]
     assert list(df.columns) == ["t", "p", "valve"] and len(df) == 400
     meta = read_run_meta(eu)
-    assert meta["source"]["csv"] == {
-        "sep": ";",
-        "decimal": ",",
-        "encoding": "cp1252",
-        "skip_rows": 3,
-        "comment": None,
-        "units_row": True,
-    }
+    assert meta["source"]["csv"] == EU_OPTIONS
 
 
 def test_per_run_columns_and_units_give_the_same_table(tmp_path: Path) -> None:
@@ -270,14 +274,7 @@ def test_sniffed_options_read_the_file(tmp_path: Path) -> None:
     """What the sniffer finds in the European corpus file reads it."""
     path = CORPUS / "good" / "european_csv" / "pulse_eu.csv"
     found = sniff_delimited(path)
-    assert found == {
-        "sep": ";",
-        "decimal": ",",
-        "encoding": "cp1252",
-        "skip_rows": 3,
-        "comment": None,
-        "units_row": True,
-    }
+    assert found == EU_OPTIONS
     source = _SOURCES["csv"](path, found)
     assert source.columns == ["Zeit", "Druck", "Ventil", "Öltemperatur"]
     ((offset, values, _),) = source.chunks(["Zeit", "Druck"])
