@@ -20,9 +20,7 @@ report: "workflow/report/workflow.rst"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/analytic.smk"
 include: "workflow/rules/datasets.smk"
-include: "workflow/rules/identify.smk"
-include: "workflow/rules/characterise.smk"
-include: "workflow/rules/tuning.smk"
+include: "workflow/rules/analyse.smk"
 include: "workflow/rules/report.smk"
 
 
@@ -31,4 +29,4 @@ rule reproduce_all:
         "reproduce-all"
     default_target: True
     input:
-        all_targets(RESULTS, DATASETS),
+        all_targets(RESULTS, DATASETS, figures=FIGURE_DATASETS),

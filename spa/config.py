@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-__all__ = ["ConfigError", "config_errors", "discover_datasets", "validate_config"]
+__all__ = [
+    "ConfigError",
+    "config_errors",
+    "discover_datasets",
+    "figure_datasets",
+    "validate_config",
+]
 
 
 class ConfigError(ValueError):
@@ -246,3 +252,43 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
             "rename one or list it under datasets.exclude"
         )
     return simulated, raw
+
+
+def figure_datasets(config: Mapping[str, Any], datasets: Sequence[str]) -> list[str]:
+    """The datasets whose figures the run draws (config ``figures``).
+
+    Parameters
+    ----------
+    config : mapping
+        The validated configuration; ``figures`` is ``"all"`` (the default), ``"none"`` or a
+        list of dataset names.
+    datasets : sequence of str
+        The datasets of the run (:func:`discover_datasets`).
+
+    Returns
+    -------
+    list of str
+        Those of ``datasets`` that get their figures, in the order of ``datasets``.
+
+    Raises
+    ------
+    ConfigError
+        If the list names a dataset that is not in the run.
+
+    Examples
+    --------
+    >>> figure_datasets({"figures": ["b"]}, ["a", "b"]), figure_datasets({}, ["a", "b"])
+    (['b'], ['a', 'b'])
+    """
+    chosen = config.get("figures", "all")
+    if chosen == "all":
+        return list(datasets)
+    if chosen == "none":
+        return []
+    unknown = [name for name in chosen if name not in datasets]
+    if unknown:
+        raise ConfigError(
+            f"config figures names {unknown}, which are not datasets of this run "
+            f"(the datasets: {list(datasets)}); use a list of them, 'all' or 'none'"
+        )
+    return [name for name in datasets if name in chosen]

@@ -24,7 +24,7 @@ This module imports nothing heavy: the workflow imports it to parse the Snakefil
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Collection, Iterable, Mapping
 from pathlib import Path
 
 from spa.stage_types import (
@@ -57,6 +57,8 @@ __all__ = [
     "Output",
     "Stage",
     "all_targets",
+    "dataset_folder",
+    "figure_paths",
     "get_stage",
     "log_path",
     "section_outputs",
@@ -64,6 +66,9 @@ __all__ = [
     "wildcard_choice",
 ]
 
+
+_DRAWN = (FIGURE, VECTOR, FIGURES)
+"""Kinds of output that are figures (left out for a dataset without figures)."""
 
 STAGES: tuple[Stage, ...] = (
     _analytic(
@@ -392,6 +397,7 @@ def stage_outputs(
     results: str | Path,
     dataset: str = "{dataset}",
     mark_directory: Callable[[str], object] | None = None,
+    figures: bool = True,
 ) -> dict[str, object]:
     """The outputs of a stage: key -> path, for a rule's ``output:`` or input.
 
@@ -405,6 +411,9 @@ def stage_outputs(
         The dataset of a per-dataset stage; default the wildcard ``{dataset}``.
     mark_directory : callable, optional
         Applied to the path of each folder output (Snakemake's ``directory``).
+    figures : bool, optional
+        False: without the figures (:data:`FIGURE`, :data:`VECTOR`, :data:`FIGURES`), for a
+        dataset whose figures the run does not draw (config ``figures``); their data stay.
 
     Returns
     -------
@@ -415,6 +424,8 @@ def stage_outputs(
     root = _root(stage, results, dataset)
     paths: dict[str, object] = {}
     for out in stage.outputs:
+        if not figures and out.kind in _DRAWN:
+            continue
         path = str(root / out.path)
         paths[out.key] = mark_directory(path) if mark_directory and out.directory else path
     return paths
@@ -435,7 +446,10 @@ def log_path(rule: str, results: str | Path, dataset: str = "{dataset}") -> str:
 
 
 def all_targets(
-    results: str | Path, datasets: Iterable[str], exclude: Iterable[str] = ()
+    results: str | Path,
+    datasets: Iterable[str],
+    exclude: Iterable[str] = (),
+    figures: Collection[str] | None = None,
 ) -> list[str]:
     """Every output of every stage, for every dataset: what ``reproduce-all`` makes.
 
@@ -447,6 +461,8 @@ def all_targets(
         The datasets.
     exclude : iterable of str, optional
         Stages to leave out (the report rule's inputs are everything but the report).
+    figures : collection of str, optional
+        The datasets whose figures are drawn (config ``figures``); default all of them.
 
     Returns
     -------
@@ -459,8 +475,59 @@ def all_targets(
     each = [s for s in stages if s.per_dataset]
     paths = [p for s in once for p in stage_outputs(s.name, results).values()]
     for d in datasets:
-        paths += [p for s in each for p in stage_outputs(s.name, results, d).values()]
+        drawn = figures is None or d in figures
+        for s in each:
+            paths += stage_outputs(s.name, results, d, figures=drawn).values()
     return [str(p) for p in paths]
+
+
+def dataset_folder(stage: str, paths: Mapping[str, object]) -> Path:
+    """The dataset folder (``results/<dataset>``) that a per-dataset stage's outputs are in.
+
+    Parameters
+    ----------
+    stage : str
+        The stage.
+    paths : mapping
+        Some of its outputs, key -> path, as a job sees them.
+
+    Raises
+    ------
+    ValueError
+        If the stage is not per dataset, or no path ends as the registry says it should.
+
+    Examples
+    --------
+    >>> dataset_folder("sine", {"table": "results/d1/sine/linearity.csv"})
+    PosixPath('results/d1')
+    """
+    stage_ = get_stage(stage)
+    if stage_.per_dataset:
+        for out in stage_.outputs:
+            path = Path(str(paths.get(out.key, "")))
+            if (
+                out.key in paths
+                and path.parts[-len(Path(out.path).parts) :] == Path(out.path).parts
+            ):
+                return Path(*path.parts[: -len(Path(out.path).parts)])
+    raise ValueError(f"{stage}: no output of a per-dataset stage among {dict(paths)}")
+
+
+def figure_paths(stages: Iterable[str], results: str | Path, dataset: str) -> list[str]:
+    """The figures (PNG, SVG, folders of figures) of a dataset's ``stages``: what a job that
+    does not draw them removes, so that no figure of an earlier run outlives its tables.
+
+    Examples
+    --------
+    >>> figure_paths(["sine"], "results", "d1")
+    ['results/d1/sine/fig8.png', 'results/d1/sine/fig8.svg']
+    """
+    paths = []
+    for name in stages:
+        stage = get_stage(name)
+        root = _root(stage, results, dataset)
+        paths += [str(root / out.path) for out in stage.outputs if out.kind in _DRAWN]
+    return paths
 
 
 def section_outputs(section: str) -> list[Output]:

@@ -120,7 +120,7 @@ def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path, isolated_conf
     assert "Using profiles profiles/slurm" in text
     jobs = planned_jobs(text)
     rules = {job["rule"] for job in jobs.values()}
-    assert {"analytic_table1", "simulate_dataset", "ingest_dataset", "identify"} <= rules
+    assert {"analytic_table1", "simulate_dataset", "ingest_dataset", "analyse"} <= rules
     for job in jobs.values():  # every job carries explicit memory and runtime for sbatch
         assert job["mem_mb"] and job["runtime"], job
     assert "This was a dry-run" in text
@@ -177,8 +177,7 @@ def test_every_cluster_job_went_through_submit_with_its_resources(cluster_run):
         "analytic_table1",
         "simulate_dataset",
         "ingest_dataset",
-        "identify",
-        "characterise",
+        "analyse",
     } <= set(by_rule)
     assert by_rule["analytic_table1"]["threads"] == "2"
     assert by_rule["analytic_table1"]["mem_mb"] == "700"

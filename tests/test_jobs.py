@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -96,3 +97,51 @@ def test_an_exported_name_wins_over_a_submodule_of_the_same_name() -> None:
         "assert pkg.identify is m.identify\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_an_earlier_stage_outputs_are_a_later_stage_inputs() -> None:
+    """In the analyse job, tune reads the params identify wrote: input.params."""
+    stages = {"identify": "identify", "tune": "tune", "sine": "sine"}
+    job = shared_job(list(stages))
+    job.input = Names({"runs": "res/d1/runs"})
+    job.params = Names({"stages": stages, "cfg": {}})
+    assert stage_job(job, "identify").input.get("params") is None  # nothing before it
+    tune = stage_job(job, "tune")
+    assert tune.input.params == "res/d1/identification/params.yaml"
+    assert tune.input.runs == "res/d1/runs"
+    # a key already taken keeps its first meaning: identify's status, not tune's
+    assert stage_job(job, "sine").input.status == "res/d1/status/identify.json"
+
+
+def test_figures_the_job_does_not_draw_are_removed_and_nothing_else(tmp_path) -> None:
+    from spa.jobs import remove_undrawn_figures
+
+    res = tmp_path / "res"
+    stages = {"identify": "identify", "validate_model": "validate_model"}
+    every = {s: stage_outputs(s, res, "d1") for s in stages}
+    for paths in every.values():
+        for key, path in paths.items():
+            target = Path(path)
+            if key == "figures":
+                (target / "charge.png").parent.mkdir(parents=True, exist_ok=True)
+                (target / "charge.png").write_text("old")
+            else:
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_text("old")
+    kept = {s: stage_outputs(s, res, "d1", figures=False) for s in stages}
+    job = SimpleNamespace(
+        output=Names(joined_outputs(stages, lambda s: kept[s])),
+        params=Names({"stages": stages}),
+        wildcards=Names({"dataset": "d1"}),
+    )
+    removed = remove_undrawn_figures(job)
+    gone = {p for s in stages for k, p in every[s].items() if k not in kept[s]}
+    assert set(removed) == gone and len(gone) == 7  # 3 PNG, 3 SVG, the figures folder
+    assert not any(Path(p).exists() for p in gone)
+    assert all(Path(p).read_text() == "old" for s in stages for p in kept[s].values())
+    assert remove_undrawn_figures(job) == []  # nothing left to remove
+    # a job that draws its figures removes nothing
+    Path(every["identify"]["fig2a"]).write_text("new")
+    job.output = Names(joined_outputs(stages, lambda s: every[s]))
+    assert remove_undrawn_figures(job) == []
+    assert Path(every["identify"]["fig2a"]).read_text() == "new"

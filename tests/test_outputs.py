@@ -9,13 +9,17 @@ from pathlib import Path
 
 import pytest
 
-from spa.config import ConfigError, discover_datasets
+from spa.config import ConfigError, discover_datasets, figure_datasets
 from spa.outputs import (
+    FIGURE,
     FIGURES,
     RUNS,
     STAGES,
+    VECTOR,
     Output,
     all_targets,
+    dataset_folder,
+    figure_paths,
     get_stage,
     log_path,
     section_outputs,
@@ -62,6 +66,41 @@ def test_stage_outputs_for_a_rule_and_for_one_dataset():
     }
     with pytest.raises(KeyError, match=r"'tables'.*'analytic_table1'"):
         stage_outputs("tables", "r")
+
+
+def test_without_figures_a_stage_keeps_its_tables_and_the_figures_data():
+    for stage in STAGES:
+        every = stage_outputs(stage.name, "res", "d1")
+        kept = stage_outputs(stage.name, "res", "d1", figures=False)
+        kinds = {o.key: o.kind for o in stage.outputs}
+        assert kept == {k: p for k, p in every.items() if kinds[k] not in (FIGURE, VECTOR, FIGURES)}
+    assert "fig2a_csv" in stage_outputs("identify", "res", "d1", figures=False)
+    # the targets: figures of the named datasets only; figure_paths lists what is left out
+    both = all_targets("res", ["a", "b"])
+    some = all_targets("res", ["a", "b"], figures=["b"])
+    stages = [s.name for s in STAGES if s.per_dataset]
+    assert sorted(set(both) - set(some)) == sorted(figure_paths(stages, "res", "a"))
+    assert "res/a/identification/fig2a.png" in figure_paths(["identify"], "res", "a")
+    assert "res/a/validation/figures" in figure_paths(["validate_model"], "res", "a")
+
+
+def test_the_dataset_folder_of_a_job_is_found_from_its_outputs():
+    outputs = stage_outputs("tune", "/x/res", "d1")
+    assert dataset_folder("tune", outputs) == Path("/x/res/d1")
+    assert dataset_folder("runs", {"runs": "r/d 2/runs"}) == Path("r/d 2")
+    with pytest.raises(ValueError, match="no output"):
+        dataset_folder("tune", {"table2": "elsewhere.csv"})
+    with pytest.raises(ValueError, match="table1"):
+        dataset_folder("analytic_table1", {"table": "res/analytic/table1.csv"})
+
+
+def test_figure_datasets_all_none_or_a_list_of_the_runs_datasets():
+    names = ["sim", "a", "b"]
+    assert figure_datasets({}, names) == names == figure_datasets({"figures": "all"}, names)
+    assert figure_datasets({"figures": "none"}, names) == []
+    assert figure_datasets({"figures": ["b", "sim"]}, names) == ["sim", "b"]
+    with pytest.raises(ConfigError, match=r"names \['c'\].*'sim', 'a', 'b'"):
+        figure_datasets({"figures": ["a", "c"]}, names)
 
 
 def test_folders_are_the_runs_and_figure_folders():

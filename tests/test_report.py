@@ -115,6 +115,18 @@ def test_sections_show_what_the_registry_of_outputs_lists(fake_results, report):
             assert f"<figcaption>{out.caption}" in html.replace("&#x27;", "'")
 
 
+def test_a_dataset_without_figures_shows_its_tables_alone(fake_results, report):
+    """config figures: the other datasets' figures are left out even when files are there
+    (an earlier run's), and the section says where the figures' data are."""
+    first, *others = fake_results.datasets
+    text = build_report(fake_results.root, fake_results.datasets, META, figures=others)
+    theirs = [p for p in fake_results.pngs if p.is_relative_to(fake_results.root / first)]
+    assert theirs
+    assert text.count("<img ") == len(fake_results.pngs) - len(theirs)
+    assert text.count("No figures for this dataset") == 1
+    assert text.count("<table>") == report.count("<table>")  # every table still shown
+
+
 def test_missing_required_output_is_an_error(fake_results, tmp_path):
     root = tmp_path / "results"
     shutil.copytree(fake_results.root, root)

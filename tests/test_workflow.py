@@ -290,8 +290,69 @@ def test_staleness_follows_content_not_modification_times(tmp_path):
     lines[10] = ",".join(fields)
     csv.write_text("".join(lines))
     os.utime(csv, (old - 3600, old - 3600))  # new content, an older time
-    assert {"raw_manifest", "ingest_dataset", "identify"} <= planned()
+    assert planned() == {"ingest_dataset", "analyse"}
     assert run(*args).returncode == 0
     assert planned() == set()
     (out / "example" / "runs" / "pulse.parquet").unlink()
-    assert {"ingest_dataset", "identify"} <= planned()
+    assert planned() == {"ingest_dataset", "analyse"}
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    """Every file of a results folder but logs, the report and the recommendation's
+    `source:` line (it names the results folder), by relative path."""
+    found = {}
+    for path in sorted(folder.rglob("*")):
+        rel = str(path.relative_to(folder))
+        if path.is_file() and not rel.startswith("logs/") and rel != "report.html":
+            data = path.read_bytes()
+            if path.name == "recommendation.yaml":
+                data = data.split(b"\n", 1)[1]
+            found[rel] = data
+    return found
+
+
+def test_figures_setting_draws_for_the_named_datasets_only(small_run, isolated_config, tmp_path):
+    """`figures: none` writes every table and every figure's data, byte for byte those of a
+    run with figures, and no figure; naming one dataset then draws its figures alone (the
+    other dataset's analysis does not rerun); a rerun without figures removes them."""
+    from spa.outputs import figure_paths, stage_outputs
+
+    out = tmp_path / "results"
+    base = ["reproduce-all", "--configfile", "config/small.yaml", str(isolated_config)]
+    args = [*base, "-c2", "--config", f"results={out}"]
+    res = run(*args, "figures=none")
+    assert res.returncode == 0, res.stderr[-3000:]
+    stages = ["identify", "tune", "validate_model", "staircase", "sine", "chirp"]
+    assert all("figures" not in stage_outputs(s, out, figures=False) for s in stages)
+    figures = {
+        str(Path(p).relative_to(small_run))
+        for d in ["sim", "example"]
+        for p in figure_paths(stages, small_run, d)
+    }
+    with_figures, without = _files(small_run), _files(out)
+    expected = {
+        rel: data
+        for rel, data in with_figures.items()
+        if rel not in figures and not any(rel.startswith(f"{f}/") for f in figures)
+    }
+    assert without == expected  # the same tables and figure data, and no figure
+    report = (out / "report.html").read_text()
+    assert report.count("No figures for this dataset") == 2
+    assert report.count("<img ") == 2  # the analytic Figs. 4 and 5 only
+
+    plan = run(*args, "figures=[example]", "-n")
+    assert plan.returncode == 0, plan.stderr[-3000:]
+    pattern = r"^rule (\w+):\n(?:    .*\n)*?    wildcards: dataset=(\w+)"
+    assert re.findall(pattern, plan.stdout, re.M) == [("analyse", "example")], plan.stdout
+    assert run(*args, "figures=[example]").returncode == 0
+    for rel, data in with_figures.items():
+        if rel.startswith("example/") and rel.endswith((".png", ".svg")):
+            assert (out / rel).read_bytes() == data, rel  # the same figures as a full run
+    assert not list((out / "sim").rglob("*.png"))
+
+    # new tuning settings without figures: example's analysis reruns and takes its figures
+    res = run(*args, "figures=none", "tuning={score: J_exact}")
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert not list((out / "example").rglob("*.png")), "a figure outlived its tables"
+    assert not list((out / "example").rglob("*.svg"))
+    assert not (out / "example" / "validation" / "figures").exists()

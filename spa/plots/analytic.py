@@ -8,14 +8,17 @@ through Agg). Save it with
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
-from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullFormatter
 
 from spa.model.modulators import MODULATOR_ORDER
 from spa.model.params import ValveParams
-from spa.plots.style import MODULATOR_COLOURS, MODULATOR_NAMES
+from spa.plots.style import MODULATOR_COLOURS, MODULATOR_NAMES, new_figure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_cost_sweeps", "plot_equilibrium"]
 
@@ -68,7 +71,7 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
     jumps as that step passes the grid's points. With ``params`` that range is shaded.
     """
     _require(sweeps, ["modulator", "x_ms", "J"], "sweeps")
-    fig = Figure(figsize=(7.0, 4.2), layout="constrained")
+    fig = new_figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
     for kind in MODULATOR_ORDER:  # legend in the order of every table
         label = _LABELS[kind]
@@ -91,6 +94,8 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
                 label=f"PWM T_W < t_on + t_off = {limit:.3g} ms ({1e3 / limit:.3g} Hz): "
                 "no linear range,\nP_eq is a 0 → k2 step; J steps as it crosses the ξ grid",
             )  # fmt: skip
+    from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullFormatter
+
     ax.set_xscale("log")
     ax.xaxis.set_major_locator(FixedLocator(_MS_TICKS))
     ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
@@ -145,7 +150,7 @@ def plot_equilibrium(curves: pd.DataFrame) -> Figure:
     kinds = [k for k in _LABELS if (curves["modulator"] == k).any()]
     if not kinds:
         raise ValueError(f"curves: no known modulator in {sorted(set(curves['modulator']))}")
-    fig = Figure(figsize=(3.0 * len(kinds), 5.2), layout="constrained")
+    fig = new_figure(figsize=(3.0 * len(kinds), 5.2), layout="constrained")
     axes = fig.subplots(2, len(kinds), sharex=True, sharey="row", squeeze=False)
     for col, kind in enumerate(kinds):
         d = curves[curves["modulator"] == kind].sort_values("xi")

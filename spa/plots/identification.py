@@ -9,14 +9,16 @@ pyplot state, no GUI backend), so they render headless; save them with
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
 
 from spa.identification import ChargeFit, DischargeFit
-from spa.plots.style import OKABE_ITO
+from spa.plots.style import OKABE_ITO, new_figure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 from spa.validation import ValidationResult
 
 __all__ = [
@@ -46,7 +48,7 @@ def _check_columns(data: pd.DataFrame, columns: list[str], name: str = "data") -
 def _rate_figure(data: pd.DataFrame, lines: dict[str, dict[str, Any]], title: str) -> Figure:
     """dP/dt against P: excluded and measured points, then the named fitted lines."""
     _check_columns(data, ["series", "p", "dpdt"])
-    fig = Figure(figsize=(5.0, 3.6), layout="constrained")
+    fig = new_figure(figsize=(5.0, 3.6), layout="constrained")
     ax = fig.add_subplot()
     for name, style in (
         ("excluded", {"color": "0.75", "s": 2}),
@@ -214,7 +216,7 @@ def fig2c(
     if zoom_span[0] >= zoom_span[1]:
         raise ValueError(f"zoom_span must be increasing, got {zoom_span!r}")
     at = _zoom_edge(data, zoom_span[1]) if zoom_at is None else float(zoom_at)
-    fig = Figure(figsize=(7.0, 5.6), layout="constrained")
+    fig = new_figure(figsize=(7.0, 5.6), layout="constrained")
     ax, az = fig.subplots(2, 1, height_ratios=[3, 2])
     for a, marker in ((ax, ""), (az, ".")):
         a.plot(data["t"], data["p"], color=_MEASURED, lw=1.0, marker=marker, ms=4, label="measured")
@@ -287,7 +289,7 @@ def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
     matplotlib.figure.Figure
     """
     _check_columns(data, ["t", "p", "p_model"])
-    fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+    fig = new_figure(figsize=(7.0, 4.5), layout="constrained")
     ax, ae = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
     ax.plot(data["t"], data["p"], color=_MEASURED, lw=0.8, label="measured")
     ax.plot(data["t"], data["p_model"], color=_MODEL, lw=1.0, ls="--", label="model")

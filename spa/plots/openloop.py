@@ -14,18 +14,20 @@ from __future__ import annotations
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-from matplotlib.colors import to_rgba
-from matplotlib.figure import Figure
 
 from spa.model.modulators import MODULATOR_ORDER
 from spa.openloop.paper import PAPER_TIME_CONSTANTS
 from spa.openloop.reference import REFERENCE
 from spa.openloop.spectra import principal_domain_mask
 from spa.plots.analytic import _COLOURS, _LABELS, _require
-from spa.plots.style import ordered_settings, setting_colours, setting_sort_key
+from spa.plots.style import new_figure, ordered_settings, setting_colours, setting_sort_key
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "DECADE",
@@ -78,7 +80,7 @@ def thin(df: pd.DataFrame, max_points: int) -> pd.DataFrame:
 
 def no_data_figure(message: str) -> Figure:
     """A small figure that says why there is nothing to show."""
-    fig = Figure(figsize=(6.0, 1.6), layout="constrained")
+    fig = new_figure(figsize=(6.0, 1.6), layout="constrained")
     ax = fig.add_subplot()
     ax.axis("off")
     ax.text(0.5, 0.5, message, ha="center", va="center", fontsize=10, wrap=True)
@@ -86,18 +88,19 @@ def no_data_figure(message: str) -> Figure:
 
 
 def write_no_runs(
-    message: str, tables: Sequence[str | Path], figures: Sequence[str | Path]
+    message: str, tables: Sequence[str | Path], figures: Sequence[str | Path | None]
 ) -> None:
     """The outputs of an analysis for a dataset without runs of its kind: tables with the
-    tag columns and no row, and figures that say ``message``."""
+    tag columns and no row, and figures that say ``message`` (a None path: not drawn, see
+    :func:`spa.plots.save.draw`)."""
     from spa.io import write_csv
-    from spa.plots.save import save_figure
+    from spa.plots.save import draw
 
     empty = pd.DataFrame(columns=["run", "modulator", "setting", "gain"])
     for path in tables:
         write_csv(empty, path)
     for path in figures:
-        save_figure(no_data_figure(message), path)
+        draw(path, no_data_figure, message)
 
 
 def fig6(traces: pd.DataFrame) -> Figure:
@@ -112,7 +115,7 @@ def fig6(traces: pd.DataFrame) -> Figure:
     kinds = _kinds(traces)
     if not kinds:
         raise ValueError("traces: no known modulator")
-    fig = Figure(figsize=(10.0, 2.4 * len(kinds)), layout="constrained")
+    fig = new_figure(figsize=(10.0, 2.4 * len(kinds)), layout="constrained")
     axes = fig.subplots(len(kinds), 1, sharex=True, squeeze=False)[:, 0]
     for ax, kind in zip(axes, kinds, strict=True):
         groups = list(_groups(traces[traces["modulator"] == kind]))
@@ -143,6 +146,8 @@ def _sweep_panel(
     columns (low, high); ``paper`` a column of the paper's values (black diamonds);
     ``reference`` a level drawn as a dashed line (the linear reference).
     """
+    from matplotlib.colors import to_rgba
+
     table = _sorted(table)
     x = np.arange(len(table))
     y = table[value].to_numpy(dtype=float)
@@ -189,7 +194,7 @@ def fig7a(
         Added to the title (e.g. which settings stand in for missing paper settings).
     """
     _require(levels, ["modulator", "setting", "gain", "xi", "p_eq", "fit"], "levels")
-    fig = Figure(figsize=(6.0 if sweep is None else 11.0, 4.8), layout="constrained")
+    fig = new_figure(figsize=(6.0 if sweep is None else 11.0, 4.8), layout="constrained")
     axes = fig.subplots(1, 1 if sweep is None else 2, squeeze=False)[0]
     ax = axes[0]
     ax.plot([0.0, 1.0], [0.0, k2], "k--", lw=1.0, label=f"ideal: k2·ξ (k2 = {k2:.3f} bar)")
@@ -286,7 +291,7 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
         Added to the title.
     """
     _require(steps, ["modulator", "setting", "gain", "xi_to", "tau"], "steps")
-    fig = Figure(figsize=(6.0 if sweep is None else 11.0, 4.8), layout="constrained")
+    fig = new_figure(figsize=(6.0 if sweep is None else 11.0, 4.8), layout="constrained")
     axes = fig.subplots(1, 1 if sweep is None else 2, squeeze=False)[0]
     ax = axes[0]
     for setting, g in _groups(steps):
@@ -353,7 +358,7 @@ def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str
         _require(reference, ["xi", "p_norm", "rms"], "reference")
     ncols = min(len(kinds), 2)
     nrows = -(-len(kinds) // ncols)
-    fig = Figure(figsize=(3.6 * ncols, 3.9 * nrows + 0.5), layout="constrained")
+    fig = new_figure(figsize=(3.6 * ncols, 3.9 * nrows + 0.5), layout="constrained")
     grid = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False).ravel()
     for ax in grid[len(kinds) :]:
         fig.delaxes(ax)
@@ -461,7 +466,7 @@ def fig9(
     ncols = min(n, 3)  # a page wide: at most three maps a row
     nrows = -(-n // ncols)
     heights = [1.0] * nrows + ([1.4] if sweep is not None else [])
-    fig = Figure(figsize=(8.0, 2.3 * sum(heights) + 0.4), layout="constrained")
+    fig = new_figure(figsize=(8.0, 2.3 * sum(heights) + 0.4), layout="constrained")
     grid = fig.add_gridspec(len(heights), ncols, height_ratios=heights)
     image = None
     axes = [fig.add_subplot(grid[i // ncols, i % ncols]) for i in range(n)]

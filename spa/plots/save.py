@@ -7,10 +7,11 @@ data beside it as CSV (:func:`spa.io.write_csv`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Final
 
-__all__ = ["MIN_WIDTH_PX", "PNG_DPI", "SVG_HASHSALT", "save_figure", "vector_path"]
+__all__ = ["MIN_WIDTH_PX", "PNG_DPI", "SVG_HASHSALT", "draw", "save_figure", "vector_path"]
 
 PNG_DPI: Final = 200
 """Resolution of the PNG, dots per inch (print quality)."""
@@ -76,6 +77,24 @@ def save_figure(
                 vector_path(png), format="svg", dpi=dpi, metadata={"Date": None, "Creator": None}
             )
     _close(fig)
+
+
+def draw(path: str | Path | None, make: Callable[..., Any], *args: Any, **kwargs: Any) -> None:
+    """Draw ``make(*args, **kwargs)`` and save it with :func:`save_figure`, if ``path`` is set.
+
+    Parameters
+    ----------
+    path : str, Path or None
+        The PNG; None when the run draws no figures for the dataset (config ``figures``: the
+        stage's figure outputs are absent, ``output.get(key)`` is None). Then nothing is made,
+        not even the figure: a job that draws nothing never imports matplotlib.
+    make : callable
+        Returns the matplotlib figure.
+    *args, **kwargs
+        Passed to ``make``.
+    """
+    if path is not None:
+        save_figure(make(*args, **kwargs), path)
 
 
 def _close(fig: Any) -> None:

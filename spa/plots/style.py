@@ -15,9 +15,12 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from typing import Final
+from typing import TYPE_CHECKING, Any, Final
 
 from spa.model.modulators import _NAMES, MODULATOR_ORDER, Modulator
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "MODULATOR_COLOURS",
@@ -119,3 +122,14 @@ def setting_colours(n: int) -> list[str]:
 
     cmap = colormaps["viridis"]
     return [to_hex(cmap(0.9 * i / (n - 1))) for i in range(n)]
+
+
+def new_figure(**kwargs: Any) -> Figure:
+    """A new matplotlib figure, ``Figure(**kwargs)``.
+
+    matplotlib is imported here, when a figure is first made, not when a plotting module is:
+    a job that draws no figure (config ``figures``) never loads it.
+    """
+    from matplotlib.figure import Figure
+
+    return Figure(**kwargs)

@@ -8,13 +8,16 @@ function takes the table written as CSV beside the PNG and returns a matplotlib 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
 
 from spa.model.params import ValveParams
 from spa.plots.analytic import _COLOURS, _LABELS, _require, plot_cost_sweeps, plot_equilibrium
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_tuning_equilibrium", "plot_tuning_sweeps"]
 
@@ -52,6 +55,8 @@ def plot_tuning_sweeps(
     almost linear in the duty while the chattering grows.
     """
     _require(sweeps, ["modulator", "x_ms", "J", "J_exact"], "sweeps")
+    from matplotlib.lines import Line2D
+
     fig = plot_cost_sweeps(sweeps, params=params)
     ax = fig.axes[0]
     for kind in _LABELS:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import html
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -113,12 +113,15 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
 
 
 def _section(
-    folder: Path, section: str, prefix: str, taken: set[str]
+    folder: Path, section: str, prefix: str, taken: set[str], drawn: bool = True
 ) -> tuple[str, list[tuple[str, str]]]:
-    """The HTML of one section's items that exist and its table-of-contents entries."""
+    """The HTML of one section's items that exist and its table-of-contents entries; without
+    its figures when not ``drawn``."""
     parts: list[str] = []
     toc: list[tuple[str, str]] = []
     for item in section_items(section, folder):
+        if not drawn and item.kind == FIGURE:
+            continue
         path = folder / item.path
         if not path.is_file():
             if item.required:
@@ -144,6 +147,13 @@ def _mentions(folder: Path, name: str) -> str:
         f'<p class="note">Per-level and per-step values: {html.escape(listed)} in the '
         "results folder (not reproduced here).</p>\n"
     )
+
+
+_NOT_DRAWN = (
+    '<p class="note">No figures for this dataset in this run (config <code>figures</code>); '
+    "the data of each are beside it as CSV, and <code>--config figures=all</code> or a list "
+    "naming this dataset draws them.</p>\n"
+)
 
 
 def _failures_html(failures: Mapping[str, list[dict[str, Any]]]) -> str:
@@ -173,6 +183,7 @@ def build_report(
     datasets: Sequence[str],
     meta: Mapping[str, Any],
     title: str = "spa: reproduction report",
+    figures: Collection[str] | None = None,
 ) -> str:
     """The whole HTML report of a results folder, as a string.
 
@@ -187,6 +198,10 @@ def build_report(
         "0.1.0"}``); keys and values are HTML-escaped.
     title : str
         The page's title and main heading.
+    figures : collection of str, optional
+        The datasets whose figures the run drew (config ``figures``, default all): the others'
+        sections show their tables alone, whatever figures an earlier run left in their
+        folders, and say where the figures' data are.
 
     Returns
     -------
@@ -228,8 +243,10 @@ def build_report(
             body = _failures_html({name: failures[name]})
             sections.append((anchor, f"Dataset {name} (failed)", body, []))
             continue
-        body, toc = _section(folder, "dataset", anchor, taken)
-        sections.append((anchor, f"Dataset {name}", body + _mentions(folder, name), toc))
+        drawn = figures is None or name in figures
+        body, toc = _section(folder, "dataset", anchor, taken, drawn)
+        body += _mentions(folder, name) + ("" if drawn else _NOT_DRAWN)
+        sections.append((anchor, f"Dataset {name}", body, toc))
 
     e = html.escape
     meta_html = "".join(

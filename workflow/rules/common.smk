@@ -13,7 +13,7 @@ try:
 except ShadowedPackageError as _exc:
     raise WorkflowError(str(_exc)) from None
 
-from spa.config import discover_datasets, validate_config
+from spa.config import discover_datasets, figure_datasets, validate_config
 from spa.io import package_digest
 from spa.jobs import joined_outputs
 from spa.provenance import dataset_digest, remove_damaged_run_folders
@@ -35,15 +35,19 @@ SPA_CODE = package_digest()
 RAW_DIR = Path(config["datasets"]["raw_dir"])
 SIM_DATASETS, RAW_DATASETS = discover_datasets(config)
 DATASETS = SIM_DATASETS + RAW_DATASETS
+# The datasets whose figures are drawn (config `figures`: all, none or a list).
+FIGURE_DATASETS = figure_datasets(config, DATASETS)
 
 
-def outputs(stage):
+def outputs(stage, figures=True):
     """A stage's named outputs (spa.outputs.STAGES), folders marked for Snakemake, tables
-    and figures marked for `snakemake --report` with their captions (spa.workflow_report).
+    and figures marked for `snakemake --report` with their captions (spa.workflow_report);
+    without its figures when `figures` is False.
     """
-    paths = stage_outputs(stage, RESULTS, mark_directory=directory)
+    paths = stage_outputs(stage, RESULTS, mark_directory=directory, figures=figures)
     for key, flags in report_flags(stage, CAPTIONS).items():
-        paths[key] = report(paths[key], **flags)
+        if key in paths:
+            paths[key] = report(paths[key], **flags)
     return paths
 
 

@@ -22,36 +22,20 @@ rule simulate_dataset:
         "../scripts/simulate_dataset.py"
 
 
-# The manifest of a bench dataset: every file's sha256. Its `digest` parameter is computed
-# when the DAG is built (spa.provenance.dataset_digest, cached by stat), so the rule reruns,
-# and everything downstream with it, exactly when the content of raw/<name>/ changed: not when
-# only a modification time moved, and also when a time went back with new content.
-rule raw_manifest:
-    output:
-        **outputs("raw_manifest"),
-    log:
-        logfile("raw_manifest"),
-    wildcard_constraints:
-        dataset=wildcard_choice(RAW_DATASETS),
-    threads: 1
-    resources:
-        mem_mb=500,
-        runtime=10,
-    params:
-        digest=raw_digest,
-        folder=lambda w: str(RAW_DIR / w.dataset),
-        cache=DIGEST_CACHE,
-    script:
-        "../scripts/raw_manifest.py"
+# A bench dataset from raw/<name>/, in one job: its manifest (every file's sha256), then its
+# validated run tables. The `digest` parameter is computed when the DAG is built
+# (spa.provenance.dataset_digest, cached by stat), so the job reruns, and everything downstream
+# with it, exactly when the content of raw/<name>/ changed: not when only a modification time
+# moved, and also when a time went back with new content.
+INGEST = {"raw_manifest": "raw_manifest", "runs": "ingest_dataset"}
 
 
 rule ingest_dataset:
-    input:
-        **inputs_from("raw_manifest"),
     output:
-        **outputs("runs"),
+        **joined_outputs(INGEST, outputs),
     log:
-        logfile("ingest_dataset"),
+        raw_manifest=logfile("raw_manifest"),
+        runs=logfile("ingest_dataset"),
     wildcard_constraints:
         dataset=wildcard_choice(RAW_DATASETS),
     threads: 1
@@ -60,6 +44,9 @@ rule ingest_dataset:
         runtime=30,
     params:
         code=SPA_CODE,
+        digest=raw_digest,
         folder=lambda w: str(RAW_DIR / w.dataset),
+        cache=DIGEST_CACHE,
+        stages=INGEST,
     script:
-        "../scripts/ingest_dataset.py"
+        "../scripts/stages.py"

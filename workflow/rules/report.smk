@@ -6,7 +6,9 @@
 
 rule report:
     input:
-        all_targets(RESULTS, DATASETS, exclude=["report", "check"]),
+        all_targets(
+            RESULTS, DATASETS, exclude=["report", "check"], figures=FIGURE_DATASETS
+        ),
     output:
         **outputs("report"),
     log:
@@ -17,6 +19,7 @@ rule report:
         runtime=5 + len(DATASETS) // 10,
     params:
         datasets=DATASETS,
+        figures=FIGURE_DATASETS,
         seed=lookup(dpath="seed", within=config),
         code=SPA_CODE,
     script:
@@ -27,7 +30,7 @@ rule report:
 # placeholders let every other dataset and the report be built first (spa.status).
 rule check:
     input:
-        all_targets(RESULTS, DATASETS, exclude=["check"]),
+        all_targets(RESULTS, DATASETS, exclude=["check"], figures=FIGURE_DATASETS),
     output:
         **outputs("check"),
     log:

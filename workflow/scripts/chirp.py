@@ -15,7 +15,7 @@ from spa.openloop import (
 )
 from spa.openloop.shapes import check_input_shape
 from spa.plots.openloop import fig9, fig9_data, write_no_runs
-from spa.plots.save import save_figure
+from spa.plots.save import draw
 from spa.status import naming_run, run_stage
 
 log = get_logger("chirp", snakemake.log[0])
@@ -65,13 +65,13 @@ def main() -> None:
             f"{ref['threshold']:.3f} (α = {cfg['alpha']}) coloured; "
             + fallback_note(fallbacks, score)
         )
-        figure = fig9(panels, sweep=table, shown=list(shown["setting"]), note=note)
-        save_figure(figure, snakemake.output.fig9)
+        settings = list(shown["setting"])
+        draw(snakemake.output.get("fig9"), fig9, panels, sweep=table, shown=settings, note=note)
     else:
         log.info("no chirp runs in this dataset: empty table, placeholder figure")
         message = f"{snakemake.wildcards.dataset}: no chirp runs"
         tables = [snakemake.output.table, snakemake.output.fig9_csv]
-        write_no_runs(message, tables, [snakemake.output.fig9])
+        write_no_runs(message, tables, [snakemake.output.get("fig9")])
 
 
 def _title(row) -> str:

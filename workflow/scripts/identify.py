@@ -6,7 +6,7 @@ from spa.identification import identify_with_config
 from spa.io import get_logger, read_runs, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
 from spa.plots.openloop import write_no_runs
-from spa.plots.save import save_figure
+from spa.plots.save import draw
 from spa.status import run_stage
 from spa.validation import validate_run
 
@@ -37,24 +37,24 @@ def main() -> None:
     dataset = snakemake.wildcards.dataset
     fallback = "; ".join(f"{k} from the fallback" for k in result.fallback)
     for data_fn, fig_fn, fit, png, csv, kind in (
-        (fig2a_data, fig2a, result.charge, out.fig2a, out.fig2a_csv, "charge"),
-        (fig2b_data, fig2b, result.discharge, out.fig2b, out.fig2b_csv, "discharge"),
+        (fig2a_data, fig2a, result.charge, out.get("fig2a"), out.fig2a_csv, "charge"),
+        (fig2b_data, fig2b, result.discharge, out.get("fig2b"), out.fig2b_csv, "discharge"),
     ):
         if fit is None:
             write_no_runs(f"{dataset}: no {kind} fit ({fallback})", [csv], [png])
             continue
         data = data_fn(fit)
         write_csv(data, csv)
-        save_figure(fig_fn(data), png)
+        draw(png, fig_fn, data)
 
     pulse_ids = sorted(r for r, k in kinds.items() if k == "pulse")
     if not pulse_ids:
-        write_no_runs(f"{dataset}: no pulse runs ({fallback})", [out.fig2c_csv], [out.fig2c])
+        write_no_runs(f"{dataset}: no pulse runs ({fallback})", [out.fig2c_csv], [out.get("fig2c")])
         return
     trace = validate_run(runs[pulse_ids[0]], result.to_valve_params()).trace
     data = fig2c_data(trace)
     write_csv(data, out.fig2c_csv)
-    save_figure(fig2c(data), out.fig2c)
+    draw(out.get("fig2c"), fig2c, data)
 
 
 run_stage(snakemake, "identify", main, log)

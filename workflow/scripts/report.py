@@ -10,7 +10,7 @@ log = get_logger("report", snakemake.log[0])
 out = Path(snakemake.output.report)
 results = out.parent  # the rule writes {RESULTS}/report.html
 meta = {"seed": snakemake.params.seed, "spa version": spa.__version__}
-text = build_report(results, snakemake.params.datasets, meta)
+text = build_report(results, snakemake.params.datasets, meta, figures=snakemake.params.figures)
 with open(out, "w", encoding="utf-8", newline="\n") as fh:
     fh.write(text)
 log.info(

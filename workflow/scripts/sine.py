@@ -7,7 +7,7 @@ from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, 
 from spa.openloop.reference import REFERENCE
 from spa.openloop.shapes import check_input_shape
 from spa.plots.openloop import fig8, thin, write_no_runs
-from spa.plots.save import save_figure
+from spa.plots.save import draw
 from spa.status import naming_run, run_stage
 
 log = get_logger("sine", snakemake.log[0])
@@ -49,13 +49,13 @@ def main() -> None:
         curves = pd.concat(curves)
         ref_rows = reference.assign(modulator=REFERENCE, setting=REFERENCE)
         write_csv(pd.concat([curves, ref_rows], ignore_index=True), snakemake.output.fig8_csv)
-        figure = fig8(curves, reference=reference, note=frequency_note(ref))
-        save_figure(figure, snakemake.output.fig8)
+        note = frequency_note(ref)
+        draw(snakemake.output.get("fig8"), fig8, curves, reference=reference, note=note)
     else:
         log.info("no sine runs in this dataset: empty table, placeholder figure")
         message = f"{snakemake.wildcards.dataset}: no sine runs"
         tables = [snakemake.output.table, snakemake.output.fig8_csv]
-        write_no_runs(message, tables, [snakemake.output.fig8])
+        write_no_runs(message, tables, [snakemake.output.get("fig8")])
 
 
 run_stage(snakemake, "sine", main, log)

@@ -13,7 +13,7 @@ from spa.openloop import (
 )
 from spa.openloop.shapes import check_input_shape
 from spa.plots.openloop import fig6, fig7a, fig7b, tau_outliers, thin, write_no_runs
-from spa.plots.save import save_figure
+from spa.plots.save import draw
 from spa.status import naming_run, run_stage
 
 log = get_logger("staircase", snakemake.log[0])
@@ -56,7 +56,8 @@ def main() -> None:
         log.info("no staircase runs in this dataset: empty tables, placeholder figures")
         message = f"{snakemake.wildcards.dataset}: no staircase runs"
         tables = [out.table3, out.levels, out.time_constants, out.fig6_csv, out.fig7a_csv]
-        write_no_runs(message, [*tables, out.fig7b_csv], [out.fig6, out.fig7a, out.fig7b])
+        figures = [out.get(key) for key in ("fig6", "fig7a", "fig7b")]
+        write_no_runs(message, [*tables, out.fig7b_csv], figures)
     else:
         table3 = pd.DataFrame(rows)
         first = ["run", "modulator", "setting", "gain", "paper_case"]
@@ -67,18 +68,18 @@ def main() -> None:
         write_csv(steps, out.time_constants)
         traces = pd.concat(traces)
         write_csv(traces, out.fig6_csv)
-        save_figure(fig6(traces), out.fig6)
+        draw(out.get("fig6"), fig6, traces)
         shown, fallbacks = paper_settings(table3)
         note = fallback_note(fallbacks, "FIT")
         chosen = levels.merge(shown[["run", "fit"]], on="run")
         write_csv(chosen, out.fig7a_csv)
-        save_figure(fig7a(chosen, params.k2, sweep=table3, note=note), out.fig7a)
+        draw(out.get("fig7a"), fig7a, chosen, params.k2, sweep=table3, note=note)
         steps["outlier"] = tau_outliers(steps["tau"])  # over all the dataset's steps
         chosen_steps = steps[steps["run"].isin(shown["run"])]
         write_csv(chosen_steps, out.fig7b_csv)
         counts = steps.groupby("setting")["outlier"].sum().rename("n_outliers")
         sweep = table3.join(counts, on="setting")
-        save_figure(fig7b(chosen_steps, sweep=sweep, note=note), out.fig7b)
+        draw(out.get("fig7b"), fig7b, chosen_steps, sweep=sweep, note=note)
         log.info("Figs. 7a/7b show %s", note)
 
 

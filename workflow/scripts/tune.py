@@ -3,7 +3,7 @@
 import yaml
 
 from spa.io import get_logger, write_csv
-from spa.plots.save import save_figure
+from spa.plots.save import draw
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
 from spa.status import run_stage
 from spa.tuning import tune
@@ -29,10 +29,15 @@ def main() -> None:
     write_csv(result.table1, out.table1)
     write_csv(result.table2, out.table2)
     write_csv(result.sweeps, out.fig4_csv)
-    fig4 = plot_tuning_sweeps(result.sweeps, title=dataset, params=result.identified.params)
-    save_figure(fig4, out.fig4)
+    draw(
+        out.get("fig4"),
+        plot_tuning_sweeps,
+        result.sweeps,
+        title=dataset,
+        params=result.identified.params,
+    )
     write_csv(result.curves, out.fig5_csv)
-    save_figure(plot_tuning_equilibrium(result.curves), out.fig5)
+    draw(out.get("fig5"), plot_tuning_equilibrium, result.curves)
     with open(out.recommendation, "w") as fh:
         yaml.safe_dump(dict(result.recommendation), fh, sort_keys=False, allow_unicode=True)
     log.info("%s: %s", dataset, result.sentence)

@@ -4,7 +4,7 @@ from pathlib import Path
 
 from spa.io import get_logger, read_params, read_runs, write_csv
 from spa.plots.identification import validation_data, validation_figure
-from spa.plots.save import save_figure
+from spa.plots.save import draw
 from spa.status import run_stage
 from spa.validation import validate_run, validate_runs
 
@@ -22,6 +22,8 @@ def main() -> None:
     for row in table.itertuples():
         log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
 
+    if snakemake.output.get("figures") is None:  # the run draws no figures for this dataset
+        return
     figures = Path(snakemake.output.figures)
     figures.mkdir(parents=True, exist_ok=True)
     worst = table.loc[table.groupby("kind")["fit_percent"].idxmin()]  # the lowest FIT of each kind
@@ -29,7 +31,7 @@ def main() -> None:
         data = validation_data(validate_run(runs[row.run], params, modulators[row.run]))
         write_csv(data, figures / f"{row.kind}.csv")
         title = f"{row.kind}: run {row.run} (lowest FIT of its kind, {row.fit_percent:.1f} %)"
-        save_figure(validation_figure(data, title=title), figures / f"{row.kind}.png")
+        draw(figures / f"{row.kind}.png", validation_figure, data, title=title)
 
 
 run_stage(snakemake, "validate_model", main, log)

@@ -1,0 +1,20 @@
+"""Several stages of one dataset in one job (spa.jobs): ingest.smk, analyse.smk.
+
+Runs each stage's own script in turn (``params.stages``: stage -> script name), each seeing
+as ``snakemake`` a view of this job that holds its outputs, log and settings alone, and the
+outputs of the stages before it as inputs (spa.jobs.stage_job). First, figures that the job
+does not draw but an earlier run left are removed (config `figures`).
+"""
+
+import runpy
+from pathlib import Path
+
+from spa.jobs import remove_undrawn_figures, stage_job
+
+remove_undrawn_figures(snakemake)
+for stage, script in snakemake.params.stages.items():
+    runpy.run_path(
+        str(Path(snakemake.scriptdir) / f"{script}.py"),
+        init_globals={"snakemake": stage_job(snakemake, stage)},
+        run_name="__main__",
+    )
