@@ -10,6 +10,7 @@ from typing import Any
 
 import yaml
 
+from spa._docs import fill_doc
 from spa.datasets.contract import (
     _FORMATS,
     _ID_RE,
@@ -496,9 +497,14 @@ def find_datasets(raw_dir: str | Path) -> list[str]:
     )
 
 
+@fill_doc
 def load_spec(folder: str | Path) -> DatasetSpec:
     """Read and check ``dataset.yaml`` of a dataset folder, ``raw/<name>`` (only that file:
     the data are checked by :func:`spa.datasets.check_dataset`).
+
+    Parameters
+    ----------
+    %(dataset_folder)s
 
     Returns
     -------
