@@ -26,6 +26,7 @@ DOCDICT: dict[str, str] = {
         "t_h, t_l : array_like of float\n    High and low durations of the command in s "
         "(>= 0, may be ``inf``); broadcast."
     ),
+    "cost_args": "kind, value, params, n_xi, gain\n    As :func:`spa.tuning.cost.linearity_cost`.",
     "dataset_folder": "folder : str or path-like\n    The dataset folder, ``raw/<name>``.",
     "derivative_fit": """\
 window : float, default 0.1
