@@ -26,6 +26,23 @@ DOCDICT: dict[str, str] = {
         "t_h, t_l : array_like of float\n    High and low durations of the command in s "
         "(>= 0, may be ``inf``); broadcast."
     ),
+    "cost_args": "kind, value, params, n_xi, gain\n    As :func:`spa.tuning.cost.linearity_cost`.",
+    "dataset_folder": "folder : str or path-like\n    The dataset folder, ``raw/<name>``.",
+    "derivative_fit": """\
+window : float, default 0.1
+    Savitzky–Golay window in s for the smoothed pressure and its derivative.
+polyorder : int, default 3
+    Savitzky–Golay polynomial order.
+skip : float, default 0.03
+    Time in s after the edge that is never used: covers the opening delay ``t_on`` and the
+    ringing after the edge.
+onset_fraction : float, default 0.02
+    The response has started once the smoothed pressure has covered this fraction of the
+    total rise.
+n_boot : int, default 200
+    Bootstrap replicates for the 95 % intervals.
+seed : int, default 0
+    Seed of the :class:`numpy.random.Generator` of the bootstrap.""",
 }
 
 _SLOT = re.compile(r"^([ \t]*)%\((\w+)\)s[ \t]*$", re.M)

@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from spa._docs import fill_doc
 from spa.datasets.contract import _FORMATS, _ID_RE, MODULATED_KINDS, SPEC_FILE
 from spa.datasets.draft import (
     Guess,
@@ -411,13 +412,13 @@ def render_draft(name: str, drafts: list[FileDraft], skipped: list[str]) -> str:
     return "\n".join(out) + "\n"
 
 
+@fill_doc
 def draft_dataset(folder: str | Path) -> str:
     """Draft the ``dataset.yaml`` of a dataset folder (reads the data files, writes nothing).
 
     Parameters
     ----------
-    folder : str or path-like
-        The dataset folder, ``raw/<name>``.
+    %(dataset_folder)s
 
     Returns
     -------

@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from spa._docs import fill_doc
 from spa._progress import progress
 from spa.datasets.checks import RunSummary, _RunCheck
 from spa.datasets.contract import (
@@ -255,13 +256,13 @@ def _scan_dataset(
     return parsed, problems, summaries, temps
 
 
+@fill_doc
 def check_dataset(folder: str | Path) -> tuple[list[Problem], list[RunSummary]]:
     """Check a dataset folder against the contract and summarise its runs.
 
     Parameters
     ----------
-    folder : str or path-like
-        The dataset folder, ``raw/<name>``.
+    %(dataset_folder)s
 
     Returns
     -------

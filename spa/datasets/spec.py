@@ -3,13 +3,14 @@ parsed :class:`DatasetSpec`."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
 import yaml
 
+from spa._docs import fill_doc
 from spa.datasets.contract import (
     _FORMATS,
     _ID_RE,
@@ -293,50 +294,80 @@ def _parse_spec(folder: Path) -> _Parsed:
         if key not in doc:
             parsed.error(f"missing required key {key!r}")
 
-    name = doc.get("name")
-    if "name" in doc:
-        if not isinstance(name, str) or not _NAME_RE.fullmatch(name) or name in (".", ".."):
-            parsed.error(
-                f"name {name!r} must be a string of letters, digits, '.', '_' and '-'",
-                key="name",
-            )
-        elif name != folder.name:
-            parsed.error(
-                f"name {name!r} differs from the folder name {folder.name!r}; they must be equal",
-                key="name",
-            )
-        else:
-            parsed.name = name
-    if "description" in doc:
-        desc = doc["description"]
-        if not isinstance(desc, str) or not desc.strip():
-            parsed.error(f"description must be non-empty text, got {desc!r}", key="description")
-        else:
-            parsed.description = desc.strip()
-    if "origin" in doc:
-        origin = doc["origin"]
-        if not _is_one_of(origin, ORIGINS):
-            parsed.error(
-                f"origin {origin!r} is not one of {_one_of(ORIGINS)}{_suggest(origin, ORIGINS)}",
-                key="origin",
-            )
-        else:
-            parsed.origin = origin
-    if "rig" in doc:
-        rig = doc["rig"]
-        if not isinstance(rig, Mapping):
-            parsed.error(
-                "rig must be a mapping describing the bench, e.g. "
-                f"{{valve: ..., actuator: ..., sensors: ..., controller: ...}}; got {rig!r}",
-                key="rig",
-            )
-        else:
-            parsed.rig = _plain(rig)
+    _top_value(parsed, doc, "name", lambda name: _name_problem(name, folder.name))
+    _top_value(parsed, doc, "description", _description_problem, str.strip)
+    _top_value(parsed, doc, "origin", _origin_problem)
+    _top_value(parsed, doc, "rig", _rig_problem, _plain)
 
     _parse_options(parsed, doc)
     if "runs" in doc:
         _parse_runs(parsed, doc["runs"])
     return parsed
+
+
+def _top_value(
+    parsed: _Parsed,
+    doc: Mapping[str, Any],
+    key: str,
+    problem: Callable[[Any], str | None],
+    value: Callable[[Any], Any] = lambda v: v,
+) -> None:
+    """Set ``parsed.<key>`` to ``value(doc[key])``, or record its problem under ``key``.
+
+    Parameters
+    ----------
+    parsed : _Parsed
+        What is parsed so far.
+    doc : mapping
+        The top level of ``dataset.yaml``; nothing happens when it lacks ``key``.
+    key : str
+        The optional top-level key, also the attribute of ``parsed``.
+    problem : callable
+        The given value to the message of its problem, or None when it is valid.
+    value : callable, optional
+        The valid given value to what ``parsed`` keeps; the value itself by default.
+    """
+    if key not in doc:
+        return
+    given = doc[key]
+    message = problem(given)
+    if message is None:
+        setattr(parsed, key, value(given))
+    else:
+        parsed.error(message, key=key)
+
+
+def _name_problem(name: Any, folder_name: str) -> str | None:
+    """What is wrong with the dataset's ``name:`` in the folder ``folder_name``, or None."""
+    if not isinstance(name, str) or not _NAME_RE.fullmatch(name) or name in (".", ".."):
+        return f"name {name!r} must be a string of letters, digits, '.', '_' and '-'"
+    if name != folder_name:
+        return f"name {name!r} differs from the folder name {folder_name!r}; they must be equal"
+    return None
+
+
+def _description_problem(desc: Any) -> str | None:
+    """What is wrong with ``description:``, or None."""
+    if not isinstance(desc, str) or not desc.strip():
+        return f"description must be non-empty text, got {desc!r}"
+    return None
+
+
+def _origin_problem(origin: Any) -> str | None:
+    """What is wrong with ``origin:``, or None."""
+    if not _is_one_of(origin, ORIGINS):
+        return f"origin {origin!r} is not one of {_one_of(ORIGINS)}{_suggest(origin, ORIGINS)}"
+    return None
+
+
+def _rig_problem(rig: Any) -> str | None:
+    """What is wrong with ``rig:``, or None."""
+    if not isinstance(rig, Mapping):
+        return (
+            "rig must be a mapping describing the bench, e.g. "
+            f"{{valve: ..., actuator: ..., sensors: ..., controller: ...}}; got {rig!r}"
+        )
+    return None
 
 
 def _parse_options(parsed: _Parsed, doc: Mapping[str, Any]) -> None:
@@ -466,9 +497,14 @@ def find_datasets(raw_dir: str | Path) -> list[str]:
     )
 
 
+@fill_doc
 def load_spec(folder: str | Path) -> DatasetSpec:
     """Read and check ``dataset.yaml`` of a dataset folder, ``raw/<name>`` (only that file:
     the data are checked by :func:`spa.datasets.check_dataset`).
+
+    Parameters
+    ----------
+    %(dataset_folder)s
 
     Returns
     -------

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
 from scipy.signal import fftconvolve, savgol_coeffs
 
+from spa._docs import fill_doc
 from spa.identification.rates import _as_runs, _line, _r2, _Segment, _segment
 from spa.identification.results import (
     UNITS,
@@ -102,28 +104,100 @@ def _check_fraction(name: str, value: float) -> float:
     return float(value)
 
 
-def _check_common(window: float, polyorder: int, skip: float, n_boot: int) -> None:
-    if not (math.isfinite(window) and window > 0):
-        raise ValueError(f"window must be finite and > 0 s, got {window!r}")
-    if not (isinstance(polyorder, int | np.integer) and polyorder >= 1):
-        raise ValueError(f"polyorder must be an integer >= 1, got {polyorder!r}")
-    if not (math.isfinite(skip) and skip >= 0):
-        raise ValueError(f"skip must be finite and >= 0 s, got {skip!r}")
-    if not (isinstance(n_boot, int | np.integer) and n_boot >= 20):
-        raise ValueError(f"n_boot must be an integer >= 20, got {n_boot!r}")
+@fill_doc
+@dataclass(frozen=True)
+class _DerivativeFit:
+    """Settings shared by :func:`fit_charge` and :func:`fit_discharge` (checked by :meth:`checked`).
+
+    Parameters
+    ----------
+    %(derivative_fit)s
+    """
+
+    window: float = 0.1
+    polyorder: int = 3
+    skip: float = 0.03
+    onset_fraction: float = 0.02
+    n_boot: int = 200
+    seed: int = 0
+
+    @classmethod
+    def checked(cls, **options: float) -> _DerivativeFit:
+        """The settings given by keyword over the defaults, checked in the order listed.
+
+        Parameters
+        ----------
+        **options
+            Any of the attributes, by name.
+
+        Returns
+        -------
+        _DerivativeFit
+
+        Raises
+        ------
+        ValueError
+            For an invalid setting (the message names it).
+        TypeError
+            For an unknown keyword.
+        """
+        opts = cls(**options)
+        window, polyorder, skip, n_boot = opts.window, opts.polyorder, opts.skip, opts.n_boot
+        if not (math.isfinite(window) and window > 0):
+            raise ValueError(f"window must be finite and > 0 s, got {window!r}")
+        if not (isinstance(polyorder, int | np.integer) and polyorder >= 1):
+            raise ValueError(f"polyorder must be an integer >= 1, got {polyorder!r}")
+        if not (math.isfinite(skip) and skip >= 0):
+            raise ValueError(f"skip must be finite and >= 0 s, got {skip!r}")
+        if not (isinstance(n_boot, int | np.integer) and n_boot >= 20):
+            raise ValueError(f"n_boot must be an integer >= 20, got {n_boot!r}")
+        return replace(opts, onset_fraction=_check_fraction("onset_fraction", opts.onset_fraction))
+
+    def pooled(
+        self, runs: Runs, kind: str, tail_fraction: float, missing: str
+    ) -> tuple[list[_Segment], FloatArray, FloatArray]:
+        """The segments of the ``kind`` runs and their used points ``(P, dP/dt)``, pooled.
+
+        Parameters
+        ----------
+        runs : mapping of run id to table, or sequence of tables
+            The runs.
+        kind : {"charge", "discharge"}
+            The experiment.
+        tail_fraction : float
+            As in :func:`fit_discharge` (0 for a charge).
+        missing : str
+            Message of the :class:`IdentificationError` raised when there is no run.
+
+        Returns
+        -------
+        segments : list of _Segment
+            One per run.
+        x, y : numpy.ndarray
+            Smoothed pressure and its derivative at the used points of all runs.
+        """
+        items = _as_runs(runs, kind)
+        if not items:
+            raise IdentificationError(missing)
+        window = self.window, self.polyorder, self.skip, self.onset_fraction
+        segs = [_segment(rid, tab, kind, *window, tail_fraction) for rid, tab in items]
+        x = np.concatenate([s.ps[s.used] for s in segs])
+        y = np.concatenate([s.d[s.used] for s in segs])
+        return segs, x, y
+
+    def bootstrap(
+        self,
+        segments: Sequence[_Segment],
+        stat: Callable[[FloatArray, FloatArray], FloatArray],
+        stream: int,
+    ) -> FloatArray:
+        """:func:`_bootstrap` with these settings, from the generator ``[seed, stream]``."""
+        rng = np.random.default_rng([self.seed, stream])
+        return _bootstrap(segments, stat, self.polyorder, self.n_boot, rng)
 
 
-def fit_charge(
-    runs: Runs,
-    *,
-    window: float = 0.1,
-    polyorder: int = 3,
-    skip: float = 0.03,
-    onset_fraction: float = 0.02,
-    supply_fraction: float = 0.9,
-    n_boot: int = 200,
-    seed: int = 0,
-) -> ChargeFit:
+@fill_doc
+def fit_charge(runs: Runs, *, supply_fraction: float = 0.9, **options: float) -> ChargeFit:
     """Identify ``k2`` and ``tau2`` from charge runs (experiment 1, Fig. 2a).
 
     Parameters
@@ -132,23 +206,10 @@ def fit_charge(
         Charge runs: valve opened at 0 bar (edge at the first 0→1 of ``valve``, or at the
         first sample when there is no ``valve`` column or it starts open) and kept open until
         the pressure settles at the supply.
-    window : float, optional
-        Savitzky–Golay window in s for the smoothed pressure and its derivative.
-    polyorder : int, optional
-        Savitzky–Golay polynomial order.
-    skip : float, optional
-        Time in s after the edge that is never used: covers the opening delay ``t_on`` and the
-        ringing after the edge.
-    onset_fraction : float, optional
-        The response has started once the smoothed pressure has covered this fraction of the
-        total rise.
-    supply_fraction : float, optional
+    supply_fraction : float, default 0.9
         The run must end above this fraction of the fitted ``k2``, otherwise ``k2`` is an
         extrapolation and :class:`IdentificationError` is raised.
-    n_boot : int, optional
-        Bootstrap replicates for the 95 % intervals.
-    seed : int, optional
-        Seed of the :class:`numpy.random.Generator` of the bootstrap.
+    %(derivative_fit)s
 
     Returns
     -------
@@ -182,21 +243,15 @@ def fit_charge(
     ringing as they are. The 95 % interval is the percentile interval of the replicates,
     re-centred on the estimate.
     """
-    _check_common(window, polyorder, skip, n_boot)
-    onset_fraction = _check_fraction("onset_fraction", onset_fraction)
+    opts = _DerivativeFit.checked(**options)
     supply_fraction = _check_fraction("supply_fraction", supply_fraction)
-    items = _as_runs(runs, "charge")
-    if not items:
-        raise IdentificationError(
-            "no charge run: k2 and tau2 need experiment 1 (valve open from 0 bar until the "
-            "supply pressure)"
-        )
-    segs = [
-        _segment(rid, tab, "charge", window, polyorder, skip, onset_fraction, 0.0)
-        for rid, tab in items
-    ]
-    x = np.concatenate([s.ps[s.used] for s in segs])
-    y = np.concatenate([s.d[s.used] for s in segs])
+    segs, x, y = opts.pooled(
+        runs,
+        "charge",
+        0.0,
+        "no charge run: k2 and tau2 need experiment 1 (valve open from 0 bar until the "
+        "supply pressure)",
+    )
     slope, icept = (float(v) for v in _line(x, y))
     if not slope < 0:
         raise IdentificationError(
@@ -218,7 +273,7 @@ def fit_charge(
         amp = float(np.dot(k2 - s.p, e) / np.dot(e, e))
         s.ref = k2 - amp * e
         s.resid = s.p - s.ref
-    reps = _bootstrap(segs, _charge_stats, polyorder, n_boot, np.random.default_rng([seed, 1]))
+    reps = opts.bootstrap(segs, _charge_stats, 1)
     rids = tuple(s.rid for s in segs)
     method = "line fit of dP/dt against P (Savitzky-Golay); 95% moving-block residual bootstrap"
     k2_lo, k2_hi = _interval(k2, reps[:, 0])
@@ -234,17 +289,8 @@ def fit_charge(
     )
 
 
-def fit_discharge(
-    runs: Runs,
-    *,
-    window: float = 0.1,
-    polyorder: int = 3,
-    skip: float = 0.03,
-    onset_fraction: float = 0.02,
-    tail_fraction: float = 0.05,
-    n_boot: int = 200,
-    seed: int = 0,
-) -> DischargeFit:
+@fill_doc
+def fit_discharge(runs: Runs, *, tail_fraction: float = 0.05, **options: float) -> DischargeFit:
     """Identify ``c1`` (and the free power law) from discharge runs (experiment 2, Fig. 2b).
 
     Parameters
@@ -253,12 +299,11 @@ def fit_discharge(
         Discharge runs: valve closed at the supply pressure (edge at the first 1→0 of
         ``valve``, or at the first sample when there is no ``valve`` column or it starts
         closed), the pressure falls to 0.
-    window, polyorder, skip, onset_fraction, n_boot, seed
-        As in :func:`fit_charge`.
-    tail_fraction : float, optional
+    tail_fraction : float, default 0.05
         The near-zero tail is excluded: the fit stops where the smoothed pressure first falls
         below ``tail_fraction`` times the pressure at the edge (default 5 %, about 0.04 bar
         from 0.84 bar).
+    %(derivative_fit)s
 
     Returns
     -------
@@ -286,21 +331,15 @@ def fit_discharge(
     as in :func:`fit_charge`; the interval comes from the same block bootstrap with the
     closed-form discharge ``(sqrt(P0) - t/(2*c1))**2`` as reference.
     """
-    _check_common(window, polyorder, skip, n_boot)
-    onset_fraction = _check_fraction("onset_fraction", onset_fraction)
+    opts = _DerivativeFit.checked(**options)
     tail_fraction = _check_fraction("tail_fraction", tail_fraction)
-    items = _as_runs(runs, "discharge")
-    if not items:
-        raise IdentificationError(
-            "no discharge run: c1 needs experiment 2 (valve closed from the supply pressure "
-            "down to 0 bar)"
-        )
-    segs = [
-        _segment(rid, tab, "discharge", window, polyorder, skip, onset_fraction, tail_fraction)
-        for rid, tab in items
-    ]
-    x = np.concatenate([s.ps[s.used] for s in segs])
-    y = np.concatenate([s.d[s.used] for s in segs])
+    segs, x, y = opts.pooled(
+        runs,
+        "discharge",
+        tail_fraction,
+        "no discharge run: c1 needs experiment 2 (valve closed from the supply pressure "
+        "down to 0 bar)",
+    )
     if np.any(x <= 0) or np.any(y >= 0):
         raise IdentificationError(
             f"discharge runs {[s.rid for s in segs]}: the used points must have P > 0 and "
@@ -329,7 +368,7 @@ def fit_discharge(
         s0 = float(root[s.used].mean())
         s.ref = np.square(np.maximum(s0 - tau / (2.0 * c1), 0.0))
         s.resid = s.p - s.ref
-    reps = _bootstrap(segs, _c1_stat, polyorder, n_boot, np.random.default_rng([seed, 2]))
+    reps = opts.bootstrap(segs, _c1_stat, 2)
     lo, hi = _interval(c1, reps[:, 0])
     rids = tuple(s.rid for s in segs)
     method = (

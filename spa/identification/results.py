@@ -4,7 +4,7 @@ serialises to ``params.yaml``."""
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -104,8 +104,26 @@ class Estimate:
         return out
 
 
+class _RateFit:
+    """What the derivative fits (:class:`ChargeFit`, :class:`DischargeFit`) share."""
+
+    def summary(self) -> dict[str, float | int]:
+        """Fit coefficients and R² as a plain dictionary: the fields declared float or int.
+
+        Returns
+        -------
+        dict of str to float or int
+            In the order of the fields.
+        """
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)  # type: ignore[arg-type]
+            if f.type in ("float", "int")
+        }
+
+
 @dataclass(frozen=True)
-class ChargeFit:
+class ChargeFit(_RateFit):
     """Experiment 1: straight line ``dP/dt = slope*P + intercept`` while charging.
 
     Attributes
@@ -131,18 +149,9 @@ class ChargeFit:
     n_points: int
     points: pd.DataFrame = field(repr=False)
 
-    def summary(self) -> dict[str, float | int]:
-        """Fit coefficients and R² as a plain dictionary."""
-        return {
-            "slope": self.slope,
-            "intercept": self.intercept,
-            "r2": self.r2,
-            "n_points": self.n_points,
-        }
-
 
 @dataclass(frozen=True)
-class DischargeFit:
+class DischargeFit(_RateFit):
     """Experiment 2: power law ``dP/dt = -a*P**b`` and ``c1`` with ``b = 1/2`` while exhausting.
 
     Attributes
@@ -168,16 +177,6 @@ class DischargeFit:
     r2: float
     n_points: int
     points: pd.DataFrame = field(repr=False)
-
-    def summary(self) -> dict[str, float | int]:
-        """Fit coefficients and R² as a plain dictionary."""
-        return {
-            "a": self.a,
-            "b": self.b,
-            "r2_power": self.r2_power,
-            "r2": self.r2,
-            "n_points": self.n_points,
-        }
 
 
 @dataclass(frozen=True)

@@ -9,17 +9,19 @@ pyplot state, no GUI backend), so they render headless; save them with
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
 from spa.identification import ChargeFit, DischargeFit
 from spa.plots.style import OKABE_ITO, new_figure
+from spa.validation import ValidationResult
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-from spa.validation import ValidationResult
 
 __all__ = [
     "fig2a",
@@ -43,6 +45,43 @@ def _check_columns(data: pd.DataFrame, columns: list[str], name: str = "data") -
     missing = [c for c in columns if c not in data.columns]
     if missing:
         raise ValueError(f"{name} lacks column(s) {missing}; it has {list(data.columns)}")
+
+
+def _rate_data(
+    points: pd.DataFrame,
+    p_end: float,
+    n_line: int,
+    curves: Mapping[str, Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]]],
+) -> pd.DataFrame:
+    """Tidy data of a rate figure: a fit's points, then its curves ``dP/dt(P)``.
+
+    Parameters
+    ----------
+    points : pandas.DataFrame
+        ``points`` of a :class:`ChargeFit` or :class:`DischargeFit`.
+    p_end : float
+        The curves run from 0 to the larger of this and the points' largest pressure, bar.
+    n_line : int
+        Points of each curve.
+    curves : mapping of str to callable
+        Series name to ``dP/dt`` (bar/s) as a function of ``P`` (bar).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``series`` (``"measured"``: points in the fit; ``"excluded"``: points after the edge
+        left out by the window; then the curves' names), ``run``, ``p`` (bar), ``dpdt`` (bar/s).
+    """
+    series = np.where(points["used"].to_numpy(), "measured", "excluded")
+    meas = pd.DataFrame(
+        {"series": series, "run": points["run"], "p": points["p"], "dpdt": points["dpdt"]}
+    )
+    p_line = np.linspace(0.0, max(float(points["p"].max()), p_end), n_line)
+    lines = [
+        pd.DataFrame({"series": name, "run": "", "p": p_line, "dpdt": dpdt(p_line)})
+        for name, dpdt in curves.items()
+    ]
+    return pd.concat([meas, *lines], ignore_index=True)
 
 
 def _rate_figure(data: pd.DataFrame, lines: dict[str, dict[str, Any]], title: str) -> Figure:
@@ -82,14 +121,9 @@ def fig2a_data(fit: ChargeFit, n_line: int = 50) -> pd.DataFrame:
         ``series`` (``"measured"``: points in the fit; ``"excluded"``: points after the edge
         left out by the window; ``"fit"``: the line), ``run``, ``p`` (bar), ``dpdt`` (bar/s).
     """
-    pts = fit.points
-    series = np.where(pts["used"].to_numpy(), "measured", "excluded")
-    meas = pd.DataFrame({"series": series, "run": pts["run"], "p": pts["p"], "dpdt": pts["dpdt"]})
-    p_line = np.linspace(0.0, max(float(pts["p"].max()), fit.k2.value), n_line)
-    line = pd.DataFrame(
-        {"series": "fit", "run": "", "p": p_line, "dpdt": fit.slope * p_line + fit.intercept}
+    return _rate_data(
+        fit.points, fit.k2.value, n_line, {"fit": lambda p: fit.slope * p + fit.intercept}
     )
-    return pd.concat([meas, line], ignore_index=True)
 
 
 def fig2a(data: pd.DataFrame) -> Figure:
@@ -123,17 +157,11 @@ def fig2b_data(fit: DischargeFit, n_line: int = 100) -> pd.DataFrame:
         ``series`` (``"measured"``, ``"excluded"``, ``"power law"``: ``-a*P**b``,
         ``"b = 0.5"``: ``-sqrt(P)/c1``), ``run``, ``p`` (bar), ``dpdt`` (bar/s).
     """
-    pts = fit.points
-    series = np.where(pts["used"].to_numpy(), "measured", "excluded")
-    meas = pd.DataFrame({"series": series, "run": pts["run"], "p": pts["p"], "dpdt": pts["dpdt"]})
-    p_line = np.linspace(0.0, max(float(pts["p"].max()), 0.0), n_line)
-    power = pd.DataFrame(
-        {"series": "power law", "run": "", "p": p_line, "dpdt": -fit.a * p_line**fit.b}
-    )
-    half = pd.DataFrame(
-        {"series": "b = 0.5", "run": "", "p": p_line, "dpdt": -np.sqrt(p_line) / fit.c1.value}
-    )
-    return pd.concat([meas, power, half], ignore_index=True)
+    curves = {
+        "power law": lambda p: -fit.a * p**fit.b,
+        "b = 0.5": lambda p: -np.sqrt(p) / fit.c1.value,
+    }
+    return _rate_data(fit.points, 0.0, n_line, curves)
 
 
 def fig2b(data: pd.DataFrame) -> Figure:

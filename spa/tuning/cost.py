@@ -134,6 +134,38 @@ def modulator_settings(
     return out
 
 
+def _on_xi_grid(
+    kind: str,
+    value: npt.ArrayLike,
+    params: ValveParams,
+    n_xi: int,
+    gain: npt.ArrayLike | None,
+) -> tuple[dict[str, Any], npt.NDArray[np.float64], dict[str, npt.NDArray[Any]]]:
+    """The settings of ``value`` against the grid of ``n_xi`` input fractions.
+
+    Parameters
+    ----------
+    kind, value, params, gain
+        As :func:`modulator_settings`.
+    n_xi : int
+        Points ``xi_i = i/(n_xi - 1)`` (>= 2).
+
+    Returns
+    -------
+    settings : dict
+        :func:`modulator_settings`.
+    xi : numpy.ndarray
+        The ``n_xi`` fractions.
+    grid : dict of str to numpy.ndarray
+        The settings with a new last axis, to broadcast against ``xi``.
+    """
+    n = checks.integer("n_xi", n_xi, minimum=2)
+    settings = modulator_settings(kind, value, params, gain)
+    xi = np.linspace(0.0, 1.0, n)
+    grid = {k: np.asarray(x)[..., np.newaxis] for k, x in settings.items()}
+    return settings, xi, grid
+
+
 def setting(
     kind: str, value: float, params: ValveParams | None = None, gain: float | None = None
 ) -> Modulator:
@@ -262,11 +294,8 @@ def linearity_cost(
     3.63
     """
     p = checks.valve_params(params)
-    n = checks.integer("n_xi", n_xi, minimum=2)
-    settings = modulator_settings(kind, value, p, gain)
+    settings, xi, grid = _on_xi_grid(kind, value, p, n_xi, gain)
     shape = np.broadcast_shapes(*(np.shape(x) for x in settings.values()))
-    xi = np.linspace(0.0, 1.0, n)
-    grid = {k: np.asarray(x)[..., np.newaxis] for k, x in settings.items()}
     a1, a2 = time_fractions(kind, xi, p, **grid)
     peq = equilibrium_pressure(a1, a2, p)
     return np.asarray(deviation_cost(peq, xi, p.k2), dtype=np.float64).reshape(shape)[()]

@@ -19,7 +19,7 @@ from spa.model._broadcast import Floats
 from spa.model.averaging import pulse_times
 from spa.model.params import ValveParams
 from spa.model.periodic import dsm_mean, train_mean
-from spa.tuning.cost import deviation_cost, modulator_settings
+from spa.tuning.cost import _on_xi_grid, deviation_cost
 
 __all__ = ["exact_cost", "exact_curve"]
 
@@ -59,17 +59,15 @@ def exact_curve(
         As :func:`spa.tuning.cost.linearity_cost`.
     """
     p = checks.valve_params(params)
-    n = checks.integer("n_xi", n_xi, minimum=2)
-    settings = modulator_settings(kind, value, p, gain)
-    xi = np.linspace(0.0, 1.0, n)
-    grid = {k: np.asarray(x)[..., np.newaxis] for k, x in settings.items()}
+    _, xi, grid = _on_xi_grid(kind, value, p, n_xi, gain)
     if kind == "dsm":
-        mean = dsm_mean(xi, grid["period"], p, max_denominator=n - 1)
+        mean = dsm_mean(xi, grid["period"], p, max_denominator=xi.size - 1)
     else:
         mean = train_mean(*pulse_times(kind, xi, **grid), p)
     return np.asarray(mean, dtype=np.float64)
 
 
+@fill_doc
 def exact_cost(
     kind: str,
     value: npt.ArrayLike,
@@ -82,8 +80,7 @@ def exact_cost(
 
     Parameters
     ----------
-    kind, value, params, n_xi, gain
-        As :func:`spa.tuning.cost.linearity_cost`.
+    %(cost_args)s
 
     Returns
     -------

@@ -24,6 +24,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa._progress import progress
 from spa.model.averaging import pulse_times, time_constant, time_fractions
 from spa.model.chattering import pseudo_steady_state
@@ -33,7 +34,7 @@ from spa.model.plant import simulate
 from spa.model.thresholds import thresholds
 from spa.openloop import staircase_analysis
 from spa.synthetic import staircase_input
-from spa.tuning.cost import feasible, linearity_cost, modulator_settings, sweep_grid
+from spa.tuning.cost import _on_xi_grid, feasible, linearity_cost, modulator_settings, sweep_grid
 from spa.tuning.exact import exact_cost
 
 __all__ = [
@@ -181,6 +182,7 @@ class TuningOptions:
         }
 
 
+@fill_doc
 def setting_metrics(
     kind: str,
     value: npt.ArrayLike,
@@ -192,8 +194,7 @@ def setting_metrics(
 
     Parameters
     ----------
-    kind, value, params, n_xi, gain
-        As :func:`spa.tuning.cost.linearity_cost`.
+    %(cost_args)s
 
     Returns
     -------
@@ -211,9 +212,7 @@ def setting_metrics(
     >>> float(m["switching_rate"])
     40.0
     """
-    settings = modulator_settings(kind, value, params, gain)
-    xi = np.linspace(0.0, 1.0, checks.integer("n_xi", n_xi, minimum=2))
-    grid = {k: np.asarray(x)[..., np.newaxis] for k, x in settings.items()}
+    _, xi, grid = _on_xi_grid(kind, value, params, n_xi, gain)
     t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, xi, **grid))
     pulsing = np.isfinite(t_h) & np.isfinite(t_l) & (t_h > 0.0) & (t_l > 0.0)
     th = np.where(pulsing, t_h, 1.0)
