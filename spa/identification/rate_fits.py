@@ -114,21 +114,24 @@ class _DerivativeFit:
     %(derivative_fit)s
     """
 
-    window: float = 0.1
-    polyorder: int = 3
-    skip: float = 0.03
-    onset_fraction: float = 0.02
-    n_boot: int = 200
-    seed: int = 0
+    window: float
+    polyorder: int
+    skip: float
+    onset_fraction: float
+    n_boot: int
+    seed: int
 
     @classmethod
-    def checked(cls, **options: float) -> _DerivativeFit:
-        """The settings given by keyword over the defaults, checked in the order listed.
-
-        Parameters
-        ----------
-        **options
-            Any of the attributes, by name.
+    def checked(
+        cls,
+        window: float,
+        polyorder: int,
+        skip: float,
+        onset_fraction: float,
+        n_boot: int,
+        seed: int,
+    ) -> _DerivativeFit:
+        """The settings, checked in this order (the public functions hold the defaults).
 
         Returns
         -------
@@ -138,10 +141,8 @@ class _DerivativeFit:
         ------
         ValueError
             For an invalid setting (the message names it).
-        TypeError
-            For an unknown keyword.
         """
-        opts = cls(**options)
+        opts = cls(window, polyorder, skip, onset_fraction, n_boot, seed)
         window, polyorder, skip, n_boot = opts.window, opts.polyorder, opts.skip, opts.n_boot
         if not (math.isfinite(window) and window > 0):
             raise ValueError(f"window must be finite and > 0 s, got {window!r}")
@@ -197,7 +198,17 @@ class _DerivativeFit:
 
 
 @fill_doc
-def fit_charge(runs: Runs, *, supply_fraction: float = 0.9, **options: float) -> ChargeFit:
+def fit_charge(
+    runs: Runs,
+    *,
+    window: float = 0.1,
+    polyorder: int = 3,
+    skip: float = 0.03,
+    onset_fraction: float = 0.02,
+    supply_fraction: float = 0.9,
+    n_boot: int = 200,
+    seed: int = 0,
+) -> ChargeFit:
     """Identify ``k2`` and ``tau2`` from charge runs (experiment 1, Fig. 2a).
 
     Parameters
@@ -243,7 +254,7 @@ def fit_charge(runs: Runs, *, supply_fraction: float = 0.9, **options: float) ->
     ringing as they are. The 95 % interval is the percentile interval of the replicates,
     re-centred on the estimate.
     """
-    opts = _DerivativeFit.checked(**options)
+    opts = _DerivativeFit.checked(window, polyorder, skip, onset_fraction, n_boot, seed)
     supply_fraction = _check_fraction("supply_fraction", supply_fraction)
     segs, x, y = opts.pooled(
         runs,
@@ -290,7 +301,17 @@ def fit_charge(runs: Runs, *, supply_fraction: float = 0.9, **options: float) ->
 
 
 @fill_doc
-def fit_discharge(runs: Runs, *, tail_fraction: float = 0.05, **options: float) -> DischargeFit:
+def fit_discharge(
+    runs: Runs,
+    *,
+    window: float = 0.1,
+    polyorder: int = 3,
+    skip: float = 0.03,
+    onset_fraction: float = 0.02,
+    tail_fraction: float = 0.05,
+    n_boot: int = 200,
+    seed: int = 0,
+) -> DischargeFit:
     """Identify ``c1`` (and the free power law) from discharge runs (experiment 2, Fig. 2b).
 
     Parameters
@@ -331,7 +352,7 @@ def fit_discharge(runs: Runs, *, tail_fraction: float = 0.05, **options: float) 
     as in :func:`fit_charge`; the interval comes from the same block bootstrap with the
     closed-form discharge ``(sqrt(P0) - t/(2*c1))**2`` as reference.
     """
-    opts = _DerivativeFit.checked(**options)
+    opts = _DerivativeFit.checked(window, polyorder, skip, onset_fraction, n_boot, seed)
     tail_fraction = _check_fraction("tail_fraction", tail_fraction)
     segs, x, y = opts.pooled(
         runs,
