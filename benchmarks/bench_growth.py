@@ -4,10 +4,13 @@ Run from the repository root (nothing is written to results/ or raw/):
 
     .venv/bin/python benchmarks/bench_growth.py                  # 1, 10, 50, 100 datasets
     .venv/bin/python benchmarks/bench_growth.py --counts 1 10    # a quicker look
+    .venv/bin/python benchmarks/bench_growth.py --figures none   # one setting of `figures`
 
-For each count N, N copies of raw/example go into a temporary raw folder, and the small
-configuration (`config/small.yaml`, so the simulated dataset `sim` as well) runs with `-c2`
-into a temporary results folder:
+For each setting of `figures` (default both: `all`, every dataset's figures, as the small
+configuration draws them; `none`, tables and figure data only) and each count N, N copies of
+raw/example go into a temporary raw folder, and the small configuration
+(`config/small.yaml`, so the simulated dataset `sim` as well) runs with `-c2` into a
+temporary results folder:
 
 - DAG build: wall time of `snakemake reproduce-all --dry-run` before the first run;
 - cold run: wall time from an empty results folder, and the number of jobs it ran;
@@ -61,7 +64,7 @@ def make_raw(raw: Path, n: int) -> None:
         spec.write_text(spec.read_text().replace("name: example", f"name: {name}", 1))
 
 
-def measure(n: int, tmp: Path) -> dict[str, float]:
+def measure(n: int, tmp: Path, figures: str) -> dict[str, float | str]:
     raw = tmp / "raw"
     make_raw(raw, n)
     out = tmp / "results"
@@ -70,12 +73,13 @@ def measure(n: int, tmp: Path) -> dict[str, float]:
         "-m",
         "snakemake",
         "reproduce-all",
+        "-c2",
         "--configfile",
         "config/small.yaml",
         "--config",
         f"results={out}",
         f"datasets={{'raw_dir': '{raw}'}}",
-        "-c2",
+        f"figures={figures}",
     ]
     t_dag, _, _ = run([*cmd, "--dry-run", "--quiet"], ROOT)
     t_cold, log, peak = run(cmd, ROOT)
@@ -84,6 +88,7 @@ def measure(n: int, tmp: Path) -> dict[str, float]:
     if "Nothing to be done" not in log_noop:
         sys.exit(f"the second run with {n} datasets was not a no-op:\n{log_noop[-2000:]}")
     return {
+        "figures": figures,
         "datasets": n,
         "jobs": jobs,
         "cold_s": t_cold,
@@ -96,24 +101,33 @@ def measure(n: int, tmp: Path) -> dict[str, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--counts", type=int, nargs="+", default=[1, 10, 50, 100])
+    ap.add_argument("--figures", nargs="+", default=["all", "none"], choices=["all", "none"])
     args = ap.parse_args()
-    rows = []
-    for n in args.counts:
-        with tempfile.TemporaryDirectory(prefix="spa-growth-") as tmp:
-            rows.append(measure(n, Path(tmp)))
-        print(f"measured {n} datasets: {rows[-1]}", file=sys.stderr, flush=True)
-    n = np.array([r["datasets"] for r in rows], dtype=float)
-    cold = np.array([r["cold_s"] for r in rows])
-    slope = float(np.polyfit(n, cold, 1)[0]) if len(rows) > 1 else float("nan")
+    rows: list[dict] = []
+    slopes = {}
+    for figures in args.figures:
+        for n in args.counts:
+            with tempfile.TemporaryDirectory(prefix="spa-growth-") as tmp:
+                rows.append(measure(n, Path(tmp), figures))
+            print(f"measured {rows[-1]}", file=sys.stderr, flush=True)
+        mine = [r for r in rows if r["figures"] == figures]
+        n = np.array([r["datasets"] for r in mine], dtype=float)
+        cold = np.array([r["cold_s"] for r in mine])
+        slopes[figures] = float(np.polyfit(n, cold, 1)[0]) if len(mine) > 1 else float("nan")
 
-    print("| bench datasets | jobs | cold run (s) | no-op (s) | DAG build (s) | peak RSS (MiB) |")
-    print("|---:|---:|---:|---:|---:|---:|")
+    print(
+        "| figures | bench datasets | jobs | cold run (s) | no-op (s) | DAG build (s) | peak RSS (MiB) |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         print(
-            f"| {r['datasets']} | {r['jobs']} | {r['cold_s']:.1f} | {r['noop_s']:.1f} | "
-            f"{r['dag_s']:.1f} | {r['peak_mib']:.0f} |"
+            f"| {r['figures']} | {r['datasets']} | {r['jobs']} | {r['cold_s']:.1f} | "
+            f"{r['noop_s']:.1f} | {r['dag_s']:.1f} | {r['peak_mib']:.0f} |"
         )
-    print(f"\nslope: {slope:.2f} s per added dataset (least squares over the cold runs)")
+    for figures, slope in slopes.items():
+        print(
+            f"\nfigures={figures}: slope {slope:.2f} s per added dataset (least squares, cold runs)"
+        )
 
     out = ROOT / "benchmarks" / "out"
     out.mkdir(parents=True, exist_ok=True)
@@ -125,14 +139,19 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(n, cold, "o-", label=f"cold run ({slope:.2f} s per dataset)")
-    ax.plot(n, [r["noop_s"] for r in rows], "s-", label="no-op rerun")
-    ax.plot(n, [r["dag_s"] for r in rows], "^-", label="DAG build (dry run)")
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    for figures, style in zip(slopes, ["-", "--"], strict=False):
+        mine = [r for r in rows if r["figures"] == figures]
+        n = [r["datasets"] for r in mine]
+        label = f"figures: {figures}"
+        ax.plot(n, [r["cold_s"] for r in mine], "o" + style, color="C0",
+                label=f"cold run, {label} ({slopes[figures]:.2f} s per dataset)")  # fmt: skip
+        ax.plot(n, [r["noop_s"] for r in mine], "s" + style, color="C1", label=f"no-op, {label}")
+        ax.plot(n, [r["dag_s"] for r in mine], "^" + style, color="C2", label=f"DAG build, {label}")
     ax.set_xlabel("bench datasets (copies of raw/example) + sim")
     ax.set_ylabel("wall time (s), 2 cores")
     ax.grid(True, alpha=0.3)
-    ax.legend()
+    ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out / "growth.png", dpi=150)
 
