@@ -116,7 +116,7 @@ def main() -> None:
         slopes[figures] = float(np.polyfit(n, cold, 1)[0]) if len(mine) > 1 else float("nan")
 
     print(
-        "| figures | bench datasets | jobs | cold run (s) | no-op (s) | DAG build (s) | peak RSS (MiB) |"
+        "| figures | bench datasets | jobs | cold run (s) | no-op (s) | DAG (s) | peak RSS (MiB) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|")
     for r in rows:
