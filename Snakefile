@@ -29,4 +29,4 @@ rule reproduce_all:
         "reproduce-all"
     default_target: True
     input:
-        all_targets(RESULTS, DATASETS, figures=FIGURE_DATASETS),
+        **inputs_from("check"),
