@@ -522,11 +522,10 @@ def figure_paths(stages: Iterable[str], results: str | Path, dataset: str) -> li
     >>> figure_paths(["sine"], "results", "d1")
     ['results/d1/sine/fig8.png', 'results/d1/sine/fig8.svg']
     """
-    paths = []
+    paths: list[str] = []
     for name in stages:
-        stage = get_stage(name)
-        root = _root(stage, results, dataset)
-        paths += [str(root / out.path) for out in stage.outputs if out.kind in _DRAWN]
+        kept = stage_outputs(name, results, dataset, figures=False)
+        paths += [str(p) for k, p in stage_outputs(name, results, dataset).items() if k not in kept]
     return paths
 
 
