@@ -30,3 +30,4 @@ rule reproduce_all:
     default_target: True
     input:
         **inputs_from("check"),
+        missing=MISSING_OUTPUTS,

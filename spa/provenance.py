@@ -29,9 +29,14 @@ from typing import Any
 
 __all__ = [
     "RUN_INDEX",
+    "altered_outputs",
     "damaged_run_folders",
     "dataset_digest",
     "file_digests",
+    "missing_outputs",
+    "output_ledger",
+    "record_outputs",
+    "remove_altered_outputs",
     "remove_damaged_run_folders",
     "write_manifest",
     "write_run_index",
@@ -239,3 +244,131 @@ def remove_damaged_run_folders(
         if path.is_relative_to(root) and path != root and (path / RUN_INDEX).exists():
             shutil.rmtree(path)
     return damaged
+
+
+def output_ledger(results: str | os.PathLike[str]) -> str:
+    """Where :func:`record_outputs` keeps the record of a results folder.
+
+    ``.snakemake/spa/outputs-<digest of the folder's absolute path>.json``: one per results
+    folder, beside Snakemake's own records.
+
+    >>> output_ledger("results") == output_ledger(Path("results").resolve())
+    True
+    """
+    key = hashlib.sha256(str(Path(results).resolve()).encode()).hexdigest()[:16]
+    return str(Path(".snakemake") / "spa" / f"outputs-{key}.json")
+
+
+def _output_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
+    """The files of ``paths``: a folder stands for the regular files in it (not below)."""
+    files: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            files += sorted(f for f in p.iterdir() if f.is_file() and f.name != RUN_INDEX)
+        elif p.is_file():
+            files.append(p)
+    return files
+
+
+def record_outputs(
+    paths: Iterable[str | os.PathLike[str]], ledger: str | os.PathLike[str]
+) -> dict[str, Any]:
+    """Remember what the run's outputs are: size, modification time and sha256 of each.
+
+    Called by the last job of ``reproduce-all`` (``check``), when every output has just been
+    written; :func:`altered_outputs` compares against it when the next run starts. A file whose
+    ``stat`` did not change since the previous record is not read again.
+
+    Parameters
+    ----------
+    paths : iterable of path-like
+        Every output of the run; a folder (of run tables) stands for its files.
+    ledger : path-like
+        The JSON file to write (outside the results folder's outputs).
+
+    Returns
+    -------
+    dict
+        Path -> ``{"stat": [size, mtime_ns], "sha256"}``, as written.
+    """
+    old = _load_cache(Path(ledger))
+    record: dict[str, Any] = {}
+    for path in _output_files(paths):
+        st = path.stat()
+        stat = [st.st_size, st.st_mtime_ns]
+        hit = old.get(str(path))
+        same = isinstance(hit, dict) and hit.get("stat") == stat
+        record[str(path)] = {"stat": stat, "sha256": hit["sha256"] if same else _sha256(path)}
+    _save_cache(Path(ledger), record)
+    return record
+
+
+def altered_outputs(ledger: str | os.PathLike[str]) -> dict[str, str]:
+    """Outputs recorded by :func:`record_outputs` whose content changed since.
+
+    A file whose size and modification time are as recorded is taken as unchanged (nothing is
+    read); otherwise its sha256 decides, so that a file merely touched, or rewritten with the
+    same bytes by a partial run, is not reported. Missing files are not reported here (the
+    workflow asks for every missing output anyway).
+
+    Returns
+    -------
+    dict
+        Path -> why it is taken as altered.
+    """
+    out: dict[str, str] = {}
+    for name, hit in _load_cache(Path(ledger)).items():
+        path = Path(name)
+        try:
+            st = path.stat()
+        except OSError:
+            continue
+        if not isinstance(hit, dict) or hit.get("stat") == [st.st_size, st.st_mtime_ns]:
+            continue
+        if not path.is_file() or _sha256(path) != hit.get("sha256"):
+            out[name] = "changed since it was written"
+    return out
+
+
+def remove_altered_outputs(
+    results: str | os.PathLike[str],
+    ledger: str | os.PathLike[str],
+    run_folders: Iterable[str | os.PathLike[str]] = (),
+) -> dict[str, str]:
+    """Delete the outputs under ``results`` that changed since they were written.
+
+    A changed run table takes its whole folder (one of ``run_folders``) with it, since the
+    folder is one output of its job; any other output is deleted alone. The workflow then
+    finds them missing and rebuilds them, and what depends on them (see
+    :func:`missing_outputs`). Nothing outside ``results`` is ever removed.
+
+    Returns
+    -------
+    dict
+        The paths removed -> why.
+    """
+    root = Path(results).resolve()
+    folders = {Path(f).resolve() for f in run_folders}
+    removed: dict[str, str] = {}
+    for name, why in altered_outputs(ledger).items():
+        path = Path(name).resolve()
+        if not path.is_relative_to(root) or path == root:
+            continue
+        if path.parent in folders:
+            if path.parent.is_dir():
+                shutil.rmtree(path.parent)
+            removed[str(Path(name).parent)] = f"run table {path.name} {why}"
+        elif path.is_file():
+            path.unlink()
+            removed[name] = why
+    return removed
+
+
+def missing_outputs(paths: Iterable[str | os.PathLike[str]]) -> list[str]:
+    """Those of ``paths`` that do not exist.
+
+    Snakemake does not rebuild a missing output whose downstream files are up to date (its
+    issue 1978); the workflow names these as targets of ``reproduce-all`` so that their jobs
+    rerun, and, their outputs being newer, every job downstream of them.
+    """
+    return [str(p) for p in paths if not os.path.exists(p)]

@@ -16,7 +16,13 @@ except ShadowedPackageError as _exc:
 from spa.config import discover_datasets, figure_datasets, validate_config
 from spa.io import package_digest
 from spa.jobs import joined_outputs
-from spa.provenance import dataset_digest, remove_damaged_run_folders
+from spa.provenance import (
+    dataset_digest,
+    missing_outputs,
+    output_ledger,
+    remove_altered_outputs,
+    remove_damaged_run_folders,
+)
 from spa.outputs import all_targets, log_path, stage_outputs, wildcard_choice
 from spa.safety import check_results_dir
 from spa.workflow_report import report_flags
@@ -70,8 +76,19 @@ def raw_digest(wildcards):
     return dataset_digest(RAW_DIR / wildcards.dataset, cache=DIGEST_CACHE)
 
 
-# A folder of run tables that lost or changed a member is removed, so that it is rebuilt.
-for _folder, _why in remove_damaged_run_folders(
-    RESULTS, [stage_outputs("runs", RESULTS, d)["runs"] for d in DATASETS]
-).items():
-    logger.warning(f"{_folder}: {_why}; the folder is rebuilt")
+# What the last complete run wrote: size, time and sha256 of every output (spa.provenance),
+# one file per results folder.
+OUTPUT_LEDGER = output_ledger(RESULTS)
+# An output changed since it was written is removed (a run table with its folder), and a
+# folder of run tables that lost or gained a member too, so that they are rebuilt.
+_RUN_FOLDERS = [stage_outputs("runs", RESULTS, d)["runs"] for d in DATASETS]
+for _path, _why in {
+    **remove_damaged_run_folders(RESULTS, _RUN_FOLDERS),
+    **remove_altered_outputs(RESULTS, OUTPUT_LEDGER, _RUN_FOLDERS),
+}.items():
+    logger.warning(f"{_path}: {_why}; it is rebuilt")
+# Every output of the run, and those of them that are missing: reproduce-all asks for the
+# missing ones by name, since Snakemake does not rebuild a missing file whose downstream
+# outputs are up to date (its issue 1978). Their jobs rerun, then everything downstream.
+ALL_OUTPUTS = all_targets(RESULTS, DATASETS, exclude=["check"], figures=FIGURE_DATASETS)
+MISSING_OUTPUTS = missing_outputs(ALL_OUTPUTS)

@@ -43,6 +43,8 @@ rule check:
         runtime=5,
     params:
         datasets=DATASETS,
+        figures=FIGURE_DATASETS,
+        ledger=OUTPUT_LEDGER,
         code=SPA_CODE,
     script:
         "../scripts/check.py"

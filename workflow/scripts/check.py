@@ -1,4 +1,8 @@
-"""Fail the run, naming them, when any dataset failed; else write results/status.yaml."""
+"""Fail the run, naming them, when any dataset failed; else write results/status.yaml.
+
+First, every output of the run is recorded (size, time, sha256: spa.provenance), so that the
+next run rebuilds any output changed in between.
+"""
 
 import sys
 from pathlib import Path
@@ -6,10 +10,15 @@ from pathlib import Path
 import yaml
 
 from spa.io import get_logger
+from spa.outputs import all_targets
+from spa.provenance import record_outputs
 from spa.status import dataset_failures, failure_summary
 
 log = get_logger("check", snakemake.log[0])
 out = Path(snakemake.output.status)
+datasets, figures = snakemake.params.datasets, snakemake.params.figures
+targets = all_targets(out.parent, datasets, exclude=["check"], figures=figures)
+record_outputs(targets, snakemake.params.ledger)
 failures = dataset_failures(out.parent, snakemake.params.datasets)
 if failures:
     text = failure_summary(failures)
