@@ -54,7 +54,7 @@ def _ingest(args: argparse.Namespace, out: TextIO) -> int:
             file=out,
         )
         return 1
-    except ValueError as exc:
+    except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)
         return 1
     (target / INGEST_MARKER).write_text(f"run tables of {args.folder}, written by spa ingest\n")
@@ -68,7 +68,7 @@ def _init(args: argparse.Namespace, out: TextIO) -> int:
 
     try:
         path, text = write_draft(args.folder, force=args.force)
-    except (FileExistsError, ValueError) as exc:
+    except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=out)
         return 1
     todos = sum(f": {TODO}" in line for line in text.splitlines())

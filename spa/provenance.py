@@ -23,6 +23,7 @@ import hashlib
 import json
 import os
 import shutil
+import stat as stat_module
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -77,8 +78,36 @@ def _save_cache(cache: Path, data: Mapping[str, Any]) -> None:
     os.replace(tmp, cache)
 
 
+def _named_files(root: Path) -> list[str] | None:
+    """The files ``dataset.yaml`` names (itself first), or None for a folder without one."""
+    from spa.datasets.spec import SPEC_FILE, _parse_spec
+
+    if not (root / SPEC_FILE).is_file():
+        return None
+    parsed = _parse_spec(root)
+    return [SPEC_FILE, *sorted({run.file for run in parsed.runs} - {SPEC_FILE})]
+
+
+def _all_files(root: Path) -> list[str]:
+    """Every file under ``root`` but hidden files and folders, as relative POSIX paths."""
+    found = []
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        for name in sorted(filenames):
+            if not name.startswith("."):
+                found.append((Path(dirpath) / name).relative_to(root).as_posix())
+    return found
+
+
 def file_digests(folder: str | os.PathLike[str], cache: str | os.PathLike[str] | None = None):
-    """The sha256 of every file under ``folder`` (hidden files and folders skipped).
+    """The sha256 of every file of a dataset folder that its ``dataset.yaml`` names.
+
+    Files that ``dataset.yaml`` does not name (notes, a stray pipe or dangling link, a name in
+    an unknown encoding) are not read: they cannot change a result. A folder without a
+    ``dataset.yaml`` stands for all its files (hidden files and folders skipped). A named
+    file that is not a regular file (a pipe, a device: never opened) or cannot be read gets a
+    marker instead of a digest, so the digest is still defined; ingesting the dataset then
+    fails with that file named, and for that dataset alone.
 
     Parameters
     ----------
@@ -91,7 +120,8 @@ def file_digests(folder: str | os.PathLike[str], cache: str | os.PathLike[str] |
     Returns
     -------
     dict
-        Path relative to ``folder`` (POSIX form) -> sha256 hex digest, sorted by path.
+        Path relative to ``folder`` (POSIX form) -> sha256 hex digest (or a marker such as
+        ``"not a regular file"``), sorted by path.
     """
     root = Path(folder)
     cache_path = Path(cache) if cache is not None else None
@@ -100,23 +130,31 @@ def file_digests(folder: str | os.PathLike[str], cache: str | os.PathLike[str] |
     known = _load_cache(cache_path)
     out: dict[str, str] = {}
     changed = False
-    for dirpath, dirnames, filenames in os.walk(root):
-        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
-        for name in sorted(filenames):
-            if name.startswith("."):
-                continue
-            path = Path(dirpath) / name
-            rel = path.relative_to(root).as_posix()
-            key = str(path.resolve())
-            stat = _stat_key(path.stat())
-            hit = known.get(key)
-            if isinstance(hit, dict) and hit.get("stat") == stat:
-                out[rel] = str(hit["sha256"])
-                continue
+    names = _named_files(root)
+    for rel in _all_files(root) if names is None else names:
+        path = root / rel
+        try:
+            st = path.stat()
+        except OSError as exc:
+            out[rel] = f"cannot be read: {exc.strerror}"
+            continue
+        if not stat_module.S_ISREG(st.st_mode):
+            out[rel] = "not a regular file"
+            continue
+        key = os.fsencode(path.resolve()).decode("utf-8", "backslashreplace")
+        stat = _stat_key(st)
+        hit = known.get(key)
+        if isinstance(hit, dict) and hit.get("stat") == stat:
+            out[rel] = str(hit["sha256"])
+            continue
+        try:
             digest = _sha256(path)
-            known[key] = {"stat": stat, "sha256": digest}
-            out[rel] = digest
-            changed = True
+        except OSError as exc:
+            out[rel] = f"cannot be read: {exc.strerror}"
+            continue
+        known[key] = {"stat": stat, "sha256": digest}
+        out[rel] = digest
+        changed = True
     if changed and cache_path is not None:
         _save_cache(cache_path, known)
     return dict(sorted(out.items()))
@@ -151,7 +189,7 @@ def _combined(files: Mapping[str, str]) -> str:
     """One sha256 over (relative path, sha256) pairs, in their order."""
     h = hashlib.sha256()
     for rel, digest in files.items():
-        h.update(rel.encode() + b"\0" + digest.encode() + b"\0")
+        h.update(rel.encode("utf-8", "surrogateescape") + b"\0" + digest.encode() + b"\0")
     return h.hexdigest()
 
 

@@ -11,10 +11,18 @@ datasets with their first errors (:func:`dataset_failures`), and the final ``che
 
 A status file is ``{"stage", "dataset", "ok", "errors": [...], "upstream"}``; ``upstream`` names
 the earlier stage that failed when this one was skipped for it.
+
+An error of the machine rather than of the data (a full disk or quota, a file too large for
+``ulimit -f``, a read-only or forbidden results folder, memory exhausted:
+:func:`environment_error`) is not recorded as the dataset's failure: the job fails, with no
+placeholder and no status, saying so (:class:`EnvironmentFailure`), so that once the cause is
+fixed a rerun completes and equals a clean run. A job killed from outside leaves nothing
+either (Snakemake removes the outputs of a failed job).
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
 import os
@@ -26,9 +34,12 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "ENVIRONMENT_ERRNOS",
     "STATUS_DIR",
+    "EnvironmentFailure",
     "RunError",
     "dataset_failures",
+    "environment_error",
     "failure_summary",
     "naming_run",
     "read_status",
@@ -50,6 +61,61 @@ _EMPTY_PNG = bytes.fromhex(
 
 # Its SVG copy: an empty 1x1 drawing.
 _EMPTY_SVG = '<svg xmlns="http://www.w3.org/2000/svg" width="1" height="1"/>\n'
+
+
+#: ``errno`` values that say the machine, not the data, stopped a stage.
+ENVIRONMENT_ERRNOS = frozenset(
+    {errno.ENOSPC, errno.EFBIG, errno.EROFS, errno.EDQUOT, errno.ENOMEM, errno.EMFILE}
+)
+
+#: Refused access: the environment's fault when the file is the job's own (or not named).
+_ACCESS_ERRNOS = frozenset({errno.EACCES, errno.EPERM})
+
+
+class EnvironmentFailure(SystemExit):
+    """A stage stopped by its environment: the job exits non-zero with this message."""
+
+
+def environment_error(exc: BaseException, own: str | Path | None = None) -> str | None:
+    """Why ``exc`` is the environment's fault rather than the data's, or None.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error (its ``__cause__`` and ``__context__`` are looked at too).
+    own : path-like, optional
+        The folder of the job's outputs: a refused access to a file in it (or to an unnamed
+        file) is the environment's; to any other file (a recording) it is the data's.
+
+    Examples
+    --------
+    >>> print(environment_error(OSError(errno.ENOSPC, "No space left on device", "r/x.csv")))
+    [Errno 28] No space left on device: 'r/x.csv'
+    >>> environment_error(PermissionError(errno.EACCES, "Permission denied", "raw/d/a.csv"),
+    ...                   own="results/d") is None
+    True
+    >>> environment_error(ValueError("u above 1")) is None
+    True
+    """
+    seen: set[int] = set()
+    todo: list[BaseException | None] = [exc]
+    while todo:
+        err = todo.pop()
+        if err is None or id(err) in seen:
+            continue
+        seen.add(id(err))
+        if isinstance(err, MemoryError):
+            return f"out of memory ({type(err).__name__}: {err})"
+        if isinstance(err, OSError) and err.errno in ENVIRONMENT_ERRNOS:
+            return str(err)
+        if isinstance(err, OSError) and err.errno in _ACCESS_ERRNOS:
+            name = err.filename
+            if name is None or own is None:
+                return str(err)
+            if Path(os.fsdecode(name)).resolve().is_relative_to(Path(own).resolve()):
+                return str(err)
+        todo += [err.__cause__, err.__context__]
+    return None
 
 
 class RunError(ValueError):
@@ -171,6 +237,12 @@ def run_stage(
     -------
     bool
         True when the work ran and succeeded.
+
+    Raises
+    ------
+    EnvironmentFailure
+        When the work was stopped by the machine (:func:`environment_error`): no placeholder
+        and no status are written, and the job exits non-zero with a message saying so.
     """
     from spa.outputs import STAGES
 
@@ -190,6 +262,16 @@ def run_stage(
     try:
         _profiled(work, stage, dataset)
     except Exception as exc:
+        cause = environment_error(exc, status_path.parents[2])
+        if cause is not None:
+            log.error("%s: stage %s failed:\n%s", dataset, stage, traceback.format_exc())
+            message = (
+                f"spa: dataset {dataset}: stage {stage} was stopped by its environment, not by "
+                f"its data: {cause}. Nothing was recorded against the dataset; free space, "
+                "memory or permissions and run again."
+            )
+            log.error("%s", message)
+            raise EnvironmentFailure(message) from None
         problems = getattr(exc, "problems", None)
         if problems:
             errors = [str(p) for p in problems if getattr(p, "is_error", True)]

@@ -145,3 +145,52 @@ def test_figures_the_job_does_not_draw_are_removed_and_nothing_else(tmp_path) ->
     job.output = Names(joined_outputs(stages, lambda s: every[s]))
     assert remove_undrawn_figures(job) == []
     assert Path(every["identify"]["fig2a"]).read_text() == "new"
+
+
+@pytest.mark.parametrize(
+    "error",
+    [
+        OSError(28, "No space left on device"),
+        OSError(27, "File too large"),
+        OSError(30, "Read-only file system"),
+        MemoryError(),
+    ],
+)
+def test_an_error_of_the_environment_fails_the_job_and_records_nothing(
+    tmp_path, monkeypatch, error
+) -> None:
+    """A full disk, `ulimit -f`, a read-only results folder or exhausted memory is not the
+    dataset's failure: no placeholder, no status, the job exits non-zero saying why."""
+    import logging
+
+    from spa import io
+    from spa.status import EnvironmentFailure, run_stage
+
+    job = shared_job(["sine"])
+    job.output = Names({k: str(tmp_path / v) for k, v in job.output.items()})
+
+    monkeypatch.setattr(io, "write_csv", _raise(error))
+
+    def work() -> None:  # a writer of the stage's table hitting the error
+        io.write_csv(None, job.output.sine__table)
+
+    with pytest.raises(EnvironmentFailure, match="stopped by its environment, not by its data"):
+        run_stage(stage_job(job, "sine"), "sine", work, logging.getLogger("test_jobs"))
+    assert not any(tmp_path.rglob("*.*")), "a placeholder or status was written"
+
+
+def test_a_refused_recording_is_the_data_and_a_refused_output_the_environment(tmp_path) -> None:
+    from spa.status import environment_error
+
+    denied = PermissionError(13, "Permission denied")
+    denied.filename = str(tmp_path / "raw" / "d" / "a.csv")
+    assert environment_error(denied, own=tmp_path / "results") is None
+    denied.filename = str(tmp_path / "results" / "d" / "sine" / "linearity.csv")
+    assert "Permission denied" in environment_error(denied, own=tmp_path / "results")
+
+
+def _raise(error: BaseException):
+    def writer(*args, **kwargs):
+        raise error
+
+    return writer

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 import subprocess
@@ -382,3 +383,46 @@ def test_missing_or_altered_outputs_are_rebuilt_and_nothing_else(tmp_path, isola
     assert res.returncode == 0, res.stderr[-3000:]
     assert _files(out) == clean
     assert "Nothing to be done" in run(*args, "-n").stdout
+
+
+def test_stray_files_in_raw_stop_nothing_and_a_bad_named_file_fails_its_dataset(tmp_path):
+    """A dangling link, a pipe, a Latin-1 file name and office droppings that no run names are
+    ignored (the DAG builds, the digest does not change, `spa validate` lists them); a named
+    run file that is a pipe is an error of its dataset alone, never opened."""
+    import os
+
+    from spa.provenance import dataset_digest
+
+    raw = tmp_path / "raw"
+    for name in ["example", "piped"]:
+        shutil.copytree(ROOT / "raw" / "example", raw / name)
+    (raw / "piped" / "dataset.yaml").write_text(
+        (raw / "example" / "dataset.yaml").read_text().replace("name: example", "name: piped")
+    )
+    folder = raw / "example"
+    before = dataset_digest(folder)
+    (folder / "dangling").symlink_to(tmp_path / "nowhere")
+    os.mkfifo(folder / "pipe")
+    (folder / os.fsdecode(b"r\xfcn.csv")).write_text("x")
+    for junk in [".DS_Store", "Thumbs.db", "~$notes.xlsx"]:
+        (folder / junk).write_text("x")
+    assert dataset_digest(folder) == before
+    (raw / "piped" / "pulse.csv").unlink()
+    os.mkfifo(raw / "piped" / "pulse.csv")
+    (raw / "stray").mkdir()  # no dataset.yaml: not a dataset
+    (raw / "stray" / "a.csv").write_text("x")
+
+    val = subprocess.run([sys.executable, "-m", "spa", "validate", str(folder)],
+                         capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert val.returncode == 0, val.stdout
+    assert "3 file(s) of the folder that no run names are ignored" in val.stdout
+    assert "Thumbs.db" not in val.stdout and ".DS_Store" not in val.stdout
+    out = tmp_path / "results"
+    targets = [f"{out}/{d}/runs" for d in ["example", "piped"]]
+    args = [*targets, "--configfile", "config/small.yaml", "--config", f"results={out}",
+            f"datasets={{'raw_dir': '{raw}'}}", "-c1", "--keep-going"]  # fmt: skip
+    res = run(*args)
+    text = res.stdout + res.stderr
+    assert (out / "example" / "runs" / "pulse.parquet").is_file(), text[-3000:]
+    status = json.loads((out / "piped" / "status" / "runs.json").read_text())
+    assert "'pulse.csv' is not a regular file" in " ".join(status["errors"])

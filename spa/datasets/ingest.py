@@ -28,6 +28,7 @@ from spa.datasets.readers.base import _ReadError, _Retry
 from spa.datasets.readers.sniff import csv_hint
 from spa.datasets.runtable import _meta_bytes, _RunWriter, _sha256
 from spa.datasets.spec import RunEntry, _parse_spec, _Parsed
+from spa.status import ENVIRONMENT_ERRNOS
 
 # --------------------------------------------------------------------------- scanning
 
@@ -205,6 +206,10 @@ def _scan_run(
         problems.append(problem(str(exc), exc.column, exc.row))
     except MemoryError:
         raise
+    except OSError as exc:  # a full disk is not the recording's fault
+        if exc.errno in ENVIRONMENT_ERRNOS:
+            raise
+        problems.append(problem(f"cannot read the file: {type(exc).__name__}: {exc}"))
     except Exception as exc:  # never a raw traceback for a bad file
         problems.append(problem(f"cannot read the file: {type(exc).__name__}: {exc}"))
 
@@ -349,6 +354,7 @@ def ingest_dataset(
             f"out_dir {out} is inside the dataset folder {folder} or is its parent folder; "
             "ingest never writes into raw/"
         )
+    _check_writable(out)
     parsed, problems, _, temps = _scan_dataset(folder, out)
     if any(p.is_error for p in problems):
         for tmp in temps.values():
@@ -362,3 +368,24 @@ def ingest_dataset(
         os.replace(temps[run.id], final)
         paths.append(final)
     return paths
+
+
+def _check_writable(out: Path) -> None:
+    """Refuse an output folder that cannot be written, before any recording is read.
+
+    Raises
+    ------
+    OSError
+        Naming the folder (with the system's reason), so that a read-only or full results
+        folder is never taken for unreadable recordings.
+    """
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".spa-write-check.{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise type(exc)(
+            exc.errno, f"the output folder is not writable ({exc.strerror}); the recordings "
+            "were not read", str(out)
+        ) from None

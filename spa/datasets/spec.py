@@ -3,6 +3,7 @@ parsed :class:`DatasetSpec`."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath, PureWindowsPath
@@ -302,7 +303,39 @@ def _parse_spec(folder: Path) -> _Parsed:
     _parse_options(parsed, doc)
     if "runs" in doc:
         _parse_runs(parsed, doc["runs"])
+        _warn_unnamed(parsed, doc["runs"])
     return parsed
+
+
+#: Files a file manager or an office program leaves behind: never worth a warning.
+_JUNK = ("Thumbs.db", "desktop.ini", "Icon\r")
+
+
+def _warn_unnamed(parsed: _Parsed, runs: Any) -> None:
+    """One warning listing the files of the folder that ``dataset.yaml`` does not name.
+
+    They are ignored (not read, not digested: :func:`spa.provenance.file_digests`); hidden
+    files and the droppings of file managers and office programs are not listed.
+    """
+    named = {SPEC_FILE}
+    if isinstance(runs, list):
+        named |= {str(r.get("file")) for r in runs if isinstance(r, Mapping)}
+    stray = []
+    for dirpath, dirnames, filenames in os.walk(parsed.folder):
+        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        for name in sorted(filenames):
+            if name.startswith((".", "~$")) or name in _JUNK:
+                continue
+            rel = (Path(dirpath) / name).relative_to(parsed.folder).as_posix()
+            if rel not in named:
+                stray.append(os.fsencode(rel).decode("utf-8", "backslashreplace"))
+    if stray:
+        more = f" and {len(stray) - 5} more" if len(stray) > 5 else ""
+        parsed.error(
+            f"{len(stray)} file(s) of the folder that no run names are ignored: "
+            f"{', '.join(stray[:5])}{more}",
+            level="warning",
+        )
 
 
 def _top_value(
