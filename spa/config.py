@@ -9,12 +9,23 @@ from typing import Any
 import yaml
 
 __all__ = [
+    "MAX_GRID_VALUES",
+    "MAX_RUN_SAMPLES",
+    "MAX_SWEEP_POINTS",
     "ConfigError",
     "config_errors",
     "discover_datasets",
     "figure_datasets",
+    "grid_errors",
     "validate_config",
 ]
+
+#: Most points a sweep (``analytic.sweeps.*``, ``tuning.gain_sweep``) may have.
+MAX_SWEEP_POINTS = 100_000
+#: Most values of one cost evaluation, sweep points x ``n_xi`` (x gains): 160 MB per array.
+MAX_GRID_VALUES = 20_000_000
+#: Most samples of one simulated run (an experiment at the controller step): 400 MB per array.
+MAX_RUN_SAMPLES = 50_000_000
 
 
 class ConfigError(ValueError):
@@ -82,7 +93,7 @@ def semantic_errors(config: Mapping[str, Any]) -> list[str]:
     """
     from spa.model.modulators import Modulator, check_settings
 
-    lines = []
+    lines = grid_errors(config)
     for section in ("analytic", "tuning"):
         sweeps = (config.get(section) or {}).get("sweeps") or {}
         for kind, grid in sweeps.items():
@@ -107,6 +118,110 @@ def semantic_errors(config: Mapping[str, Any]) -> list[str]:
                 check_settings(setting.kind, dt, **setting.settings)
             except ValueError as exc:
                 lines.append(f"simulated.{name}.modulators[{i}]: {exc}")
+    return lines
+
+
+def _points(grid: Mapping[str, Any]) -> int:
+    """Points of a sweep ``{start, stop, step}`` (as :func:`spa.tuning.cost.sweep_grid`)."""
+    return int((float(grid["stop"]) - float(grid["start"])) / float(grid["step"]) + 1e-9) + 1
+
+
+def _mb(values: float) -> str:
+    return f"{values * 8 / 1e6:,.0f} MB"
+
+
+def grid_errors(config: Mapping[str, Any]) -> list[str]:
+    """Sweeps, grids and runs too large to compute, and accepted ranges that are empty.
+
+    Checked before anything runs, so that a runaway setting (a sweep step of 1e-7, ``n_xi`` of
+    1e9) is one configuration error naming its key rather than a job that allocates
+    gigabytes and dies. The bounds are :data:`MAX_SWEEP_POINTS` points a sweep,
+    :data:`MAX_GRID_VALUES` values of sweep points x ``n_xi`` (the cost's arrays) and
+    :data:`MAX_RUN_SAMPLES` samples a simulated run.
+
+    Returns
+    -------
+    list of str
+        ``"<key>: <problem>"`` lines, empty when every grid is bounded.
+
+    Examples
+    --------
+    >>> grid_errors({"analytic": {"n_xi": 100,
+    ...     "sweeps": {"pwm": {"start": 1.0, "stop": 80.0, "step": 1e-7}}}})[0][:60]
+    'analytic.sweeps.pwm.step: 1e-07 gives 790,000,001 points; at'
+    >>> grid_errors({"tuning": {"ranges": {"pwm": [50.0, 5.0]}}})
+    ['tuning.ranges.pwm: [50.0, 5.0]: the lower bound 50.0 is above the upper bound 5.0']
+    """
+    lines = []
+    analytic = config.get("analytic") or {}
+    tuning = config.get("tuning") or {}
+    n_xi = int(analytic.get("n_xi") or 2)
+    grids = {f"analytic.sweeps.{k}": g for k, g in (analytic.get("sweeps") or {}).items()}
+    if isinstance(tuning.get("gain_sweep"), Mapping):
+        grids["tuning.gain_sweep"] = tuning["gain_sweep"]
+    points: dict[str, int] = {}
+    for key, grid in grids.items():
+        if not (isinstance(grid, Mapping) and {"start", "stop", "step"} <= set(grid)):
+            continue
+        n = points[key] = max(_points(grid), 1)
+        if n > MAX_SWEEP_POINTS:
+            lines.append(
+                f"{key}.step: {grid['step']} gives {n:,} points; at most "
+                f"{MAX_SWEEP_POINTS:,} (a coarser step or a shorter range)"
+            )
+        elif n * n_xi > MAX_GRID_VALUES and key.startswith("analytic"):
+            lines.append(
+                f"analytic.n_xi: {n_xi:,} x the {n:,} points of {key} = {n * n_xi:,} values "
+                f"(about {_mb(n * n_xi)} an array); at most {MAX_GRID_VALUES:,}"
+            )
+    gains = points.get("tuning.gain_sweep", 1)
+    iipfm = points.get("analytic.sweeps.iipfm", 1)
+    if 1 < gains <= MAX_SWEEP_POINTS and gains * iipfm * n_xi > MAX_GRID_VALUES:
+        lines.append(
+            f"tuning.gain_sweep: {gains:,} gains x {iipfm:,} t_l x n_xi {n_xi:,} = "
+            f"{gains * iipfm * n_xi:,} values (about {_mb(gains * iipfm * n_xi)}); at most "
+            f"{MAX_GRID_VALUES:,}"
+        )
+    for kind, bounds in (tuning.get("ranges") or {}).items():
+        if isinstance(bounds, list) and len(bounds) == 2 and bounds[0] > bounds[1]:
+            lines.append(
+                f"tuning.ranges.{kind}: {bounds}: the lower bound {bounds[0]} is above the "
+                f"upper bound {bounds[1]}"
+            )
+    stair = tuning.get("staircase") or {}
+    if {"step", "hold", "dt"} <= set(stair):
+        n = (1 / float(stair["step"]) + 1) * float(stair["hold"]) / float(stair["dt"])
+        if n > MAX_RUN_SAMPLES:
+            lines.append(
+                f"tuning.staircase: {n:,.0f} samples (levels x hold / dt); at most "
+                f"{MAX_RUN_SAMPLES:,}"
+            )
+    lines += _run_size_errors(config)
+    return lines
+
+
+def _run_size_errors(config: Mapping[str, Any]) -> list[str]:
+    """Simulated runs longer than :data:`MAX_RUN_SAMPLES` at a dataset's controller step."""
+    exp = config.get("experiments") or {}
+    seconds = {}
+    stair = exp.get("staircase") or {}
+    if {"step", "hold"} <= set(stair):
+        seconds["staircase"] = (1 / float(stair["step"]) + 1) * float(stair["hold"])
+    sine = exp.get("sine") or {}
+    if {"frequency", "amplitudes"} <= set(sine):
+        per = float(sine.get("periods_per_level", 1)) / float(sine["frequency"])
+        seconds["sine"] = len(sine["amplitudes"]) * (per + float(sine.get("settle", 0)))
+    if "duration" in (exp.get("chirp") or {}):
+        seconds["chirp"] = float(exp["chirp"]["duration"])
+    lines = []
+    for name, sim in (config.get("simulated") or {}).items():
+        dt = float((sim or {}).get("controller_dt") or 0)
+        for kind, length in seconds.items():
+            if dt > 0 and length / dt > MAX_RUN_SAMPLES:
+                lines.append(
+                    f"experiments.{kind}: a run of {length:,.0f} s is {length / dt:,.0f} samples "
+                    f"at simulated.{name}.controller_dt = {dt:g} s; at most {MAX_RUN_SAMPLES:,}"
+                )
     return lines
 
 

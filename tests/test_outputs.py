@@ -222,6 +222,34 @@ def test_config_relations_the_schema_cannot_state_are_checked():
     assert "simulated.sim.modulators[0]: pwm: f_w = 900 Hz is above half" in errors
 
 
+def test_runaway_grids_and_empty_ranges_are_one_config_error_each():
+    """A sweep step of 1e-7 (790 M points), n_xi of 1e9, a gain sweep too large for the
+    IIPFM grid, a simulated run of 1e9 samples and a range [50, 5] are refused by key."""
+    from spa.config import config_errors, grid_errors
+
+    cfg = _full_config()
+    assert grid_errors(cfg) == []
+    cfg["analytic"]["n_xi"] = 10**9
+    assert config_errors(cfg, _schema()) == [
+        "analytic.n_xi: 1000000000 is greater than the maximum of 100000"
+    ]
+    cfg = _full_config()
+    cfg["analytic"]["sweeps"]["pwm"]["step"] = 1e-7
+    cfg["analytic"]["n_xi"] = 30_000
+    cfg["tuning"]["ranges"] = {"pwm": [50.0, 5.0], "dsm": [0.01, 0.05]}
+    cfg["tuning"]["gain_sweep"] = {"start": 1.0, "stop": 1.3, "step": 0.001}
+    cfg["experiments"]["chirp"]["duration"] = 1e6
+    errors = config_errors(cfg, _schema())
+    assert len(errors) == 7, errors
+    assert errors[0].startswith("analytic.sweeps.pwm.step: 1e-07 gives 790,000,001 points")
+    assert errors[1].startswith("analytic.n_xi: 30,000 x the 988 points of analytic.sweeps.ipfm")
+    assert "tuning.gain_sweep: 301 gains x 988 t_l x n_xi 30,000" in errors[4]
+    assert errors[5] == (
+        "tuning.ranges.pwm: [50.0, 5.0]: the lower bound 50.0 is above the upper bound 5.0"
+    )
+    assert "experiments.chirp: a run of 1,000,000 s is 1,000,000,000 samples" in errors[6]
+
+
 def test_numbers_given_as_strings_on_the_command_line_are_numbers():
     """`--config 'analytic={n_xi: 30}'` hands Snakemake's config '30', a string."""
     from spa.config import coerce_numbers, config_errors

@@ -321,7 +321,8 @@ def sweep_grid(start: float, stop: float, step: float) -> npt.NDArray[np.float64
     Raises
     ------
     ValueError
-        Unless ``0 < start <= stop`` and ``step > 0``, all finite.
+        Unless ``0 < start <= stop`` and ``step > 0``, all finite, and the grid has at most
+        :data:`spa.config.MAX_SWEEP_POINTS` points.
 
     Examples
     --------
@@ -334,6 +335,13 @@ def sweep_grid(start: float, stop: float, step: float) -> npt.NDArray[np.float64
     if stop < start:
         raise ValueError(f"stop must be >= start, got start={start!r}, stop={stop!r}")
     n = int(np.floor((stop - start) / step + 1e-9)) + 1
+    from spa.config import MAX_SWEEP_POINTS
+
+    if n > MAX_SWEEP_POINTS:
+        raise ValueError(
+            f"sweep from {start!r} to {stop!r} by step {step!r} has {n:,} points; at most "
+            f"{MAX_SWEEP_POINTS:,} (a coarser step or a shorter range)"
+        )
     # Rounding removes the float noise of start + k*step (0.019500000000000003 -> 0.0195).
     return np.round(start + step * np.arange(n), 12)
 
