@@ -428,3 +428,21 @@ def test_gain_argument_of_the_cost():
     )
     with pytest.raises(ValueError, match="pwm: has no gain"):
         linearity_cost("pwm", 20.0, P, gain=1.1)
+
+
+def test_non_physical_valves_and_intervals_are_refused_by_name() -> None:
+    """t_on = 0 (a ZeroDivisionError once) and a negative lower bound on k2 in a params.yaml
+    (nonsense intervals once) are refused naming the parameter."""
+    from spa.model.thresholds import thresholds
+    from spa.tuning.stage import TuningError, read_identified
+
+    flat = {"c1": 0.5, "k2": 0.8, "tau2": 0.8, "t_on": 0.0, "t_off": 0.01}
+    with pytest.raises(TuningError, match="t_on = 0 s; the tuning needs"):
+        read_identified(flat)
+    ident = {k: {"value": v, "lo": v * 0.9, "hi": v * 1.1} for k, v in flat.items()}
+    ident["t_on"] = {"value": 0.003, "lo": 0.002, "hi": 0.004}
+    ident["k2"] = {"value": 0.8, "lo": -0.1, "hi": 1.7}
+    with pytest.raises(TuningError, match=r"k2: the 95 % interval \[-0.1, 1.7\] leaves"):
+        read_identified(ident)
+    ideal = ValveParams(t_on=0.0, t_off=0.0)  # the formulas' limits, no division by zero
+    assert [float(v) for v in thresholds("dsm", ideal, period=0.02)] == [0.0, 1.0]

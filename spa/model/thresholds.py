@@ -99,8 +99,9 @@ def thresholds(
         dead = 1.0 - s["gain"] / (1.0 + p.t_on / s["t_l"])
         sat = np.where(s["t_l"] > p.t_off, 1.0, 0.0)
     else:
-        dead = 1.0 - s["period"] / (2.0 * p.t_on)
-        sat = s["period"] / (2.0 * p.t_off)
+        # An ideal valve (no delay) has neither: the limits of the formulas as t -> 0.
+        dead = 1.0 - s["period"] / (2.0 * p.t_on) if p.t_on > 0 else 0.0 * s["period"]
+        sat = s["period"] / (2.0 * p.t_off) if p.t_off > 0 else 1.0 + 0.0 * s["period"]
     return (
         as_output(np.clip(np.asarray(dead, np.float64), 0.0, 1.0)),
         as_output(np.clip(np.asarray(sat, np.float64), 0.0, 1.0)),

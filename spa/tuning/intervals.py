@@ -53,7 +53,8 @@ def read_intervals(mapping: Mapping[str, Any]) -> dict[str, tuple[float, float]]
     Raises
     ------
     ValueError
-        If an interval is not finite or has ``lo > hi``; the message names the parameter.
+        If an interval is not finite, has ``lo > hi`` or a lower bound outside the
+        parameter's domain (``<= 0``; ``< 0`` for ``t_off``); the message names the parameter.
 
     Examples
     --------
@@ -70,6 +71,12 @@ def read_intervals(mapping: Mapping[str, Any]) -> dict[str, tuple[float, float]]
         if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
             raise ValueError(
                 f"{name}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]"
+            )
+        if lo < 0 or (lo == 0 and name != "t_off"):
+            allowed = ">= 0" if name == "t_off" else "> 0"
+            raise ValueError(
+                f"{name}: the 95 % interval [{lo}, {hi}] leaves the physical domain: its lower "
+                f"bound must be {allowed}"
             )
         out[name] = (lo, hi)
     return out

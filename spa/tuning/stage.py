@@ -130,6 +130,11 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
         intervals = read_intervals(source)
     except ValueError as exc:
         raise TuningError(f"{where}: {exc}") from None
+    if params.t_on <= 0:
+        raise TuningError(
+            f"{where}: t_on = {params.t_on:g} s; the tuning needs the valve's measured opening "
+            "delay, t_on > 0 (its dead-zones and pulse limits are built on it)"
+        )
     fallback = source.get("fallback") or {}
     return Identified(params, intervals, dict(fallback), where)
 
