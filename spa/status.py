@@ -2,7 +2,8 @@
 
 A workflow job of a dataset runs its work through :func:`run_stage`. When the work raises
 (bad data, an identification that cannot be done, a run that is not what its kind says), the
-job does not fail: it logs the error with its traceback, fills each of its outputs with a
+job does not fail: it logs the error (its traceback too when it is a bug, not an input
+error: :func:`anticipated`), fills each of its outputs with a
 placeholder, and writes its status file (``results/<dataset>/status/<stage>.json``) saying
 what failed. A later stage of the same dataset finds the failed status and skips its work the
 same way. So every other dataset, and the report, are still built; the report lists the failed
@@ -38,6 +39,7 @@ __all__ = [
     "STATUS_DIR",
     "EnvironmentFailure",
     "RunError",
+    "anticipated",
     "dataset_failures",
     "environment_error",
     "failure_summary",
@@ -116,6 +118,22 @@ def environment_error(exc: BaseException, own: str | Path | None = None) -> str 
                 return str(err)
         todo += [err.__cause__, err.__context__]
     return None
+
+
+def anticipated(exc: BaseException) -> bool:
+    """Whether ``exc`` is an input error that spa raises on purpose, with a full message.
+
+    Those are :class:`ValueError` subclasses of spa itself (:class:`RunError`,
+    ``DatasetError``, ``IdentificationError``, ``TuningError``, ``ConfigError``...): their
+    message says what is wrong, and a traceback would only hide it. Anything else (an
+    ``IndexError``, a ``ValueError`` from inside numpy) is a bug: its traceback is logged.
+
+    Examples
+    --------
+    >>> anticipated(RunError("run 's1' (staircase): u goes down")), anticipated(ValueError())
+    (True, False)
+    """
+    return isinstance(exc, ValueError) and type(exc).__module__.startswith("spa.")
 
 
 class RunError(ValueError):
@@ -279,7 +297,10 @@ def run_stage(
                 (log.error if getattr(p, "is_error", True) else log.warning)("%s", p)
         else:
             errors = [f"{type(exc).__name__}: {exc}"]
-        log.error("%s: stage %s failed:\n%s", dataset, stage, traceback.format_exc())
+        if anticipated(exc):  # bad input, said by spa: its message, no traceback
+            log.error("%s: stage %s failed: %s", dataset, stage, errors[0])
+        else:  # a bug: where it happened
+            log.error("%s: stage %s failed:\n%s", dataset, stage, traceback.format_exc())
         _fill(smk, stage, errors[0])
         write_status(status_path, stage, dataset, errors)
         return False

@@ -217,7 +217,7 @@ def test_hidden_and_spec_less_folders_of_raw_are_not_datasets(tmp_path):
 def test_fallback_identification_and_a_run_that_is_not_its_kind(tmp_path):
     """use_fallback: a dataset without pulse runs is identified with nominal delays and gets
     its figures; a 'staircase' run whose input is not a staircase fails its stage with the run
-    named (traceback in the log), not the workflow."""
+    named (one line in the log and on the console, no traceback), not the workflow."""
     import json
 
     raw = tmp_path / "raw"
@@ -259,7 +259,9 @@ def test_fallback_identification_and_a_run_that_is_not_its_kind(tmp_path):
     stair = json.loads((out / "nopulse" / "status" / "staircase.json").read_text())
     assert not stair["ok"]
     assert "run 'staircase_pwm-20Hz' is labelled staircase but u goes down" in stair["errors"][0]
-    assert "Traceback" in (out / "logs" / "nopulse" / "staircase.log").read_text()
+    log = (out / "logs" / "nopulse" / "staircase.log").read_text()
+    assert "labelled staircase but u goes down" in log  # one line, no traceback:
+    assert "Traceback" not in log and "Traceback" not in res.stderr  # an input error, no bug
 
 
 def test_staleness_follows_content_not_modification_times(tmp_path):

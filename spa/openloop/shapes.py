@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from spa.status import RunError
+
 __all__ = ["check_input_shape", "input_shape_problem"]
 
 #: Share of the input's variance that a sine's strongest frequency must carry.
@@ -93,15 +95,15 @@ def input_shape_problem(kind: str, u: npt.ArrayLike) -> str | None:
 
 
 def check_input_shape(run: str, kind: str, u: npt.ArrayLike) -> None:
-    """Raise ValueError naming ``run`` when its input is not of its ``kind``.
+    """Raise :class:`~spa.status.RunError` naming ``run`` when its input is not of its ``kind``.
 
     Raises
     ------
-    ValueError
-        ``run 'x' is labelled <kind> but <why>; check its kind in dataset.yaml``.
+    spa.status.RunError
+        A ValueError: ``run 'x' is labelled <kind> but <why>; check its kind in dataset.yaml``.
     """
     problem = input_shape_problem(kind, u)
     if problem is not None:
-        raise ValueError(
+        raise RunError(
             f"run {run!r} is labelled {kind} but {problem}; check its kind in dataset.yaml"
         )
