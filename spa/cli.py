@@ -114,6 +114,7 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
     import yaml
 
     from spa.datasets import DatasetError
+    from spa.datasets.checks import k2_warning
     from spa.identification import identify_with_config
     from spa.io import read_runs
     from spa.report.params import fits_note, params_table
@@ -138,6 +139,12 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
     table = params_table(result).drop(columns="method")
     print(f"{args.dataset}: {len(runs)} run(s); 95 % intervals", file=out)
     print(table.to_string(index=False, float_format=lambda x: f"{x:.5g}"), file=out)
+    supply = dict((config or {}).get("datasets") or {}).get("plausible_supply_bar")
+    k2 = result.get("k2")
+    k2 = k2.get("value") if isinstance(k2, dict) else k2
+    warning = k2_warning(k2, metas, supply) if isinstance(k2, int | float) else None
+    if warning:
+        print(f"warning: {warning}", file=out)
     note = fits_note(result).strip()
     if note:
         print(note, file=out)

@@ -188,6 +188,11 @@ def grid_errors(config: Mapping[str, Any]) -> list[str]:
                 f"tuning.ranges.{kind}: {bounds}: the lower bound {bounds[0]} is above the "
                 f"upper bound {bounds[1]}"
             )
+    supply = (config.get("datasets") or {}).get("plausible_supply_bar")
+    if isinstance(supply, list) and len(supply) == 2 and not supply[0] < supply[1]:
+        lines.append(
+            f"datasets.plausible_supply_bar: {supply}: the lower bound must be below the upper"
+        )
     stair = tuning.get("staircase") or {}
     if {"step", "hold", "dt"} <= set(stair):
         n = (1 / float(stair["step"]) + 1) * float(stair["hold"]) / float(stair["dt"])

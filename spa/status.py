@@ -166,16 +166,21 @@ def write_status(
     dataset: str,
     errors: Iterable[str] = (),
     upstream: str | None = None,
+    warnings: Iterable[str] = (),
 ) -> dict[str, Any]:
-    """Write a stage's status file; ``errors`` empty means it worked."""
+    """Write a stage's status file; ``errors`` empty means it worked (``warnings``, such as
+    an implausible supply pressure, are recorded when there are any)."""
     errs = [str(e) for e in errors][:_MAX_ERRORS]
-    status = {
+    status: dict[str, Any] = {
         "stage": stage,
         "dataset": dataset,
         "ok": not errs,
         "errors": errs,
         "upstream": upstream,
     }
+    notes = [str(w) for w in warnings if isinstance(w, str)][:_MAX_ERRORS]
+    if notes:
+        status["warnings"] = notes
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(status, indent=1) + "\n")
@@ -247,7 +252,8 @@ def run_stage(
     stage : str
         The stage's name in :data:`spa.outputs.STAGES`.
     work : callable
-        Does the stage's work and writes every output but ``status``.
+        Does the stage's work and writes every output but ``status``; it may return a list
+        of warnings (str), which the status records (``warnings``).
     log : logging.Logger
         The job's log: the error and its traceback go there.
 
@@ -278,7 +284,7 @@ def run_stage(
         write_status(status_path, stage, dataset, errors, upstream=str(failed["stage"]))
         return False
     try:
-        _profiled(work, stage, dataset)
+        notes = _profiled(work, stage, dataset)
     except Exception as exc:
         cause = environment_error(exc, status_path.parents[2])
         if cause is not None:
@@ -304,11 +310,11 @@ def run_stage(
         _fill(smk, stage, errors[0])
         write_status(status_path, stage, dataset, errors)
         return False
-    write_status(status_path, stage, dataset)
+    write_status(status_path, stage, dataset, warnings=notes or ())
     return True
 
 
-def _profiled(work: Callable[[], None], stage: str, dataset: str) -> None:
+def _profiled(work: Callable[[], Any], stage: str, dataset: str) -> Any:
     """Run ``work``; with ``SPA_PROFILE_DIR`` set, record where the job's time went.
 
     A development aid for the benchmarks (``benchmarks/README.md``): the job's CPU seconds
@@ -319,8 +325,7 @@ def _profiled(work: Callable[[], None], stage: str, dataset: str) -> None:
     """
     folder = os.environ.get("SPA_PROFILE_DIR")
     if not folder:
-        work()
-        return
+        return work()
     import resource
     import time
 
@@ -337,11 +342,11 @@ def _profiled(work: Callable[[], None], stage: str, dataset: str) -> None:
 
             profile = cProfile.Profile()
             try:
-                profile.runcall(work)
+                return profile.runcall(work)
             finally:
                 profile.dump_stats(out.with_suffix(".prof"))
         else:
-            work()
+            return work()
     finally:
         timing = {"cpu_before_work": before, "cpu_total": cpu()}
         timing["wall_work"] = time.perf_counter() - start

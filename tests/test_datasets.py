@@ -700,3 +700,36 @@ def test_ns_time_stamps_beyond_2_53_are_named(tmp_path: Path) -> None:
     rows = "".join(f"{1_700_000_000_000_000_000 + k * 1_000_000},0.1,1\n" for k in range(20))
     problems = _one_csv_run(tmp_path, ("t,p,valve\n" + rows).encode())
     assert any("is beyond 2^53" in m and "[run 'c', column 't', row 1" in m for m in problems)
+
+
+def test_pressure_logged_in_bar_but_declared_kpa_is_a_warning_naming_the_mistake(
+    tmp_path: Path,
+) -> None:
+    """A charge run topping at 0.0106 "bar" (bar values declared kPa) is valid data but no
+    plausible supply: a warning says which unit mistake would explain it; the identified k2
+    gets the same warning (spa identify, the identify stage's status)."""
+    import pandas as pd
+
+    from spa.datasets.checks import k2_warning
+
+    src = REPO / "raw" / "example"
+    spec = yaml.safe_load((src / "dataset.yaml").read_text())
+    spec["runs"] = [r for r in spec["runs"] if r["kind"] == "charge"]
+    spec["name"] = "barkpa"
+    folder = tmp_path / "barkpa"
+    folder.mkdir()
+    for r in spec["runs"]:
+        df = pd.read_csv(src / r["file"])
+        df["P_act_kPa"] = (df["P_act_kPa"] / 100).round(6)
+        df.to_csv(folder / r["file"], index=False)
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(spec, sort_keys=False))
+    problems = validate_dataset(folder)
+    assert [p.level for p in problems] == ["warning"], problems
+    assert "= 0.0106 bar is outside the plausible supply range 0.05-20 bar: pressure logged in " \
+           "bar but declared kPa?" in str(problems[0])  # fmt: skip
+    metas = {"charge": {"kind": "charge", "units": {"pressure": "kPa"}}}
+    assert k2_warning(0.8, metas) is None
+    assert k2_warning(0.8, metas, (1.0, 5.0)).startswith("k2 = 0.8 bar is outside")
+    assert k2_warning(83.7, {"c": {"kind": "charge", "units": {"pressure": "bar"}}}).endswith(
+        "pressure logged in kPa but declared bar?"
+    )

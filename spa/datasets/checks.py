@@ -349,3 +349,87 @@ def _unit_hint(lo: float, hi: float, declared: str) -> str:
     others = "".join(f"; or {text}" for *_, text in fits[1:])
     unit, text = fits[0][2], fits[0][3]
     return f"; the values look like {text}{others}: set units: {{pressure: {unit}}} in {SPEC_FILE}"
+
+
+def supply_warning(
+    value: float,
+    what: str,
+    declared: str = "bar",
+    bounds: tuple[float, float] | None = None,
+) -> str | None:
+    """A warning when a supply pressure is implausible, naming the likely unit mistake.
+
+    Parameters
+    ----------
+    value : float
+        The pressure in bar gauge, as converted from the ``declared`` unit (the identified
+        ``k2``, or a charge run's highest pressure).
+    what : str
+        What it is, for the message (``"k2"``).
+    declared : str
+        The pressure unit the dataset declared (a key of :data:`PRESSURE_UNITS`).
+    bounds : (float, float), optional
+        Plausible range in bar; default :data:`PLAUSIBLE_SUPPLY_BAR` (config
+        ``datasets.plausible_supply_bar``).
+
+    Returns
+    -------
+    str or None
+        None when ``value`` is within ``bounds``; else the message, with the unit that would
+        put it in range when there is one.
+
+    Examples
+    --------
+    >>> supply_warning(0.0115, "k2", "kPa").split(": ")[1]
+    'pressure logged in bar but declared kPa?'
+    >>> supply_warning(83.7, "k2", "bar").split(": ")[1]
+    'pressure logged in kPa but declared bar?'
+    >>> supply_warning(0.8, "k2") is None
+    True
+    """
+    from spa.datasets.contract import PLAUSIBLE_SUPPLY_BAR, PRESSURE_UNITS
+
+    lo, hi = bounds if bounds is not None else PLAUSIBLE_SUPPLY_BAR
+    if not math.isfinite(value) or lo <= value <= hi:
+        return None
+    message = f"{what} = {value:.3g} bar is outside the plausible supply range {lo:g}-{hi:g} bar"
+    factor = PRESSURE_UNITS.get(declared)
+    fits = {  # the units that would put it in range, the likeliest nearest 1 bar
+        unit: abs(math.log(value * other / factor))
+        for unit, other in PRESSURE_UNITS.items()
+        if factor is not None and unit != declared and lo <= value * other / factor <= hi
+    }
+    if value > 0 and fits:
+        unit = min(fits, key=fits.__getitem__)
+        return f"{message}: pressure logged in {unit} but declared {declared}?"
+    return f"{message}: check the pressure unit and the sensor's calibration"
+
+
+def k2_warning(
+    k2: float, metas: Mapping[str, Mapping[str, Any]], bounds: tuple[float, float] | None = None
+) -> str | None:
+    """:func:`supply_warning` for an identified ``k2``, in the unit its charge runs declared.
+
+    Parameters
+    ----------
+    k2 : float
+        The identified supply pressure, bar.
+    metas : mapping
+        Run id -> run table metadata (:func:`spa.io.read_runs`): ``kind`` and ``units``.
+    bounds : (float, float), optional
+        As :func:`supply_warning`.
+
+    Examples
+    --------
+    >>> metas = {"c": {"kind": "charge", "units": {"pressure": "kPa"}}}
+    >>> k2_warning(0.0115, metas).split(": ")[1]
+    'pressure logged in bar but declared kPa?'
+    """
+    units = [dict(m.get("units") or {}).get("pressure") for m in metas.values()]
+    charge = [
+        dict(m.get("units") or {}).get("pressure")
+        for m in metas.values()
+        if m.get("kind") == "charge"
+    ]
+    declared = next((u for u in [*charge, *units] if u), "bar")
+    return supply_warning(float(k2), "k2", str(declared), bounds)

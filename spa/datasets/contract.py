@@ -61,6 +61,10 @@ P_MIN_BAR = -1.1
 
 P_MAX_BAR = 20.0
 
+#: Plausible supply pressure of a soft actuator's bench, bar gauge (config
+#: ``datasets.plausible_supply_bar``): outside it, a unit is likely declared wrong.
+PLAUSIBLE_SUPPLY_BAR = (0.05, 20.0)
+
 
 #: Parquet key-value metadata key holding the run's description as JSON.
 META_KEY = b"spa"

@@ -10,7 +10,7 @@ from typing import Any
 
 from spa._docs import fill_doc
 from spa._progress import progress
-from spa.datasets.checks import RunSummary, _RunCheck
+from spa.datasets.checks import RunSummary, _RunCheck, supply_warning
 from spa.datasets.contract import (
     _FORMATS,
     _MAX_ROWS_LISTED,
@@ -241,7 +241,7 @@ def _scan_run(
 
 
 def _scan_dataset(
-    folder: Path, out_dir: Path | None
+    folder: Path, out_dir: Path | None, supply: tuple[float, float] | None = None
 ) -> tuple[_Parsed, list[Problem], list[RunSummary], dict[str, Path]]:
     parsed = _parse_spec(folder)
     problems = list(parsed.problems)
@@ -258,7 +258,30 @@ def _scan_dataset(
             summaries.append(summary)
             if tmp is not None:
                 temps[run.id] = tmp
+    problems += _supply_problems(parsed, summaries, supply, problems)
     return parsed, problems, summaries, temps
+
+
+def _supply_problems(
+    parsed: _Parsed,
+    summaries: list[RunSummary],
+    supply: tuple[float, float] | None,
+    found: list[Problem],
+) -> list[Problem]:
+    """A warning when the charge runs' highest pressure is no plausible supply pressure
+    (unless its run already has a warning about its pressure, from the data checks)."""
+    charges = [s for s in summaries if s.kind == "charge"]
+    if not charges:
+        return []
+    top = max(charges, key=lambda s: s.p_max)
+    if any(p.run == top.run and not p.is_error and "pressure" in p.message for p in found):
+        return []
+    run = parsed.runs[[r.id for r in parsed.runs].index(top.run)]
+    what = f"the charge runs' highest pressure (run {top.run!r})"
+    message = supply_warning(top.p_max, what, run.pressure_unit, supply)
+    if message is None:
+        return []
+    return [Problem(top.file, top.run, None, None, message, level="warning")]
 
 
 @fill_doc
@@ -308,7 +331,10 @@ def validate_dataset(folder: str | Path) -> list[Problem]:
 
 
 def ingest_dataset(
-    folder: str | Path, out_dir: str | Path, warnings: list[Problem] | None = None
+    folder: str | Path,
+    out_dir: str | Path,
+    warnings: list[Problem] | None = None,
+    supply: tuple[float, float] | None = None,
 ) -> list[Path]:
     """Validate a dataset and write one canonical run table per run.
 
@@ -322,6 +348,10 @@ def ingest_dataset(
     warnings : list, optional
         When given, the warnings found (problems that do not stop the ingest, e.g. an
         implausible sample rate) are appended to it, for the caller to log.
+    supply : (float, float), optional
+        Plausible supply pressure in bar (config ``datasets.plausible_supply_bar``; default
+        :data:`~spa.datasets.contract.PLAUSIBLE_SUPPLY_BAR`): a charge run whose highest
+        pressure is outside it is a warning naming the likely unit mistake.
 
     Returns
     -------
@@ -355,7 +385,7 @@ def ingest_dataset(
             "ingest never writes into raw/"
         )
     _check_writable(out)
-    parsed, problems, _, temps = _scan_dataset(folder, out)
+    parsed, problems, _, temps = _scan_dataset(folder, out, supply)
     if any(p.is_error for p in problems):
         for tmp in temps.values():
             tmp.unlink(missing_ok=True)

@@ -47,6 +47,9 @@ rule ingest_dataset:
         digest=raw_digest,
         folder=lambda w: str(RAW_DIR / w.dataset),
         cache=DIGEST_CACHE,
+        supply=lookup(
+            dpath="datasets/plausible_supply_bar", within=config, default=[0.05, 20.0]
+        ),
         stages=INGEST,
     script:
         "../scripts/stages.py"

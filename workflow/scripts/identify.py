@@ -2,6 +2,7 @@
 
 import yaml
 
+from spa.datasets.checks import k2_warning
 from spa.identification import identify_with_config
 from spa.io import get_logger, read_runs, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
@@ -13,8 +14,9 @@ from spa.validation import validate_run
 log = get_logger("identify", snakemake.log[0])
 
 
-def main() -> None:
+def main() -> list[str]:
     out = snakemake.output
+    supply = snakemake.params.get("supply")
     runs, metas = read_runs(snakemake.input.runs)
     kinds = {rid: m["kind"] for rid, m in metas.items()}
     config = {
@@ -33,6 +35,9 @@ def main() -> None:
     with open(out.params, "w") as fh:
         yaml.safe_dump(result.to_dict(), fh, sort_keys=False)
     log.info("identified %s", result.to_valve_params())
+    notes = [w for w in [k2_warning(result.to_valve_params().k2, metas, supply)] if w]
+    for note in notes:
+        log.warning("%s: %s", snakemake.wildcards.dataset, note)
 
     dataset = snakemake.wildcards.dataset
     fallback = "; ".join(f"{k} from the fallback" for k in result.fallback)
@@ -50,11 +55,12 @@ def main() -> None:
     pulse_ids = sorted(r for r, k in kinds.items() if k == "pulse")
     if not pulse_ids:
         write_no_runs(f"{dataset}: no pulse runs ({fallback})", [out.fig2c_csv], [out.get("fig2c")])
-        return
+        return notes
     trace = validate_run(runs[pulse_ids[0]], result.to_valve_params()).trace
     data = fig2c_data(trace)
     write_csv(data, out.fig2c_csv)
     draw(out.get("fig2c"), fig2c, data)
+    return notes
 
 
 run_stage(snakemake, "identify", main, log)

@@ -12,7 +12,7 @@ def main() -> None:
     folder = snakemake.params.folder
     warnings = []
     try:
-        paths = ingest_dataset(folder, snakemake.output.runs, warnings)
+        paths = ingest_dataset(folder, snakemake.output.runs, warnings, snakemake.params.supply)
     except DatasetError:
         log.error("%s failed validation; fix it (check with `spa validate %s`)", folder, folder)
         raise
