@@ -197,3 +197,54 @@ def write_tdms(
                 objects.append(ChannelObject(group, name, np.asarray(values), properties=props))
             writer.write_segment(objects)
             first = False
+
+
+# ---- hostile MATLAB files: small on disk, huge as declared ------------------------------
+def _v5_element(mdtype: int, payload: bytes) -> bytes:
+    import struct
+
+    return struct.pack("<II", mdtype, len(payload)) + payload + b"\0" * (-len(payload) % 8)
+
+
+def _v5_matrix_head(name: bytes, dims: list[int], cls: int, body: int) -> bytes:
+    import struct
+
+    inner = (
+        _v5_element(6, struct.pack("<II", cls, 0))  # array flags: class
+        + _v5_element(5, struct.pack(f"<{len(dims)}i", *dims))
+        + _v5_element(1, name)
+    )
+    return struct.pack("<II", 14, len(inner) + body) + inner
+
+
+def write_v5_zeros(path: Path, n: int, in_struct: bool = False) -> None:
+    """A MATLAB v5 file whose variable ``p`` (or field ``s.p``) holds ``n`` zeros, compressed
+    with zlib as MATLAB does: 8n bytes declared, about n/1000 on disk, written without ever
+    holding the zeros in memory."""
+    import struct
+    import zlib
+
+    if in_struct:
+        field = _v5_matrix_head(b"", [1, n], 6, 8 + 8 * n)
+        width = struct.pack("<HH", 5, 4) + struct.pack("<i", 8)  # field name length: 8
+        names = width + _v5_element(1, b"p".ljust(8, b"\0"))
+        head = _v5_matrix_head(b"s", [1, 1], 2, len(names) + len(field) + 8 + 8 * n) + names + field
+    else:
+        head = _v5_matrix_head(b"p", [1, n], 6, 8 + 8 * n)
+    deflate = zlib.compressobj(6)
+    parts = [deflate.compress(head + struct.pack("<II", 9, 8 * n))]
+    zero, left = bytes(1 << 20), 8 * n
+    while left:
+        parts.append(deflate.compress(zero[: min(left, len(zero))]))
+        left -= min(left, len(zero))
+    blob = b"".join([*parts, deflate.flush()])
+    header = b"MATLAB 5.0 MAT-file".ljust(116, b" ") + b"\0" * 8 + struct.pack("<H", 0x0100) + b"IM"
+    path.write_bytes(header + struct.pack("<II", 15, len(blob)) + blob)
+
+
+def write_v73_declared(path: Path, n: int) -> None:
+    """A MATLAB v7.3 file whose ``p`` declares ``n`` samples that were never written (HDF5
+    reads its fill value for them): a few kB on disk whatever ``n``."""
+    with mat73_file(path) as f:
+        _set_class(f.create_dataset("p", shape=(1, n), dtype="f8"), "double")
+        _set_class(f.create_dataset("t", data=np.arange(10.0)[None, :]), "double")

@@ -325,3 +325,48 @@ def test_lvm_text_value_and_tdms_text_channel_are_named(tmp_path: Path) -> None:
     assert "a.lvm [run 'a', column 'p', row 5]: non-numeric value" in text
     assert "b.tdms [run 'b', column 'p']: LabVIEW channel 'G/p' holds" in text
     assert "not numbers; expected a numeric channel" in text
+
+
+@pytest.mark.parametrize(
+    ("kind", "needle"),
+    [
+        ("v5", "MATLAB variable 'p' declares 1x2000000 double = 2,000,000 values; at most 100,000"),
+        ("v5_struct", "MATLAB variable 's': its "),
+        ("v73", "declares 1099511627776x1 = 1,099,511,627,776 values (8,796,093,022,208 bytes)"),
+    ],
+)
+def test_a_mat_file_declaring_more_than_it_may_is_refused_without_reading_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kind: str, needle: str
+) -> None:
+    """16 MB of compressed zeros (a vector, or a struct's field that the header does not
+    size) against a limit of 1e5 samples, and a v7.3 file declaring 2^40 samples: one error
+    naming the variable and the sizes, and validating allocates under 4 MB."""
+    import tracemalloc
+
+    from file_writers import write_v5_zeros, write_v73_declared
+
+    from spa.datasets import validate_dataset
+
+    monkeypatch.setenv("SPA_MAX_SAMPLES", "1e5")
+    folder = tmp_path / "ds"
+    folder.mkdir()
+    if kind == "v73":
+        write_v73_declared(folder / "run.mat", 2**40)
+    else:
+        write_v5_zeros(folder / "run.mat", 2_000_000, in_struct=kind == "v5_struct")
+    (folder / "dataset.yaml").write_text(
+        "name: ds\ndescription: x\norigin: bench\nrig: {}\n"
+        "runs:\n- {id: c, kind: charge, file: run.mat}\n"
+    )
+    assert (folder / "run.mat").stat().st_size < 50_000
+    validate_dataset(tmp_path / "none")  # the readers' imports, before counting
+    import h5py  # noqa: F401
+    import scipy.io  # noqa: F401
+
+    tracemalloc.start()
+    problems = validate_dataset(folder)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert [p.level for p in problems] == ["error"]
+    assert needle in problems[0].message and problems[0].run == "c"
+    assert peak < 4e6, peak

@@ -104,6 +104,9 @@ def _v5_walk(name: str, value: Any, leaves: dict[str, _Leaf], recs: list[_Record
 def _v5_tree(path: Path) -> tuple[dict[str, _Leaf], list[_Recording]]:
     import scipy.io
 
+    from spa.datasets.readers.mat_bounds import check_v5
+
+    check_v5(path)  # before anything is expanded
     try:
         data = scipy.io.loadmat(path, squeeze_me=False, mat_dtype=False)
     except Exception as exc:  # scipy raises several types for a damaged file

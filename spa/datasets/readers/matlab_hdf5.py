@@ -76,6 +76,9 @@ def _leaf(node: Any) -> _Leaf:
         return _Leaf("cell" if kind in ("cell", "unknown") else kind, shape)
     if node.dtype.kind not in "biuf" or node.ndim > 2:
         return _Leaf(kind, shape)
+    from spa.datasets.readers.mat_bounds import check_hdf5_dataset
+
+    check_hdf5_dataset(node, Path(node.file.filename).stat().st_size)
     return _Leaf(kind, shape, _reader(node))
 
 
