@@ -78,14 +78,51 @@ def _save_cache(cache: Path, data: Mapping[str, Any]) -> None:
     os.replace(tmp, cache)
 
 
-def _named_files(root: Path) -> list[str] | None:
-    """The files ``dataset.yaml`` names (itself first), or None for a folder without one."""
-    from spa.datasets.spec import SPEC_FILE, _parse_spec
+def _named_files(root: Path, known: dict[str, Any]) -> tuple[list[str] | None, bool]:
+    """The files ``dataset.yaml`` names (itself first), or None for a folder without one;
+    and whether ``known`` was updated.
 
-    if not (root / SPEC_FILE).is_file():
-        return None
-    parsed = _parse_spec(root)
-    return [SPEC_FILE, *sorted({run.file for run in parsed.runs} - {SPEC_FILE})]
+    Only ``runs[].file`` is read, with the contract's own loader (size and alias limits); a
+    ``dataset.yaml`` that cannot be read names itself alone (the ingest then says why). The
+    list is remembered in ``known`` (the digest cache) by the ``stat`` of ``dataset.yaml``.
+    """
+    from spa.datasets.contract import SPEC_FILE
+
+    spec = root / SPEC_FILE
+    try:
+        if not spec.is_file():
+            return None, False
+        stat = _stat_key(spec.stat())
+    except OSError:
+        return [SPEC_FILE], False
+    key = f"names:{spec.resolve()}"
+    hit = known.get(key)
+    if isinstance(hit, dict) and hit.get("stat") == stat and isinstance(hit.get("names"), list):
+        return [str(n) for n in hit["names"]], False
+    names = _read_named_files(spec)
+    known[key] = {"stat": stat, "names": names}
+    return names, True
+
+
+def _read_named_files(spec: Path) -> list[str]:
+    from spa.datasets.contract import SPEC_FILE
+    from spa.datasets.yaml_loader import MAX_SPEC_BYTES, _UniqueKeyLoader
+
+    try:
+        if spec.stat().st_size > MAX_SPEC_BYTES:
+            return [SPEC_FILE]
+        import yaml
+
+        doc = yaml.load(spec.read_text(encoding="utf-8"), Loader=_UniqueKeyLoader)
+    except (OSError, ValueError, yaml.YAMLError):
+        return [SPEC_FILE]
+    runs = doc.get("runs") if isinstance(doc, dict) else None
+    files = {
+        str(run["file"])
+        for run in (runs if isinstance(runs, list) else [])
+        if isinstance(run, dict) and isinstance(run.get("file"), str) and run["file"].strip()
+    }
+    return [SPEC_FILE, *sorted(files - {SPEC_FILE})]
 
 
 def _all_files(root: Path) -> list[str]:
@@ -129,14 +166,17 @@ def file_digests(folder: str | os.PathLike[str], cache: str | os.PathLike[str] |
         raise ValueError(f"cache {cache_path} must not be inside the dataset folder {root}")
     known = _load_cache(cache_path)
     out: dict[str, str] = {}
-    changed = False
-    names = _named_files(root)
+    names, changed = _named_files(root, known)
+    inside = root.resolve()
     for rel in _all_files(root) if names is None else names:
         path = root / rel
         try:
             st = path.stat()
-        except OSError as exc:
-            out[rel] = f"cannot be read: {exc.strerror}"
+            if not path.resolve().is_relative_to(inside):
+                out[rel] = "outside the dataset folder"
+                continue
+        except (OSError, ValueError) as exc:
+            out[rel] = f"cannot be read: {getattr(exc, 'strerror', None) or exc}"
             continue
         if not stat_module.S_ISREG(st.st_mode):
             out[rel] = "not a regular file"
