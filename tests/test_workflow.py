@@ -413,6 +413,7 @@ def test_stray_files_in_raw_stop_nothing_and_a_bad_named_file_fails_its_dataset(
     os.mkfifo(raw / "piped" / "pulse.csv")
     (raw / "stray").mkdir()  # no dataset.yaml: not a dataset
     (raw / "stray" / "a.csv").write_text("x")
+    shutil.copytree(ROOT / "raw" / "example", raw / os.fsdecode(b"Pr\xfcf"))  # Latin-1 name
 
     val = subprocess.run([sys.executable, "-m", "spa", "validate", str(folder)],
                          capture_output=True, text=True, timeout=120)  # fmt: skip
@@ -426,5 +427,6 @@ def test_stray_files_in_raw_stop_nothing_and_a_bad_named_file_fails_its_dataset(
     res = run(*args)
     text = res.stdout + res.stderr
     assert (out / "example" / "runs" / "pulse.parquet").is_file(), text[-3000:]
+    assert "Pr\\xfcf: skipped: a dataset's folder name must be UTF-8 text" in text
     status = json.loads((out / "piped" / "status" / "runs.json").read_text())
     assert "'pulse.csv' is not a regular file" in " ".join(status["errors"])

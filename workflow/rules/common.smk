@@ -14,6 +14,7 @@ except ShadowedPackageError as _exc:
     raise WorkflowError(str(_exc)) from None
 
 from spa.config import discover_datasets, figure_datasets, validate_config
+from spa.datasets.spec import undecodable_datasets
 from spa.io import package_digest
 from spa.jobs import joined_outputs
 from spa.provenance import (
@@ -40,6 +41,8 @@ check_results_dir(RESULTS, config["datasets"]["raw_dir"])
 SPA_CODE = package_digest()
 RAW_DIR = Path(config["datasets"]["raw_dir"])
 SIM_DATASETS, RAW_DATASETS = discover_datasets(config)
+for _name in undecodable_datasets(RAW_DIR):
+    logger.warning(f"{RAW_DIR}/{_name}: skipped: a dataset's folder name must be UTF-8 text")
 DATASETS = SIM_DATASETS + RAW_DATASETS
 # The datasets whose figures are drawn (config `figures`: all, none or a list).
 FIGURE_DATASETS = figure_datasets(config, DATASETS)
