@@ -51,7 +51,9 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
             selected=lookup(dpath="analytic/selected", within=config),
             linearity=lookup(dpath="linearity/staircase", within=config),
             supply=lookup(
-                dpath="datasets/plausible_supply_bar", within=config, default=[0.05, 20.0]
+                dpath="datasets/plausible_supply_bar",
+                within=config,
+                default=[0.05, 20.0],
             ),
         script:
             "../scripts/stages.py"

@@ -42,7 +42,9 @@ SPA_CODE = package_digest()
 RAW_DIR = Path(config["datasets"]["raw_dir"])
 SIM_DATASETS, RAW_DATASETS = discover_datasets(config)
 for _name in undecodable_datasets(RAW_DIR):
-    logger.warning(f"{RAW_DIR}/{_name}: skipped: a dataset's folder name must be UTF-8 text")
+    logger.warning(
+        f"{RAW_DIR}/{_name}: skipped: a dataset's folder name must be UTF-8 text"
+    )
 DATASETS = SIM_DATASETS + RAW_DATASETS
 # The datasets whose figures are drawn (config `figures`: all, none or a list).
 FIGURE_DATASETS = figure_datasets(config, DATASETS)
