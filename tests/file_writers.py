@@ -243,8 +243,8 @@ def write_v5_zeros(path: Path, n: int, in_struct: bool = False) -> None:
 
 
 def write_v73_declared(path: Path, n: int) -> None:
-    """A MATLAB v7.3 file whose ``p`` declares ``n`` samples that were never written (HDF5
-    reads its fill value for them): a few kB on disk whatever ``n``."""
+    """A MATLAB v7.3 file whose ``t`` and ``p`` declare ``n`` samples that were never written
+    (HDF5 reads its fill value for them): a few kB on disk whatever ``n``."""
     with mat73_file(path) as f:
-        _set_class(f.create_dataset("p", shape=(1, n), dtype="f8"), "double")
-        _set_class(f.create_dataset("t", data=np.arange(10.0)[None, :]), "double")
+        for name in ("t", "p"):
+            _set_class(f.create_dataset(name, shape=(1, n), dtype="f8"), "double")
