@@ -339,7 +339,7 @@ PROBES["env_full_disk_then_rerun"] = _environment_probe(
 )
 # Files above 150 kB refused by the shell's limit (ulimit -f): EFBIG; the rerun has none.
 PROBES["env_file_size_limit_then_rerun"] = _environment_probe(
-    "ulimit -f 150", "ulimit -f unlimited"
+    "ulimit -S -f 150", "ulimit -S -f unlimited"
 )
 
 
