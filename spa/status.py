@@ -28,6 +28,7 @@ import json
 import logging
 import os
 import shutil
+import sys
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
@@ -43,6 +44,7 @@ __all__ = [
     "dataset_failures",
     "environment_error",
     "failure_summary",
+    "guard_environment",
     "naming_run",
     "read_status",
     "run_stage",
@@ -134,6 +136,39 @@ def anticipated(exc: BaseException) -> bool:
     (True, False)
     """
     return isinstance(exc, ValueError) and type(exc).__module__.startswith("spa.")
+
+
+def _environment_message(what: str, cause: str) -> str:
+    return (
+        f"spa: {what} was stopped by its environment, not by its data: {cause}. Nothing was "
+        "recorded against the data; free space, memory or permissions and run again."
+    )
+
+
+def guard_environment(log: logging.Logger, what: str) -> None:
+    """Make an uncaught error of the environment one line saying so, not a traceback.
+
+    For the jobs that are no dataset's stage (the analytic tables and figures, the report,
+    the check): they write nothing on failure anyway, and exit non-zero; this only changes
+    what they say. Any other error keeps its traceback.
+
+    Parameters
+    ----------
+    log : logging.Logger
+        The job's log (and the console).
+    what : str
+        The job, for the message (``"analytic table 1"``).
+    """
+    default = sys.excepthook
+
+    def hook(kind: type[BaseException], exc: BaseException, tb: Any) -> None:
+        cause = environment_error(exc) if isinstance(exc, Exception) else None
+        if cause is None:
+            default(kind, exc, tb)
+        else:
+            log.error("%s", _environment_message(what, cause))
+
+    sys.excepthook = hook
 
 
 class RunError(ValueError):
@@ -288,12 +323,7 @@ def run_stage(
     except Exception as exc:
         cause = environment_error(exc, status_path.parents[2])
         if cause is not None:
-            log.error("%s: stage %s failed:\n%s", dataset, stage, traceback.format_exc())
-            message = (
-                f"spa: dataset {dataset}: stage {stage} was stopped by its environment, not by "
-                f"its data: {cause}. Nothing was recorded against the dataset; free space, "
-                "memory or permissions and run again."
-            )
+            message = _environment_message(f"dataset {dataset}: stage {stage}", cause)
             log.error("%s", message)
             raise EnvironmentFailure(message) from None
         problems = getattr(exc, "problems", None)

@@ -6,9 +6,11 @@ from spa.io import get_logger, write_csv
 from spa.model.params import ValveParams
 from spa.plots.analytic import plot_equilibrium
 from spa.plots.save import save_figure
+from spa.status import guard_environment
 from spa.tuning import equilibrium_frame
 
 log = get_logger("analytic.fig5", snakemake.log[0])
+guard_environment(log, "analytic Fig. 5")  # a full disk: one line saying so
 params = ValveParams(**snakemake.params.nominal)
 table2 = pd.read_csv(snakemake.input.table2)
 # Table 2 gives PWM in Hz and the time parameters in ms.

@@ -12,9 +12,10 @@ import yaml
 from spa.io import get_logger
 from spa.outputs import all_targets
 from spa.provenance import record_outputs
-from spa.status import dataset_failures, failure_summary
+from spa.status import dataset_failures, failure_summary, guard_environment
 
 log = get_logger("check", snakemake.log[0])
+guard_environment(log, "the check")  # a full disk: one line saying so
 out = Path(snakemake.output.status)
 datasets, figures = snakemake.params.datasets, snakemake.params.figures
 targets = all_targets(out.parent, datasets, exclude=["check"], figures=figures)

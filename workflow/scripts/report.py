@@ -5,8 +5,10 @@ from pathlib import Path
 import spa
 from spa.io import get_logger
 from spa.report import build_report
+from spa.status import guard_environment
 
 log = get_logger("report", snakemake.log[0])
+guard_environment(log, "the report")  # a full disk: one line saying so
 out = Path(snakemake.output.report)
 results = out.parent  # the rule writes {RESULTS}/report.html
 meta = {"seed": snakemake.params.seed, "spa version": spa.__version__}
