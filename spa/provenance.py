@@ -71,11 +71,19 @@ def _load_cache(cache: Path | None) -> dict[str, Any]:
     return data if isinstance(data, dict) else {}
 
 
-def _save_cache(cache: Path, data: Mapping[str, Any]) -> None:
-    cache.parent.mkdir(parents=True, exist_ok=True)
+def _save_cache(cache: Path, data: Mapping[str, Any], prune: bool = False) -> None:
+    """Write a cache, best effort: a cache that cannot be written (a full disk, a file-size
+    limit) costs only time, never the run. With ``prune``, entries of files that no longer
+    exist (temporary folders) are dropped."""
+    if prune:
+        data = {k: v for k, v in data.items() if os.path.exists(k.removeprefix("names:"))}
     tmp = cache.with_name(f".{cache.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(data, sort_keys=True))
-    os.replace(tmp, cache)
+    try:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_text(json.dumps(data, sort_keys=True))
+        os.replace(tmp, cache)
+    except OSError:
+        tmp.unlink(missing_ok=True)
 
 
 def _named_files(root: Path, known: dict[str, Any]) -> tuple[list[str] | None, bool]:
@@ -196,7 +204,7 @@ def file_digests(folder: str | os.PathLike[str], cache: str | os.PathLike[str] |
         out[rel] = digest
         changed = True
     if changed and cache_path is not None:
-        _save_cache(cache_path, known)
+        _save_cache(cache_path, known, prune=True)
     return dict(sorted(out.items()))
 
 
