@@ -206,11 +206,9 @@ def _scan_run(
         problems.append(problem(str(exc), exc.column, exc.row))
     except MemoryError:
         raise
-    except OSError as exc:  # a full disk is not the recording's fault
-        if exc.errno in ENVIRONMENT_ERRNOS:
-            raise
-        problems.append(problem(f"cannot read the file: {type(exc).__name__}: {exc}"))
     except Exception as exc:  # never a raw traceback for a bad file
+        if isinstance(exc, OSError) and exc.errno in ENVIRONMENT_ERRNOS:
+            raise  # a full disk is not the recording's fault
         problems.append(problem(f"cannot read the file: {type(exc).__name__}: {exc}"))
 
     invalid = getattr(source, "invalid", [])
