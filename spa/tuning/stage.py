@@ -21,7 +21,7 @@ import pandas as pd
 import yaml
 
 from spa import _checks as checks
-from spa.model.modulators import Modulator
+from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import threshold_table
 from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
@@ -237,7 +237,7 @@ def tune(
     >>> small = {k: {**g, "step": g["step"] * 10} for k, g in DEFAULT_SWEEPS.items()}
     >>> result = tune(ValveParams(), sweeps=small, n_xi=50)
     >>> result.recommendation["recommended"]["modulator"]
-    'iipfm'
+    'lpwm'
     """
     if isinstance(valve, Identified):
         ident = valve
@@ -253,7 +253,7 @@ def tune(
     data = sweep_frame(grids, p, n, exact=True)
     table2 = tuning_table(grids, p, n, ident.intervals, data)
     optima = [
-        setting(k, v * (1.0 if k == "pwm" else 1e-3), p)
+        setting(k, v * get_kind(k).unscale, p)
         for k, v in zip(table2["modulator"], table2["optimum"], strict=True)
     ]
     curves = equilibrium_frame({m.kind: m.value for m in optima}, p, n, exact=True)

@@ -73,6 +73,8 @@ class ModulatorKind:
     threshold_formulas: ClassVar[tuple[str, str]] = ("", "")
     #: Whether the kind takes a threshold gain (IPFM, IIPFM).
     has_gain: ClassVar[bool] = False
+    #: Whether the tuning also sweeps the gain (``tuning.gain_sweep``: IIPFM).
+    gain_swept: ClassVar[bool] = False
 
     # --- settings -------------------------------------------------------------------------
     def range(self, setting: str) -> tuple[float, float, str]:
@@ -161,6 +163,11 @@ class ModulatorKind:
         return 1.0 if self.unit == "Hz" else 1e3
 
     @property
+    def unscale(self) -> float:
+        """Factor from the display unit back to :attr:`unit` (1 for Hz, 1e-3 for ms)."""
+        return 1.0 if self.unit == "Hz" else 1e-3
+
+    @property
     def display_unit(self) -> str:
         """``Hz`` or ``ms``."""
         return "Hz" if self.unit == "Hz" else "ms"
@@ -193,7 +200,7 @@ class ModulatorKind:
         )
         if m is None or (m["gain"] is not None and not self.has_gain):
             return None
-        out = {self.parameter: float(m["value"]) / self.scale}
+        out = {self.parameter: float(m["value"]) * self.unscale}
         if m["gain"] is not None:
             out["gain"] = float(m["gain"])
         return out

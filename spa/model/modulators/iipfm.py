@@ -39,6 +39,7 @@ class IIPFM(ModulatorKind):
     reference = 0.020
     threshold_formulas = ("1 - gain/(1 + t_on/t_l)", "1")
     has_gain = True
+    gain_swept = True
 
     def check_dt(self, s: Mapping[str, float], dt: float) -> None:
         check_threshold(self, s, dt)
