@@ -73,6 +73,8 @@ class ModulatorKind:
     threshold_formulas: ClassVar[tuple[str, str]] = ("", "")
     #: Whether the kind takes a threshold gain (IPFM, IIPFM).
     has_gain: ClassVar[bool] = False
+    #: Order in which ``spa init`` asks the kinds to recognise a logged command (:meth:`guess`).
+    guess_rank: ClassVar[float] = math.inf
     #: Whether the tuning also sweeps the gain (``tuning.gain_sweep``: IIPFM).
     gain_swept: ClassVar[bool] = False
 
@@ -155,6 +157,11 @@ class ModulatorKind:
     def analytic_optimum(self, p: ValveParams) -> float:
         """A closed-form optimum of :attr:`parameter` in display units, or NaN."""
         return math.nan
+
+    def guess(self, trace: Any) -> tuple[dict[str, Any], str] | None:
+        """This kind's setting and the reason, if a logged command
+        (:class:`~spa.model.modulators.trace.Trace`) looks like its pulses; else None."""
+        return None
 
     # --- names ----------------------------------------------------------------------------
     @property

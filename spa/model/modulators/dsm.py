@@ -17,6 +17,7 @@ import numpy.typing as npt
 from spa.model._broadcast import safe_div
 from spa.model.modulators import _pulses
 from spa.model.modulators.base import ModulatorKind
+from spa.model.modulators.trace import Trace, on_grid, sig
 from spa.model.params import ValveParams
 
 __all__ = ["DSM"]
@@ -36,6 +37,7 @@ class DSM(ModulatorKind):
     default_grid: ClassVar[Mapping[str, float]] = {"start": 0.0125, "stop": 1.0, "step": 0.001}
     reference = 0.020
     threshold_formulas = ("max(0, 1 - period/(2*t_on))", "min(1, period/(2*t_off))")
+    guess_rank = 1.0
 
     def check_dt(self, s: Mapping[str, float], dt: float) -> None:
         if s["period"] < dt * (1 - _pulses.EPS):
@@ -97,3 +99,18 @@ class DSM(ModulatorKind):
             ("t_off", p.t_off, values[-1], "ΔΣM period", "period > t_off"),
             ("t_on", p.t_on, values[-1], "ΔΣM period", "period > t_on"),
         ]
+
+    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
+        """Every edge on one clock, high or low times that vary (not a square wave)."""
+        tr = trace
+        clock = float(min(np.min(tr.highs), np.min(tr.lows)))
+        edges = np.sort(np.concatenate([tr.rise, tr.fall]))
+        if clock >= 2.5 * tr.dt and on_grid(edges - edges[0], clock, tr.tol) >= 0.98:
+            if min(tr.shares) < 0.98:  # not a plain square wave
+                c = sig(clock, 4)
+                return (
+                    {"type": self.type, "period": c},
+                    f"every edge on a {c * 1e3:g} ms clock, high or low times vary: ΔΣ "
+                    f"({tr.count})",
+                )
+        return None

@@ -18,7 +18,8 @@ import numpy.typing as npt
 from spa.model._broadcast import safe_div
 from spa.model.modulators import _pulses
 from spa.model.modulators.base import ModulatorKind
-from spa.model.modulators.ipfm import check_threshold
+from spa.model.modulators.ipfm import check_threshold, guess_fired
+from spa.model.modulators.trace import Trace
 from spa.model.params import ValveParams
 
 __all__ = ["IIPFM"]
@@ -40,6 +41,7 @@ class IIPFM(ModulatorKind):
     threshold_formulas = ("1 - gain/(1 + t_on/t_l)", "1")
     has_gain = True
     gain_swept = True
+    guess_rank = 3.0
 
     def check_dt(self, s: Mapping[str, float], dt: float) -> None:
         check_threshold(self, s, dt)
@@ -88,3 +90,6 @@ class IIPFM(ModulatorKind):
         from spa.tuning.cost import iipfm_optimal_t_l
 
         return iipfm_optimal_t_l(p) * 1e3
+
+    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
+        return guess_fired(self, trace, high=False)

@@ -8,6 +8,7 @@ subtracts that threshold; the firing count is ``floor(∫xi/(gain*t_h))``. Stead
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -17,9 +18,10 @@ import numpy.typing as npt
 from spa.model._broadcast import safe_div
 from spa.model.modulators import _pulses
 from spa.model.modulators.base import ModulatorKind
+from spa.model.modulators.trace import Trace, sig, threshold_gain
 from spa.model.params import ValveParams
 
-__all__ = ["IPFM", "check_threshold"]
+__all__ = ["IPFM", "check_threshold", "guess_fired"]
 
 
 def check_threshold(kind: ModulatorKind, s: Mapping[str, float], dt: float) -> None:
@@ -34,6 +36,34 @@ def check_threshold(kind: ModulatorKind, s: Mapping[str, float], dt: float) -> N
             f"{kind.type}: threshold gain*{width} = {s['gain'] * s[width]:g} s is shorter than "
             f"dt = {dt:g} s; increase 'gain' or {width!r}"
         )
+
+
+def guess_fired(kind: ModulatorKind, tr: Trace, high: bool) -> tuple[dict[str, Any], str] | None:
+    """An integrate-and-fire kind whose fired pulses (high for IPFM, low for IIPFM) have one
+    width while the other level varies; the gain from ``u`` when it is logged."""
+    h_share, l_share = tr.shares
+    share, other = (h_share, l_share) if high else (l_share, h_share)
+    if not (share >= 0.9 and other < 0.9):
+        return None
+    pulses = tr.highs if high else tr.lows
+    w = sig(float(np.median(pulses)), 4)
+    mod: dict[str, Any] = {"type": kind.type, kind.parameter: w}
+    gain_text = "gain unknown without u, left at 1"
+    if tr.u is not None:
+        drive = tr.u if high else 1.0 - tr.u
+        on = tr.v if high else 1.0 - tr.v
+        starts = np.flatnonzero(tr.d > 0 if high else tr.d < 0) + 1
+        gain = sig(threshold_gain(drive, on, starts), 3)
+        ratio = "∫u / ∫valve" if high else "∫(1 - u) / ∫(1 - valve)"
+        gain_text = f"gain {gain:g} = {ratio} from the first pulse to the last"
+        if not math.isclose(gain, 1.0):
+            mod["gain"] = gain
+    what = "high" if high else "low"
+    return (
+        mod,
+        f"{what} time constant at {w * 1e3:g} ms in {share:.0%} of pulses, the other "
+        f"varies: {kind.type.upper()}; {gain_text} ({tr.count})",
+    )
 
 
 class IPFM(ModulatorKind):
@@ -51,6 +81,7 @@ class IPFM(ModulatorKind):
     reference = 0.020
     threshold_formulas = ("0", "gain*t_h/(t_h + t_off)")
     has_gain = True
+    guess_rank = 2.0
 
     def check_dt(self, s: Mapping[str, float], dt: float) -> None:
         check_threshold(self, s, dt)
@@ -93,3 +124,6 @@ class IPFM(ModulatorKind):
         self, values: npt.NDArray[np.float64], p: ValveParams
     ) -> list[tuple[str, float, float, str, str]]:
         return [("t_on", p.t_on, values[-1], "IPFM t_h", "t_h > t_on")]
+
+    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
+        return guess_fired(self, trace, high=True)

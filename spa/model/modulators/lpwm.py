@@ -19,6 +19,7 @@ The valve settings are optional: a setting without them inverts the valve of its
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -61,6 +62,7 @@ class LPWM(PWM):
     default_grid: ClassVar[Mapping[str, float]] = {"start": 1.0, "stop": 76.0, "step": 0.1}
     reference = 20.0
     threshold_formulas = ("inverse of d(xi) = t_on*f_w", "inverse of d(xi) = 1 - t_off*f_w")
+    guess_rank = math.inf  # its pulses are PWM's; the valve it inverts is not in the log
 
     def bind(self, s: Mapping[str, float], params: ValveParams) -> dict[str, float]:
         """The settings with the valve ``params`` filled in where not given."""
@@ -106,6 +108,9 @@ class LPWM(PWM):
 
         dead, sat = crossing(p.t_on * f), crossing(1.0 - p.t_off * f)
         return np.where(np.isnan(dead), 0.0, dead), np.where(np.isnan(sat), 1.0, sat)
+
+    def guess(self, trace: Any) -> None:
+        return None
 
     def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
         """A linear range exists: ``1/f_w > t_on + t_off``."""

@@ -15,6 +15,7 @@ import numpy.typing as npt
 
 from spa.model.modulators import _pulses
 from spa.model.modulators.base import ModulatorKind
+from spa.model.modulators.trace import Trace, duty_matches, on_grid, sig, steady
 from spa.model.params import ValveParams
 
 __all__ = ["PWM"]
@@ -35,6 +36,7 @@ class PWM(ModulatorKind):
     default_grid: ClassVar[Mapping[str, float]] = {"start": 1.0, "stop": 80.0, "step": 0.1}
     reference = 20.0
     threshold_formulas = ("t_on*f_w", "1 - t_off*f_w")
+    guess_rank = 0.0
 
     def check_dt(self, s: Mapping[str, float], dt: float) -> None:
         if 1.0 / s["f_w"] < 2.0 * dt * (1 - _pulses.EPS):
@@ -77,3 +79,23 @@ class PWM(ModulatorKind):
     ) -> list[tuple[str, float, float, str, str]]:
         rule = "t_on + t_off < 1/f_w, else all dead-zone or saturation"
         return [("t_on + t_off", p.t_on + p.t_off, 1.0 / values[0], "PWM period 1/f_w", rule)]
+
+    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
+        """Rises on a steady period, widths that vary (and follow ``u`` when logged)."""
+        tr = trace
+        period = steady(np.diff(tr.rise), tr.tol)[0]  # rises may jitter by a sample
+        if (
+            on_grid(np.diff(tr.rise), period, 1.01 * tr.dt) >= 0.98
+            and steady(tr.highs, tr.tol)[1] < 0.9
+            and (
+                tr.u is None
+                or duty_matches(tr.u[1:][tr.d > 0][tr.ok_h], tr.highs / period, tr.dt / period)
+            )
+        ):
+            f_w = sig(1.0 / period, 4)
+            return (
+                {"type": self.type, "f_w": f_w},
+                f"rising edges every {period * 1e3:.4g} ms (or a multiple), widths vary: "
+                f"{self.name} at {f_w:g} Hz ({tr.count})",
+            )
+        return None
