@@ -176,13 +176,15 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
 
 
 @dataclass(frozen=True)
-class Modulator:
+class Modulator(Mapping[str, Any]):
     """One modulator setting: the type and its complete, validated settings.
 
-    Built once where a setting enters (the config, a ``dataset.yaml``, a notebook) with
-    :meth:`from_mapping`; every later stage passes this value around and never re-parses a
-    mapping. ``label`` is the one name used in run ids, file names, tables, legends and the
-    report.
+    Built once where a setting enters (the config, a ``dataset.yaml``, the command line, a
+    run's metadata in :func:`spa.io.read_runs`, a notebook) with :meth:`from_mapping`; every
+    later stage passes this value around and asks it (:meth:`from_mapping` of a Modulator is
+    the value itself). It is also a read-only mapping ``{"type": kind, **settings}``, for
+    code written for the mapping form. ``label`` is the one name used in run ids, file
+    names, tables, legends and the report.
 
     Parameters
     ----------
@@ -281,6 +283,17 @@ class Modulator:
         inverted valve); the same value for kinds that do not use the valve."""
         full = self.spec.bind(self.settings, params)
         return self if full == dict(self.settings) else Modulator(self.kind, full)
+
+    # A read-only mapping ``{"type": kind, **settings}``, so that code written for the mapping
+    # form (a run's metadata, a RunSpec) takes the value as it is, without parsing it again.
+    def __getitem__(self, key: str) -> Any:
+        return self.kind if key == "type" else self.settings[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(("type", *self.settings))
+
+    def __len__(self) -> int:
+        return 1 + len(self.settings)
 
     def __lt__(self, other: Modulator) -> bool:
         return self.sort_key < other.sort_key
