@@ -46,7 +46,6 @@ class LPWM(PWM):
 
     type = "lpwm"
     name = "LPWM"
-    axis_name = "T_W = 1/f_W (LPWM)"
     colour = "#CC79A7"  # reddish purple
     order = 4.0
     settings: ClassVar[Mapping[str, float | None]] = {"f_w": None}
