@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import math
 from pathlib import Path
 
@@ -174,3 +175,48 @@ def test_a_toy_kind_runs_through_tune_and_a_staircase_analysis(toy):
     run = pd.DataFrame({"t": t, "p": simulate(u, dt, P), "valve": u, "u": xi})
     levels, _, summary = staircase_analysis(run, mod, P)
     assert summary["fit"] > 50.0 and len(levels) == 11
+
+
+# ---- nothing outside spa/model/modulators/ knows a kind by name --------------------------
+
+#: Modules that hold settings as data: the paper's printed ones, the example dataset's.
+DATA_MODULES = {"spa/openloop/paper.py", "spa/synthetic/example.py"}
+
+
+def _kind_strings(path: Path) -> tuple[list[int], list[int]]:
+    """Lines of comparisons with a kind's name, and of other non-docstring kind names."""
+    tree = ast.parse(path.read_text())
+    docs = {
+        id(node.body[0].value)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef)
+        and node.body
+        and isinstance(node.body[0], ast.Expr)
+        and isinstance(node.body[0].value, ast.Constant)
+    }
+
+    def named(node: ast.AST) -> bool:
+        return isinstance(node, ast.Constant) and node.value in set(kinds())
+
+    compares = [
+        node.lineno
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Compare)
+        and any(named(n) or any(map(named, ast.walk(n))) for n in (node.left, *node.comparators))
+    ]
+    strings = [node.lineno for node in ast.walk(tree) if named(node) and id(node) not in docs]
+    return compares, strings
+
+
+def test_no_code_outside_the_modulators_package_names_a_kind():
+    compares, strings = {}, {}
+    for path in sorted((ROOT / "spa").rglob("*.py")):
+        rel = path.relative_to(ROOT).as_posix()
+        if rel.startswith("spa/model/modulators/"):
+            continue
+        c, s = _kind_strings(path)
+        if c:
+            compares[rel] = c
+        if s and rel not in DATA_MODULES:
+            strings[rel] = s
+    assert compares == {} and strings == {}
