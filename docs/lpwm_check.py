@@ -45,7 +45,7 @@ def main(results: Path) -> None:
         inv, ref = table.loc[INVERSE], table.loc[REFERENCE]
         f_opt, f_exact = inv["optimum"], inv["optimum_exact"]
 
-        def chat(kind: str, value: float, gain: float | None = None) -> float:
+        def chat(kind: str, value: float, gain: float | None = None, p: ValveParams = p) -> float:
             return float(setting_metrics(kind, value, p, n_xi, gain)["chattering"])
 
         rows.append(
