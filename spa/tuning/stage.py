@@ -24,6 +24,7 @@ from spa import _checks as checks
 from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import threshold_table
+from spa.openloop.paper import paper_case
 from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
 from spa.tuning.intervals import PARAMETERS, read_intervals
 from spa.tuning.recommend import (
@@ -143,8 +144,9 @@ class TuningResult:
     identified : Identified
         The valve tuned.
     table1 : pandas.DataFrame
-        Dead-zone and saturation (Table 1) at the paper's selected settings (``case`` =
-        ``paper``), at each modulator's optimum (``optimum``) and at the recommendation.
+        Dead-zone and saturation (Table 1) at the selected settings (``case`` = ``paper``
+        for the paper's, ``selected`` for others), at each modulator's optimum (``optimum``)
+        and at the recommendation.
     sweeps : pandas.DataFrame
         Fig. 4's data: :func:`spa.tuning.tables.sweep_frame` with ``J`` and ``J_exact``.
     table2 : pandas.DataFrame
@@ -179,7 +181,8 @@ def _table1(
     recommended: Modulator | None,
     params: ValveParams,
 ) -> pd.DataFrame:
-    cases = [("paper", Modulator.from_mapping(m)) for m in selected]
+    chosen = [Modulator.from_mapping(m) for m in selected]
+    cases = [("paper" if paper_case(m) else "selected", m) for m in chosen]
     cases += [("optimum", m) for m in optima]
     if recommended is not None:
         cases.append(("recommended", recommended))
