@@ -15,7 +15,7 @@ F = TypeVar("F", bound=Callable[..., object])
 
 #: Parameter descriptions, unindented; ``%(name)s`` in a docstring stands for one.
 DOCDICT: dict[str, str] = {
-    "kind": 'kind : {"pwm", "ipfm", "iipfm", "dsm"}\n    Modulator type.',
+    "kind": "kind : str\n    Modulator type: a registered kind (``spa.model.modulators.kinds()``).",
     "xi": "xi : array_like of float\n    Input fraction; clipped to [0, 1].",
     "params": "params : ValveParams, optional\n    Valve parameters; nominal when omitted.",
     "settings": (

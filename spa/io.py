@@ -60,14 +60,18 @@ def read_runs(run_dir: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, d
     runs : dict
         Run id → canonical table (``t``, ``p``, ``valve``, ``u``).
     metas : dict
-        Run id → the run's metadata (``kind``, ``modulator``, ...).
+        Run id → the run's metadata (``kind``, ``modulator``, ...); ``modulator`` is a
+        :class:`~spa.model.modulators.Modulator` (parsed here, once) or None.
     """
     from spa.datasets import read_run_table
+    from spa.model.modulators import Modulator
 
     runs: dict[str, pd.DataFrame] = {}
     metas: dict[str, dict[str, Any]] = {}
     for path in sorted(Path(run_dir).glob("*.parquet")):
         table, meta = read_run_table(path)
+        if meta.get("modulator") is not None:
+            meta["modulator"] = Modulator.from_mapping(meta["modulator"])
         runs[meta["run"]] = table
         metas[meta["run"]] = meta
     if not runs:

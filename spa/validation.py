@@ -326,7 +326,9 @@ def validate_run(
         valve = _check_valve(table["valve"].to_numpy(), t.size, "table['valve']")
         model = model_response(t, valve, params, start)
     elif "u" in table.columns and modulator is not None:
-        grid, command = command_from_input(t, table["u"].to_numpy(), modulator)
+        # a setting that inverts a valve without naming one inverts the identified valve
+        setting = Modulator.from_mapping(modulator).bind(params)
+        grid, command = command_from_input(t, table["u"].to_numpy(), setting)
         k = np.concatenate(([0], _edges(command)))
         level = command[k].astype(bool)
         hold = np.where(level, params.t_on, params.t_off)

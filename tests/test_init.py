@@ -24,6 +24,7 @@ from spa.datasets.draft import (
     guess_time_unit,
 )
 from spa.datasets.yaml_loader import _UniqueKeyLoader
+from spa.model.modulators import get_kind
 from spa.synthetic.example import EXAMPLE_PARAMS
 from spa.synthetic.runs import identification_runs, modulated_runs, simulate_run
 from spa.synthetic.sensor import Sensor
@@ -173,7 +174,10 @@ def test_every_configured_modulator_on_short_runs() -> None:
     """The modulators of config/config.yaml's simulated dataset, each on a staircase, a sine
     and a chirp (short ones): every kind, type and setting is recognised."""
     cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    mods = cfg["simulated"]["sim"]["modulators"]
+    # LPWM's duty is not u (it inverts a valve the log does not name): not guessable
+    mods = [
+        m for m in cfg["simulated"]["sim"]["modulators"] if get_kind(m["type"]).guess_rank < 10
+    ]
     wrong = []
     for spec in modulated_runs(mods, DT, EXPERIMENTS):
         run = _simulated(spec)

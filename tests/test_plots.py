@@ -63,7 +63,7 @@ def test_settings_sort_by_number_not_by_text():
 
 def test_palette_is_okabe_ito_one_colour_per_modulator():
     assert set(MODULATOR_COLOURS.values()) <= set(OKABE_ITO)
-    assert len(set(MODULATOR_COLOURS.values())) == 4
+    assert len(set(MODULATOR_COLOURS.values())) == len(MODULATOR_COLOURS)
     assert "#F0E442" not in MODULATOR_COLOURS.values()  # yellow: unreadable on white
     six = setting_colours(6)
     assert len(set(six)) == 6 and set(six) <= set(OKABE_ITO)

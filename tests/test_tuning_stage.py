@@ -29,7 +29,8 @@ from spa.tuning import (
 
 P = ValveParams()
 # Grids 5x coarser than the paper's, enough for the logic and 5x faster.
-SMALL = {k: {**g, "step": g["step"] * 5} for k, g in DEFAULT_SWEEPS.items()}
+# The paper's four kinds (the tests below check the paper's ranking); LPWM has its own test.
+SMALL = {k: {**g, "step": g["step"] * 5} for k, g in DEFAULT_SWEEPS.items() if k != "lpwm"}
 
 
 @pytest.fixture(scope="module")

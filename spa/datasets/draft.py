@@ -33,7 +33,6 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -41,6 +40,9 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+from spa.model.modulators import MODULATOR_ORDER, get_kind
+from spa.model.modulators.trace import Trace
 
 __all__ = [
     "Guess",
@@ -401,29 +403,6 @@ def _trend(p: npt.ArrayLike | None) -> str:
 # --------------------------------------------------------------------------- modulator
 
 
-def _sig(x: float, digits: int = 3) -> float:
-    """``x`` rounded to ``digits`` significant digits."""
-    if x == 0 or not math.isfinite(x):
-        return x
-    return round(x, digits - 1 - math.floor(math.log10(abs(x))))
-
-
-def _steady(d: _Array, tol: float) -> tuple[float, float]:
-    """Median of ``d`` and the fraction of ``d`` within ``tol`` of it."""
-    if d.size == 0:
-        return math.nan, 0.0
-    m = float(np.median(d))
-    return m, float(np.mean(np.abs(d - m) <= tol))
-
-
-def _on_grid(d: _Array, step: float, tol: float) -> float:
-    """Fraction of ``d`` that are whole multiples of ``step`` (within ``tol``)."""
-    if d.size == 0 or step <= 0:
-        return 0.0
-    r = d / step
-    return float(np.mean(np.abs(r - np.round(r)) * step <= tol))
-
-
 def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | None) -> Guess:
     """Guess the pulse modulator and its setting from the valve's edges.
 
@@ -453,94 +432,25 @@ def guess_modulator(t: npt.ArrayLike, valve: npt.ArrayLike, u: npt.ArrayLike | N
     if t.size < 3:
         return Guess(None, "could not tell the modulator: fewer than 3 samples")
     dt = float(np.median(np.diff(t)))
-    tol = 0.51 * dt + 1e-9
     d = np.diff(v)
-    rise, fall = t[1:][d > 0], t[1:][d < 0]
-    if rise.size < 4 or fall.size < 4:
+    n_rise, n_fall = int(np.count_nonzero(d > 0)), int(np.count_nonzero(d < 0))
+    if n_rise < 4 or n_fall < 4:
         return Guess(
             None,
-            f"could not tell the modulator: the valve switches only {rise.size + fall.size} times",
+            f"could not tell the modulator: the valve switches only {n_rise + n_fall} times",
         )
-    # whole high and low pulses: between a rise and the next fall, a fall and the next rise
-    nxt_fall = np.searchsorted(fall, rise)
-    ok_h = nxt_fall < fall.size
-    highs = fall[nxt_fall[ok_h]] - rise[ok_h]
-    nxt_rise = np.searchsorted(rise, fall)
-    ok = nxt_rise < rise.size
-    lows = rise[nxt_rise[ok]] - fall[ok]
-    n = f"{highs.size} high and {lows.size} low pulses"
-
     iu = None if u is None else np.asarray(u, dtype=np.float64).ravel()
-    period = _steady(np.diff(rise), tol)[0]  # rises may jitter by a sample (float clock)
-    if (
-        _on_grid(np.diff(rise), period, 1.01 * dt) >= 0.98
-        and _steady(highs, tol)[1] < 0.9
-        and (iu is None or _duty_matches(iu[1:][d > 0][ok_h], highs / period, dt / period))
-    ):
-        f_w = _sig(1.0 / period, 4)
-        return Guess(
-            {"type": "pwm", "f_w": f_w},
-            f"rising edges every {period * 1e3:.4g} ms (or a multiple), widths vary: "
-            f"PWM at {f_w:g} Hz ({n})",
-        )
-    clock = float(min(np.min(highs), np.min(lows)))
-    edges = np.sort(np.concatenate([rise, fall]))
-    h_share, l_share = _steady(highs, tol)[1], _steady(lows, tol)[1]
-    if clock >= 2.5 * dt and _on_grid(edges - edges[0], clock, tol) >= 0.98:
-        if min(h_share, l_share) < 0.98:  # not a plain square wave
-            c = _sig(clock, 4)
-            return Guess(
-                {"type": "dsm", "period": c},
-                f"every edge on a {c * 1e3:g} ms clock, high or low times vary: ΔΣ ({n})",
-            )
-    for kind, width, share, pulses, what in (
-        ("ipfm", "t_h", h_share, highs, "high"),
-        ("iipfm", "t_l", l_share, lows, "low"),
-    ):
-        other = l_share if kind == "ipfm" else h_share
-        if share >= 0.9 and other < 0.9:
-            w = _sig(float(np.median(pulses)), 4)
-            mod: dict[str, Any] = {"type": kind, width: w}
-            gain_text = "gain unknown without u, left at 1"
-            if iu is not None:
-                drive = iu if kind == "ipfm" else 1.0 - iu
-                on = v if kind == "ipfm" else 1.0 - v
-                starts = np.flatnonzero(d > 0 if kind == "ipfm" else d < 0) + 1
-                gain = _sig(_threshold_gain(drive, on, starts), 3)
-                ratio = "∫u / ∫valve" if kind == "ipfm" else "∫(1 - u) / ∫(1 - valve)"
-                gain_text = f"gain {gain:g} = {ratio} from the first pulse to the last"
-                if not math.isclose(gain, 1.0):
-                    mod["gain"] = gain
-            return Guess(
-                mod,
-                f"{what} time constant at {w * 1e3:g} ms in {share:.0%} of pulses, the other "
-                f"varies: {kind.upper()}; {gain_text} ({n})",
-            )
+    trace = Trace.from_samples(t, v, iu, dt)
+    for kind in sorted(MODULATOR_ORDER, key=lambda k: get_kind(k).guess_rank):
+        found = get_kind(kind).guess(trace)
+        if found is not None:
+            return Guess(*found)
+    h_share, l_share = trace.shares
     return Guess(
         None,
         f"could not tell the modulator: rises not periodic, neither high nor low time "
-        f"constant ({_share_text(h_share, l_share)}), edges not on a clock ({n})",
+        f"constant ({_share_text(h_share, l_share)}), edges not on a clock ({trace.count})",
     )
-
-
-def _duty_matches(u_at_rise: _Array, duty: _Array, step: float) -> bool:
-    """True when 90 % of PWM pulses last ``u`` of the period (``u`` read at the rise), to two
-    samples (``step`` = sample step / period) and 2 %: what tells PWM from a ΔΣ pattern
-    that repeats on the same period."""
-    return float(np.mean(np.abs(duty - u_at_rise) <= 2 * step + 0.02)) >= 0.9
-
-
-def _threshold_gain(drive: _Array, on: _Array, starts: npt.NDArray[np.intp]) -> float:
-    """Gain G of an integrate-and-fire modulator from its firings.
-
-    Each firing adds one pulse of width ``w`` (``on`` = the valve for IPFM, ``1 - valve`` for
-    IIPFM; back-to-back pulses merge into one long one) and comes ``G w`` of integral of
-    ``drive`` (``u`` for IPFM, ``1 - u`` for IIPFM) after the previous one, so from the first
-    pulse's start to the last one's, ``G = ∫drive / ∫on``.
-    """
-    span = slice(starts[0], starts[-1])
-    total = float(np.sum(on[span]))
-    return float(np.sum(drive[span]) / total) if total > 0 else math.nan
 
 
 def _share_text(h_share: float, l_share: float) -> str:

@@ -14,7 +14,6 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
-from spa.model.modulators import check_settings
 
 __all__ = ["Floats", "as_output", "input_fraction", "safe_div", "settings_arrays"]
 
@@ -33,6 +32,8 @@ def settings_arrays(kind: str, settings: Mapping[str, Any]) -> dict[str, Any]:
     Scalar settings go through ``check_settings`` unchanged (same messages); array-valued
     ones must be finite and > 0 everywhere.
     """
+    from spa.model.modulators import check_settings  # the kinds use safe_div from here
+
     scalars: dict[str, Any] = {}
     arrays: dict[str, npt.NDArray[np.float64]] = {}
     for name, value in settings.items():

@@ -40,6 +40,7 @@ from spa.model._broadcast import (
     settings_arrays,
 )
 from spa.model.chattering import chattering_estimate, pseudo_steady_mean, pseudo_steady_state
+from spa.model.modulators import get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import THRESHOLD_FORMULAS, threshold_table, thresholds
 
@@ -60,17 +61,22 @@ __all__ = [
 
 
 @fill_doc
-def pulse_times(kind: str, xi: npt.ArrayLike, **settings: Any) -> tuple[Floats, Floats]:
+def pulse_times(
+    kind: str, xi: npt.ArrayLike, params: ValveParams | None = None, **settings: Any
+) -> tuple[Floats, Floats]:
     """Steady high and low durations of a modulator's pulse train for a constant input.
 
     Parameters
     ----------
     %(kind)s
     %(xi)s
+    params : ValveParams, optional
+        The valve of the context (LPWM inverts it unless its settings name one); nominal
+        when omitted. The other kinds do not use it.
     **settings
         ``f_w`` (Hz) for PWM; ``t_h`` (s) and ``gain`` (default 1) for IPFM; ``t_l`` (s) and
-        ``gain`` (default 1) for IIPFM; ``period`` (s) for ΔΣM. Scalars or arrays that
-        broadcast with ``xi``.
+        ``gain`` (default 1) for IIPFM; ``period`` (s) for ΔΣM; ``f_w`` and optionally the
+        valve for LPWM. Scalars or arrays that broadcast with ``xi``.
 
     Returns
     -------
@@ -108,22 +114,9 @@ def pulse_times(kind: str, xi: npt.ArrayLike, **settings: Any) -> tuple[Floats, 
     >>> pulse_times("iipfm", [0.0, 1.0], t_l=0.02)[0].tolist()
     [0.0, inf]
     """
+    p = checks.valve_params(params)
     s = settings_arrays(kind, settings)
-    x = input_fraction(xi)
-    if kind == "pwm":
-        t_h = x / s["f_w"]
-        t_l = (1.0 - x) / s["f_w"]
-    elif kind == "ipfm":
-        t_h = np.broadcast_to(s["t_h"], np.broadcast_shapes(np.shape(x), np.shape(s["t_h"])))
-        ratio = safe_div(s["gain"], x, np.inf)
-        t_l = t_h * np.maximum(ratio - 1.0, 0.0)
-    elif kind == "iipfm":
-        t_l = np.broadcast_to(s["t_l"], np.broadcast_shapes(np.shape(x), np.shape(s["t_l"])))
-        ratio = safe_div(s["gain"], 1.0 - x, np.inf)
-        t_h = t_l * np.maximum(ratio - 1.0, 0.0)
-    else:
-        t_h = safe_div(s["period"], 2.0 * (1.0 - x), np.inf)
-        t_l = safe_div(s["period"], 2.0 * x, np.inf)
+    t_h, t_l = get_kind(kind).pulse_times(input_fraction(xi), s, p)
     return as_output(np.asarray(t_h)), as_output(np.asarray(t_l))
 
 
@@ -184,19 +177,7 @@ def time_fractions(
     p = checks.valve_params(params)
     s = settings_arrays(kind, settings)
     x = input_fraction(xi)
-    if kind == "pwm":
-        a1 = (1.0 - x) - p.t_off * s["f_w"]
-        a2 = x - p.t_on * s["f_w"]
-    elif kind == "ipfm":
-        a1 = 1.0 - (1.0 + p.t_off / s["t_h"]) * x / s["gain"]
-        a2 = (1.0 - p.t_on / s["t_h"]) * x / s["gain"]
-    elif kind == "iipfm":
-        a1 = (1.0 - p.t_off / s["t_l"]) * (1.0 - x) / s["gain"]
-        a2 = 1.0 - (1.0 + p.t_on / s["t_l"]) * (1.0 - x) / s["gain"]
-    else:
-        f = 1.0 / s["period"]
-        a1 = (1.0 - x) * (1.0 - 2.0 * f * p.t_off * x)
-        a2 = x * (1.0 - 2.0 * f * p.t_on * (1.0 - x))
+    a1, a2 = get_kind(kind).fractions(x, s, p)
     return as_output(np.asarray(a1)), as_output(np.asarray(a2))
 
 

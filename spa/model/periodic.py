@@ -34,9 +34,9 @@ import numpy.typing as npt
 
 from spa import _checks as checks
 from spa._docs import fill_doc
-from spa.model._broadcast import Floats, as_output, settings_arrays
-from spa.model.averaging import pulse_times
+from spa.model._broadcast import Floats, as_output, input_fraction, settings_arrays
 from spa.model.chattering import pseudo_steady_state
+from spa.model.modulators import get_kind
 from spa.model.params import ValveParams
 from spa.model.plant import charge, discharge
 
@@ -373,7 +373,5 @@ def periodic_mean(
     (0.28, 0.2789)
     """
     p = checks.valve_params(params)
-    if kind == "dsm":
-        return dsm_mean(xi, settings_arrays(kind, settings)["period"], p)
-    t_h, t_l = pulse_times(kind, xi, **settings)
-    return train_mean(t_h, t_l, p)
+    s = settings_arrays(kind, settings)
+    return as_output(get_kind(kind).periodic_mean(input_fraction(xi), s, p))

@@ -10,7 +10,7 @@ Vectorised like :mod:`spa.model.averaging`: settings may be arrays.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -19,19 +19,25 @@ import pandas as pd
 from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model._broadcast import Floats, as_output, settings_arrays
-from spa.model.modulators import Modulator
+from spa.model.modulators import MODULATOR_ORDER, REGISTRY, Modulator, get_kind
 from spa.model.params import ValveParams
 
 __all__ = ["THRESHOLD_FORMULAS", "threshold_table", "thresholds"]
 
 #: Table 1 as text: ``kind -> (dead-zone, saturation)`` closed forms of ``xi`` (clipped to
 #: [0, 1]). The ΔΣM forms reduce to the paper's 0 and 1 when ``period >= 2*t_on, 2*t_off``.
-THRESHOLD_FORMULAS: Mapping[str, tuple[str, str]] = {
-    "pwm": ("t_on*f_w", "1 - t_off*f_w"),
-    "ipfm": ("0", "gain*t_h/(t_h + t_off)"),
-    "iipfm": ("1 - gain/(1 + t_on/t_l)", "1"),
-    "dsm": ("max(0, 1 - period/(2*t_on))", "min(1, period/(2*t_off))"),
-}
+class _Formulas(Mapping[str, tuple[str, str]]):
+    def __getitem__(self, kind: str) -> tuple[str, str]:
+        return REGISTRY[kind].threshold_formulas
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(MODULATOR_ORDER)
+
+    def __len__(self) -> int:
+        return len(REGISTRY)
+
+
+THRESHOLD_FORMULAS: Mapping[str, tuple[str, str]] = _Formulas()
 
 
 @fill_doc
@@ -72,6 +78,7 @@ def thresholds(
     IPFM     0 (1 if ``t_h <= t_on``)           ``G*t_h/(t_h + t_off)``
     IIPFM    ``1 - G/(1 + t_on/t_l)``           1 (0 if ``t_l <= t_off``)
     ΔΣM      ``1 - T_DS/(2*t_on)``              ``T_DS/(2*t_off)``
+    LPWM     0 (inverse of the plant's valve)   1 (inverse of the plant's valve)
     =======  =================================  ==================================
 
     These are Table 1 of the paper (with ``G = 1`` for IPFM). For ΔΣM the paper prints 0
@@ -89,19 +96,7 @@ def thresholds(
     """
     p = checks.valve_params(params)
     s = settings_arrays(kind, settings)
-    if kind == "pwm":
-        dead = p.t_on * s["f_w"]
-        sat = 1.0 - p.t_off * s["f_w"]
-    elif kind == "ipfm":
-        dead = np.where(s["t_h"] > p.t_on, 0.0, 1.0)
-        sat = s["gain"] * s["t_h"] / (s["t_h"] + p.t_off)
-    elif kind == "iipfm":
-        dead = 1.0 - s["gain"] / (1.0 + p.t_on / s["t_l"])
-        sat = np.where(s["t_l"] > p.t_off, 1.0, 0.0)
-    else:
-        # An ideal valve (no delay) has neither: the limits of the formulas as t -> 0.
-        dead = 1.0 - s["period"] / (2.0 * p.t_on) if p.t_on > 0 else 0.0 * s["period"]
-        sat = s["period"] / (2.0 * p.t_off) if p.t_off > 0 else 1.0 + 0.0 * s["period"]
+    dead, sat = get_kind(kind).thresholds(s, p)
     return (
         as_output(np.clip(np.asarray(dead, np.float64), 0.0, 1.0)),
         as_output(np.clip(np.asarray(sat, np.float64), 0.0, 1.0)),

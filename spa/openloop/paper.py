@@ -1,4 +1,4 @@
-"""The paper's printed open-loop values and its selected settings (Section 6).
+"""The paper's printed values and its selected settings (Table 2, Section 6).
 
 These numbers are only ever shown beside the measured ones (the ``paper_*`` columns, figure
 titles), never used to compute anything.
@@ -11,7 +11,30 @@ from typing import Any
 
 from spa.model.modulators import Modulator
 
-__all__ = ["PAPER_SETTINGS", "PAPER_TABLE3", "PAPER_TIME_CONSTANTS", "paper_case"]
+__all__ = [
+    "PAPER_FIG5_ORDER",
+    "PAPER_SETTING",
+    "PAPER_SETTINGS",
+    "PAPER_TABLE2",
+    "PAPER_TABLE3",
+    "PAPER_TIME_CONSTANTS",
+    "paper_case",
+]
+
+#: Table 2 as printed in the paper: ``kind -> (J_min, selected parameter, unit)``.
+#: Reference values for comparison columns only; nothing here is computed from them.
+PAPER_TABLE2: Mapping[str, tuple[float, float, str]] = {
+    "pwm": (10.5, 20.0, "Hz"),
+    "ipfm": (12.5, 20.0, "ms"),
+    "iipfm": (4.8, 20.0, "ms"),
+    "dsm": (9.6, 20.0, "ms"),
+}
+
+#: The paper's panel order of Fig. 5.
+PAPER_FIG5_ORDER: tuple[str, ...] = ("pwm", "ipfm", "dsm", "iipfm")
+
+#: The paper's selected value of each swept parameter (Hz for PWM, s otherwise).
+PAPER_SETTING: Mapping[str, float] = {"pwm": 20.0, "ipfm": 0.020, "iipfm": 0.020, "dsm": 0.020}
 
 #: The paper's Table 3 (bench data): case -> (setting, MSE in bar², MD in bar, FIT in %).
 #: Its MD is the mean absolute deviation from the line (below sqrt(MSE) in every row), so it

@@ -14,14 +14,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from spa.model.modulators import Modulator
+from spa.model.modulators import MODULATOR_ORDER, Modulator, get_kind
 from spa.openloop.paper import PAPER_SETTINGS
 
 __all__ = ["best_settings", "fallback_note", "paper_settings", "run_tags", "runs_of_kind"]
 
-#: Display order of the groups: a modulator's settings with a gain other than 1 are a group
-#: of their own (the paper shows IIPFM with G = 1 and with G = 1.15).
-_GROUP_ORDER = {"pwm": 0, "ipfm": 1, "ipfm+G": 1.5, "iipfm": 2, "iipfm+G": 3, "dsm": 4}
+
+def _group_rank(group: str) -> int:
+    """Display order of the groups: a modulator's settings with a gain other than 1 are a
+    group of their own, right after it (the paper shows IIPFM with G = 1 and G = 1.15)."""
+    kind, gained = group.removesuffix("+G"), group.endswith("+G")
+    if kind not in MODULATOR_ORDER or (gained and not get_kind(kind).has_gain):
+        return 2 * len(MODULATOR_ORDER) + 1
+    return 2 * MODULATOR_ORDER.index(kind) + int(gained)
 
 
 def runs_of_kind(metas: Mapping[str, Mapping[str, Any]], kind: str) -> list[str]:
@@ -89,7 +94,7 @@ def _groups(table: pd.DataFrame) -> pd.Series:
 
 
 def _in_order(rows: pd.DataFrame, groups: pd.Series) -> pd.DataFrame:
-    order = groups.loc[rows.index].map(_GROUP_ORDER).fillna(9)
+    order = groups.loc[rows.index].map(_group_rank)
     return rows.assign(_order=order).sort_values(["_order", "setting"]).drop(columns="_order")
 
 

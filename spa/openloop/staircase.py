@@ -68,7 +68,7 @@ def predicted_levels(
     kind, settings = setting.kind, dict(setting.settings)
     x = np.asarray(xi, dtype=np.float64)
     p_eq = np.asarray(equilibrium(kind, x, params, **settings), dtype=np.float64)
-    t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, x, **settings))
+    t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, x, params, **settings))
     pulsing = np.isfinite(t_h) & np.isfinite(t_l) & (t_h > 0.0) & (t_l > 0.0)
     th = np.where(pulsing, t_h, 1.0)
     tl = np.where(pulsing, t_l, 1.0)

@@ -8,13 +8,15 @@ through Agg). Save it with
 
 from __future__ import annotations
 
+from string import ascii_lowercase
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
-from spa.model.modulators import MODULATOR_ORDER
+from spa.model.modulators import MODULATOR_ORDER, get_kind
 from spa.model.params import ValveParams
+from spa.openloop.paper import PAPER_FIG5_ORDER
 from spa.plots.style import MODULATOR_COLOURS, MODULATOR_NAMES, new_figure
 
 if TYPE_CHECKING:
@@ -23,9 +25,14 @@ if TYPE_CHECKING:
 __all__ = ["plot_cost_sweeps", "plot_equilibrium"]
 
 #: Display names, in the paper's panel order of Fig. 5, and colours (:mod:`spa.plots.style`).
-_LABELS = {k: MODULATOR_NAMES[k] for k in ("pwm", "ipfm", "dsm", "iipfm")}
+_LABELS = MODULATOR_NAMES
 _COLOURS = MODULATOR_COLOURS
-_AXIS_NAMES = {"pwm": "T_W = 1/f_W", "ipfm": "t_h", "iipfm": "t_l", "dsm": "T_ΔΣ"}
+
+
+def _panel_order() -> list[str]:
+    """Fig. 5's panels: the paper's order, then any further kind in table order."""
+    return [*PAPER_FIG5_ORDER, *(k for k in MODULATOR_ORDER if k not in PAPER_FIG5_ORDER)]
+
 _MS_TICKS = [12.5, 20, 30, 50, 100, 200, 500, 1000]
 _HZ_TICKS = [1, 2, 5, 10, 20, 50, 80]
 
@@ -80,14 +87,15 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
             continue
         d = d.sort_values("x_ms")
         best = d.loc[d["J"].idxmin()]
-        label = f"{label} ({_AXIS_NAMES[kind]}): min {best['J']:.2f} at {best['x_ms']:.4g} ms"
-        if kind == "pwm":
+        spec = get_kind(kind)
+        label = f"{label} ({spec.axis_name}): min {best['J']:.2f} at {best['x_ms']:.4g} ms"
+        if spec.unit == "Hz":
             label += f" ({1e3 / best['x_ms']:.4g} Hz)"
         ax.plot(d["x_ms"], d["J"], color=_COLOURS[kind], lw=1.5, label=label)
         ax.plot(best["x_ms"], best["J"], "o", color=_COLOURS[kind], ms=5)
     if params is not None:
         limit = 1e3 * (params.t_on + params.t_off)
-        lo = float(sweeps.loc[sweeps["modulator"] == "pwm", "x_ms"].min())
+        lo = float(sweeps.loc[sweeps["modulator"] == MODULATOR_ORDER[0], "x_ms"].min())
         if lo < limit:
             ax.axvspan(
                 lo, limit, color="0.85", lw=0, zorder=0,
@@ -147,7 +155,7 @@ def plot_equilibrium(curves: pd.DataFrame) -> Figure:
         ["modulator", "parameter", "value", "gain", "xi", "p_eq", "p_target", "tau_m"],
         "curves",
     )
-    kinds = [k for k in _LABELS if (curves["modulator"] == k).any()]
+    kinds = [k for k in _panel_order() if (curves["modulator"] == k).any()]
     if not kinds:
         raise ValueError(f"curves: no known modulator in {sorted(set(curves['modulator']))}")
     fig = new_figure(figsize=(3.0 * len(kinds), 5.2), layout="constrained")
@@ -159,13 +167,13 @@ def plot_equilibrium(curves: pd.DataFrame) -> Figure:
         if first["parameter"] == "f_w":
             setting = f"f_W = {value:g} Hz"
         else:
-            setting = f"{_AXIS_NAMES[kind]} = {value * 1e3:g} ms"
+            setting = f"{get_kind(kind).axis_name} = {value * 1e3:g} ms"
         if np.isfinite(first["gain"]) and first["parameter"] == "t_l":
             setting += f", G = {float(first['gain']):.3g}"
         top, bottom = axes[0, col], axes[1, col]
         top.plot(d["xi"], d["p_target"], "k--", lw=1.0, label="k2·ξ (linear)")
         top.plot(d["xi"], d["p_eq"], color=_COLOURS[kind], lw=1.6, label="P_eq (Eq. 5)")
-        top.set_title(f"({'abcd'[col]}) {_LABELS[kind]}: {setting}", fontsize=9)
+        top.set_title(f"({ascii_lowercase[col]}) {_LABELS[kind]}: {setting}", fontsize=9)
         bottom.plot(d["xi"], d["tau_m"], color=_COLOURS[kind], lw=1.6)
         bottom.set_xlabel("input fraction ξ")
         for ax in (top, bottom):

@@ -13,11 +13,10 @@ one colour in every figure; the settings inside a panel are coloured in their nu
 
 from __future__ import annotations
 
-import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING, Any, Final
 
-from spa.model.modulators import _NAMES, MODULATOR_ORDER, Modulator
+from spa.model.modulators import MODULATOR_ORDER, REGISTRY, Modulator, get_kind
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -43,24 +42,31 @@ OKABE_ITO: Final[tuple[str, ...]] = (
     "#CC79A7",
 )
 
+class _ByKind(Mapping[str, str]):
+    """``kind -> attribute`` of every registered kind, in table order."""
+
+    def __init__(self, attribute: str) -> None:
+        self._attribute = attribute
+
+    def __getitem__(self, kind: str) -> str:
+        return str(getattr(REGISTRY[kind], self._attribute))
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(MODULATOR_ORDER)
+
+    def __len__(self) -> int:
+        return len(REGISTRY)
+
+
 #: One colour per modulator type, in every figure (yellow left out: too light on white).
-MODULATOR_COLOURS: Final[dict[str, str]] = {
-    "pwm": "#0072B2",  # blue
-    "ipfm": "#E69F00",  # orange
-    "iipfm": "#009E73",  # bluish green
-    "dsm": "#D55E00",  # vermillion
-}
+MODULATOR_COLOURS: Final[Mapping[str, str]] = _ByKind("colour")
 
 #: Display name of each modulator type (:attr:`spa.model.modulators.Modulator.name`).
-MODULATOR_NAMES: Final[dict[str, str]] = {k: _NAMES[k] for k in MODULATOR_ORDER}
+MODULATOR_NAMES: Final[Mapping[str, str]] = _ByKind("name")
 
 #: Colours of the settings inside one panel, in numeric order (no yellow, no black: black is
 #: the ideal line's, grey the linear reference's).
 _SEQUENCE: Final = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9")
-
-_LABEL = re.compile(
-    r"^(?P<kind>pwm|ipfm|iipfm|dsm)-(?P<value>[0-9.eE+-]+)(?P<unit>Hz|ms)(?:-G(?P<gain>[0-9.]+))?$"
-)
 
 
 def setting_sort_key(label: str) -> tuple[int, float, float, str]:
@@ -76,8 +82,7 @@ def setting_sort_key(label: str) -> tuple[int, float, float, str]:
     >>> setting_sort_key("ipfm-10ms") < setting_sort_key("ipfm-100ms")
     True
     """
-    m = _LABEL.match(str(label))
-    mod = _modulator(m) if m else None
+    mod = _modulator(str(label))
     if mod is None:
         kind = next((k for k in MODULATOR_ORDER if str(label).startswith(k)), None)
         rank = MODULATOR_ORDER.index(kind) if kind else len(MODULATOR_ORDER)
@@ -85,16 +90,16 @@ def setting_sort_key(label: str) -> tuple[int, float, float, str]:
     return (*mod.sort_key, str(label))
 
 
-def _modulator(m: re.Match[str]) -> Modulator | None:
-    """The setting a label names, or None when its numbers are not a valid setting."""
-    kind = m["kind"]
-    value = float(m["value"]) * (1.0 if m["unit"] == "Hz" else 1e-3)
-    name = {"pwm": "f_w", "ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}[kind]
-    settings = {name: value} if m["gain"] is None else {name: value, "gain": float(m["gain"])}
-    try:
-        return Modulator(kind, settings)
-    except ValueError:
-        return None
+def _modulator(label: str) -> Modulator | None:
+    """The setting a label names, or None when it names none (or an invalid one)."""
+    for kind in MODULATOR_ORDER:
+        settings = get_kind(kind).parse_label(label)
+        if settings is not None:
+            try:
+                return Modulator(kind, settings)
+            except ValueError:
+                return None
+    return None
 
 
 def ordered_settings(labels: Iterable[str]) -> list[str]:

@@ -14,7 +14,13 @@ import numpy as np
 import pandas as pd
 
 from spa.model.params import ValveParams
-from spa.plots.analytic import _COLOURS, _LABELS, _require, plot_cost_sweeps, plot_equilibrium
+from spa.plots.analytic import (
+    _COLOURS,
+    _panel_order,
+    _require,
+    plot_cost_sweeps,
+    plot_equilibrium,
+)
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -59,7 +65,7 @@ def plot_tuning_sweeps(
 
     fig = plot_cost_sweeps(sweeps, params=params)
     ax = fig.axes[0]
-    for kind in _LABELS:
+    for kind in _panel_order():
         d = sweeps[(sweeps["modulator"] == kind) & np.isfinite(sweeps["J_exact"])]
         if not d.empty:
             d = d.sort_values("x_ms")
@@ -96,7 +102,7 @@ def plot_tuning_equilibrium(curves: pd.DataFrame) -> Figure:
     """
     _require(curves, ["modulator", "xi", "p_exact"], "curves")
     fig = plot_equilibrium(curves)
-    kinds = [k for k in _LABELS if (curves["modulator"] == k).any()]
+    kinds = [k for k in _panel_order() if (curves["modulator"] == k).any()]
     tops = fig.axes[: len(kinds)]
     for ax, kind in zip(tops, kinds, strict=True):
         d = curves[curves["modulator"] == kind].sort_values("xi")

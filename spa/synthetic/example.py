@@ -16,6 +16,12 @@ __all__ = ["EXAMPLE_PARAMS", "write_example_dataset"]
 #: The example bench export shipped in ``raw/example`` (see :func:`write_example_dataset`).
 EXAMPLE_PARAMS = ValveParams(c1=0.45, k2=1.05, tau2=0.70, t_on=0.004, t_off=0.009)
 
+#: The example's modulated settings and the file format each one's runs are written in.
+_MODULATED: tuple[tuple[dict[str, Any], str], ...] = (
+    ({"type": "iipfm", "t_l": 0.020, "gain": 1.2}, "mat"),
+    ({"type": "pwm", "f_w": 20.0}, "parquet"),
+)
+
 
 def write_example_dataset(folder: str | Path, seed: int = 2025) -> list[Path]:
     """Write a small synthetic dataset laid out the way a real bench export would be.
@@ -46,11 +52,11 @@ def write_example_dataset(folder: str | Path, seed: int = 2025) -> list[Path]:
     dt = 1e-3
     sensor = Sensor(fs=1000.0, noise=0.004, quantum=0.001, ringing=Ringing(0.008, 70.0, 70.0))
     specs = identification_runs(EXAMPLE_PARAMS, dt, repeats=2)
-    specs += modulated_runs(
-        [{"type": "iipfm", "t_l": 0.020, "gain": 1.2}, {"type": "pwm", "f_w": 20.0}],
-        dt,
-        {"staircase": {"step": 0.1, "hold": 4.0}},
+    modulated = modulated_runs(
+        [mod for mod, _ in _MODULATED], dt, {"staircase": {"step": 0.1, "hold": 4.0}}
     )
+    formats = {spec.id: fmt for spec, (_, fmt) in zip(modulated, _MODULATED, strict=True)}
+    specs += modulated
     rename = {"t": "time_ms", "p": "P_act_kPa", "valve": "valve_cmd", "u": "xi_ref"}
     files = []
     runs_yaml = []
@@ -62,7 +68,7 @@ def write_example_dataset(folder: str | Path, seed: int = 2025) -> list[Path]:
         if spec.kind in ("charge", "discharge", "pulse"):
             fname = f"{spec.id}.csv"
             table.to_csv(folder / fname, index=False, lineterminator="\n")
-        elif spec.modulator and spec.modulator["type"] == "iipfm":
+        elif formats.get(spec.id) == "mat":
             fname = f"{spec.id}.mat"
             scipy.io.savemat(
                 folder / fname,

@@ -97,10 +97,10 @@ def simulate_run(
         u = np.asarray(spec.valve, dtype=np.int8)
         xi = None
     elif spec.xi is not None and spec.modulator is not None:
-        mod = dict(spec.modulator)
-        kind = mod.pop("type")
+        # A setting that inverts a valve (LPWM) without naming one inverts the simulated one.
+        mod = Modulator.from_mapping(spec.modulator).bind(params)
         xi = np.asarray(spec.xi, dtype=np.float64)
-        u = modulate(kind, xi, dt, **mod)
+        u = modulate(mod.kind, xi, dt, **mod.settings)
     else:
         raise ValueError(f"run {spec.id!r}: give either valve, or xi and modulator")
     p = simulate(u, dt, params, p0=spec.p0)

@@ -10,7 +10,7 @@ takes the grid minimum and :func:`iipfm_optimal_t_l` the analytic IIPFM optimum 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -19,8 +19,9 @@ import numpy.typing as npt
 from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model.averaging import Floats, equilibrium_pressure, time_fractions
-from spa.model.modulators import MODULATOR_ORDER, MODULATORS, PARAMETER, Modulator
+from spa.model.modulators import MODULATOR_ORDER, MODULATORS, PARAMETER, Modulator, get_kind
 from spa.model.params import ValveParams
+from spa.openloop.paper import PAPER_SETTING, PAPER_TABLE2
 
 __all__ = [
     "DEFAULT_SWEEPS",
@@ -45,33 +46,32 @@ __all__ = [
 #: The swept parameter of each modulator: ``kind -> (setting name, unit)``.
 SWEPT_PARAMETER: Mapping[str, tuple[str, str]] = PARAMETER
 
-#: Table 2 as printed in the paper: ``kind -> (J_min, selected parameter, unit)``.
-#: Reference values for comparison columns only; nothing here is computed from them.
-PAPER_TABLE2: Mapping[str, tuple[float, float, str]] = {
-    "pwm": (10.5, 20.0, "Hz"),
-    "ipfm": (12.5, 20.0, "ms"),
-    "iipfm": (4.8, 20.0, "ms"),
-    "dsm": (9.6, 20.0, "ms"),
-}
+class _Grids(Mapping[str, Mapping[str, float]]):
+    """``kind -> {start, stop, step}``: each registered kind's default grid."""
 
-#: The paper's selected value of each swept parameter (Hz for PWM, s otherwise).
-PAPER_SETTING: Mapping[str, float] = {"pwm": 20.0, "ipfm": 0.020, "iipfm": 0.020, "dsm": 0.020}
+    def __getitem__(self, kind: str) -> Mapping[str, float]:
+        return get_kind(kind).default_grid if kind in MODULATORS else {}[kind]
 
-#: The grids of Section 5.1: ``kind -> {start, stop, step}`` (Hz for PWM, s otherwise).
-DEFAULT_SWEEPS: Mapping[str, Mapping[str, float]] = {
-    "pwm": {"start": 1.0, "stop": 80.0, "step": 0.1},
-    "ipfm": {"start": 0.0125, "stop": 1.0, "step": 0.001},
-    "iipfm": {"start": 0.0125, "stop": 1.0, "step": 0.001},
-    "dsm": {"start": 0.0125, "stop": 1.0, "step": 0.001},
-}
+    def __iter__(self) -> Iterator[str]:
+        return iter(MODULATOR_ORDER)
+
+    def __len__(self) -> int:
+        return len(MODULATOR_ORDER)
+
+
+#: The grids of Section 5.1 and each further kind's own: ``kind -> {start, stop, step}``
+#: (Hz for PWM and LPWM, s otherwise).
+DEFAULT_SWEEPS: Mapping[str, Mapping[str, float]] = _Grids()
+
+#: The kinds every sweep holds: those of the paper's Table 2.
+_REQUIRED: tuple[str, ...] = tuple(PAPER_TABLE2)
 
 #: A cost ``(kind, values, params, n_xi) -> J`` such as :func:`linearity_cost`.
 CostFunction = Callable[[str, npt.NDArray[np.float64], ValveParams, int], Floats]
 
 
 def _kind(kind: str) -> str:
-    if kind not in MODULATORS:
-        raise ValueError(f"unknown modulator kind {kind!r}; expected one of {sorted(MODULATORS)}")
+    get_kind(kind)
     return kind
 
 
@@ -120,15 +120,13 @@ def modulator_settings(
     """
     p = checks.valve_params(params)
     v = _value(_kind(kind), value)
-    out: dict[str, Any] = {SWEPT_PARAMETER[kind][0]: v}
+    spec = get_kind(kind)
     if gain is not None:
-        if "gain" not in MODULATORS[kind]:
-            raise ValueError(f"{kind}: has no gain; only ipfm and iipfm take one")
-        out["gain"] = checks.positive_array(f"{kind}: gain", gain)
-    elif kind == "ipfm":
-        out["gain"] = np.ones_like(v)
-    elif kind == "iipfm":
-        out["gain"] = 1.0 + p.t_on / v
+        if not spec.has_gain:
+            takes = [k for k in MODULATOR_ORDER if get_kind(k).has_gain]
+            raise ValueError(f"{kind}: has no gain; only {' and '.join(takes)} take one")
+        gain = checks.positive_array(f"{kind}: gain", gain)
+    out: dict[str, Any] = spec.sweep_settings(v, p, gain)
     if all(np.ndim(x) == 0 for x in out.values()):
         out = {k: float(x) for k, x in out.items()}
     return out
@@ -187,7 +185,7 @@ def paper_setting(kind: str, params: ValveParams | None = None) -> Modulator:
     >>> paper_setting("pwm").label, paper_setting("iipfm").label
     ('pwm-20Hz', 'iipfm-20ms-G1.15')
     """
-    return setting(kind, PAPER_SETTING[_kind(kind)], params)
+    return setting(kind, PAPER_SETTING.get(kind, get_kind(kind).reference), params)
 
 
 def constraint(kind: str, params: ValveParams | None = None) -> str:
@@ -198,14 +196,7 @@ def constraint(kind: str, params: ValveParams | None = None) -> str:
     >>> constraint("dsm")
     'period > t_off = 10 ms and period > t_on = 3 ms'
     """
-    p = checks.valve_params(params)
-    on, off = f"{p.t_on * 1e3:g} ms", f"{p.t_off * 1e3:g} ms"
-    return {
-        "pwm": "f_w > 0 Hz",
-        "ipfm": f"t_h > t_on = {on} (gain = 1)",
-        "iipfm": f"t_l > t_off = {off} and gain = 1 + t_on/t_l",
-        "dsm": f"period > t_off = {off} and period > t_on = {on}",
-    }[_kind(kind)]
+    return get_kind(kind).constraint(checks.valve_params(params))
 
 
 @fill_doc
@@ -239,15 +230,7 @@ def feasible(
     """
     p = checks.valve_params(params)
     v = _value(_kind(kind), value)
-    if kind == "pwm":
-        ok = np.ones(v.shape, dtype=bool)
-    elif kind == "ipfm":
-        ok = v > p.t_on
-    elif kind == "iipfm":
-        ok = v > p.t_off
-    else:
-        ok = (v > p.t_off) & (v > p.t_on)
-    return np.asarray(ok)[()]
+    return np.asarray(get_kind(kind).feasible(v, p))[()]
 
 
 @fill_doc
@@ -478,27 +461,29 @@ def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
 def check_sweeps(
     sweeps: Mapping[str, Mapping[str, float]], params: ValveParams | None = None
 ) -> dict[str, Mapping[str, float]]:
-    """The four grids in the paper's order, checked against the valve's delays.
+    """The grids in table order, checked against the valve's delays.
 
     Parameters
     ----------
     sweeps : mapping
-        ``kind -> {"start", "stop", "step"}`` for all four kinds (``analytic.sweeps``).
+        ``kind -> {"start", "stop", "step"}`` (``analytic.sweeps``): the paper's four kinds
+        and any further registered kind to tune (LPWM).
     %(params)s
 
     Returns
     -------
     dict
-        The grids, in the order PWM, IPFM, IIPFM, ΔΣM.
+        The grids, in the order PWM, IPFM, IIPFM, ΔΣM, then the further kinds given.
 
     Raises
     ------
     ValueError
-        If a kind or a grid key is missing, or a delay is longer than a whole sweep, so that
-        no setting of it is feasible: ``t_on + t_off`` at least the longest PWM period
-        (``1/start``; every setting is then all dead-zone or saturation), ``t_on`` at least
-        the longest IPFM pulse, ``t_off`` at least the longest IIPFM separation or ΔΣM period
-        (or ``t_on`` at least the longest period). The message names the delay.
+        If a kind is unknown, one of the paper's four or a grid key is missing, or a delay
+        is longer than a whole sweep, so that no setting of it is feasible: ``t_on + t_off``
+        at least the longest PWM period (``1/start``; every setting is then all dead-zone or
+        saturation), ``t_on`` at least the longest IPFM pulse, ``t_off`` at least the
+        longest IIPFM separation or ΔΣM period (or ``t_on`` at least the longest period).
+        The message names the delay.
 
     Examples
     --------
@@ -508,27 +493,23 @@ def check_sweeps(
     ValueError: t_off = 2 s is not shorter than the longest IIPFM t_l of the sweep (0.9995 s): ...
     """
     p = checks.valve_params(params)
-    missing = [k for k in MODULATOR_ORDER if k not in sweeps]
+    unknown = [k for k in sweeps if k not in MODULATORS]
+    if unknown:
+        known = list(MODULATOR_ORDER)
+        raise ValueError(f"sweeps: unknown modulator(s) {unknown}; expected some of {known}")
+    missing = [k for k in _REQUIRED if k not in sweeps]
     if missing:
         raise ValueError(f"sweeps: missing modulator(s) {missing}")
-    grids = {k: sweeps[k] for k in MODULATOR_ORDER}
-    values = {}
+    grids = {k: sweeps[k] for k in MODULATOR_ORDER if k in sweeps}
+    limits = []
     for kind, g in grids.items():
         absent = [key for key in ("start", "stop", "step") if key not in g]
         if absent:
             raise ValueError(f"sweeps.{kind}: missing {absent}; expected start, stop, step")
-        values[kind] = sweep_grid(g["start"], g["stop"], g["step"])
-    limits = [
-        ("t_on", p.t_on, values["ipfm"][-1], "IPFM t_h", "t_h > t_on"),
-        ("t_off", p.t_off, values["iipfm"][-1], "IIPFM t_l", "t_l > t_off"),
-        ("t_off", p.t_off, values["dsm"][-1], "ΔΣM period", "period > t_off"),
-        ("t_on", p.t_on, values["dsm"][-1], "ΔΣM period", "period > t_on"),
-        ("t_on + t_off", p.t_on + p.t_off, 1.0 / values["pwm"][0], "PWM period 1/f_w", "1/f_w"),
-    ]
-    for name, delay, limit, what, rule in limits:
+        limits += get_kind(kind).sweep_limits(sweep_grid(g["start"], g["stop"], g["step"]), p)
+    # One delay before a sum of delays: the message names the simplest cause.
+    for name, delay, limit, what, rule in sorted(limits, key=lambda x: "+" in x[0]):
         if delay >= limit:
-            if rule == "1/f_w":
-                rule = "t_on + t_off < 1/f_w, else all dead-zone or saturation"
             raise ValueError(
                 f"{name} = {delay:g} s is not shorter than the longest {what} of the sweep "
                 f"({limit:g} s): no setting is feasible ({rule}); check {name} or widen the sweep"

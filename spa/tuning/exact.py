@@ -16,9 +16,8 @@ import numpy.typing as npt
 from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model._broadcast import Floats
-from spa.model.averaging import pulse_times
+from spa.model.modulators import get_kind
 from spa.model.params import ValveParams
-from spa.model.periodic import dsm_mean, train_mean
 from spa.tuning.cost import _on_xi_grid, deviation_cost
 
 __all__ = ["exact_cost", "exact_curve"]
@@ -60,10 +59,7 @@ def exact_curve(
     """
     p = checks.valve_params(params)
     _, xi, grid = _on_xi_grid(kind, value, p, n_xi, gain)
-    if kind == "dsm":
-        mean = dsm_mean(xi, grid["period"], p, max_denominator=xi.size - 1)
-    else:
-        mean = train_mean(*pulse_times(kind, xi, **grid), p)
+    mean = get_kind(kind).periodic_mean(xi, grid, p, max_denominator=xi.size - 1)
     return np.asarray(mean, dtype=np.float64)
 
 

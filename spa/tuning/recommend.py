@@ -28,7 +28,7 @@ from spa._docs import fill_doc
 from spa._progress import progress
 from spa.model.averaging import pulse_times, time_constant, time_fractions
 from spa.model.chattering import pseudo_steady_state
-from spa.model.modulators import MODULATOR_ORDER, Modulator
+from spa.model.modulators import MODULATOR_ORDER, Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 from spa.model.thresholds import thresholds
@@ -213,7 +213,7 @@ def setting_metrics(
     40.0
     """
     _, xi, grid = _on_xi_grid(kind, value, params, n_xi, gain)
-    t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, xi, **grid))
+    t_h, t_l = (np.asarray(a, dtype=np.float64) for a in pulse_times(kind, xi, params, **grid))
     pulsing = np.isfinite(t_h) & np.isfinite(t_l) & (t_h > 0.0) & (t_l > 0.0)
     th = np.where(pulsing, t_h, 1.0)
     tl = np.where(pulsing, t_l, 1.0)
@@ -224,8 +224,7 @@ def setting_metrics(
         np.where(pulsing & (th > params.t_on * (1 + 1e-9)), th, np.inf),
         np.where(pulsing & (tl > params.t_off * (1 + 1e-9)), tl, np.inf),
     ).min(axis=-1)
-    if kind == "dsm":
-        moving = np.where(np.isfinite(moving), np.asarray(grid["period"])[..., 0], np.inf)
+    moving = get_kind(kind).min_pulse(moving, grid)
     return {
         "switching_rate": np.where(pulsing, 2.0 / (th + tl), 0.0).max(axis=-1),
         "chattering": np.where(pulsing, hi - lo, 0.0).max(axis=-1),
@@ -275,7 +274,7 @@ def candidate_frame(
         sets: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None]] = [
             (values, None)
         ]
-        if kind == "iipfm" and opts.gain_sweep is not None:
+        if get_kind(kind).gain_swept and opts.gain_sweep is not None:
             gains = sweep_grid(**opts.gain_sweep)
             sets.append((np.repeat(values, gains.size), np.tile(gains, values.size)))
         for v, gain in sets:
@@ -340,7 +339,7 @@ def _staircase(mod: Modulator, params: ValveParams, options: TuningOptions, **an
     levels = math.floor(1.0 / step + 1e-9) + 1
     t = np.arange(round(levels * hold / dt)) * dt
     xi = staircase_input(t, step, hold)
-    u = mod.modulate(xi, dt)
+    u = mod.bind(params).modulate(xi, dt)
     run = pd.DataFrame({"t": t, "p": simulate(u, dt, params), "valve": u, "u": xi})
     _, _, summary = staircase_analysis(run, mod.to_mapping(), params, **analysis)
     return {k: float(summary[k]) for k in ("fit", "mse", "max_dev", "mad")}
@@ -408,7 +407,7 @@ def _entry(
     gain = None if np.isnan(row["gain"]) else float(row["gain"])
     mod = Modulator(
         row["modulator"], modulator_settings(row["modulator"], row["value"], params, gain)
-    )
+    ).bind(params)
     return {
         "modulator": mod.kind,
         "label": mod.label,

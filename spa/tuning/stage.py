@@ -21,9 +21,10 @@ import pandas as pd
 import yaml
 
 from spa import _checks as checks
-from spa.model.modulators import Modulator
+from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import threshold_table
+from spa.openloop.paper import paper_case
 from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
 from spa.tuning.intervals import PARAMETERS, read_intervals
 from spa.tuning.recommend import (
@@ -148,8 +149,9 @@ class TuningResult:
     identified : Identified
         The valve tuned.
     table1 : pandas.DataFrame
-        Dead-zone and saturation (Table 1) at the paper's selected settings (``case`` =
-        ``paper``), at each modulator's optimum (``optimum``) and at the recommendation.
+        Dead-zone and saturation (Table 1) at the selected settings (``case`` = ``paper``
+        for the paper's, ``selected`` for others), at each modulator's optimum (``optimum``)
+        and at the recommendation.
     sweeps : pandas.DataFrame
         Fig. 4's data: :func:`spa.tuning.tables.sweep_frame` with ``J`` and ``J_exact``.
     table2 : pandas.DataFrame
@@ -184,7 +186,8 @@ def _table1(
     recommended: Modulator | None,
     params: ValveParams,
 ) -> pd.DataFrame:
-    cases = [("paper", Modulator.from_mapping(m)) for m in selected]
+    chosen = [Modulator.from_mapping(m) for m in selected]
+    cases = [("paper" if paper_case(m) else "selected", m) for m in chosen]
     cases += [("optimum", m) for m in optima]
     if recommended is not None:
         cases.append(("recommended", recommended))
@@ -242,7 +245,7 @@ def tune(
     >>> small = {k: {**g, "step": g["step"] * 10} for k, g in DEFAULT_SWEEPS.items()}
     >>> result = tune(ValveParams(), sweeps=small, n_xi=50)
     >>> result.recommendation["recommended"]["modulator"]
-    'iipfm'
+    'lpwm'
     """
     if isinstance(valve, Identified):
         ident = valve
@@ -258,7 +261,7 @@ def tune(
     data = sweep_frame(grids, p, n, exact=True)
     table2 = tuning_table(grids, p, n, ident.intervals, data)
     optima = [
-        setting(k, v * (1.0 if k == "pwm" else 1e-3), p)
+        setting(k, v * get_kind(k).unscale, p)
         for k, v in zip(table2["modulator"], table2["optimum"], strict=True)
     ]
     curves = equilibrium_frame({m.kind: m.value for m in optima}, p, n, exact=True)

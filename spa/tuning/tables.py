@@ -20,14 +20,13 @@ import pandas as pd
 from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model.averaging import equilibrium_pressure, time_constant, time_fractions
-from spa.model.modulators import MODULATOR_ORDER
+from spa.model.modulators import MODULATOR_ORDER, get_kind
 from spa.model.params import ValveParams
 from spa.tuning.cost import (
     PAPER_TABLE2,
     SWEPT_PARAMETER,
     check_sweeps,
     constraint,
-    iipfm_optimal_t_l,
     linearity_cost,
     modulator_settings,
     optimum,
@@ -39,6 +38,9 @@ from spa.tuning.exact import exact_cost, exact_curve
 from spa.tuning.intervals import INTERVAL_METHOD, propagate
 
 __all__ = ["equilibrium_frame", "optimum_table", "sweep_frame", "tuning_table"]
+
+#: The paper's Table 2 columns of a kind it does not have.
+_NO_PAPER = (np.nan, np.nan, "")
 
 
 @fill_doc
@@ -78,7 +80,7 @@ def sweep_frame(
     for kind, g in check_sweeps(sweeps, p).items():
         values, cost = sweep(kind, p, g["start"], g["stop"], g["step"], n_xi)
         name, unit = SWEPT_PARAMETER[kind]
-        x_ms = 1e3 / values if kind == "pwm" else 1e3 * values
+        x_ms = get_kind(kind).axis_ms(values)
         parts.append(
             pd.DataFrame(
                 {
@@ -125,7 +127,7 @@ def optimum_table(
         name, unit = SWEPT_PARAMETER[kind]
         scale, shown = (1.0, "Hz") if unit == "Hz" else (1e3, "ms")
         settings = modulator_settings(kind, value, p)
-        paper_j, paper_value, _ = PAPER_TABLE2[kind]
+        paper_j, paper_value, _ = PAPER_TABLE2.get(kind, _NO_PAPER)
         rows.append(
             {
                 "modulator": kind,
@@ -137,7 +139,7 @@ def optimum_table(
                 "gain": settings.get("gain", np.nan),
                 "paper_J_min": paper_j,
                 "paper_optimum": paper_value,
-                "analytic_optimum": iipfm_optimal_t_l(p) * 1e3 if kind == "iipfm" else np.nan,
+                "analytic_optimum": get_kind(kind).analytic_optimum(p),
             }
         )
     return pd.DataFrame(rows)
@@ -275,9 +277,9 @@ def tuning_table(
         value = float(best["value"])
         mod = setting(kind, value, p)
         paper = paper_setting(kind, p)
-        scale = 1.0 if kind == "pwm" else 1e3
+        scale = get_kind(kind).scale
         try:
-            analytic = iipfm_optimal_t_l(p) * 1e3 if kind == "iipfm" else np.nan
+            analytic = get_kind(kind).analytic_optimum(p)
         except ValueError:
             analytic = np.nan
         rows.append(
@@ -285,7 +287,7 @@ def tuning_table(
                 "modulator": kind,
                 "parameter": SWEPT_PARAMETER[kind][0],
                 "optimum": round(value * scale, 9),
-                "unit": "Hz" if kind == "pwm" else "ms",
+                "unit": get_kind(kind).display_unit,
                 "gain": mod.settings.get("gain", np.nan),
                 "J_min": float(best["J"]),
                 "analytic_optimum": analytic,
@@ -303,8 +305,8 @@ def tuning_table(
                 "optimum_exact": round(float(best_exact["value"]) * scale, 9),
                 "J_exact_min": float(best_exact["J_exact"]),
                 "constraint": constraint(kind, p),
-                "paper_optimum": PAPER_TABLE2[kind][1],
-                "paper_J_min": PAPER_TABLE2[kind][0],
+                "paper_optimum": PAPER_TABLE2.get(kind, _NO_PAPER)[1],
+                "paper_J_min": PAPER_TABLE2.get(kind, _NO_PAPER)[0],
             }
         )
     return pd.DataFrame(rows)

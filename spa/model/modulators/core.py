@@ -1,77 +1,93 @@
-"""Digital pulse modulators: PWM, IPFM, inverse IPFM and first-order ΔΣ (docs/model.md section 2).
+"""The modulator value type and the functions every kind shares (docs/model.md section 2).
+
+:class:`Modulator` is the one value a modulator setting is passed around as: built once where
+a setting enters (the config, a ``dataset.yaml``, the command line, a run's metadata) and
+asked, never re-parsed. Each kind (:mod:`spa.model.modulators.pwm` and its siblings) holds
+its own pulse law; :func:`modulate` dispatches to it through the registry.
 
 Every modulator runs at a fixed step ``dt``. ``xi[k]`` is the input fraction sampled at
 ``t = k*dt`` and ``u[k]`` the valve command held over ``[k*dt, (k+1)*dt)``. Event times are
 quantised to the step: a pulse of width ``w`` lasts ``round(w/dt)`` steps (at least one).
-
-None of them loops over samples in Python: each has a closed form in terms of cumulative
-sums of the input.
-
-* IPFM: the integrator with reset-by-subtraction fires exactly when the running integral
-  ``C(t) = ∫ xi`` crosses a multiple of the threshold ``G*t_h``, so the firing count is
-  ``floor(C/(G*t_h))``.
-* IIPFM: the same on ``1 - xi`` with low pulses.
-* ΔΣ: with ``v_k = v_{k-1} + xi_k - u_{k-1}``, ``u_k = [v_k >= 1/2]`` from ``v = u = 0``, the
-  number of ones up to tick ``m`` is ``floor(S_m + 1/2)`` with ``S_m = xi_0 + ... + xi_m``
-  (induction on ``m``, valid for ``xi`` in [0, 1]); ``u_m`` is its increment.
+None of them loops over samples in Python (:mod:`spa.model.modulators._pulses`).
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa.model.modulators.base import REGISTRY, get_kind, kinds
 
 __all__ = [
     "MODULATORS",
     "MODULATOR_ORDER",
+    "PARAMETER",
     "Modulator",
     "check_settings",
     "modulate",
     "parse_modulator",
 ]
 
-#: Modulator kinds and their settings with defaults (``None`` = required).
-MODULATORS: Mapping[str, Mapping[str, float | None]] = {
-    "pwm": {"f_w": None},
-    "ipfm": {"t_h": None, "gain": 1.0},
-    "iipfm": {"t_l": None, "gain": 1.0},
-    "dsm": {"period": None},
-}
+
+class _Settings(Mapping[str, Mapping[str, "float | None"]]):
+    """``kind -> {setting: default}`` of every registered kind (None: required or optional)."""
+
+    def __getitem__(self, kind: str) -> Mapping[str, float | None]:
+        k = REGISTRY[kind]
+        return {**k.settings, **dict.fromkeys(k.optional)}
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(kinds())
+
+    def __len__(self) -> int:
+        return len(REGISTRY)
+
+
+class _Parameter(Mapping[str, tuple[str, str]]):
+    """``kind -> (swept setting, unit)`` of every registered kind."""
+
+    def __getitem__(self, kind: str) -> tuple[str, str]:
+        k = REGISTRY[kind]
+        return (k.parameter, k.unit)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(kinds())
+
+    def __len__(self) -> int:
+        return len(REGISTRY)
+
+
+class _Order(Sequence[str]):
+    """The registered kinds in table order (a live tuple)."""
+
+    @overload
+    def __getitem__(self, i: int) -> str: ...
+    @overload
+    def __getitem__(self, i: slice) -> tuple[str, ...]: ...
+    def __getitem__(self, i: int | slice) -> str | tuple[str, ...]:
+        return kinds()[i]
+
+    def __len__(self) -> int:
+        return len(REGISTRY)
+
+    def __repr__(self) -> str:
+        return repr(kinds())
+
+
+#: Modulator kinds and their settings with defaults (``None`` = required, or optional for
+#: the kinds that take the valve from their context).
+MODULATORS: Mapping[str, Mapping[str, float | None]] = _Settings()
 
 #: The order in which modulators are listed in tables and legends.
-MODULATOR_ORDER: tuple[str, ...] = ("pwm", "ipfm", "iipfm", "dsm")
+MODULATOR_ORDER: Sequence[str] = _Order()
 
 #: The setting that characterises each modulator (its swept parameter) and its unit.
-PARAMETER: Mapping[str, tuple[str, str]] = {
-    "pwm": ("f_w", "Hz"),
-    "ipfm": ("t_h", "s"),
-    "iipfm": ("t_l", "s"),
-    "dsm": ("period", "s"),
-}
-
-_NAMES = {"pwm": "PWM", "ipfm": "IPFM", "iipfm": "IIPFM", "dsm": "ΔΣM"}
-_SYMBOLS = {"f_w": "f_W", "t_h": "t_h", "t_l": "t_l", "period": "T_ΔΣ"}
-
-#: Plausible ranges of the settings (Hz for f_w, s for durations, 1 for the gain): outside
-#: them a value is a typo or a unit slip (a frequency of 1e-300 Hz, a width of 20 s given as
-#: 20 for 20 ms), not a modulator a solenoid valve can follow.
-_RANGES: Mapping[str, tuple[float, float, str]] = {
-    "f_w": (1e-3, 1e4, "Hz"),
-    "t_h": (1e-5, 1e2, "s"),
-    "t_l": (1e-5, 1e2, "s"),
-    "period": (1e-5, 1e2, "s"),
-    "gain": (1e-3, 1e3, ""),
-}
-
-# Relative tolerance used when comparing accumulated floating-point times to event times.
-_EPS = 1e-9
+PARAMETER: Mapping[str, tuple[str, str]] = _Parameter()
 
 
 def parse_modulator(mod: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
@@ -98,7 +114,7 @@ def parse_modulator(mod: Mapping[str, Any]) -> tuple[str, dict[str, float]]:
         raise ValueError(f"modulator must be a mapping with a 'type', got {mod!r}")
     kind = str(mod["type"])
     settings = {str(k): v for k, v in mod.items() if k != "type"}
-    if kind in MODULATORS:
+    if kind in REGISTRY:
         unknown = sorted(set(settings) - set(MODULATORS[kind]))
         if unknown:  # also keeps 'dt' from reaching check_settings' own argument
             raise ValueError(
@@ -112,19 +128,20 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    kind : str
+        Modulator type, a registered kind (:data:`MODULATOR_ORDER`).
     dt : float, optional
         Step of the digital modulator in s. When given, settings are also checked against it
         (a period or pulse must last at least one step).
     **settings
         ``f_w`` (Hz) for PWM; ``t_h`` (s) and ``gain`` for IPFM; ``t_l`` (s) and ``gain`` for
-        IIPFM; ``period`` (s) for ΔΣ.
+        IIPFM; ``period`` (s) for ΔΣ; ``f_w`` and optionally the valve ``c1``, ``k2``,
+        ``tau2``, ``t_on``, ``t_off`` for LPWM (each kind's ``settings``).
 
     Returns
     -------
     dict
-        The complete settings as floats.
+        The complete settings as floats (optional settings only when given).
 
     Raises
     ------
@@ -132,8 +149,7 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
         For an unknown kind, an unknown or missing setting, or a value outside its range; the
         message names the setting and the allowed range.
     """
-    if kind not in MODULATORS:
-        raise ValueError(f"unknown modulator kind {kind!r}; expected one of {sorted(MODULATORS)}")
+    k = get_kind(kind)
     spec = MODULATORS[kind]
     unknown = sorted(set(settings) - set(spec))
     if unknown:
@@ -142,48 +158,38 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
     for name, default in spec.items():
         value = settings.get(name, default)
         if value is None:
+            if name in k.optional:
+                continue
             raise ValueError(f"{kind}: missing setting {name!r}")
         # Booleans and strings are refused (YAML ``true`` is not 1 Hz).
-        out[name] = checks.positive(f"{kind}: setting {name!r}", value)
-        lo, hi, unit = _RANGES[name]
+        check = checks.nonnegative if name in k.zero_allowed else checks.positive
+        out[name] = check(f"{kind}: setting {name!r}", value)
+        lo, hi, unit = k.range(name)
         if not lo <= out[name] <= hi:
             raise ValueError(
                 f"{kind}: setting {name!r} = {value!r} is outside the range a solenoid-valve "
                 f"modulator can have, [{lo:g}, {hi:g}] {unit}"
             )
     if dt is not None:
-        dt = checks.positive("dt", dt)
-        if kind == "pwm" and 1.0 / out["f_w"] < 2.0 * dt * (1 - _EPS):
-            raise ValueError(
-                f"pwm: f_w = {out['f_w']:g} Hz is above half the controller rate 1/(2*dt) = "
-                f"{0.5 / dt:g} Hz (dt = {dt:g} s): a period needs at least two steps"
-            )
-        width = {"ipfm": "t_h", "iipfm": "t_l", "dsm": "period"}.get(kind)
-        if width is not None and out[width] < dt * (1 - _EPS):
-            raise ValueError(
-                f"{kind}: setting {width!r} = {out[width]:g} s is shorter than dt = {dt:g} s"
-            )
-        if kind in ("ipfm", "iipfm") and out["gain"] * out[width] < dt * (1 - _EPS):
-            raise ValueError(
-                f"{kind}: threshold gain*{width} = {out['gain'] * out[width]:g} s is shorter than "
-                f"dt = {dt:g} s; increase 'gain' or {width!r}"
-            )
+        k.check_dt(out, checks.positive("dt", dt))
     return out
 
 
 @dataclass(frozen=True)
-class Modulator:
+class Modulator(Mapping[str, Any]):
     """One modulator setting: the type and its complete, validated settings.
 
-    Built once where a setting enters (the config, a ``dataset.yaml``, a notebook) with
-    :meth:`from_mapping`; every later stage passes this value around and never re-parses a
-    mapping. ``label`` is the one name used in run ids, file names, tables, legends and the
-    report.
+    Built once where a setting enters (the config, a ``dataset.yaml``, the command line, a
+    run's metadata in :func:`spa.io.read_runs`, a notebook) with :meth:`from_mapping`; every
+    later stage passes this value around and asks it (:meth:`from_mapping` of a Modulator is
+    the value itself). It is also a read-only mapping ``{"type": kind, **settings}``, for
+    code written for the mapping form. ``label`` is the one name used in run ids, file
+    names, tables, legends and the report.
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        Modulator type.
+    kind : str
+        Modulator type, a registered kind (:data:`MODULATOR_ORDER`).
     settings : mapping
         As :func:`check_settings` (missing defaults are filled in, values checked).
 
@@ -228,9 +234,14 @@ class Modulator:
         return out
 
     @property
+    def spec(self) -> Any:
+        """The kind (:class:`~spa.model.modulators.base.ModulatorKind`) of this setting."""
+        return get_kind(self.kind)
+
+    @property
     def parameter(self) -> str:
         """Name of the characteristic setting: ``f_w``, ``t_h``, ``t_l`` or ``period``."""
-        return PARAMETER[self.kind][0]
+        return self.spec.parameter
 
     @property
     def value(self) -> float:
@@ -244,35 +255,45 @@ class Modulator:
 
     @property
     def name(self) -> str:
-        """Display name of the type: PWM, IPFM, IIPFM or ΔΣM."""
-        return _NAMES[self.kind]
+        """Display name of the type: PWM, IPFM, IIPFM, ΔΣM or LPWM."""
+        return self.spec.name
+
+    @property
+    def colour(self) -> str:
+        """Colour of the type in every figure."""
+        return self.spec.colour
 
     @property
     def label(self) -> str:
         """Short file-safe name, e.g. ``pwm-20Hz``, ``ipfm-20ms``, ``iipfm-20ms-G1.15``."""
-        if self.kind == "pwm":
-            return f"pwm-{self.value:g}Hz"
-        label = f"{self.kind}-{self.value * 1e3:g}ms"
-        if not math.isclose(self.gain, 1.0):
-            label += f"-G{self.gain:g}"
-        return label
+        return self.spec.label(self.settings)
 
     @property
     def description(self) -> str:
         """Human description, e.g. ``PWM, f_W = 20 Hz`` or ``IIPFM, t_l = 20 ms, G = 1.15``."""
-        symbol = _SYMBOLS[self.parameter]
-        if self.kind == "pwm":
-            text = f"{self.name}, {symbol} = {self.value:g} Hz"
-        else:
-            text = f"{self.name}, {symbol} = {self.value * 1e3:g} ms"
-        if self.kind in ("ipfm", "iipfm") and not math.isclose(self.gain, 1.0):
-            text += f", G = {self.gain:g}"
-        return text
+        return self.spec.description(self.settings)
 
     @property
-    def sort_key(self) -> tuple[int, float, float]:
-        """Numeric order: by type (PWM, IPFM, IIPFM, ΔΣM), then setting value, then gain."""
+    def sort_key(self) -> tuple[float, float, float]:
+        """Numeric order: by type (PWM, IPFM, IIPFM, ΔΣM, …), then setting value, then gain."""
         return (MODULATOR_ORDER.index(self.kind), self.value, self.gain)
+
+    def bind(self, params: Any) -> Modulator:
+        """This setting with what it takes from the valve ``params`` filled in (LPWM's
+        inverted valve); the same value for kinds that do not use the valve."""
+        full = self.spec.bind(self.settings, params)
+        return self if full == dict(self.settings) else Modulator(self.kind, full)
+
+    # A read-only mapping ``{"type": kind, **settings}``, so that code written for the mapping
+    # form (a run's metadata, a RunSpec) takes the value as it is, without parsing it again.
+    def __getitem__(self, key: str) -> Any:
+        return self.kind if key == "type" else self.settings[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(("type", *self.settings))
+
+    def __len__(self) -> int:
+        return 1 + len(self.settings)
 
     def __lt__(self, other: Modulator) -> bool:
         return self.sort_key < other.sort_key
@@ -282,81 +303,22 @@ class Modulator:
         return modulate(self.kind, xi, dt, **self.settings)
 
 
-def _steps(width: float, dt: float) -> int:
-    """Number of steps a pulse of ``width`` seconds lasts (at least one)."""
-    return max(1, math.floor(width / dt + 0.5))
-
-
-def _first_steps(times: npt.NDArray[np.float64], dt: float) -> npt.NDArray[np.int64]:
-    """Index of the first step at or after each event time (to a relative tolerance)."""
-    return np.ceil(times / dt - _EPS).astype(np.int64)
-
-
-def _from_edges(
-    n: int, rise: npt.NDArray[np.int64], fall: npt.NDArray[np.int64]
-) -> npt.NDArray[np.int8]:
-    """0/1 signal high on the union of the intervals ``[rise[i], fall[i])`` (clipped to n)."""
-    d = np.zeros(n + 1, dtype=np.int32)
-    np.add.at(d, np.minimum(rise, n), 1)
-    np.subtract.at(d, np.minimum(fall, n), 1)
-    return (np.cumsum(d[:-1]) > 0).view(np.int8)
-
-
-def _period_starts(n: int, dt: float, period: float) -> npt.NDArray[np.int64]:
-    """First step of each clock period ``m*period`` that starts within ``n`` steps."""
-    m = np.arange(math.floor(n * dt / period) + 2)
-    starts = _first_steps(m * period, dt)
-    starts = starts[starts < n]
-    return np.unique(starts)
-
-
-def _pwm(x: npt.NDArray[np.float64], dt: float, f_w: float) -> npt.NDArray[np.int8]:
-    period = 1.0 / f_w
-    starts = _period_starts(x.size, dt, period)  # xi is sampled at these steps
-    t_start = np.arange(starts.size) * period
-    ends = _first_steps(t_start + x[starts] * period, dt)
-    nxt = np.append(starts[1:], x.size)
-    ends = np.clip(ends, starts, nxt)
-    return _from_edges(x.size, starts, ends)
-
-
-def _firings(x: npt.NDArray[np.float64], dt: float, threshold: float) -> npt.NDArray[np.int64]:
-    """Steps at which an integrate-and-fire modulator with reset-by-subtraction fires.
-
-    The integral up to ``t_k`` (exclusive, in units of ``dt``) crosses the m-th multiple of
-    the threshold exactly where the integrator with subtraction reaches the threshold.
-    """
-    steps = threshold / dt
-    c = np.cumsum(x)  # c[k] = integral up to t_{k+1}
-    total = math.floor(c[-1] / steps + _EPS) if c.size else 0
-    targets = (np.arange(1, total + 1) - _EPS) * steps
-    fire = np.searchsorted(c, targets, side="left") + 1  # first k with integral(t_k) >= target
-    return np.unique(fire[fire < x.size])
-
-
-def _dsm(x: npt.NDArray[np.float64], dt: float, period: float) -> npt.NDArray[np.int8]:
-    ticks = _period_starts(x.size, dt, period)
-    s = np.cumsum(x[ticks])
-    ones = np.floor(s + 0.5 + _EPS)
-    u_tick = np.diff(ones, prepend=0.0).astype(np.int8)
-    lengths = np.diff(np.append(ticks, x.size))
-    return np.repeat(u_tick, lengths)
-
-
 def modulate(kind: str, xi: npt.ArrayLike, dt: float, **settings: float) -> npt.NDArray[np.int8]:
     """Turn an input fraction into a 0/1 valve command with a digital pulse modulator.
 
     Parameters
     ----------
-    kind : {"pwm", "ipfm", "iipfm", "dsm"}
-        ``"pwm"``: pulse-width modulation at ``f_w`` Hz; ``xi`` is sampled at the start of
-        each period and the output is high for ``xi/f_w`` of it.
+    kind : str
+        A registered kind. ``"pwm"``: pulse-width modulation at ``f_w`` Hz; ``xi`` is
+        sampled at the start of each period and the output is high for ``xi/f_w`` of it.
         ``"ipfm"``: integral pulse-frequency modulation; an integrator of ``xi`` fires a high
         pulse of width ``t_h`` s when it reaches ``gain*t_h`` and subtracts that threshold.
         ``"iipfm"``: inverse IPFM; high by default, an integrator of ``1 - xi`` fires a low
         pulse of width ``t_l`` s when it reaches ``gain*t_l``.
         ``"dsm"``: first-order ΔΣ clocked every ``period`` s:
         ``v_k = v_{k-1} + xi_k - u_{k-1}``, ``u_k = [v_k >= 1/2]``, from ``v = u = 0``.
+        ``"lpwm"``: PWM at ``f_w`` whose duty inverts the averaged equilibrium of a valve
+        (its settings ``c1``, ``k2``, ``tau2``, ``t_on``, ``t_off``; nominal if not given).
     xi : array_like of float, shape (n,)
         Input fraction at ``t = k*dt``; clipped to [0, 1].
     dt : float
@@ -393,12 +355,4 @@ def modulate(kind: str, xi: npt.ArrayLike, dt: float, **settings: float) -> npt.
     x = np.clip(checks.finite_array("xi", xi, ndim=1), 0.0, 1.0)
     if x.size == 0:
         return np.zeros(0, dtype=np.int8)
-    if kind == "pwm":
-        return _pwm(x, dt, s["f_w"])
-    if kind == "ipfm":
-        fire = _firings(x, dt, s["gain"] * s["t_h"])
-        return _from_edges(x.size, fire, fire + _steps(s["t_h"], dt))
-    if kind == "iipfm":
-        fire = _firings(1.0 - x, dt, s["gain"] * s["t_l"])
-        return 1 - _from_edges(x.size, fire, fire + _steps(s["t_l"], dt))
-    return _dsm(x, dt, s["period"])
+    return get_kind(kind).pulse(x, dt, s)

@@ -1,0 +1,95 @@
+"""IIPFM: inverse IPFM (docs/model.md section 2).
+
+High by default; an integrator of ``1 - xi`` fires a low pulse of width ``t_l`` when it
+reaches ``gain*t_l``. Steady train: ``t_l*(G/(1 - xi) - 1)`` high, ``t_l`` low. Averaged
+fractions (Eqs. 15–16): ``alpha1 = (1/G)*(1 - t_off/t_l)*(1 - xi)``,
+``alpha2 = 1 - (1/G)*(1 + t_on/t_l)*(1 - xi)``; ``G = 1 + t_on/t_l`` (Eq. 17) closes the
+dead-zone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from spa.model._broadcast import safe_div
+from spa.model.modulators import _pulses
+from spa.model.modulators.base import ModulatorKind
+from spa.model.modulators.ipfm import check_threshold, guess_fired
+from spa.model.modulators.trace import Trace
+from spa.model.params import ValveParams
+
+__all__ = ["IIPFM"]
+
+
+class IIPFM(ModulatorKind):
+    """Inverse IPFM: low pulses of ``t_l`` at a rate following ``1 - xi``."""
+
+    type = "iipfm"
+    name = "IIPFM"
+    parameter = "t_l"
+    symbol = "t_l"
+    axis_name = "t_l"
+    colour = "#009E73"  # bluish green
+    order = 2.0
+    settings: ClassVar[Mapping[str, float | None]] = {"t_l": None, "gain": 1.0}
+    default_grid: ClassVar[Mapping[str, float]] = {"start": 0.0125, "stop": 1.0, "step": 0.001}
+    reference = 0.020
+    threshold_formulas = ("1 - gain/(1 + t_on/t_l)", "1")
+    has_gain = True
+    gain_swept = True
+    guess_rank = 3.0
+
+    def check_dt(self, s: Mapping[str, float], dt: float) -> None:
+        check_threshold(self, s, dt)
+
+    def pulse(
+        self, x: npt.NDArray[np.float64], dt: float, s: Mapping[str, float]
+    ) -> npt.NDArray[np.int8]:
+        return 1 - _pulses.fire_pulses(1.0 - x, dt, s["gain"] * s["t_l"], s["t_l"])
+
+    def pulse_times(
+        self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
+    ) -> tuple[Any, Any]:
+        t_l = np.broadcast_to(s["t_l"], np.broadcast_shapes(np.shape(x), np.shape(s["t_l"])))
+        ratio = safe_div(s["gain"], 1.0 - x, np.inf)
+        return t_l * np.maximum(ratio - 1.0, 0.0), t_l
+
+    def fractions(
+        self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
+    ) -> tuple[Any, Any]:
+        a1 = (1.0 - p.t_off / s["t_l"]) * (1.0 - x) / s["gain"]
+        a2 = 1.0 - (1.0 + p.t_on / s["t_l"]) * (1.0 - x) / s["gain"]
+        return a1, a2
+
+    def thresholds(self, s: Mapping[str, Any], p: ValveParams) -> tuple[Any, Any]:
+        dead = 1.0 - s["gain"] / (1.0 + p.t_on / s["t_l"])
+        return dead, np.where(s["t_l"] > p.t_off, 1.0, 0.0)
+
+    def sweep_settings(
+        self, v: npt.NDArray[np.float64], p: ValveParams, gain: Any = None
+    ) -> dict[str, Any]:
+        return {"t_l": v, "gain": 1.0 + p.t_on / v if gain is None else gain}
+
+    def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
+        return v > p.t_off
+
+    def constraint(self, p: ValveParams) -> str:
+        return f"t_l > t_off = {p.t_off * 1e3:g} ms and gain = 1 + t_on/t_l"
+
+    def sweep_limits(
+        self, values: npt.NDArray[np.float64], p: ValveParams
+    ) -> list[tuple[str, float, float, str, str]]:
+        return [("t_off", p.t_off, values[-1], "IIPFM t_l", "t_l > t_off")]
+
+    def analytic_optimum(self, p: ValveParams) -> float:
+        """Eq. 29's ``t_l*`` in ms."""
+        from spa.tuning.cost import iipfm_optimal_t_l
+
+        return iipfm_optimal_t_l(p) * 1e3
+
+    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
+        return guess_fired(self, trace, high=False)

@@ -1,0 +1,129 @@
+"""IPFM: integral pulse-frequency modulation (docs/model.md section 2).
+
+An integrator of ``xi`` fires a high pulse of width ``t_h`` when it reaches ``gain*t_h`` and
+subtracts that threshold; the firing count is ``floor(∫xi/(gain*t_h))``. Steady train:
+``t_h`` high, ``t_h*(G/xi - 1)`` low. Averaged fractions (Eqs. 13–14, general ``G``):
+``alpha1 = 1 - (1 + t_off/t_h)*xi/G``, ``alpha2 = (1 - t_on/t_h)*xi/G``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from spa.model._broadcast import safe_div
+from spa.model.modulators import _pulses
+from spa.model.modulators.base import ModulatorKind
+from spa.model.modulators.trace import Trace, sig, threshold_gain
+from spa.model.params import ValveParams
+
+__all__ = ["IPFM", "check_threshold", "guess_fired"]
+
+
+def check_threshold(kind: ModulatorKind, s: Mapping[str, float], dt: float) -> None:
+    """A pulse width and its threshold ``gain*width`` must last at least one step."""
+    width = kind.parameter
+    if s[width] < dt * (1 - _pulses.EPS):
+        raise ValueError(
+            f"{kind.type}: setting {width!r} = {s[width]:g} s is shorter than dt = {dt:g} s"
+        )
+    if s["gain"] * s[width] < dt * (1 - _pulses.EPS):
+        raise ValueError(
+            f"{kind.type}: threshold gain*{width} = {s['gain'] * s[width]:g} s is shorter than "
+            f"dt = {dt:g} s; increase 'gain' or {width!r}"
+        )
+
+
+def guess_fired(kind: ModulatorKind, tr: Trace, high: bool) -> tuple[dict[str, Any], str] | None:
+    """An integrate-and-fire kind whose fired pulses (high for IPFM, low for IIPFM) have one
+    width while the other level varies; the gain from ``u`` when it is logged."""
+    h_share, l_share = tr.shares
+    share, other = (h_share, l_share) if high else (l_share, h_share)
+    if not (share >= 0.9 and other < 0.9):
+        return None
+    pulses = tr.highs if high else tr.lows
+    w = sig(float(np.median(pulses)), 4)
+    mod: dict[str, Any] = {"type": kind.type, kind.parameter: w}
+    gain_text = "gain unknown without u, left at 1"
+    if tr.u is not None:
+        drive = tr.u if high else 1.0 - tr.u
+        on = tr.v if high else 1.0 - tr.v
+        starts = np.flatnonzero(tr.d > 0 if high else tr.d < 0) + 1
+        gain = sig(threshold_gain(drive, on, starts), 3)
+        ratio = "∫u / ∫valve" if high else "∫(1 - u) / ∫(1 - valve)"
+        gain_text = f"gain {gain:g} = {ratio} from the first pulse to the last"
+        if not math.isclose(gain, 1.0):
+            mod["gain"] = gain
+    what = "high" if high else "low"
+    return (
+        mod,
+        f"{what} time constant at {w * 1e3:g} ms in {share:.0%} of pulses, the other "
+        f"varies: {kind.type.upper()}; {gain_text} ({tr.count})",
+    )
+
+
+class IPFM(ModulatorKind):
+    """Integral pulse-frequency modulation: pulses of ``t_h`` at a rate following ``xi``."""
+
+    type = "ipfm"
+    name = "IPFM"
+    parameter = "t_h"
+    symbol = "t_h"
+    axis_name = "t_h"
+    colour = "#E69F00"  # orange
+    order = 1.0
+    settings: ClassVar[Mapping[str, float | None]] = {"t_h": None, "gain": 1.0}
+    default_grid: ClassVar[Mapping[str, float]] = {"start": 0.0125, "stop": 1.0, "step": 0.001}
+    reference = 0.020
+    threshold_formulas = ("0", "gain*t_h/(t_h + t_off)")
+    has_gain = True
+    guess_rank = 2.0
+
+    def check_dt(self, s: Mapping[str, float], dt: float) -> None:
+        check_threshold(self, s, dt)
+
+    def pulse(
+        self, x: npt.NDArray[np.float64], dt: float, s: Mapping[str, float]
+    ) -> npt.NDArray[np.int8]:
+        return _pulses.fire_pulses(x, dt, s["gain"] * s["t_h"], s["t_h"])
+
+    def pulse_times(
+        self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
+    ) -> tuple[Any, Any]:
+        t_h = np.broadcast_to(s["t_h"], np.broadcast_shapes(np.shape(x), np.shape(s["t_h"])))
+        ratio = safe_div(s["gain"], x, np.inf)
+        return t_h, t_h * np.maximum(ratio - 1.0, 0.0)
+
+    def fractions(
+        self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
+    ) -> tuple[Any, Any]:
+        a1 = 1.0 - (1.0 + p.t_off / s["t_h"]) * x / s["gain"]
+        a2 = (1.0 - p.t_on / s["t_h"]) * x / s["gain"]
+        return a1, a2
+
+    def thresholds(self, s: Mapping[str, Any], p: ValveParams) -> tuple[Any, Any]:
+        dead = np.where(s["t_h"] > p.t_on, 0.0, 1.0)
+        return dead, s["gain"] * s["t_h"] / (s["t_h"] + p.t_off)
+
+    def sweep_settings(
+        self, v: npt.NDArray[np.float64], p: ValveParams, gain: Any = None
+    ) -> dict[str, Any]:
+        return {"t_h": v, "gain": np.ones_like(v) if gain is None else gain}
+
+    def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
+        return v > p.t_on
+
+    def constraint(self, p: ValveParams) -> str:
+        return f"t_h > t_on = {p.t_on * 1e3:g} ms (gain = 1)"
+
+    def sweep_limits(
+        self, values: npt.NDArray[np.float64], p: ValveParams
+    ) -> list[tuple[str, float, float, str, str]]:
+        return [("t_on", p.t_on, values[-1], "IPFM t_h", "t_h > t_on")]
+
+    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
+        return guess_fired(self, trace, high=True)
