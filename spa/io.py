@@ -11,7 +11,7 @@ if TYPE_CHECKING:
 
     from spa.model.params import ValveParams
 
-__all__ = ["get_logger", "package_digest", "read_params", "read_runs", "write_csv"]
+__all__ = ["get_logger", "package_digest", "peak_rss_mib", "read_params", "read_runs", "write_csv"]
 
 
 def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:
@@ -44,6 +44,13 @@ def package_digest() -> str:
     for path in sorted(root.rglob("*.py")):
         h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()[:16]
+
+
+def peak_rss_mib() -> float:
+    """The largest resident set of this process so far, MiB (Linux: ``ru_maxrss`` in KiB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def write_csv(df: pd.DataFrame, path: str | Path) -> None:

@@ -70,10 +70,6 @@ def save_figure(
     dpi = max(int(dpi), math.ceil(min_width / fig.get_figwidth()))
     png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(png, dpi=dpi, metadata={"Software": None})
-    if fig.get_layout_engine() is not None:
-        # the layout is done: the SVG keeps it rather than computing it again (about a
-        # quarter of a figure's time goes to constrained layout)
-        fig.set_layout_engine("none")
     if vector:
         style = {"svg.hashsalt": SVG_HASHSALT, "svg.fonttype": "path", "svg.image_inline": True}
         with matplotlib.rc_context(style):

@@ -1,6 +1,6 @@
 """The overview across datasets (results/overview.csv) and Fig. O1 (results/overview.png)."""
 
-from spa.io import get_logger, write_csv
+from spa.io import get_logger, peak_rss_mib, write_csv
 from spa.plots.overview import plot_overview
 from spa.plots.save import draw
 from spa.report.overview import overview_table, read_rows
@@ -15,3 +15,4 @@ for p in PARAM_NAMES:
     if changed:
         log.warning("%s changed (interval excludes the previous session's) at %s", p, changed)
 log.info("overview of %d datasets", len(table))
+log.info("peak RSS of the job: %.0f MiB", peak_rss_mib())

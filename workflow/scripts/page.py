@@ -3,7 +3,7 @@
 from pathlib import Path
 
 import spa
-from spa.io import get_logger
+from spa.io import get_logger, peak_rss_mib
 from spa.report.overview import overview_row, rig_label, write_row
 from spa.report.site import build_dataset_page
 from spa.status import dataset_failures, run_stage
@@ -27,7 +27,10 @@ def main() -> None:
     ]
     first = next((r["stage"] for r in failed if not r.get("upstream")), None)
     write_row(snakemake.output.row, overview_row(results / dataset, dataset, recorded, rig, first))
-    log.info("wrote %s (%.0f KB, %d figures)", page, len(text.encode()) / 1024, text.count("<img "))
+    log.info(
+        "wrote %s (%.0f KB, %d figures); peak RSS of the job so far %.0f MiB",
+        page, len(text.encode()) / 1024, text.count("<img "), peak_rss_mib(),
+    )  # fmt: skip
 
 
 def spa_session(dataset: str) -> tuple[str | None, str]:

@@ -5,7 +5,7 @@ written by its own job (page.py)."""
 from pathlib import Path
 
 import spa
-from spa.io import get_logger
+from spa.io import get_logger, peak_rss_mib
 from spa.report.site import build_analytic_page, build_index
 
 log = get_logger("report", snakemake.log[0])
@@ -22,3 +22,4 @@ for path, text in pages.items():
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text(text, encoding="utf-8", newline="\n")
     log.info("wrote %s (%.0f KB, %d figures)", path, len(text.encode()) / 1024, text.count("<img "))
+log.info("peak RSS of the job: %.0f MiB", peak_rss_mib())
