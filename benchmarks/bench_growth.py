@@ -127,7 +127,7 @@ def add_one(n: int, tmp: Path) -> dict[str, float | str]:
     if "Nothing to be done" not in log_noop:
         sys.exit(f"the run after adding one dataset was not complete:\n{log_noop[-2000:]}")
     pages = sorted((out / "report").glob("*.html"), key=lambda p: p.stat().st_size)
-    rss = r"peak RSS of the job(?: so far)? ([\d.]+) MiB"
+    rss = r"peak RSS of the job(?: so far)?:? ([\d.]+) MiB"
     return {
         "datasets": n,
         "cold_none_s": t_cold,
