@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import yaml
 
+from spa.io import read_yaml
 from spa.report.params import PARAM_NAMES
 
 __all__ = [
@@ -58,7 +58,7 @@ def rig_label(rig: Mapping[str, Any] | None) -> str:
 def _read_yaml(path: Path) -> dict[str, Any]:
     if not path.is_file():
         return {}
-    doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    doc = read_yaml(path)
     return doc if isinstance(doc, dict) else {}
 
 

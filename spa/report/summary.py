@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-import yaml
 
+from spa.io import read_yaml
 from spa.report.html import format_value
 from spa.report.params import PARAM_NAMES
 
@@ -72,7 +72,7 @@ def fit_summary(fit: pd.DataFrame) -> str:
 def _recommendation(path: Path) -> str:
     if not path.is_file():
         return "not tuned"
-    rec = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    rec = read_yaml(path) or {}
     best = rec.get("recommended")
     if isinstance(best, Mapping) and best.get("description"):
         cost = f" (J = {format_value(best['J'])} bar)" if "J" in best else ""
@@ -82,7 +82,7 @@ def _recommendation(path: Path) -> str:
 
 def _dataset_row(folder: Path, name: str, link: str) -> str:
     e = html.escape
-    params = yaml.safe_load((folder / "identification" / "params.yaml").read_text("utf-8"))
+    params = read_yaml(folder / "identification" / "params.yaml")
     cells = [f'<th scope="row"><a href="{e(link)}">{e(name)}</a></th>']
     cells += [f'<td class="num">{param_cell(params[n], n)}</td>' for n in PARAM_NAMES]
     fit_path = folder / "validation" / "fit.csv"
