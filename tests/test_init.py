@@ -422,3 +422,21 @@ def test_init_fills_recorded_or_leaves_a_todo_comment(tmp_path) -> None:
         assert load_spec(lvm).recorded == "2025-03-03"
     except Exception as exc:  # other TODOs of the draft: the date itself is accepted
         assert "recorded" not in str(exc)
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [("2025-03-04", "2025-03-04"), ("2025-03-04T14:02:00", "2025-03-04"), ("March", None)],
+)
+def test_recorded_is_an_iso_date_or_a_named_error(tmp_path, value, expected) -> None:
+    from spa.datasets import DatasetError, load_spec
+
+    folder = tmp_path / "example"
+    shutil.copytree(EXAMPLE, folder)
+    spec = folder / "dataset.yaml"
+    spec.write_text(spec.read_text().replace("origin:", f"recorded: {value}\norigin:", 1))
+    if expected:
+        assert load_spec(folder).recorded == expected
+    else:
+        with pytest.raises(DatasetError, match="recorded must be an ISO 8601 date"):
+            load_spec(folder)
