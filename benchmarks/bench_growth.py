@@ -5,6 +5,7 @@ Run from the repository root (nothing is written to results/ or raw/):
     .venv/bin/python benchmarks/bench_growth.py                  # 1, 10, 50, 100 datasets
     .venv/bin/python benchmarks/bench_growth.py --counts 1 10    # a quicker look
     .venv/bin/python benchmarks/bench_growth.py --figures none   # one setting of `figures`
+    .venv/bin/python benchmarks/bench_growth.py --add-one 10 100 # add one dataset to N
 
 For each setting of `figures` (default both: `all`, every dataset's figures, as the small
 configuration draws them; `none`, tables and figure data only) and each count N, N copies of
@@ -98,11 +99,69 @@ def measure(n: int, tmp: Path, figures: str) -> dict[str, float | str]:
     }
 
 
+def _logged(path: Path, pattern: str) -> float:
+    """The number a job's log reports with ``pattern`` (one group), or NaN."""
+    m = re.findall(pattern, path.read_text()) if path.is_file() else []
+    return float(m[-1]) if m else float("nan")
+
+
+def add_one(n: int, tmp: Path) -> dict[str, float | str]:
+    """N datasets processed without figures, then one more with its figures: the wall time of
+    that run, the report jobs' peak RSS (from their logs) and the pages' sizes."""
+    raw = tmp / "raw"
+    make_raw(raw, n)
+    out = tmp / "results"
+    base = [sys.executable, "-m", "snakemake", "reproduce-all", "-c2", "--configfile",
+            "config/small.yaml", "--config", f"results={out}",
+            f"datasets={{'raw_dir': '{raw}'}}"]  # fmt: skip
+    t_cold, _, _ = run([*base, "figures=none"], ROOT)
+    new = f"bench{n:03d}"
+    shutil.copytree(ROOT / "raw" / "example", raw / new)
+    spec = raw / new / "dataset.yaml"
+    spec.write_text(spec.read_text().replace("name: example", f"name: {new}", 1))
+    cmd = [*base, f"figures=[{new}]"]
+    t_dag, _, _ = run([*cmd, "--dry-run", "--quiet"], ROOT)
+    t_add, log, _ = run(cmd, ROOT)
+    jobs = len(re.findall(r"^Finished jobid", log, flags=re.M))
+    t_noop, log_noop, _ = run(cmd, ROOT)
+    if "Nothing to be done" not in log_noop:
+        sys.exit(f"the run after adding one dataset was not complete:\n{log_noop[-2000:]}")
+    pages = sorted((out / "report").glob("*.html"), key=lambda p: p.stat().st_size)
+    rss = r"peak RSS of the job(?: so far)?:? ([\d.]+) MiB"
+    return {
+        "datasets": n,
+        "cold_none_s": t_cold,
+        "add_one_s": t_add,
+        "add_one_jobs": jobs,
+        "noop_s": t_noop,
+        "dag_s": t_dag,
+        "index_kib": (out / "report.html").stat().st_size / 1024,
+        "largest_page": pages[-1].name,
+        "largest_page_kib": pages[-1].stat().st_size / 1024,
+        "report_rss_mib": _logged(out / "logs" / "report.log", rss),
+        "overview_rss_mib": _logged(out / "logs" / "overview.log", rss),
+        "new_dataset_job_rss_mib": _logged(out / "logs" / new / "page.log", rss),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--counts", type=int, nargs="+", default=[1, 10, 50, 100])
     ap.add_argument("--figures", nargs="+", default=["all", "none"], choices=["all", "none"])
+    ap.add_argument(
+        "--add-one",
+        type=int,
+        nargs="+",
+        metavar="N",
+        help="instead: N datasets processed without figures, then one more added with its "
+        "figures; time that run, the report jobs' peak RSS and the pages' sizes",
+    )
     args = ap.parse_args()
+    if args.add_one:
+        for n in args.add_one:
+            with tempfile.TemporaryDirectory(prefix="spa-add-one-") as tmp:
+                print(add_one(n, Path(tmp)), flush=True)
+        return
     rows: list[dict] = []
     slopes = {}
     for figures in args.figures:

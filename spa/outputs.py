@@ -41,6 +41,7 @@ from spa.stage_types import (
     Stage,
     _analytic,
     _per_dataset,
+    _with_vectors,
 )
 
 __all__ = [
@@ -367,7 +368,56 @@ STAGES: tuple[Stage, ...] = (
         Output("fig9_csv", "chirp/fig9.csv", DATA),
         category="Chirp",
     ),
-    Stage("report", False, (Output("report", "report.html", PAGE),), {"report": "report.log"}),
+    # Its dataset's page of the report and its row of the overview, in the dataset's own job.
+    _per_dataset(
+        "page",
+        Output("page", "report/{dataset}.html", PAGE),
+        Output("row", "report/overview.json", DATA),
+        upstream=(),
+    ),
+    Stage(
+        "overview",
+        False,
+        _with_vectors(
+            (
+                Output(
+                    "figure",
+                    "overview.png",
+                    FIGURE,
+                    "Fig. O1: the valve across sessions",
+                    "Each identified parameter against the session's date (dataset.yaml "
+                    "recorded:; undated sessions after the dated ones, by name, and said so "
+                    "on the axis) with its 95 % interval, one colour per rig, the least-squares "
+                    "trend (dashed) and a red ring where a session's interval excludes the "
+                    "previous session's of its rig: the valve changed.",
+                ),
+                Output(
+                    "table",
+                    "overview.csv",
+                    TABLE,
+                    "Overview across datasets",
+                    "One row per dataset in session order: date, rig, the five identified "
+                    "parameters with their 95 % intervals, validation FIT (median and lowest), "
+                    "the recommended setting with its J and J_exact (bar), the status, and "
+                    "changed_<parameter>: the interval excludes the previous session's of the "
+                    "rig. Also the data of Fig. O1.",
+                ),
+            )
+        ),
+        {"overview": "overview.log"},
+        section="overview",
+        category="Overview",
+    ),
+    Stage(
+        "report",
+        False,
+        (
+            Output("report", "report.html", PAGE),
+            Output("index", "report/index.html", PAGE),
+            Output("analytic", "report/analytic.html", PAGE),
+        ),
+        {"report": "report.log"},
+    ),
     # Last: fails the run, naming them, when any dataset failed (spa.status).
     Stage("check", False, (Output("status", "status.yaml", DATA),), {"check": "check.log"}),
 )
@@ -390,6 +440,14 @@ def get_stage(name: str) -> Stage:
 
 def _root(stage: Stage, results: str | Path, dataset: str) -> Path:
     return Path(results) / dataset if stage.per_dataset else Path(results)
+
+
+def _output_path(stage: Stage, out: Output, results: str | Path, dataset: str, root: Path) -> Path:
+    """Where an output is: under ``root``; a per-dataset output whose path names
+    ``{dataset}`` (its report page) under the results folder."""
+    if stage.per_dataset and "{dataset}" in out.path:
+        return Path(results) / out.path.replace("{dataset}", dataset)
+    return root / out.path
 
 
 def stage_outputs(
@@ -426,7 +484,7 @@ def stage_outputs(
     for out in stage.outputs:
         if not figures and out.kind in _DRAWN:
             continue
-        path = str(root / out.path)
+        path = str(_output_path(stage, out, results, dataset, root))
         paths[out.key] = mark_directory(path) if mark_directory and out.directory else path
     return paths
 
@@ -504,6 +562,8 @@ def dataset_folder(stage: str, paths: Mapping[str, object]) -> Path:
     stage_ = get_stage(stage)
     if stage_.per_dataset:
         for out in stage_.outputs:
+            if "{dataset}" in out.path:
+                continue
             path = Path(str(paths.get(out.key, "")))
             if (
                 out.key in paths

@@ -31,7 +31,10 @@ __all__ = [
 INGEST_MARKER = ".spa-ingest"
 
 #: Names the results folder uses for itself; no dataset may be called so.
-RESERVED_NAMES = frozenset({"analytic", "logs", "report.html", "status.yaml"})
+RESERVED_NAMES = frozenset(
+    {"analytic", "index", "logs", "overview.csv", "overview.png", "overview.svg", "report"}
+    | {"report.html", "status.yaml"}
+)
 
 SPEC_FILE = "dataset.yaml"
 

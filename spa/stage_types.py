@@ -47,7 +47,9 @@ class Output:
     key : str
         Its name in the rule's ``output:`` (``rules.<rule>.output.<key>``).
     path : str
-        Relative to the results folder, or to ``results/<dataset>`` for a per-dataset stage.
+        Relative to the results folder, or to ``results/<dataset>`` for a per-dataset stage;
+        a per-dataset path that names ``{dataset}`` is relative to the results folder (the
+        dataset's report page, ``report/{dataset}.html``).
     kind : str
         One of :data:`TABLE`, :data:`FIGURE`, :data:`VECTOR`, :data:`DATA`, :data:`PARAMS`,
         :data:`FIGURES`, :data:`RUNS`, :data:`PAGE`, :data:`RECOMMENDATION`.
@@ -110,7 +112,8 @@ class Stage:
         dataset). Several rules may write one stage's outputs (simulated and bench runs).
     section : str or None
         The report section its outputs belong to: ``"analytic"`` (paths relative to the
-        results folder) or ``"dataset"`` (one section per dataset); ``None``: none.
+        results folder; the report's analytic page), ``"dataset"`` (one page per dataset) or
+        ``"overview"`` (the report's index); ``None``: none.
     target : bool
         False for an intermediate step that only some datasets have (the raw-data manifest
         of bench datasets): ``reproduce-all`` gets it through the stages that read it.

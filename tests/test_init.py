@@ -375,3 +375,72 @@ def test_data_files_search_sub_folders_and_skip_the_rest(tmp_path: Path) -> None
     files, skipped = dy.data_files(tmp_path)
     assert files == ["B.PARQUET", "a.csv", "id/deep/y.csv", "id/x.mat"]
     assert skipped == ["notes.md"]
+
+
+def test_recorded_date_from_the_files_own_headers(tmp_path) -> None:
+    """LVM Date, TDMS wf_start_time, MAT v7.3 'Created on:'; CSV gives none."""
+    from file_writers import mat73_file, write_lvm
+
+    from spa.datasets.recorded import header_date, session_date
+
+    t = np.arange(10) * 1e-3
+    write_lvm(tmp_path / "a.lvm", [[{"X_Value": t, "p": t}]], decimal=".")
+    assert header_date(tmp_path / "a.lvm") == "2025-03-03"
+    with mat73_file(tmp_path / "b.mat") as f:
+        f["t"] = t
+    assert header_date(tmp_path / "b.mat") == "2025-03-03"
+    from nptdms import ChannelObject, GroupObject, TdmsWriter
+
+    start = np.datetime64("2024-12-30T23:59:00")
+    with TdmsWriter(str(tmp_path / "c.tdms")) as writer:
+        props = {"wf_start_time": start, "wf_increment": 1e-3}
+        writer.write_segment([GroupObject("g"), ChannelObject("g", "p", t, properties=props)])
+    assert header_date(tmp_path / "c.tdms") == "2024-12-30"
+    pd.DataFrame({"t": t}).to_csv(tmp_path / "d.csv", index=False)
+    assert header_date(tmp_path / "d.csv") is None
+    (tmp_path / "e.lvm").write_bytes(b"LabVIEW Measurement\nDate\t2025/13/45\n")  # no such day
+    assert header_date(tmp_path / "e.lvm") is None
+    assert session_date(tmp_path, ["a.lvm", "c.tdms", "d.csv"]) == (
+        "2024-12-30",
+        "from the header of c.tdms, the earliest of 2 files with one",
+    )
+
+
+def test_init_fills_recorded_or_leaves_a_todo_comment(tmp_path) -> None:
+    from file_writers import write_lvm
+
+    from spa.datasets import load_spec
+
+    csvs = tmp_path / "csvs"
+    shutil.copytree(EXAMPLE, csvs, ignore=shutil.ignore_patterns("*.mat", "*.parquet", "*.yaml"))
+    text = dy.draft_dataset(csvs)
+    assert "# recorded: YYYY-MM-DD  TODO: the day of the session (no file header" in text
+    lvm = tmp_path / "lvm"
+    lvm.mkdir()
+    table = pd.read_csv(EXAMPLE / "charge.csv")
+    write_lvm(lvm / "charge.lvm", [[{"X_Value": table["time_ms"], "p": table["P_act_kPa"]}]], ".")
+    text = dy.draft_dataset(lvm)
+    assert "recorded: 2025-03-03  # from the header of charge.lvm" in text
+    (lvm / "dataset.yaml").write_text(text.replace("TODO", "charge"))
+    try:
+        assert load_spec(lvm).recorded == "2025-03-03"
+    except Exception as exc:  # other TODOs of the draft: the date itself is accepted
+        assert "recorded" not in str(exc)
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [("2025-03-04", "2025-03-04"), ("2025-03-04T14:02:00", "2025-03-04"), ("March", None)],
+)
+def test_recorded_is_an_iso_date_or_a_named_error(tmp_path, value, expected) -> None:
+    from spa.datasets import DatasetError, load_spec
+
+    folder = tmp_path / "example"
+    shutil.copytree(EXAMPLE, folder)
+    spec = folder / "dataset.yaml"
+    spec.write_text(spec.read_text().replace("origin:", f"recorded: {value}\norigin:", 1))
+    if expected:
+        assert load_spec(folder).recorded == expected
+    else:
+        with pytest.raises(DatasetError, match="recorded must be an ISO 8601 date"):
+            load_spec(folder)

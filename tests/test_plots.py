@@ -284,3 +284,34 @@ def test_a_failed_stage_leaves_a_valid_svg_beside_its_png(tmp_path):
 
     write_placeholder(tmp_path / "fig8.svg", "vector", "sine failed")
     assert (tmp_path / "fig8.svg").read_text().startswith("<svg xmlns=")
+
+
+def _pixels(fig: Figure, path) -> np.ndarray:
+    from PIL import Image
+
+    save_figure(fig, path, vector=False)
+    return np.asarray(Image.open(path).convert("L")).astype(int)
+
+
+def test_thinned_traces_draw_the_same_pixels_as_every_sample(tmp_path):
+    """Min-max decimation (spa.plots.openloop.thin) keeps every peak and the chattering
+    envelope: Fig. 6 of a 55 s, 1 kHz staircase with spikes and 20 Hz chattering drawn from
+    at most 6000 points is pixel for pixel the figure of all 55 000 samples; every k-th
+    sample (the old thinning) is not."""
+    from spa.plots.openloop import thin
+
+    t = np.arange(55_000) * 1e-3
+    rng = np.random.default_rng(3)
+    p = (
+        0.1 * np.floor(t / 5.0)
+        + 0.02 * (np.sin(2 * np.pi * 20 * t) > 0)
+        + rng.normal(0, 2e-3, t.size)
+    )
+    p[rng.choice(t.size, 12, replace=False)] += 0.3  # isolated spikes
+    full = pd.DataFrame({"t": t, "p": p, "modulator": "pwm", "setting": "pwm-20Hz"})
+    small = thin(full, 6000)
+    assert len(small) <= 6000 and small["p"].max() == full["p"].max()
+    every_kth = full.iloc[:: -(-len(full) // 6000)]
+    reference = _pixels(fig6(full), tmp_path / "full.png")
+    assert np.abs(_pixels(fig6(small), tmp_path / "thin.png") - reference).max() <= 16
+    assert np.abs(_pixels(fig6(every_kth), tmp_path / "kth.png") - reference).max() > 128

@@ -273,7 +273,7 @@ def test_report_opens_with_a_summary_per_dataset(fake_results, report):
     assert "0.5337<br><small>[0.5223, 0.5437]</small>" in sim
     assert "3.004<br><small>[2.94, 3.06]</small>" in sim
     assert "median 54.73 %, lowest 12 %" in sim  # validation FIT of the two runs
-    assert "Use IIPFM with t_l = 19.5 ms and G = 1.154 &lt;best&gt;." in sim
+    assert "IIPFM, t_l = 19.5 ms, G = 1.154 (J = 3.61 bar)" in sim
     assert "(nominal)" in rows[2] and "not tuned" in rows[2]  # t_off from the fallback
     assert "<figcaption>Per dataset: each identified valve parameter" in summary
 

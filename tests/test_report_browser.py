@@ -176,15 +176,59 @@ def test_fabricated_report_shows_every_figure_and_table(browser, fake_results, t
     assert stats["title"] == "spa: reproduction report"
 
 
-def test_small_config_report_in_the_browser(browser, request):
+def check_site_page(stats: dict, console: list[dict], n_figures: int, n_tables: int) -> None:
+    """A page of the site: no script, nothing fetched, every figure and table shown and
+    captioned, and nothing wider than a 1280 px window (Table 3 included)."""
+    assert [m for m in console if m["level"] in ("SEVERE", "WARNING")] == [], console
+    assert stats["scripts"] == 0 and stats["resources"] == []
+    assert stats["images"] == stats["images_shown"] == n_figures
+    assert stats["tables"] == stats["tables_shown"] == n_tables
+    assert stats["dangling_links"] == 0
+    assert stats["uncaptioned"] == [] and stats["images_outside_figures"] == 0
+    assert stats["window_width"] == 1280
+    for width, room in stats["table3"]:
+        assert width <= room <= stats["window_width"], stats["table3"]
+    assert stats["page_width"] <= stats["window_width"]
+
+
+def expected_counts_of(results: Path, dataset: str) -> tuple[int, int]:
+    """(figures, tables) of one dataset's folder, as :func:`expected_counts` counts them."""
+    import shutil
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        (root / "analytic").mkdir()
+        shutil.copytree(results / dataset, root / dataset, ignore=_only_counted)
+        _, figures, tables = expected_counts(root)
+    return figures, tables
+
+
+def _only_counted(folder: str, names: list[str]) -> list[str]:
+    return [n for n in names if n.endswith((".parquet", ".svg"))]
+
+
+def test_small_config_site_in_the_browser(browser, request):
+    """The index (results/report.html, also report/index.html) and a dataset's page."""
     # the browser first, so that a missing Chromium skips before the ~1 min pipeline run
     small_run = request.getfixturevalue("small_run")  # session-scoped, in conftest.py
-    path = small_run / "report.html"
-    text = path.read_text(encoding="utf-8")
-    datasets, n_figures, n_tables = expected_counts(small_run)
+    datasets, _, _ = expected_counts(small_run)
     assert datasets == ["example", "sim"]
     seed = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["seed"]
-    assert f"<dt>seed</dt><dd>{seed}</dd>" in text
-    assert f"<dt>spa version</dt><dd>{spa.__version__}</dd>" in text
-    stats, console = open_report(browser, path)
-    check_page(stats, console, n_figures, n_tables, len(datasets))
+    for path in (small_run / "report.html", small_run / "report" / "index.html"):
+        text = path.read_text(encoding="utf-8")
+        assert f"<dt>seed</dt><dd>{seed}</dd>" in text
+        assert f"<dt>spa version</dt><dd>{spa.__version__}</dd>" in text
+        stats, console = open_report(browser, path)
+        # Fig. O1 alone; the summary and the overview table
+        check_site_page(stats, console, 1, 2)
+        ((width, room, rows),) = stats["summary"]
+        assert rows == 1 + len(datasets) and width <= room
+        assert stats["title"] == "spa: reproduction report"
+    for dataset in datasets:
+        stats, console = open_report(browser, small_run / "report" / f"{dataset}.html")
+        figures, tables = expected_counts_of(small_run, dataset)
+        check_site_page(stats, console, figures, tables)
+        assert stats["table3"], "no Table 3 shown"
+    stats, console = open_report(browser, small_run / "report" / "analytic.html")
+    check_site_page(stats, console, 2, 2)

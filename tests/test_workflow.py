@@ -35,6 +35,7 @@ def test_small_config_produces_every_target(small_run):
         "analytic",
         "check.log",
         "example",
+        "overview.log",
         "report.log",
         "sim",
     ]
@@ -51,7 +52,8 @@ def test_every_figure_is_for_print_with_its_vector_copy_and_data(small_run):
     pngs = sorted(small_run.rglob("*.png"))
     registered = {o.path for s in STAGES for o in s.outputs if o.kind == FIGURE}
     for dataset in ["sim", "example"]:  # every registered figure of each dataset is a PNG here
-        assert {p for p in registered if not p.startswith("analytic/")} <= {
+        per_dataset = {o.path for s in STAGES if s.per_dataset for o in s.outputs}
+        assert registered & per_dataset <= {
             str(p.relative_to(small_run / dataset))
             for p in pngs
             if p.is_relative_to(small_run / dataset)
@@ -174,9 +176,12 @@ def test_bad_raw_dataset_fails_alone_and_the_report_names_it(tmp_path):
     page = (out / "report.html").read_text()
     assert "Failed datasets" in page and "pulsed" in page
     assert "Dataset broken (failed)" in page
-    # the summary at the top names it too, with the stage that failed
-    summary = page[page.index('<section id="summary">') : page.index('<section id="failed">')]
-    assert '<tr class="failed"><th scope="row">broken</th>' in summary
+    # the failed datasets come first; the summary names it too, with the stage that failed
+    assert page.index('<section id="failed">') < page.index('<section id="summary">')
+    summary = page[page.index('<section id="summary">') : page.index('<section id="overview">')]
+    assert '<tr class="failed"><th scope="row"><a href="report/broken.html">broken</a></th>' in (
+        summary
+    )
     assert "FAILED at stage <code>runs</code>" in summary and "pulsed" in summary
     assert not (out / "status.yaml").exists()
     # a second run does nothing new and still fails, naming the dataset
@@ -301,12 +306,12 @@ def test_staleness_follows_content_not_modification_times(tmp_path):
 
 
 def _files(folder: Path) -> dict[str, bytes]:
-    """Every file of a results folder but logs, the report and the recommendation's
+    """Every file of a results folder but logs, the report's pages and the recommendation's
     `source:` line (it names the results folder), by relative path."""
     found = {}
     for path in sorted(folder.rglob("*")):
         rel = str(path.relative_to(folder))
-        if path.is_file() and not rel.startswith("logs/") and rel != "report.html":
+        if path.is_file() and not rel.startswith(("logs/", "report")):
             data = path.read_bytes()
             if path.name == "recommendation.yaml":
                 data = data.split(b"\n", 1)[1]
@@ -339,9 +344,11 @@ def test_figures_setting_draws_for_the_named_datasets_only(small_run, isolated_c
         if rel not in figures and not any(rel.startswith(f"{f}/") for f in figures)
     }
     assert without == expected  # the same tables and figure data, and no figure
-    report = (out / "report.html").read_text()
-    assert report.count("No figures for this dataset") == 2
-    assert report.count("<img ") == 2  # the analytic Figs. 4 and 5 only
+    for dataset in ["sim", "example"]:
+        page = (out / "report" / f"{dataset}.html").read_text()
+        assert page.count("No figures for this dataset") == 1 and "<img " not in page
+    assert (out / "report.html").read_text().count("<img ") == 1  # Fig. O1 only
+    assert (out / "report" / "analytic.html").read_text().count("<img ") == 2  # Figs. 4, 5
 
     plan = run(*args, "figures=[example]", "-n")
     assert plan.returncode == 0, plan.stderr[-3000:]

@@ -91,7 +91,7 @@ _FORMATS = {
 }
 
 
-_TOP_KEYS = ("name", "description", "origin", "rig", "units", "columns", "csv", "runs")
+_TOP_KEYS = ("name", "description", "origin", "rig", "recorded", "units", "columns", "csv", "runs")
 
 
 _REQUIRED_TOP = ("name", "description", "origin", "rig", "runs")

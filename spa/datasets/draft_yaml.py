@@ -39,6 +39,7 @@ from spa.datasets.draft import (
 )
 from spa.datasets.readers import _SOURCES
 from spa.datasets.readers.base import _ReadError, _Retry
+from spa.datasets.recorded import session_date
 from spa.datasets.yaml_loader import _UniqueKeyLoader
 
 __all__ = ["FileDraft", "draft_dataset", "draft_files", "write_draft"]
@@ -351,8 +352,15 @@ def _merged_roles(drafts: list[FileDraft]) -> dict[str, Guess] | None:
     return merged if len(names) == len(set(names)) else None
 
 
-def render_draft(name: str, drafts: list[FileDraft], skipped: list[str]) -> str:
-    """The text of a draft ``dataset.yaml`` for the dataset ``name``.
+def render_draft(
+    name: str,
+    drafts: list[FileDraft],
+    skipped: list[str],
+    recorded: tuple[str | None, str] = (None, "no file header gives a date"),
+) -> str:
+    """The text of a draft ``dataset.yaml`` for the dataset ``name``; ``recorded`` is the
+    session's day and where it is from (:func:`spa.datasets.recorded.session_date`), a
+    ``# recorded: YYYY-MM-DD  TODO`` comment when there is none.
 
     Dataset-level ``units``, ``columns`` and ``csv`` options when every read file shares them,
     per run otherwise. Each guess carries its reason as a comment; a failed guess is ``TODO``.
@@ -377,6 +385,9 @@ def render_draft(name: str, drafts: list[FileDraft], skipped: list[str]) -> str:
         f"description: {_scalar(f'Bench recordings {name}, drafted by spa init.')}"
         "  # say what was recorded, when and how",
         "origin: bench  # bench (measured) or synthetic (generated)",
+        f"recorded: {recorded[0]}{_comment(recorded[1])}"
+        if recorded[0]
+        else f"# recorded: YYYY-MM-DD  {TODO}: the day of the session ({recorded[1]})",
         "rig:  # describe the bench: valve, actuator, sensors, controller",
         f"  sensors: {_scalar(f'pressure logged at {rate}' if rate else 'to describe')}",
     ]
@@ -437,7 +448,8 @@ def draft_dataset(folder: str | Path) -> str:
     if not drafts:
         known = ", ".join(sorted(_FORMATS))
         raise ValueError(f"{folder} holds no data file ({known}); nothing to draft")
-    return render_draft(folder.resolve().name, drafts, skipped)
+    recorded = session_date(folder, [d.file for d in drafts])
+    return render_draft(folder.resolve().name, drafts, skipped, recorded)
 
 
 def write_draft(folder: str | Path, force: bool = False) -> tuple[Path, str]:

@@ -3,6 +3,7 @@ parsed :class:`DatasetSpec`."""
 
 from __future__ import annotations
 
+import datetime
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -108,6 +109,8 @@ class DatasetSpec:
         The dataset's ``csv:`` options, as written (runs hold the resolved ones).
     runs : tuple of RunEntry
         The runs, in file order.
+    recorded : str or None
+        The day the session was recorded (``recorded:``, ISO 8601 ``YYYY-MM-DD``), or None.
     """
 
     folder: Path
@@ -120,6 +123,7 @@ class DatasetSpec:
     columns: dict[str, str]
     runs: tuple[RunEntry, ...]
     csv: dict[str, Any] = field(default_factory=dict)
+    recorded: str | None = None
 
     def run_path(self, run: RunEntry | str) -> Path:
         """Absolute path of a run's file."""
@@ -154,6 +158,7 @@ class _Parsed:
     columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
     csv: dict[str, Any] = field(default_factory=dict)
     runs: list[RunEntry] = field(default_factory=list)
+    recorded: str | None = None
     data_ok: bool = True  # units and columns are usable for checking the data
 
     def error(
@@ -299,6 +304,7 @@ def _parse_spec(folder: Path) -> _Parsed:
     _top_value(parsed, doc, "description", _description_problem, str.strip)
     _top_value(parsed, doc, "origin", _origin_problem)
     _top_value(parsed, doc, "rig", _rig_problem, _plain)
+    _top_value(parsed, doc, "recorded", _recorded_problem, recorded_date)
 
     _parse_options(parsed, doc)
     if "runs" in doc:
@@ -400,6 +406,38 @@ def _rig_problem(rig: Any) -> str | None:
             "rig must be a mapping describing the bench, e.g. "
             f"{{valve: ..., actuator: ..., sensors: ..., controller: ...}}; got {rig!r}"
         )
+    return None
+
+
+def recorded_date(value: Any) -> str:
+    """The ISO 8601 day (``YYYY-MM-DD``) of a ``recorded:`` value: a date, a date and time, or
+    text starting with one (YAML reads ``2025-03-01`` as a date).
+
+    Raises
+    ------
+    ValueError
+        If it is none of these.
+
+    Examples
+    --------
+    >>> recorded_date("2025-03-01T14:02:00"), recorded_date(datetime.date(2025, 3, 1))
+    ('2025-03-01', '2025-03-01')
+    """
+    if isinstance(value, datetime.datetime):
+        return value.date().isoformat()
+    if isinstance(value, datetime.date):
+        return value.isoformat()
+    if isinstance(value, str):
+        return datetime.date.fromisoformat(value.strip()[:10]).isoformat()
+    raise ValueError(f"not a date: {value!r}")
+
+
+def _recorded_problem(value: Any) -> str | None:
+    """What is wrong with ``recorded:``, or None."""
+    try:
+        recorded_date(value)
+    except ValueError:
+        return f"recorded must be an ISO 8601 date such as 2025-03-01, got {value!r}"
     return None
 
 
@@ -595,4 +633,5 @@ def _spec_from(parsed: _Parsed) -> DatasetSpec:
         columns=dict(parsed.columns),
         runs=tuple(parsed.runs),
         csv=dict(parsed.csv),
+        recorded=parsed.recorded,
     )

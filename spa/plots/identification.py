@@ -17,7 +17,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from spa.identification import ChargeFit, DischargeFit
-from spa.plots.style import OKABE_ITO, new_figure
+from spa.plots.style import OKABE_ITO, minmax_indices, new_figure
 from spa.validation import ValidationResult
 
 if TYPE_CHECKING:
@@ -246,13 +246,16 @@ def fig2c(
     at = _zoom_edge(data, zoom_span[1]) if zoom_at is None else float(zoom_at)
     fig = new_figure(figsize=(7.0, 5.6), layout="constrained")
     ax, az = fig.subplots(2, 1, height_ratios=[3, 2])
-    for a, marker in ((ax, ""), (az, ".")):
-        a.plot(data["t"], data["p"], color=_MEASURED, lw=1.0, marker=marker, ms=4, label="measured")
-        a.plot(data["t"], data["p_model"], color=_MODEL, lw=1.5, ls="--", label="model")
+    margin = zoom_span[1] - zoom_span[0]  # the zoom draws every sample near its window
+    window = data["t"].between(at + zoom_span[0] - margin, at + zoom_span[1] + margin)
+    whole = data.iloc[minmax_indices(data["t"], [data["p"], data["p_model"], data["valve"]])]
+    for a, marker, part in ((ax, "", whole), (az, ".", data[window])):
+        a.plot(part["t"], part["p"], color=_MEASURED, lw=1.0, marker=marker, ms=4, label="measured")
+        a.plot(part["t"], part["p_model"], color=_MODEL, lw=1.5, ls="--", label="model")
         a.set_ylabel("P (bar)")
         a.grid(True, lw=0.3, alpha=0.5)
         cmd = a.twinx()
-        cmd.step(data["t"], data["valve"], where="post", color="0.35", lw=0.8)
+        cmd.step(part["t"], part["valve"], where="post", color="0.35", lw=0.8)
         cmd.set_ylim(-0.05, 3.0)
         cmd.set_yticks([0, 1])
         cmd.set_ylabel("valve command")
@@ -319,13 +322,15 @@ def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
     _check_columns(data, ["t", "p", "p_model"])
     fig = new_figure(figsize=(7.0, 4.5), layout="constrained")
     ax, ae = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
+    err = data["error"] if "error" in data.columns else data["p"] - data["p_model"]
+    keep = minmax_indices(data["t"], [data["p"], data["p_model"], err])  # every peak
+    data, err = data.iloc[keep], err.iloc[keep]
     ax.plot(data["t"], data["p"], color=_MEASURED, lw=0.8, label="measured")
     ax.plot(data["t"], data["p_model"], color=_MODEL, lw=1.0, ls="--", label="model")
     ax.set_ylabel("P (bar)")
     ax.legend(frameon=False, loc="upper left")
     if title:
         ax.set_title(title)
-    err = data["error"] if "error" in data.columns else data["p"] - data["p_model"]
     ae.plot(data["t"], err, color="k", lw=0.6)
     ae.axhline(0.0, color="0.5", lw=0.6)
     ae.set_ylabel("error (bar)")

@@ -24,7 +24,13 @@ from spa.openloop.paper import PAPER_TIME_CONSTANTS
 from spa.openloop.reference import REFERENCE
 from spa.openloop.spectra import principal_domain_mask
 from spa.plots.analytic import _COLOURS, _LABELS, _require
-from spa.plots.style import new_figure, ordered_settings, setting_colours, setting_sort_key
+from spa.plots.style import (
+    minmax_indices,
+    new_figure,
+    ordered_settings,
+    setting_colours,
+    setting_sort_key,
+)
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -64,18 +70,28 @@ def _sorted(table: pd.DataFrame) -> pd.DataFrame:
     return table.iloc[sorted(range(len(table)), key=lambda i: keys.iloc[i])]
 
 
-def thin(df: pd.DataFrame, max_points: int) -> pd.DataFrame:
-    """Every k-th row, with k the smallest step leaving at most ``max_points`` rows.
+def thin(df: pd.DataFrame, max_points: int, x: str = "t") -> pd.DataFrame:
+    """At most ``max_points`` rows of a trace that draw like all of them: per column of ``x``
+    its first and last row and the rows of the smallest and largest value of every other
+    numeric column (:func:`spa.plots.style.minmax_indices`), so that every peak and the
+    envelope of chattering stay; without a column ``x``, every k-th row.
 
     Examples
     --------
-    >>> len(thin(pd.DataFrame({"t": range(10)}), 4))
-    4
+    >>> trace = pd.DataFrame({"t": range(10000), "p": [0.0] * 9999 + [1.0]})
+    >>> small = thin(trace, 400)
+    >>> len(small) <= 400, float(small["p"].max())
+    (True, 1.0)
     """
     if max_points < 1:
         raise ValueError(f"max_points must be >= 1, got {max_points}")
-    step = -(-len(df) // max_points)
-    return df.iloc[:: max(step, 1)]
+    if len(df) <= max_points:
+        return df
+    if x not in df.columns:
+        return df.iloc[:: -(-len(df) // max_points)]
+    ys = [c for c in df.select_dtypes("number").columns if c != x]
+    columns = max(1, max_points // (2 + 2 * len(ys)))
+    return df.iloc[minmax_indices(df[x], [df[c] for c in ys], columns)]
 
 
 def no_data_figure(message: str) -> Figure:
@@ -120,7 +136,8 @@ def fig6(traces: pd.DataFrame) -> Figure:
     for ax, kind in zip(axes, kinds, strict=True):
         groups = list(_groups(traces[traces["modulator"] == kind]))
         for (setting, g), colour in zip(groups, setting_colours(len(groups)), strict=True):
-            ax.plot(g["t"], g["p"], lw=0.8, color=colour, label=setting)
+            shown = g.iloc[minmax_indices(g["t"], [g["p"]])]  # every peak, fewer points
+            ax.plot(shown["t"], shown["p"], lw=0.8, color=colour, label=setting)
         ax.set_title(_LABELS[kind], fontsize=9, loc="left")
         ax.set_ylabel("P (bar)")
         ax.grid(True, lw=0.3, alpha=0.5)

@@ -25,6 +25,8 @@ __all__ = [
     "MODULATOR_COLOURS",
     "MODULATOR_NAMES",
     "OKABE_ITO",
+    "TRACE_COLUMNS",
+    "minmax_indices",
     "ordered_settings",
     "setting_colours",
     "setting_sort_key",
@@ -138,3 +140,69 @@ def new_figure(**kwargs: Any) -> Figure:
     from matplotlib.figure import Figure
 
     return Figure(**kwargs)
+
+
+TRACE_COLUMNS: Final = 1500
+"""Columns a trace is decimated to (:func:`minmax_indices`): about the pixel columns of the
+widest panel at :data:`spa.plots.save.PNG_DPI` (10 in, less the margins, 200 dpi)."""
+
+
+def minmax_indices(x: Any, ys: Iterable[Any], columns: int = TRACE_COLUMNS) -> Any:
+    """The samples of a trace worth drawing: per column of ``x``, the first, last, smallest
+    and largest sample of each ``y``, in order (at most ~4 per column for one ``y``).
+
+    A line drawn through them covers the same pixels as one through every sample at
+    ``columns`` pixel columns: every peak, every dip and the envelope of chattering stay.
+
+    Parameters
+    ----------
+    x : array_like
+        Increasing abscissa (time), finite.
+    ys : iterable of array_like
+        The curves drawn against ``x`` (NaN samples are kept where they are the extreme).
+    columns : int
+        Pixel columns across the span of ``x``.
+
+    Returns
+    -------
+    numpy.ndarray of int
+        Sorted indices into ``x``; every index when there are few samples.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(1000.0)
+    >>> y = np.zeros(1000); y[517] = 5.0
+    >>> i = minmax_indices(t, [y], columns=10)
+    >>> len(i) <= 40, 517 in i, float(y[i].max())
+    (True, True, 5.0)
+    """
+    import numpy as np
+
+    if columns < 1:
+        raise ValueError(f"columns must be >= 1, got {columns}")
+    x_ = np.asarray(x, dtype=float)
+    n = x_.size
+    if n <= 4 * columns:
+        return np.arange(n)
+    span = x_[-1] - x_[0]
+    col = np.minimum(((x_ - x_[0]) * (columns / span)).astype(np.int64), columns - 1)
+    starts = np.flatnonzero(np.r_[True, col[1:] != col[:-1]])
+    ends = np.r_[starts[1:], n] - 1
+    keep = [starts, ends]
+    for y in ys:
+        y_ = np.nan_to_num(np.asarray(y, dtype=float), nan=0.0)
+        keep.append(starts + _segment_arg(np.minimum, y_, starts))
+        keep.append(starts + _segment_arg(np.maximum, y_, starts))
+    return np.unique(np.concatenate(keep))
+
+
+def _segment_arg(reduce: Any, y: Any, starts: Any) -> Any:
+    """Offset, within each segment ``y[starts[k]:starts[k+1]]``, of its extreme by ``reduce``."""
+    import numpy as np
+
+    extreme = reduce.reduceat(y, starts)
+    seg = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, y.size]))
+    hit = np.flatnonzero(y == extreme[seg])
+    first = np.unique(seg[hit], return_index=True)[1]
+    return hit[first] - starts[seg[hit[first]]]

@@ -1,19 +1,25 @@
-"""One self-contained HTML page with every table and figure of a ``reproduce-all`` run.
+"""The HTML report of a ``reproduce-all`` run: a small static site, every page self-contained.
 
-The page opens offline in any browser: figures are PNGs embedded as base64 ``data:`` URIs,
+Each page opens offline in any browser: figures are PNGs embedded as base64 ``data:`` URIs,
 tables are rendered from the CSV files, the style is one inline ``<style>`` block, and there
-is no JavaScript and no reference to anything outside the file. The same results give the
-same bytes: nothing depends on the clock, the host or where the results folder lives.
+is no JavaScript and no reference to anything outside the file but links to the other pages.
+The same results give the same bytes: nothing depends on the clock, the host or where the
+results folder lives.
 
-The report has a header (the run's metadata, e.g. seed and ``spa`` version), a table of
-contents with in-page anchors, the analytic section (Tables 1-2, Figs. 4-5), then one section
-per dataset: Table 3 first when present, the identified parameters, Fig. 2, the validation
-table and figures, then the staircase, sine and chirp outputs of that dataset when present.
-What each section shows, in which order and with which caption, is the registry of outputs
-(:data:`spa.outputs.STAGES`).
+The site (:mod:`spa.report.site`): ``results/report/<dataset>.html`` per dataset (built in
+that dataset's job: Table 3 first when present, the identified parameters, Fig. 2, the
+tuning, the validation table and figures, then the staircase, sine and chirp outputs),
+``results/report/analytic.html`` (Tables 1-2, Figs. 4-5) and the index
+(``results/report/index.html``, and ``results/report.html`` with its links into ``report/``):
+the run's header, the failed datasets, a summary row per dataset and the overview across
+datasets (:mod:`spa.report.overview`, Fig. O1). What each page shows, in which order and
+with which caption, is the registry of outputs (:data:`spa.outputs.STAGES`).
+:func:`build_report` builds the whole run as one page (a small run, a notebook).
 
 Modules: :mod:`spa.report.html` (cells, tables, embedded figures, style),
-:mod:`spa.report.params` (the identified-parameter table), :mod:`spa.report.build` (the page).
+:mod:`spa.report.params` (the identified-parameter table), :mod:`spa.report.build` (sections,
+the one-page report), :mod:`spa.report.site` (the pages of the site),
+:mod:`spa.report.overview` (the overview across datasets).
 """
 
 from spa.report.build import build_report, section_items
@@ -26,10 +32,14 @@ from spa.report.html import (
     png_size,
 )
 from spa.report.params import PARAM_NAMES, params_table
+from spa.report.site import build_analytic_page, build_dataset_page, build_index
 
 __all__ = [
     "PAPER_PREFIX",
     "PARAM_NAMES",
+    "build_analytic_page",
+    "build_dataset_page",
+    "build_index",
     "build_report",
     "embed_png",
     "format_value",

@@ -27,7 +27,7 @@ from spa.report.summary import summary_html
 from spa.report.table3 import csv_download, table3_html
 from spa.status import dataset_failures
 
-__all__ = ["build_report", "section_items"]
+__all__ = ["build_report", "document", "meta_list", "recommendation_html", "section_items"]
 
 _PAPER = (
     "Serrano-Balbontín et al., Open-Loop Characterisation of Soft Actuator Pressure Regulated "
@@ -76,6 +76,30 @@ def section_items(section: str, folder: str | Path) -> list[Output]:
     return items
 
 
+def recommendation_html(rec: Any) -> str:
+    """The recommendation as HTML: its sentence, then the recommended setting as the
+    ``dataset.yaml`` block of a run that uses it (``recommended.setting`` of
+    ``tuning/recommendation.yaml``).
+
+    Examples
+    --------
+    >>> rec = {"sentence": "Use PWM.", "recommended": {"setting": {"type": "pwm", "f_w": 20.0}}}
+    >>> print(recommendation_html(rec))
+    <p class="lead">Use PWM.</p><pre>modulator:
+      type: pwm
+      f_w: 20.0</pre>
+    """
+    rec = rec if isinstance(rec, Mapping) else {}
+    sentence = rec.get("sentence") or rec.get("failed") or "no recommendation"
+    body = f'<p class="lead">{html.escape(str(sentence))}</p>'
+    best = rec.get("recommended")
+    setting = best.get("setting") if isinstance(best, Mapping) else None
+    if isinstance(setting, Mapping) and setting:
+        block = yaml.safe_dump({"modulator": dict(setting)}, sort_keys=False).rstrip()
+        body += f"<pre>{html.escape(block)}</pre>"
+    return body
+
+
 def _render_item(path: Path, item: Output, anchor: str) -> str:
     """``<figure>`` with the table or image of ``path``, its heading and its caption."""
     title = item.title or ""
@@ -88,13 +112,7 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
         body = f'<img src="{embed_png(path)}" alt="{alt}" width="{width}" height="{height}">'
         attrs = f' class="fig" style="max-width:{width + 2}px"'
     elif item.kind == RECOMMENDATION:
-        rec = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-        sentence = rec.get("sentence") or rec.get("failed") or "no recommendation"
-        setting = rec.get("setting")
-        body = f'<p class="lead">{html.escape(str(sentence))}</p>'
-        if setting:
-            flow = yaml.safe_dump(setting, default_flow_style=True).strip()
-            body += f"<pre>modulator: {html.escape(flow)}</pre>"
+        body = recommendation_html(yaml.safe_load(path.read_text(encoding="utf-8")))
     elif item.kind == PARAMS:
         params = yaml.safe_load(path.read_text(encoding="utf-8"))
         body = f'<div class="scroll">{html_table(params_table(params))}</div>'
@@ -229,7 +247,7 @@ def build_report(
     anchors = {name: unique_anchor(f"dataset-{name}", taken) for name in datasets}
 
     failures = dataset_failures(results, datasets)
-    summary = summary_html(results, datasets, failures, anchors)
+    summary = summary_html(results, datasets, failures, {n: f"#{a}" for n, a in anchors.items()})
     sections.append(("summary", "Summary", summary, [("summary-table", "Summary per dataset")]))
     if failures:
         sections.append(("failed", "Failed datasets", _failures_html(failures), []))
@@ -248,11 +266,39 @@ def build_report(
         body += _mentions(folder, name) + ("" if drawn else _NOT_DRAWN)
         sections.append((anchor, f"Dataset {name}", body, toc))
 
+    header = f"<p>Tables and figures of one run reproducing {html.escape(_PAPER)}</p>\n"
+    header += meta_list({**meta, "datasets": ", ".join(datasets)})
+    return document(title, header, sections)
+
+
+def meta_list(meta: Mapping[str, Any]) -> str:
+    """The run's metadata as a definition list; keys and values escaped."""
     e = html.escape
-    meta_html = "".join(
-        f"<dt>{e(str(k))}</dt><dd>{e(format_value(v))}</dd>" for k, v in meta.items()
-    )
-    meta_html += f"<dt>datasets</dt><dd>{e(', '.join(datasets))}</dd>"
+    items = "".join(f"<dt>{e(str(k))}</dt><dd>{e(format_value(v))}</dd>" for k, v in meta.items())
+    return f'<dl class="meta">{items}</dl>\n'
+
+
+def document(
+    title: str, header: str, sections: Sequence[tuple[str, str, str, list[tuple[str, str]]]]
+) -> str:
+    """A complete page: ``header`` (HTML) under the title, a table of contents, the sections.
+
+    Parameters
+    ----------
+    title : str
+        The page's title and main heading (escaped).
+    header : str
+        HTML shown under the heading.
+    sections : sequence of (anchor, heading, body, toc)
+        Each section's id, heading (escaped), HTML body and its contents entries
+        ``(anchor, text)``.
+
+    Returns
+    -------
+    str
+        An HTML5 document: inline style, no script, nothing outside itself.
+    """
+    e = html.escape
     nav = "".join(
         f'<li><a href="#{a}">{e(heading)}</a><ol>'
         + "".join(f'<li><a href="#{ia}">{e(it)}</a></li>' for ia, it in toc)
@@ -269,8 +315,7 @@ def build_report(
         '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
         '<link rel="icon" href="data:,">\n'
         f"<title>{e(title)}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n"
-        f"<header>\n<h1>{e(title)}</h1>\n<p>Tables and figures of one run reproducing "
-        f'{e(_PAPER)}</p>\n<dl class="meta">{meta_html}</dl>\n</header>\n'
+        f"<header>\n<h1>{e(title)}</h1>\n{header}</header>\n"
         f'<nav id="contents">\n<strong>Contents</strong>\n<ol>\n{nav}</ol>\n</nav>\n'
         f"<main>\n{content}</main>\n</body>\n</html>\n"
     )

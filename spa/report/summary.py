@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-import yaml
 
+from spa.io import read_yaml
 from spa.report.html import format_value
 from spa.report.params import PARAM_NAMES
 
@@ -72,7 +72,7 @@ def fit_summary(fit: pd.DataFrame) -> str:
 def _recommendation(path: Path) -> str:
     if not path.is_file():
         return "not tuned"
-    rec = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    rec = read_yaml(path) or {}
     best = rec.get("recommended")
     if isinstance(best, Mapping) and best.get("description"):
         cost = f" (J = {format_value(best['J'])} bar)" if "J" in best else ""
@@ -80,10 +80,10 @@ def _recommendation(path: Path) -> str:
     return str(rec.get("failed") or rec.get("sentence") or "no recommendation")
 
 
-def _dataset_row(folder: Path, name: str, anchor: str) -> str:
+def _dataset_row(folder: Path, name: str, link: str) -> str:
     e = html.escape
-    params = yaml.safe_load((folder / "identification" / "params.yaml").read_text("utf-8"))
-    cells = [f'<th scope="row"><a href="#{e(anchor)}">{e(name)}</a></th>']
+    params = read_yaml(folder / "identification" / "params.yaml")
+    cells = [f'<th scope="row"><a href="{e(link)}">{e(name)}</a></th>']
     cells += [f'<td class="num">{param_cell(params[n], n)}</td>' for n in PARAM_NAMES]
     fit_path = folder / "validation" / "fit.csv"
     fit = fit_summary(pd.read_csv(fit_path)) if fit_path.is_file() else "not validated"
@@ -93,12 +93,12 @@ def _dataset_row(folder: Path, name: str, anchor: str) -> str:
     return f"<tr>{''.join(cells)}</tr>\n"
 
 
-def _failed_row(name: str, records: list[dict[str, Any]]) -> str:
+def _failed_row(name: str, records: list[dict[str, Any]], link: str) -> str:
     e = html.escape
     first = next((r for r in records if not r.get("upstream")), records[0])
     errors = "".join(f"<li><code>{e(str(x))}</code></li>" for x in first["errors"][:3])
     return (
-        f'<tr class="failed"><th scope="row">{e(name)}</th>'
+        f'<tr class="failed"><th scope="row"><a href="{e(link)}">{e(name)}</a></th>'
         f'<td class="text" colspan="{len(PARAM_NAMES) + 2}">FAILED at stage '
         f"<code>{e(str(first['stage']))}</code> (log: logs/{e(name)}/)<ul>{errors}</ul></td></tr>\n"
     )
@@ -108,7 +108,7 @@ def summary_html(
     results: str | Path,
     datasets: Sequence[str],
     failures: Mapping[str, list[dict[str, Any]]],
-    anchors: Mapping[str, str],
+    links: Mapping[str, str],
 ) -> str:
     """The summary ``<figure>``: a table of one row per dataset, and its caption.
 
@@ -120,8 +120,9 @@ def summary_html(
         The datasets, in report order.
     failures : mapping
         :func:`spa.status.dataset_failures` of the run.
-    anchors : mapping of str to str
-        Dataset -> the id of its report section (the dataset's name links to it).
+    links : mapping of str to str
+        Dataset -> where its section or page is (``#<id>`` or ``<dataset>.html``): its name
+        links there.
 
     Returns
     -------
@@ -135,9 +136,9 @@ def summary_html(
     rows = []
     for name in datasets:
         if name in failures:
-            rows.append(_failed_row(name, failures[name]))
+            rows.append(_failed_row(name, failures[name], links[name]))
             continue
-        rows.append(_dataset_row(Path(results) / name, name, anchors[name]))
+        rows.append(_dataset_row(Path(results) / name, name, links[name]))
     return (
         '<figure id="summary-table">\n<h3>Summary per dataset</h3>\n<div class="scroll">'
         f'<table class="summary">\n<thead><tr><th>dataset</th>{head}<th>validation FIT</th>'

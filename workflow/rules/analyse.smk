@@ -2,14 +2,23 @@
 # identified (paper Section 3.2, Fig. 2); the modulators tuned for it (Section 5: Tables 1-2,
 # Figs. 4-5, the recommended setting); the model replayed on each run (validate_model); the
 # open-loop linearity of Section 6: staircase (Table 3, Figs. 6-7), sine (Fig. 8) and chirp
-# (Fig. 9). Each stage is a second or two of work and a job costs about a second of imports
+# (Fig. 9); last, the dataset's page of the report and its row of the overview (page: it
+# reads the dataset's date and rig from raw/<dataset>/dataset.yaml). Each stage is a second or two of work and a job costs about a second of imports
 # and Snakemake's own bookkeeping, so they share one (benchmarks/README.md, "Growth"); each
 # stage keeps its own outputs, log, status and script. The price: a change to one stage's
 # settings (tuning:, linearity:) reruns the whole job. A dataset without runs of a kind gets
 # empty tables and a figure saying so, so that every dataset has the same outputs.
 ANALYSE = {
     stage: stage
-    for stage in ["identify", "tune", "validate_model", "staircase", "sine", "chirp"]
+    for stage in [
+        "identify",
+        "tune",
+        "validate_model",
+        "staircase",
+        "sine",
+        "chirp",
+        "page",
+    ]
 }
 
 
@@ -45,6 +54,7 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
             },
             nominal=config["nominal"],
             seed=config["seed"],
+            raw_dir=str(RAW_DIR),
             tuning=lookup(dpath="tuning", within=config),
             sweeps=lookup(dpath="analytic/sweeps", within=config),
             n_xi=lookup(dpath="analytic/n_xi", within=config),

@@ -1,7 +1,28 @@
-# One self-contained HTML page with every table and figure of the run (results/report.html):
-# figures embedded, no script, no external resource, so it opens offline in any browser.
-# It holds every dataset's figures: its memory grows by about 15 MB a dataset (1.46 GB peak
-# for 100 datasets, benchmarks/README.md), which its resources follow for a cluster.
+# The report is a small static site (spa.report.site): each dataset's page,
+# results/report/<dataset>.html, is written in that dataset's own job (analyse.smk, stage
+# `page`, with its row of the overview); this rule writes the index (results/report/index.html,
+# and results/report.html with its links into report/) and the analytic page. The index embeds
+# Fig. O1 alone and reads a few small files per dataset: its memory stays about flat in the
+# number of datasets (benchmarks/README.md).
+
+
+# The overview across datasets: results/overview.csv (one row per dataset, in session order)
+# and Fig. O1 (the identified valve against the session's date), from each dataset's row.
+rule overview:
+    input:
+        rows=expand(inputs_from("page")["row"], dataset=DATASETS),
+    output:
+        **outputs("overview"),
+    log:
+        logfile("overview"),
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    params:
+        code=SPA_CODE,
+    script:
+        "../scripts/overview.py"
 
 
 rule report:
@@ -15,11 +36,10 @@ rule report:
         logfile("report"),
     threads: 1
     resources:
-        mem_mb=1000 + 20 * len(DATASETS),
-        runtime=5 + len(DATASETS) // 10,
+        mem_mb=500,
+        runtime=5,
     params:
         datasets=DATASETS,
-        figures=FIGURE_DATASETS,
         seed=lookup(dpath="seed", within=config),
         code=SPA_CODE,
     script:

@@ -1,24 +1,27 @@
-"""Write results/report.html: every table and figure of the run in one offline HTML page."""
+"""Write the report's index (results/report/index.html, and results/report.html with its links
+into report/) and its analytic page (results/report/analytic.html); each dataset's page is
+written by its own job (page.py)."""
 
 from pathlib import Path
 
 import spa
-from spa.io import get_logger
-from spa.report import build_report
+from spa.io import get_logger, peak_rss_mib
+from spa.report.site import build_analytic_page, build_index
 from spa.status import guard_environment
 
 log = get_logger("report", snakemake.log[0])
 guard_environment(log, "the report")  # a full disk: one line saying so
-out = Path(snakemake.output.report)
-results = out.parent  # the rule writes {RESULTS}/report.html
+out = snakemake.output
+results = Path(out.report).parent  # the rule writes {RESULTS}/report.html
 meta = {"seed": snakemake.params.seed, "spa version": spa.__version__}
-text = build_report(results, snakemake.params.datasets, meta, figures=snakemake.params.figures)
-with open(out, "w", encoding="utf-8", newline="\n") as fh:
-    fh.write(text)
-log.info(
-    "wrote %s (%.0f KB, %d figures, %d tables)",
-    out,
-    len(text.encode()) / 1024,
-    text.count("<img "),
-    text.count("<table>"),
-)
+datasets = snakemake.params.datasets
+pages = {
+    out.index: build_index(results, datasets, meta),
+    out.report: build_index(results, datasets, meta, prefix="report/"),
+    out.analytic: build_analytic_page(results, meta),
+}
+for path, text in pages.items():
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(text, encoding="utf-8", newline="\n")
+    log.info("wrote %s (%.0f KB, %d figures)", path, len(text.encode()) / 1024, text.count("<img "))
+log.info("peak RSS of the job: %.0f MiB", peak_rss_mib())

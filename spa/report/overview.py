@@ -1,0 +1,243 @@
+"""The view across datasets: one row per session, and where the valve changed between sessions.
+
+A dataset's job writes its row (:func:`overview_row`: date, rig, the five identified
+parameters with their 95 % intervals, validation FIT, the recommended setting and its J_exact,
+status) as ``results/<dataset>/report/overview.json``; the overview job puts the rows in
+session order (:func:`overview_table`), flags every parameter whose interval excludes the
+previous session's of the same rig (:func:`interval_changes`) and fits each parameter's trend
+(:func:`trend`). The table is ``results/overview.csv``, also the data of Fig. O1
+(:func:`spa.plots.overview.plot_overview`).
+
+>>> interval_changes([1.0, 1.1, 2.0], [1.2, 1.3, 2.2], ["a", "a", "a"]).tolist()
+[False, False, True]
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from spa.io import read_yaml
+from spa.report.params import PARAM_NAMES
+
+__all__ = [
+    "UNDATED",
+    "interval_changes",
+    "overview_row",
+    "overview_table",
+    "rig_label",
+    "session_days",
+    "trend",
+]
+
+UNDATED = "undated"
+"""The ``recorded`` cell of a dataset whose ``dataset.yaml`` has no ``recorded:`` date."""
+
+
+def rig_label(rig: Mapping[str, Any] | None) -> str:
+    """A short name of a bench: ``rig.name``, else ``rig.valve``, else ``"unnamed rig"``.
+
+    Examples
+    --------
+    >>> rig_label({"valve": "V1", "actuator": "A"}), rig_label({"name": "bench 2"}), rig_label({})
+    ('V1', 'bench 2', 'unnamed rig')
+    """
+    rig = rig or {}
+    for key in ("name", "valve"):
+        if rig.get(key):
+            return str(rig[key])
+    return "unnamed rig"
+
+
+def _read_yaml(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        return {}
+    doc = read_yaml(path)
+    return doc if isinstance(doc, dict) else {}
+
+
+def overview_row(
+    folder: str | Path,
+    name: str,
+    recorded: str | None,
+    rig: str,
+    failed: str | None = None,
+) -> dict[str, Any]:
+    """A dataset's row of the overview, from its results folder.
+
+    Parameters
+    ----------
+    folder : str or Path
+        ``results/<dataset>``: ``identification/params.yaml``, ``validation/fit.csv`` and
+        ``tuning/recommendation.yaml`` are read when present and valid.
+    name : str
+        The dataset.
+    recorded : str or None
+        Its ISO date (``dataset.yaml`` ``recorded:``), or None.
+    rig : str
+        Its rig's short name (:func:`rig_label`).
+    failed : str or None
+        The stage that failed, if one did: its numbers are left empty.
+
+    Returns
+    -------
+    dict
+        ``dataset``, ``recorded`` (ISO date or :data:`UNDATED`), ``rig``, ``status`` (``ok``
+        or ``failed: <stage>``), ``<p>``, ``<p>_lo``, ``<p>_hi`` for each parameter (SI units,
+        NaN when missing), ``fit_median``, ``fit_min`` (%), ``recommended``, ``J``, ``J_exact``.
+    """
+    folder = Path(folder)
+    row: dict[str, Any] = {
+        "dataset": name,
+        "recorded": recorded or UNDATED,
+        "rig": rig,
+        "status": f"failed: {failed}" if failed else "ok",
+    }
+    params = {} if failed else _read_yaml(folder / "identification" / "params.yaml")
+    for p in PARAM_NAMES:
+        entry = params.get(p) if isinstance(params.get(p), Mapping) else {}
+        for suffix, key in (("", "value"), ("_lo", "lo"), ("_hi", "hi")):
+            value = entry.get(key)
+            row[p + suffix] = float(value) if isinstance(value, int | float) else float("nan")
+    fit_path = folder / "validation" / "fit.csv"
+    fit = pd.Series(dtype=float)
+    if not failed and fit_path.is_file():
+        table = pd.read_csv(fit_path)
+        if "fit_percent" in table:
+            fit = pd.to_numeric(table["fit_percent"], errors="coerce").dropna()
+    row["fit_median"] = float(fit.median()) if len(fit) else float("nan")
+    row["fit_min"] = float(fit.min()) if len(fit) else float("nan")
+    rec = {} if failed else _read_yaml(folder / "tuning" / "recommendation.yaml")
+    best = rec.get("recommended") if isinstance(rec.get("recommended"), Mapping) else {}
+    row["recommended"] = str(best.get("description") or best.get("label") or "")
+    for key in ("J", "J_exact"):
+        value = best.get(key)
+        row[key] = float(value) if isinstance(value, int | float) else float("nan")
+    return row
+
+
+def write_row(path: str | Path, row: Mapping[str, Any]) -> None:
+    """Write a row as JSON (NaN as null), sorted keys: the same row, the same bytes."""
+    clean = {k: (None if isinstance(v, float) and np.isnan(v) else v) for k, v in row.items()}
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps(clean, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+
+
+def read_rows(paths: Iterable[str | Path]) -> list[dict[str, Any]]:
+    """The rows written by :func:`write_row` (null back to NaN)."""
+    rows = []
+    for path in paths:
+        row = json.loads(Path(path).read_text(encoding="utf-8"))
+        rows.append({k: (float("nan") if v is None else v) for k, v in row.items()})
+    return rows
+
+
+def interval_changes(lo: Sequence[float], hi: Sequence[float], groups: Sequence[str]) -> np.ndarray:
+    """Where a session's interval excludes the previous session's of its group (rig).
+
+    Parameters
+    ----------
+    lo, hi : sequence of float
+        Each session's interval, in session order (NaN: none, never flagged, skipped).
+    groups : sequence of str
+        Each session's rig: a session is compared with the previous one of its rig.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True where ``[lo, hi]`` and the previous interval do not overlap.
+
+    Examples
+    --------
+    >>> interval_changes([1, 5, 1.5], [2, 6, 2.5], ["a", "b", "a"]).tolist()
+    [False, False, False]
+    """
+    lo_, hi_ = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    out = np.zeros(len(lo_), dtype=bool)
+    last: dict[str, int] = {}
+    for i, group in enumerate(groups):
+        if not (np.isfinite(lo_[i]) and np.isfinite(hi_[i])):
+            continue
+        j = last.get(group)
+        if j is not None:
+            out[i] = bool(lo_[i] > hi_[j] or hi_[i] < lo_[j])
+        last[group] = i
+    return out
+
+
+def session_days(recorded: Sequence[str]) -> np.ndarray:
+    """Each session's place on the time axis, in days: its date's day number when every
+    session is dated, else its position (0, 1, ...).
+
+    Examples
+    --------
+    >>> session_days(["2025-01-01", "2025-01-08"]).tolist()
+    [0.0, 7.0]
+    >>> session_days(["2025-01-01", "undated"]).tolist()
+    [0.0, 1.0]
+    """
+    if len(recorded) and all(r != UNDATED for r in recorded):
+        days = np.array([datetime.date.fromisoformat(r).toordinal() for r in recorded], float)
+        return days - days[0]
+    return np.arange(len(recorded), dtype=float)
+
+
+def trend(x: Sequence[float], y: Sequence[float]) -> tuple[float, float]:
+    """Least-squares line ``y = a + b x`` through the finite points: ``(a, b)``, NaN when
+    fewer than two.
+
+    Examples
+    --------
+    >>> trend([0, 1, 2], [1.0, 3.0, 5.0])
+    (1.0, 2.0)
+    """
+    x_, y_ = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(x_) & np.isfinite(y_)
+    if ok.sum() < 2 or np.ptp(x_[ok]) == 0:
+        return float("nan"), float("nan")
+    b, a = np.polyfit(x_[ok], y_[ok], 1)
+    return round(float(a), 12), round(float(b), 12)
+
+
+_COLUMNS = (
+    ["session", "dataset", "recorded", "rig", "status"]
+    + [p + s for p in PARAM_NAMES for s in ("", "_lo", "_hi")]
+    + ["fit_median", "fit_min", "recommended", "J", "J_exact"]
+)
+
+
+def overview_table(rows: Iterable[Mapping[str, Any]]) -> pd.DataFrame:
+    """The overview: rows in session order, with the interval changes.
+
+    Parameters
+    ----------
+    rows : iterable of mapping
+        :func:`overview_row` of each dataset.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Dated sessions by date (then name), then the undated ones by name; columns
+        ``session`` (1, 2, ...), the row's columns, and ``changed_<p>`` for each parameter
+        (:func:`interval_changes` within each rig).
+    """
+    table = pd.DataFrame(list(rows))
+    if table.empty:
+        cols = ["session", "dataset", "recorded", "rig", "status"]
+        return pd.DataFrame(columns=cols + [f"changed_{p}" for p in PARAM_NAMES])
+    undated = table["recorded"] == UNDATED
+    table = table.assign(_undated=undated).sort_values(
+        ["_undated", "recorded", "dataset"], kind="stable"
+    )
+    table = table.drop(columns="_undated").reset_index(drop=True)
+    table.insert(0, "session", np.arange(1, len(table) + 1))
+    table = table[[c for c in _COLUMNS if c in table] + [c for c in table if c not in _COLUMNS]]
+    for p in PARAM_NAMES:
+        table[f"changed_{p}"] = interval_changes(table[f"{p}_lo"], table[f"{p}_hi"], table["rig"])
+    return table
