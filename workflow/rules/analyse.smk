@@ -9,7 +9,15 @@
 # empty tables and a figure saying so, so that every dataset has the same outputs.
 ANALYSE = {
     stage: stage
-    for stage in ["identify", "tune", "validate_model", "staircase", "sine", "chirp"]
+    for stage in [
+        "identify",
+        "tune",
+        "validate_model",
+        "staircase",
+        "sine",
+        "chirp",
+        "closed_loop",
+    ]
 }
 
 
@@ -42,6 +50,7 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
             cfg={
                 "identify": config["identification"],
                 **{s: config["linearity"][s] for s in ["staircase", "sine", "chirp"]},
+                "closed_loop": config.get("closed_loop", {}),
             },
             nominal=config["nominal"],
             seed=config["seed"],
