@@ -70,13 +70,15 @@ def test_compiled_loop_equals_plain_python_reference(kind: str, ctrl: PIControll
     n = 1500
     r = np.repeat([0.1, 0.6, 0.3], n // 3)
     mod = Modulator.from_mapping(SETTINGS[kind])
-    p, x, u = closed_loop_arrays(r, DT, mod, ctrl, PARAMS, p0=0.05)
-    p_ref, x_ref, u_ref = closed_loop_reference(r, DT, mod, ctrl, PARAMS, p0=0.05)
+    p, x, u = closed_loop_arrays(r, DT, mod, ctrl, PARAMS, p0=0.05, integral0=0.1)
+    p_ref, x_ref, u_ref = closed_loop_reference(r, DT, mod, ctrl, PARAMS, 0.05, integral0=0.1)
     np.testing.assert_array_equal(u, u_ref)
     np.testing.assert_allclose(p, p_ref, rtol=0, atol=1e-12)
     np.testing.assert_allclose(x, x_ref, rtol=0, atol=1e-12)
     # The same loop run as plain Python (numba's py_func) agrees as well.
-    p_py, _, u_py = closed_loop_arrays(r[:400], DT, mod, ctrl, PARAMS, 0.05, compiled=False)
+    p_py, _, u_py = closed_loop_arrays(
+        r[:400], DT, mod, ctrl, PARAMS, 0.05, integral0=0.1, compiled=False
+    )
     np.testing.assert_array_equal(u_py, u[:400])
     np.testing.assert_allclose(p_py, p[:400], rtol=0, atol=1e-12)
 

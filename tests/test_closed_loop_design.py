@@ -135,3 +135,14 @@ def test_sine_metrics_of_a_known_lag() -> None:
     # RMS of the difference of two sines: |0.1 - 0.08 e^{-i30deg}| / sqrt(2).
     expected = abs(0.1 - 0.08 * np.exp(-1j * math.radians(30))) / math.sqrt(2)
     assert m["rms_error"] == pytest.approx(expected, rel=1e-3)
+
+
+def test_a_loop_started_at_the_feedforward_stays_near_its_level() -> None:
+    from spa.closedloop.loop import simulate_closed_loop
+
+    ctrl = design_pi(IIPFM, P, levels=LEVELS)["fixed"]
+    xi0 = float(feedforward([0.4], IIPFM, P)[0])
+    settled = simulate_closed_loop(np.full(2000, 0.4), 1e-3, IIPFM, ctrl, P, 0.4, integral0=xi0)
+    cold = simulate_closed_loop(np.full(2000, 0.4), 1e-3, IIPFM, ctrl, P, 0.4)
+    assert np.abs(settled["p"] - 0.4).max() < 0.03
+    assert np.abs(cold["p"] - 0.4).max() > 0.1  # I = 0 first empties the actuator

@@ -63,6 +63,16 @@ def cycle_period(modulator: Modulator, params: ValveParams, level: float, dt: fl
     return float(np.clip(float(t_h) + float(t_l), 2.0 * dt, MAX_PERIOD))
 
 
+def _settled(
+    modulator: Modulator, controller: PIController, params: ValveParams, level: float
+) -> float:
+    """The integrator's state that holds ``level`` in the averaged model: ``xi_ff(level)``
+    for a PI without feed-forward, 0 with it (the feed-forward supplies it)."""
+    if controller.feedforward is not None:
+        return 0.0
+    return float(feedforward([level], modulator, params)[0])
+
+
 def run_staircase(
     modulator: Modulator,
     controller: PIController,
@@ -71,9 +81,18 @@ def run_staircase(
     hold: float,
     dt: float,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The staircase up and down from rest at the first level: ``(run, step metrics)``."""
+    """The staircase up and down, settled at the first level (pressure and integrator at
+    its averaged equilibrium): ``(run, step metrics)``."""
     r = staircase_reference(levels, hold, dt)
-    run = simulate_closed_loop(r, dt, modulator, controller, params, p0=float(levels[0]))
+    run = simulate_closed_loop(
+        r,
+        dt,
+        modulator,
+        controller,
+        params,
+        p0=float(levels[0]),
+        integral0=_settled(modulator, controller, params, float(levels[0])),
+    )
     period = cycle_period(modulator, params, float(np.median(levels)), dt)
     return run, step_metrics(run, period, r_initial=float(levels[0]))
 
@@ -106,7 +125,15 @@ def run_sine(
 ) -> tuple[pd.DataFrame, dict[str, float]]:
     """The sine reference (``offset``, ``amplitude``, ``frequency``, ``duration``, ``skip``)."""
     r = sine_reference(sine["offset"], sine["amplitude"], sine["frequency"], sine["duration"], dt)
-    run = simulate_closed_loop(r, dt, modulator, controller, params, p0=float(r[0]))
+    run = simulate_closed_loop(
+        r,
+        dt,
+        modulator,
+        controller,
+        params,
+        p0=float(r[0]),
+        integral0=_settled(modulator, controller, params, float(r[0])),
+    )
     return run, sine_metrics(run, sine["frequency"], skip=float(sine.get("skip", 0.0)))
 
 

@@ -57,10 +57,10 @@ def _run_end(on: bool, p_start: float, active: float, c1: float, k2: float, tau2
 
 @njit(cache=True)
 def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
-    r, dt, p0, plant, grid, kp, ki, ff_r, ff_xi, kind, cfg, st, p_out, xi_out, u_out
+    r, dt, p0, i0, plant, grid, kp, ki, ff_r, ff_xi, kind, cfg, st, p_out, xi_out, u_out
 ):
     c1, k2, tau2, t_on, t_off = plant[0], plant[1], plant[2], plant[3], plant[4]
-    integ = 0.0
+    integ = i0
     level = 0
     start = 0
     hold = 0.0
@@ -109,9 +109,12 @@ def closed_loop_arrays(
     params: ValveParams | None = None,
     p0: float = 0.0,
     *,
+    integral0: float = 0.0,
     compiled: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The closed loop's ``(p, xi, valve)`` arrays (see :func:`simulate_closed_loop`).
+
+    ``integral0`` as :func:`simulate_closed_loop`.
 
     ``compiled=False`` runs the same loop as plain Python (slow; for the tests).
     """
@@ -132,7 +135,7 @@ def closed_loop_arrays(
     n = r.size
     p, xi, u = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
     plant = np.array([params.c1, params.k2, params.tau2, params.t_on, params.t_off])
-    args = (r, dt, p0, plant, *controller.arrays())
+    args = (r, dt, p0, float(integral0), plant, *controller.arrays())
     state = np.array(kernel.INITIAL, dtype=np.float64)
     cfg = kernel.configure(settings, dt)
     run = _loop if compiled else _loop.py_func
@@ -147,6 +150,8 @@ def simulate_closed_loop(
     controller: PIController,
     params: ValveParams | None = None,
     p0: float = 0.0,
+    *,
+    integral0: float = 0.0,
 ) -> pd.DataFrame:
     """Exact pressure of the actuator under PI control through a pulse modulator.
 
@@ -164,6 +169,9 @@ def simulate_closed_loop(
         The plant; nominal when omitted.
     p0 : float, optional
         Pressure at ``t = 0``, bar; the valve is settled at ``t = 0``.
+    integral0 : float, optional
+        The integrator's state ``I_0`` (input fraction): ``xi_ff(r_0)`` starts a PI without
+        feed-forward settled at the equilibrium of ``r_0``.
 
     Returns
     -------
@@ -194,7 +202,9 @@ def simulate_closed_loop(
     >>> bool(abs(df["p"].iloc[-500:].mean() - 0.4) < 0.02)
     True
     """
-    p, xi, u = closed_loop_arrays(reference, dt, modulator, controller, params, p0)
+    p, xi, u = closed_loop_arrays(
+        reference, dt, modulator, controller, params, p0, integral0=integral0
+    )
     n = p.size
     t = np.arange(n, dtype=np.float64) * dt
     r = np.asarray(reference, dtype=np.float64)

@@ -26,6 +26,7 @@ def closed_loop_reference(
     controller: PIController,
     params: ValveParams,
     p0: float = 0.0,
+    integral0: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(p, xi, valve)`` of the closed loop, one Python step per sample.
 
@@ -36,7 +37,7 @@ def closed_loop_reference(
     r = np.asarray(reference, dtype=np.float64)
     n = r.size
     p, xi, u = np.zeros(n), np.zeros(n), np.zeros(n, dtype=np.int8)
-    integ = 0.0
+    integ = float(integral0)
     for k in range(n):
         p[k] = p0 if k == 0 else simulate(np.append(u[:k], u[k - 1]), dt, params, p0)[k]
         kp, ki, ff = controller.gains(float(r[k]))
