@@ -145,4 +145,4 @@ def test_a_loop_started_at_the_feedforward_stays_near_its_level() -> None:
     settled = simulate_closed_loop(np.full(2000, 0.4), 1e-3, IIPFM, ctrl, P, 0.4, integral0=xi0)
     cold = simulate_closed_loop(np.full(2000, 0.4), 1e-3, IIPFM, ctrl, P, 0.4)
     assert np.abs(settled["p"] - 0.4).max() < 0.03
-    assert np.abs(cold["p"] - 0.4).max() > 0.1  # I = 0 first empties the actuator
+    assert np.abs(cold["p"] - 0.4).max() > 0.05  # with I = 0 the actuator first empties
