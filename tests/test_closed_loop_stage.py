@@ -72,3 +72,23 @@ def test_the_stage_is_deterministic(result) -> None:
     again = closed_loop(ValveParams(), SELECTED, REC, CFG)
     assert again.table.equals(result.table)
     assert again.traces.equals(result.traces)
+
+
+def test_cli_design_pi(tmp_path, capsys) -> None:
+    import json
+
+    from spa.cli import main
+
+    params = tmp_path / "params.yaml"
+    params.write_text(yaml.safe_dump(ValveParams().as_dict()))
+    args = [str(params), "--modulator", "iipfm:t_l=0.02,gain=1.15", "--levels", "0.2,0.5"]
+    assert main(["design-pi", *args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["modulator"] == {"type": "iipfm", "t_l": 0.02, "gain": 1.15}
+    assert [row["r"] for row in out["local_models"]] == [0.2, 0.5]
+    assert out["controllers"]["scheduled"]["schedule"] == [0.2, 0.5]
+    assert main(["design-pi", *args]) == 0
+    assert "fixed PI: Kp = " in capsys.readouterr().out
+    assert main(["design-pi", str(params), "--modulator", "iipfm:t_l"]) == 1
+    assert "expected KIND:NAME=VALUE" in capsys.readouterr().out
+    assert main(["design-pi", str(tmp_path / "no.yaml"), "--modulator", "pwm:f_w=20"]) == 1
