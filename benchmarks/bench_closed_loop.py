@@ -10,7 +10,12 @@ dt = 1e-4 s). Reports, per modulator:
 * the same loop body run by the Python interpreter (numba's ``py_func``; the per-step kernel
   calls stay compiled) on 200,000 samples, for scale.
 
-Run:  PYTHONPATH=. .venv/bin/python benchmarks/bench_closed_loop.py [--cold]
+With ``--stage``, instead: the ``closed_loop`` stage of one dataset as the workflow runs it
+(a fresh process: imports, numba's cached code, the designs and exact simulations of the
+full config's ``closed_loop:`` section for the paper's five settings plus a recommended one,
+the tables and both figures with their SVG copies), median of 5 processes.
+
+Run:  PYTHONPATH=. .venv/bin/python benchmarks/bench_closed_loop.py [--cold | --stage]
 (``--cold`` deletes spa/closedloop's numba cache first, so the compile time is measured.)
 """
 
@@ -57,7 +62,53 @@ def first_call(kind: str) -> float:
     return float(out.stdout)
 
 
+STAGE = """
+import sys, tempfile, time, yaml
+t0 = time.perf_counter()
+from pathlib import Path
+from spa.closedloop.stage import closed_loop, write_controllers
+from spa.io import write_csv
+from spa.model.params import ValveParams
+from spa.plots.closedloop import fig10, fig11
+from spa.plots.save import draw
+cfg = yaml.safe_load(open("config/config.yaml"))
+rec = {"recommended": {"setting": {"type": "iipfm", "t_l": 0.02, "gain": 1.17}}}
+res = closed_loop(ValveParams(), cfg["analytic"]["selected"], rec, cfg["closed_loop"])
+with tempfile.TemporaryDirectory() as tmp:
+    out = Path(tmp)
+    write_csv(res.table, out / "table.csv")
+    write_controllers(res, out / "controllers.yaml")
+    write_csv(res.traces, out / "fig10.csv")
+    write_csv(res.steps, out / "fig11.csv")
+    if sys.argv[1] == "figures":
+        draw(out / "fig10.png", fig10, res.traces)
+        draw(out / "fig11.png", fig11, res.steps)
+print(time.perf_counter() - t0)
+"""
+
+
+def stage() -> None:
+    for figures in ("figures", "none"):
+        times = []
+        for _ in range(5):
+            out = subprocess.run(
+                [sys.executable, "-c", STAGE, figures],
+                capture_output=True,
+                text=True,
+                check=True,
+                cwd=ROOT,
+            )
+            times.append(float(out.stdout))
+        print(
+            f"closed_loop stage, {figures}: median {statistics.median(times):.2f} s "
+            f"(min {min(times):.2f}, max {max(times):.2f})"
+        )
+
+
 def main() -> None:
+    if "--stage" in sys.argv:
+        stage()
+        return
     if "--cold" in sys.argv:
         for cache in (ROOT / "spa" / "closedloop").rglob("__pycache__"):
             for f in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):

@@ -411,8 +411,8 @@ STAGES: tuple[Stage, ...] = (
             FIGURE,
             "Fig. 11: closed-loop metrics against the operating point",
             "Rise time (10-90 %) and overshoot of each staircase step against the set-point "
-            "after it (triangles up: rising steps; down: falling steps, which the exhaust "
-            "limits), per setting and controller.",
+            "after it, one column per controller, one colour per setting (triangles up, solid: "
+            "rising steps; down, dotted: falling steps, which the exhaust limits).",
             required=False,
         ),
         Output("fig11_csv", "closed_loop/fig11.csv", DATA),

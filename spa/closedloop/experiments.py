@@ -15,8 +15,8 @@ import pandas as pd
 
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import MAX_PERIOD, feedforward
-from spa.closedloop.loop import simulate_closed_loop
-from spa.closedloop.metrics import sine_metrics, step_metrics
+from spa.closedloop.loop import closed_loop_arrays, simulate_closed_loop
+from spa.closedloop.metrics import STEP_METRICS, sine_metrics, step_metrics, step_rows
 from spa.model.averaging import pulse_times
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
@@ -104,16 +104,21 @@ def run_steps(
     levels: Sequence[float],
     hold: float,
     dt: float,
-) -> tuple[list[pd.DataFrame], pd.DataFrame]:
-    """One step from 0 bar to each level: ``(runs, one metrics row per level)``."""
-    runs, rows = [], []
+) -> pd.DataFrame:
+    """One step from rest (0 bar, integrator at 0) to each level: one metrics row per level.
+
+    The cycle-mean window is the modulator's period at the middle level, as for the
+    staircase.
+    """
+    period = cycle_period(modulator, params, float(np.median(levels)), dt)
+    n = round(hold / dt)
+    t = np.arange(n, dtype=np.float64) * dt
+    rows = []
     for level in levels:
-        r = np.full(round(hold / dt), float(level))
-        run = simulate_closed_loop(r, dt, modulator, controller, params, p0=0.0)
-        period = cycle_period(modulator, params, float(level), dt)
-        runs.append(run)
-        rows.append(step_metrics(run, period, r_initial=0.0))
-    return runs, pd.concat(rows, ignore_index=True)
+        r = np.full(n, float(level))
+        p, _, u = closed_loop_arrays(r, dt, modulator, controller, params, 0.0)
+        rows += step_rows(t, r, p, u, period, r_initial=0.0)
+    return pd.DataFrame(rows, columns=["r0", "r1", "t0", *STEP_METRICS])
 
 
 def run_sine(

@@ -27,7 +27,14 @@ import pandas as pd
 
 from spa import _checks as checks
 
-__all__ = ["STEP_METRICS", "cycle_mean", "sine_metrics", "step_metrics", "steps"]
+__all__ = [
+    "STEP_METRICS",
+    "cycle_mean",
+    "sine_metrics",
+    "step_metrics",
+    "step_rows",
+    "steps",
+]
 
 #: The step metrics, in the order of the tables.
 STEP_METRICS = (
@@ -118,51 +125,14 @@ def step_metrics(
     t = run["t"].to_numpy(np.float64)
     if t.size < 2:
         raise ValueError("closed-loop run needs at least two samples")
-    dt = float(np.median(np.diff(t)))
-    r = run["r"].to_numpy(np.float64)
-    p = run["p"].to_numpy(np.float64)
-    u = run["valve"].to_numpy()
-    pm = cycle_mean(p, round(checks.positive("period", period, "s") / dt))
-    edges = np.concatenate(([0], np.abs(np.diff(u.astype(np.int16)))))
-    prev = float(p[0]) if r_initial is None else float(r_initial)
-    rows = []
-    for a, b in steps(r):
-        r1 = float(r[a])
-        r0, prev = prev, r1
-        delta = r1 - r0
-        if delta == 0.0 or b - a < 4:
-            continue
-        sgn = math.copysign(1.0, delta)
-        y = (pm[a:b] - r0) * sgn / abs(delta)  # 0 -> 1 whatever the direction
-        i10, i90 = _first(y >= 0.1), _first(y >= 0.9)
-        rise = (i90 - i10) * dt if i10 >= 0 and i90 >= 0 else math.nan
-        over = max(float(np.max(y)) - 1.0, 0.0) * 100.0
-        out = np.flatnonzero(np.abs(y - 1.0) > 0.02)
-        if out.size == 0:
-            settle = 0.0
-        elif out[-1] == b - a - 1:
-            settle = math.nan
-        else:
-            settle = (out[-1] + 1) * dt
-        tail = p[a + 3 * (b - a) // 4 : b]
-        e = r1 - p[a:b]
-        tt = t[a:b] - t[a]
-        rows.append(
-            {
-                "r0": r0,
-                "r1": r1,
-                "t0": float(t[a]),
-                "rise_time": rise,
-                "overshoot": over,
-                "settling_time": settle,
-                "steady_state_error": float(r1 - tail.mean()),
-                "ripple_pp": float(tail.max() - tail.min()),
-                "ripple_rms": float(np.sqrt(np.mean((tail - tail.mean()) ** 2))),
-                "iae": float(np.sum(np.abs(e)) * dt),
-                "itae": float(np.sum(tt * np.abs(e)) * dt),
-                "switching_rate": float(edges[a + 1 : b].sum() / ((b - a) * dt)),
-            }
-        )
+    rows = step_rows(
+        t,
+        run["r"].to_numpy(np.float64),
+        run["p"].to_numpy(np.float64),
+        run["valve"].to_numpy(),
+        period,
+        r_initial=r_initial,
+    )
     return pd.DataFrame(rows, columns=["r0", "r1", "t0", *STEP_METRICS])
 
 
@@ -209,3 +179,58 @@ def sine_metrics(run: pd.DataFrame, frequency: float, skip: float = 0.0) -> dict
         "gain": abs(zp) / abs(zr) if abs(zr) > 0 else math.nan,
         "phase": phase,
     }
+
+
+def step_rows(
+    t: np.ndarray,
+    r: np.ndarray,
+    p: np.ndarray,
+    u: np.ndarray,
+    period: float,
+    *,
+    r_initial: float | None = None,
+) -> list[dict[str, float]]:
+    """:func:`step_metrics` on arrays (``t`` uniformly sampled), one dict per step."""
+    dt = float(np.median(np.diff(t)))
+    pm = cycle_mean(p, round(checks.positive("period", period, "s") / dt))
+    edges = np.concatenate(([0], np.abs(np.diff(u.astype(np.int16)))))
+    prev = float(p[0]) if r_initial is None else float(r_initial)
+    rows = []
+    for a, b in steps(r):
+        r1 = float(r[a])
+        r0, prev = prev, r1
+        delta = r1 - r0
+        if delta == 0.0 or b - a < 4:
+            continue
+        sgn = math.copysign(1.0, delta)
+        y = (pm[a:b] - r0) * sgn / abs(delta)  # 0 -> 1 whatever the direction
+        i10, i90 = _first(y >= 0.1), _first(y >= 0.9)
+        rise = (i90 - i10) * dt if i10 >= 0 and i90 >= 0 else math.nan
+        over = max(float(np.max(y)) - 1.0, 0.0) * 100.0
+        out = np.flatnonzero(np.abs(y - 1.0) > 0.02)
+        if out.size == 0:
+            settle = 0.0
+        elif out[-1] == b - a - 1:
+            settle = math.nan
+        else:
+            settle = (out[-1] + 1) * dt
+        tail = p[a + 3 * (b - a) // 4 : b]
+        e = r1 - p[a:b]
+        tt = t[a:b] - t[a]
+        rows.append(
+            {
+                "r0": r0,
+                "r1": r1,
+                "t0": float(t[a]),
+                "rise_time": rise,
+                "overshoot": over,
+                "settling_time": settle,
+                "steady_state_error": float(r1 - tail.mean()),
+                "ripple_pp": float(tail.max() - tail.min()),
+                "ripple_rms": float(np.sqrt(np.mean((tail - tail.mean()) ** 2))),
+                "iae": float(np.sum(np.abs(e)) * dt),
+                "itae": float(np.sum(tt * np.abs(e)) * dt),
+                "switching_rate": float(edges[a + 1 : b].sum() / ((b - a) * dt)),
+            }
+        )
+    return rows

@@ -46,7 +46,7 @@ DEFAULTS: dict[str, Any] = {
     "step_hold": 2.0,
     "sine": {"offset": 0.4, "amplitude": 0.2, "frequency": 0.5, "duration": 10.0, "skip": 2.0},
     "max_level_fraction": 0.95,
-    "figure_decimate": 10,
+    "figure_decimate": 20,
 }
 
 
@@ -162,7 +162,7 @@ def closed_loop(
         }
         for name, ctrl in designs.items():
             run, stair = run_staircase(mod, ctrl, params, levels, float(c["hold"]), dt)
-            _, step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
+            step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
             _, sine = run_sine(mod, ctrl, params, dict(c["sine"]), dt)
             base = {"modulator": mod.label, "description": mod.description, "controller": name}
             for experiment, frame in (("staircase", stair), ("steps", step_set)):

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from spa.plots.style import MODULATOR_COLOURS, new_figure, ordered_settings
+from spa.plots.style import MODULATOR_COLOURS, new_figure, ordered_settings, setting_colours
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -63,7 +63,7 @@ def fig10(traces: pd.DataFrame) -> Figure:
 
 
 def fig11(steps: pd.DataFrame) -> Figure:
-    """Rise time, overshoot and settling time of each staircase step against its set-point.
+    """Rise time and overshoot of each staircase step against its set-point, per controller.
 
     Parameters
     ----------
@@ -73,29 +73,26 @@ def fig11(steps: pd.DataFrame) -> Figure:
     """
     rows = steps[steps["experiment"] == "staircase"]
     labels = ordered_settings(rows["modulator"])
+    colours = dict(zip(labels, setting_colours(len(labels)), strict=True))
+    names = [n for n in CONTROLLER_STYLES if (rows["controller"] == n).any()]
     metrics = (("rise_time", "rise time 10–90 % (s)"), ("overshoot", "overshoot (%)"))
-    fig = new_figure(figsize=(10.0, 2.0 * len(labels) + 0.8), layout="constrained")
-    axes = fig.subplots(len(labels), len(metrics), sharex=True, squeeze=False)
-    for i, label in enumerate(labels):
-        sel = rows[rows["modulator"] == label]
-        for j, (metric, text) in enumerate(metrics):
+    fig = new_figure(figsize=(10.0, 5.2), layout="constrained")
+    axes = fig.subplots(len(metrics), len(names), sharex=True, sharey="row", squeeze=False)
+    for j, name in enumerate(names):
+        sel = rows[rows["controller"] == name]
+        axes[0, j].set_title(CONTROLLER_STYLES[name][2], fontsize=9)
+        for i, (metric, text) in enumerate(metrics):
             ax = axes[i, j]
-            for name, (ls, colour, ctext) in CONTROLLER_STYLES.items():
-                c = sel[sel["controller"] == name]
+            for label in labels:
+                c = sel[sel["modulator"] == label]
                 up, down = c[c["r1"] > c["r0"]], c[c["r1"] < c["r0"]]
-                ax.plot(up["r1"], up[metric], ls=ls, marker="^", ms=4, color=colour, label=ctext)
-                ax.plot(down["r1"], down[metric], ls=ls, marker="v", ms=4, color=colour, lw=0.6)
+                ax.plot(up["r1"], up[metric], "-^", ms=4, lw=1.0, color=colours[label], label=label)
+                ax.plot(down["r1"], down[metric], ":v", ms=4, lw=0.8, color=colours[label])
             ax.grid(alpha=0.3)
-            ax.set_ylabel(text, fontsize=8)
             if j == 0:
-                ax.set_title(
-                    label,
-                    fontsize=9,
-                    loc="left",
-                    color=MODULATOR_COLOURS.get(_kind(label), "black"),
-                )
+                ax.set_ylabel(text, fontsize=8)
     for ax in axes[-1]:
-        ax.set_xlabel("set-point after the step (bar); ▲ up, ▼ down")
-    axes[0, 0].legend(fontsize=7)
+        ax.set_xlabel("set-point after the step (bar)")
+    axes[0, 0].legend(fontsize=7, title="▲ up, ▼ down", title_fontsize=7)
     fig.suptitle("Fig. 11: closed-loop step metrics against the operating point", fontsize=10)
     return fig
