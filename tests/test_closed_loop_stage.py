@@ -92,3 +92,40 @@ def test_cli_design_pi(tmp_path, capsys) -> None:
     assert main(["design-pi", str(params), "--modulator", "iipfm:t_l"]) == 1
     assert "expected KIND:NAME=VALUE" in capsys.readouterr().out
     assert main(["design-pi", str(tmp_path / "no.yaml"), "--modulator", "pwm:f_w=20"]) == 1
+
+
+def _recording(params: ValveParams, noise: float, fs_step: int = 1) -> tuple:
+    from spa.closedloop.experiments import staircase_reference
+    from spa.closedloop.loop import simulate_closed_loop
+
+    mod = {"type": "iipfm", "t_l": 0.02, "gain": 1.15}
+    ctrl = PIController(kp=4.0, ki=4.5)
+    r = staircase_reference([0.1, 0.4, 0.7], 2.0, 1e-3)
+    run = simulate_closed_loop(r, 1e-3, mod, ctrl, params, p0=0.1)
+    rng = np.random.default_rng(7)
+    run["p"] = run["p"] + rng.normal(0.0, noise, len(run))
+    return run.iloc[::fs_step].reset_index(drop=True), mod, ctrl
+
+
+def test_replay_of_a_closed_loop_recording() -> None:
+    from spa.closedloop.replay import replay_closed_loop
+
+    truth = ValveParams()
+    run, mod, ctrl = _recording(truth, 0.005)
+    same = replay_closed_loop(run, mod, ctrl, truth, 1e-3)
+    assert same.fit > 90.0
+    assert same.rmse == pytest.approx(0.005, rel=0.1)  # the noise is all that is left
+    assert len(same.measured) == len(same.predicted) == 4
+    np.testing.assert_allclose(same.measured["rise_time"], same.predicted["rise_time"], atol=0.02)
+    wrong = replay_closed_loop(run, mod, ctrl, ValveParams(k2=0.7, tau2=0.5), 1e-3)
+    # The loop hides much of a wrong model (it tracks the set-point anyway): the FIT drops by
+    # a few points only, the error well above the sensor's noise is the sign.
+    assert wrong.fit < same.fit - 2.0
+    assert wrong.rmse > 2.0 * same.rmse
+    # A recording at 200 Hz without the valve column replays on the controller's 1 ms step.
+    slow, _, _ = _recording(truth, 0.0, fs_step=5)
+    res = replay_closed_loop(slow.drop(columns="valve"), mod, ctrl, truth, 1e-3)
+    assert res.fit > 99.0
+    assert res.measured["switching_rate"].isna().all()
+    with pytest.raises(ValueError, match="'r'"):
+        replay_closed_loop(run.drop(columns="r"), mod, ctrl, truth, 1e-3)
