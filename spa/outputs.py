@@ -416,6 +416,18 @@ STAGES: tuple[Stage, ...] = (
             required=False,
         ),
         Output("fig11_csv", "closed_loop/fig11.csv", DATA),
+        Output(
+            "runs",
+            "closed_loop/runs.csv",
+            TABLE,
+            "Closed loop: recorded runs against the model",
+            "Every closed_loop run of the dataset (a PI on the bench, or simulated): the worst "
+            "rise time, overshoot and steady-state error over its set-point steps as recorded "
+            "and as the same controller and modulator replayed on the identified model give "
+            "them (*_model), and the replay's FIT %, RMSE and largest error (bar). The loop "
+            "hides much of a model's error, so compare the RMSE with the sensor's noise.",
+            required=False,
+        ),
         upstream=("runs", "identify"),
         category="Closed loop",
     ),

@@ -148,6 +148,7 @@ def _scan_run(
             "run": run.id,
             "kind": run.kind,
             "modulator": run.modulator,
+            **({"controller": run.controller} if run.controller is not None else {}),
             "notes": run.notes,
             "source": {
                 "file": run.file,

@@ -4,8 +4,8 @@ from pathlib import Path
 
 import yaml
 
-from spa.closedloop.stage import closed_loop, write_controllers
-from spa.io import get_logger, write_csv
+from spa.closedloop.stage import closed_loop, recorded_runs, write_controllers
+from spa.io import get_logger, read_runs, write_csv
 from spa.plots.closedloop import fig10, fig11
 from spa.plots.save import draw
 from spa.status import run_stage
@@ -31,6 +31,11 @@ def main() -> None:
     draw(out.get("fig10"), fig10, result.traces)
     write_csv(result.steps, out.fig11_csv)
     draw(out.get("fig11"), fig11, result.steps)
+    runs, metas = read_runs(snakemake.input.runs)
+    recorded = recorded_runs(runs, metas, valve.params)
+    write_csv(recorded, out.runs)
+    for row in recorded.itertuples():
+        log.info("%s: closed-loop run %s replayed: FIT %.1f %%", dataset, row.run, row.fit)
     log.info("%s: %s", dataset, result.sentence)
 
 
