@@ -114,6 +114,53 @@ def _summary(frame: pd.DataFrame, metrics: Iterable[str]) -> list[dict[str, Any]
     return rows
 
 
+def _evaluate(
+    mod: Modulator,
+    name: str,
+    ctrl: Any,
+    params: ValveParams,
+    levels: list[float],
+    c: Mapping[str, Any],
+) -> tuple[list[dict[str, Any]], list[pd.DataFrame], pd.DataFrame]:
+    """One setting and controller: table rows, per-step rows and the Fig. 10 trace."""
+    dt = float(c["dt"])
+    run, stair = run_staircase(mod, ctrl, params, levels, float(c["hold"]), dt)
+    step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
+    _, sine = run_sine(mod, ctrl, params, dict(c["sine"]), dt)
+    base = {"modulator": mod.label, "description": mod.description, "controller": name}
+    rows: list[dict[str, Any]] = []
+    step_rows = []
+    for experiment, frame in (("staircase", stair), ("steps", step_set)):
+        for row in _summary(frame, STEP_METRICS):
+            rows.append({**base, "experiment": experiment, **row})
+        step_rows.append(frame.assign(experiment=experiment, **base))
+    for metric, value in sine.items():
+        rows.append(
+            {
+                **base,
+                "experiment": "sine",
+                "metric": metric,
+                **dict.fromkeys(("median", "min", "max"), value),
+                "spread": 0.0,
+                "n": 1,
+                "n_missing": int(not math.isfinite(value)),
+            }
+        )
+    k = int(c["figure_decimate"])
+    period = cycle_period(mod, params, float(np.median(levels)), dt)
+    pm = cycle_mean(run["p"].to_numpy(), max(round(period / dt), 1))
+    trace = pd.DataFrame(
+        {
+            "modulator": mod.label,
+            "controller": name,
+            "t": run["t"].to_numpy()[::k],
+            "r": run["r"].to_numpy()[::k],
+            "p_mean": pm[::k],
+        }
+    )
+    return rows, step_rows, trace
+
+
 def closed_loop(
     params: ValveParams,
     selected: Iterable[Mapping[str, Any] | Modulator],
@@ -154,48 +201,18 @@ def closed_loop(
     for mod in mods:
         try:
             designs = design_pi(mod, params, levels=levels, tau_c=tau_c)
-        except ValueError as exc:
+            done = [_evaluate(mod, name, ctrl, params, levels, c) for name, ctrl in designs.items()]
+        except ValueError as exc:  # no local model, or no closed-loop law for the setting
             skipped[mod.label] = str(exc)
             continue
         gains[mod.label] = {
             "setting": mod.to_mapping(),
             **{name: ctrl.to_mapping() for name, ctrl in designs.items()},
         }
-        for name, ctrl in designs.items():
-            run, stair = run_staircase(mod, ctrl, params, levels, float(c["hold"]), dt)
-            step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
-            _, sine = run_sine(mod, ctrl, params, dict(c["sine"]), dt)
-            base = {"modulator": mod.label, "description": mod.description, "controller": name}
-            for experiment, frame in (("staircase", stair), ("steps", step_set)):
-                for row in _summary(frame, STEP_METRICS):
-                    rows.append({**base, "experiment": experiment, **row})
-                step_rows.append(frame.assign(experiment=experiment, **base))
-            for metric, value in sine.items():
-                rows.append(
-                    {
-                        **base,
-                        "experiment": "sine",
-                        "metric": metric,
-                        **dict.fromkeys(("median", "min", "max"), value),
-                        "spread": 0.0,
-                        "n": 1,
-                        "n_missing": int(not math.isfinite(value)),
-                    }
-                )
-            k = int(c["figure_decimate"])
-            period = cycle_period(mod, params, float(np.median(levels)), dt)
-            pm = cycle_mean(run["p"].to_numpy(), max(round(period / dt), 1))
-            traces.append(
-                pd.DataFrame(
-                    {
-                        "modulator": mod.label,
-                        "controller": name,
-                        "t": run["t"].to_numpy()[::k],
-                        "r": run["r"].to_numpy()[::k],
-                        "p_mean": pm[::k],
-                    }
-                )
-            )
+        for more_rows, more_steps, trace in done:
+            rows += more_rows
+            step_rows += more_steps
+            traces.append(trace)
     table = pd.DataFrame(rows)
     steps = pd.concat(step_rows, ignore_index=True) if step_rows else pd.DataFrame()
     controllers = {

@@ -23,12 +23,18 @@ from types import ModuleType
 import numpy as np
 from numba import njit
 
-from spa.closedloop.kernels import dsm, iipfm, ipfm, pwm
+from spa.closedloop.kernels import dsm, iipfm, ipfm, lpwm, pwm
 
 __all__ = ["KERNELS", "code", "step"]
 
 #: Modulator kind -> the module holding its per-step law; a kind's code is its position.
-KERNELS: dict[str, ModuleType] = {"pwm": pwm, "ipfm": ipfm, "iipfm": iipfm, "dsm": dsm}
+KERNELS: dict[str, ModuleType] = {
+    "pwm": pwm,
+    "ipfm": ipfm,
+    "iipfm": iipfm,
+    "dsm": dsm,
+    "lpwm": lpwm,  # model-inverse PWM (a modulator kind where spa.model.modulators has it)
+}
 
 
 def code(kind: str) -> int:
@@ -45,4 +51,6 @@ def step(kind: int, k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int: 
         return ipfm.step(k, xi, cfg, st)
     if kind == 2:
         return iipfm.step(k, xi, cfg, st)
-    return dsm.step(k, xi, cfg, st)
+    if kind == 3:
+        return dsm.step(k, xi, cfg, st)
+    return lpwm.step(k, xi, cfg, st)

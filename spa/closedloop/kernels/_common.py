@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
-from spa.model.modulators import _EPS
+#: The relative tolerance of :mod:`spa.model.modulators` for event times (the same value:
+#: tests/test_closed_loop.py checks it).
+EPS = 1e-9
 
-#: The relative tolerance of :mod:`spa.model.modulators` for event times (the same value).
-EPS = _EPS
+
+def pulse_steps(width: float, dt: float) -> int:
+    """Steps a pulse of ``width`` s lasts, at least one (the open-loop modulators' rule)."""
+    return max(1, math.floor(width / dt + 0.5))
 
 
 @njit(cache=True)

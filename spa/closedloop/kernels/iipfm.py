@@ -9,8 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from spa.closedloop.kernels._common import integrate_and_fire
-from spa.model.modulators import _steps
+from spa.closedloop.kernels._common import integrate_and_fire, pulse_steps
 
 #: State: [integral of 1 - xi up to t_k in steps, next threshold index, end of the pulse].
 INITIAL = (0.0, 1.0, 0.0)
@@ -18,7 +17,9 @@ INITIAL = (0.0, 1.0, 0.0)
 
 def configure(settings: dict[str, float], dt: float) -> np.ndarray:
     """Constants of the kernel: ``[threshold in steps, pulse width in steps]``."""
-    return np.array([settings["gain"] * settings["t_l"] / dt, float(_steps(settings["t_l"], dt))])
+    return np.array(
+        [settings["gain"] * settings["t_l"] / dt, float(pulse_steps(settings["t_l"], dt))]
+    )
 
 
 @njit(cache=True)
