@@ -417,7 +417,7 @@ STAGES: tuple[Stage, ...] = (
         ),
         Output("fig11_csv", "closed_loop/fig11.csv", DATA),
         Output(
-            "runs",
+            "recorded",
             "closed_loop/runs.csv",
             TABLE,
             "Closed loop: recorded runs against the model",

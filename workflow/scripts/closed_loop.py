@@ -33,7 +33,7 @@ def main() -> None:
     draw(out.get("fig11"), fig11, result.steps)
     runs, metas = read_runs(snakemake.input.runs)
     recorded = recorded_runs(runs, metas, valve.params)
-    write_csv(recorded, out.runs)
+    write_csv(recorded, out.recorded)
     for row in recorded.itertuples():
         log.info("%s: closed-loop run %s replayed: FIT %.1f %%", dataset, row.run, row.fit)
     log.info("%s: %s", dataset, result.sentence)
