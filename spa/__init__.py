@@ -56,6 +56,9 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(
         ("bicoherence", "mean_bicoherence", "principal_domain_mask"), "spa.openloop.spectra"
     ),
+    # Closed loop (PI through the modulator).
+    "PIController": "spa.closedloop.controller",
+    "simulate_closed_loop": "spa.closedloop.loop",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -1,5 +1,5 @@
 """Command line: ``spa validate``, ``spa ingest``, ``spa init``, ``spa example``,
-``spa identify`` and ``spa tune``; ``spa --version``.
+``spa identify``, ``spa tune`` and ``spa design-pi``; ``spa --version``.
 
 Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error
 (see ``spa --help``).
@@ -185,9 +185,39 @@ def _tune(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _design_pi(args: argparse.Namespace, out: TextIO) -> int:
+    from spa.closedloop.describe import (
+        design_summary,
+        format_design,
+        parse_modulator_spec,
+        read_params,
+    )
+
+    try:
+        mod = parse_modulator_spec(args.modulator)
+        levels = [float(v) for v in args.levels.split(",")] if args.levels else None
+        summary = design_summary(read_params(args.params), mod, tau_c=args.tau_c, levels=levels)
+    except (ValueError, OSError) as exc:
+        print(f"error: {exc}", file=out)
+        return 1
+    print(format_design(summary, as_json=args.json), file=out)
+    return 0
+
+
+class _Formatter(argparse.HelpFormatter):
+    """argparse's formatter, counting the commands' own indent (so ``design-pi`` fits)."""
+
+    def add_argument(self, action: argparse.Action) -> None:
+        super().add_argument(action)
+        if isinstance(action, argparse._SubParsersAction):
+            width = max(len(name) for name in action.choices) + self._current_indent + 4
+            self._action_max_length = max(self._action_max_length, width)
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="spa",
+        formatter_class=_Formatter,
         description="Soft pneumatic actuator characterisation: dataset tools. The pipeline "
         "itself runs with `snakemake reproduce-all`.",
         epilog="`spa COMMAND --help` describes a command's arguments.",
@@ -273,6 +303,23 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--score", choices=["J", "J_exact"], help="cost minimised (default: J)")
     p.add_argument("--json", action="store_true", help="print JSON for scripts")
     p.set_defaults(func=_tune)
+    p = sub.add_parser(
+        "design-pi",
+        help="PI gains for a valve and a modulator setting (closed loop)",
+        description="Design a fixed and a gain-scheduled PI (SIMC on the averaged model's "
+        "local gain, time constant and dead time) for the valve of PARAMS.yaml and one "
+        "modulator setting; print the gains and the exact simulation of the set-point "
+        "staircase (docs/model.md section 8).",
+    )
+    p.add_argument("params", metavar="PARAMS.yaml", help="identified parameters")
+    p.add_argument(
+        "--modulator", required=True, metavar="KIND:NAME=VALUE,...",
+        help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20",
+    )
+    p.add_argument("--tau-c", type=float, default=0.2, help="closed-loop time constant, s")
+    p.add_argument("--levels", metavar="R1,R2,...", help="set-points, bar (default 0.05-0.75)")
+    p.add_argument("--json", action="store_true", help="print JSON for scripts")
+    p.set_defaults(func=_design_pi)
     return parser
 
 

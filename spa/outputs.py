@@ -368,6 +368,70 @@ STAGES: tuple[Stage, ...] = (
         Output("fig9_csv", "chirp/fig9.csv", DATA),
         category="Chirp",
     ),
+    # Closed loop (spa.closedloop): PI through the modulator, designed and simulated exactly.
+    _per_dataset(
+        "closed_loop",
+        Output(
+            "controllers",
+            "closed_loop/controllers.yaml",
+            RECOMMENDATION,
+            "Closed loop: the PI to use",
+            "The modulator setting and PI controller with the smallest worst-case rise time "
+            "over the set-point staircase among those overshooting at most 10 %, for this "
+            "dataset's identified valve (SIMC on the averaged model's local gain, time "
+            "constant and dead time); closed_loop/controllers.yaml holds the gains of every "
+            "setting: fixed, gain-scheduled, and gain-scheduled with feed-forward.",
+            required=False,
+        ),
+        Output(
+            "table",
+            "closed_loop/table.csv",
+            TABLE,
+            "Closed loop: metrics per setting and controller",
+            "Exact closed-loop simulation of each setting with each PI: per experiment "
+            "(staircase up and down, steps from 0 bar, sine) and metric, the median, smallest "
+            "and largest value over the operating points and their spread (max - min). Step "
+            "metrics on the cycle-mean pressure (docs/model.md section 8); n_missing: steps "
+            "where a metric is undefined (not reached, or not settled within 2 %).",
+            required=False,
+        ),
+        Output(
+            "fig10",
+            "closed_loop/fig10.png",
+            FIGURE,
+            "Fig. 10: closed-loop staircase",
+            "Cycle-mean pressure over the set-point staircase up and down, one panel per "
+            "setting: fixed PI (black), gain-scheduled PI (blue) and gain-scheduled PI with "
+            "the averaged model's feed-forward (orange, dashed); dotted: the set-point.",
+            required=False,
+        ),
+        Output("fig10_csv", "closed_loop/fig10.csv", DATA),
+        Output(
+            "fig11",
+            "closed_loop/fig11.png",
+            FIGURE,
+            "Fig. 11: closed-loop metrics against the operating point",
+            "Rise time (10-90 %) and overshoot of each staircase step against the set-point "
+            "after it, one column per controller, one colour per setting (triangles up, solid: "
+            "rising steps; down, dotted: falling steps, which the exhaust limits).",
+            required=False,
+        ),
+        Output("fig11_csv", "closed_loop/fig11.csv", DATA),
+        Output(
+            "recorded",
+            "closed_loop/runs.csv",
+            TABLE,
+            "Closed loop: recorded runs against the model",
+            "Every closed_loop run of the dataset (a PI on the bench, or simulated): the worst "
+            "rise time, overshoot and steady-state error over its set-point steps as recorded "
+            "and as the same controller and modulator replayed on the identified model give "
+            "them (*_model), and the replay's FIT %, RMSE and largest error (bar). The loop "
+            "hides much of a model's error, so compare the RMSE with the sensor's noise.",
+            required=False,
+        ),
+        upstream=("runs", "identify"),
+        category="Closed loop",
+    ),
     # Its dataset's page of the report and its row of the overview, in the dataset's own job.
     _per_dataset(
         "page",

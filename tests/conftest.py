@@ -153,6 +153,15 @@ def fake_results(tmp_path_factory):
         png(d / "sine" / "fig8.png")
         csv(d / "chirp" / "bicoherence.csv", pd.DataFrame({"run": ["chirp_pwm"], "mean": [0.05]}))
         png(d / "chirp" / "fig9.png")
+        cl = d / "closed_loop"  # the closed_loop stage's outputs (optional)
+        cl.mkdir()
+        (cl / "controllers.yaml").write_text(
+            yaml.safe_dump({"sentence": "Closed loop: use IIPFM with Kp = 4.1.", "setting": None})
+        )
+        csv(cl / "table.csv", pd.DataFrame({"modulator": ["iipfm-20ms"], "max": [0.75]}))
+        csv(cl / "runs.csv", pd.DataFrame({"run": ["closed_loop_pwm"], "fit": [96.9]}))
+        for name in ("fig10", "fig11"):
+            png(cl / f"{name}.png")
     return SimpleNamespace(
         root=root, datasets=list(FAKE_DATASETS), pngs=pngs, tables=tables, nasty=FAKE_NASTY
     )

@@ -174,7 +174,7 @@ def test_load_spec_fills_defaults(tmp_path: Path) -> None:
     spec = load_spec(folder)
     assert spec.name == "bench1" and spec.origin == "bench"
     assert (spec.time_unit, spec.pressure_unit) == ("s", "bar")
-    assert spec.columns == {"t": "t", "p": "p", "valve": "valve", "u": "u"}
+    assert spec.columns == {"t": "t", "p": "p", "valve": "valve", "u": "u", "r": "r"}
     (run,) = spec.runs
     assert run == ds.RunEntry("c1", "charge", "c1.csv", None, "first", csv=run.csv)
     assert run.csv == {"sep": ",", "decimal": ".", "encoding": None, "skip_rows": 0,
@@ -450,7 +450,7 @@ def test_ingest_is_deterministic_and_leaves_raw_untouched(tmp_path: Path) -> Non
     first = ingest_dataset(GOOD, tmp_path / "a")
     second = ingest_dataset(GOOD, tmp_path / "b")
     again = ingest_dataset(GOOD, tmp_path / "a")
-    assert len(first) == 7
+    assert len(first) == 8
     for x, y, z in zip(first, second, again, strict=True):
         assert x.read_bytes() == y.read_bytes() == z.read_bytes()
     assert tree_digest(GOOD) == before
@@ -552,7 +552,7 @@ def test_read_run_table_rejects_foreign_parquet(tmp_path: Path) -> None:
 def test_cli_validate_good_prints_one_line_per_run(capsys) -> None:
     assert main(["validate", str(GOOD)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 8 and lines[-1] == f"{GOOD}: OK, 7 run(s), 0 warning(s)"
+    assert len(lines) == 9 and lines[-1] == f"{GOOD}: OK, 8 run(s), 0 warning(s)"
     assert lines[5] == (
         "chirp_iipfm: chirp, iipfm t_l=0.02 s gain=1.15, 0.399 s at 1000 Hz, "
         "p 0 to 0.5959 bar (chirp_iipfm.csv, 400 rows, columns t p valve u)"
@@ -570,7 +570,7 @@ def test_cli_exit_codes_in_a_subprocess() -> None:
     assert "stair_pwm: staircase, pwm f_w=20 Hz, 0.399 s at 1000 Hz" in ok.stdout
     bad = run("validate", good, str(CORPUS / "bad" / "many_problems"))
     assert bad.returncode == 1
-    assert f"{good}: OK, 7 run(s)" in bad.stdout  # every folder is reported
+    assert f"{good}: OK, 8 run(s)" in bad.stdout  # every folder is reported
     assert "many_problems: INVALID, 6 error(s)" in bad.stdout
     assert "Traceback" not in bad.stdout + bad.stderr
 

@@ -81,8 +81,8 @@ def test_per_run_columns_and_units_give_the_same_table(tmp_path: Path) -> None:
         "s",
         "bar",
     )
-    assert ms.columns == {"t": "t_ms", "p": "p_kPa", "valve": "valve", "u": "u"}
-    assert s.columns == {"t": "time", "p": "pressure", "valve": "valve", "u": "duty"}
+    assert ms.columns == {"t": "t_ms", "p": "p_kPa", "valve": "valve", "u": "u", "r": "r"}
+    assert s.columns == {"t": "time", "p": "pressure", "valve": "valve", "u": "duty", "r": "r"}
     paths = ingest_dataset(folder, tmp_path / "out")
     assert "csv" not in read_run_meta(paths[0])["source"]  # the defaults are not recorded
     assert read_run_meta(paths[1])["units"] == {"time": "s", "pressure": "bar"}

@@ -126,7 +126,8 @@ def test_report_sections_in_pipeline_order_key_item_first():
     assert titles.index("Model validation: FIT per run") < titles.index(
         "Fig. 6: staircase responses"
     )
-    assert titles[-1] == "Fig. 9: bicoherence"
+    assert titles.index("Fig. 9: bicoherence") < titles.index("Fig. 10: closed-loop staircase")
+    assert titles[-1] == "Closed loop: recorded runs against the model"
     assert [o.path for o in section_outputs("dataset") if o.mention] == [
         "staircase/levels.csv",
         "staircase/time_constants.csv",

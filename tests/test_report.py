@@ -165,8 +165,8 @@ def test_contents_anchors_resolve_to_unique_ids(report):
 
 def test_every_figure_and_table_has_a_caption(report):
     blocks = re.findall(r"<figure .*?</figure>", report, flags=re.S)
-    recommendations = report.count('<p class="lead">')  # the tuning stage's sentence
-    assert recommendations == 1
+    recommendations = report.count('<p class="lead">')  # tuning's and closed_loop's sentences
+    assert recommendations == 2
     assert len(blocks) == report.count("<img ") + report.count("<table") + recommendations
     for block in blocks:
         caption = re.search(r"<figcaption>(.+?)</figcaption>", block, flags=re.S)

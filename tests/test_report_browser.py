@@ -126,6 +126,7 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
             "sine/fig*.png",
             "chirp/fig*.png",
             "tuning/fig*.png",
+            "closed_loop/fig*.png",
         ):
             figures += (results / d).glob(pattern)
         for name in (
@@ -136,6 +137,8 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
             "chirp/bicoherence.csv",
             "tuning/table2.csv",
             "tuning/table1.csv",
+            "closed_loop/table.csv",
+            "closed_loop/runs.csv",
         ):
             tables += [results / d / name] if (results / d / name).is_file() else []
     return datasets, len(figures), len(tables)

@@ -330,7 +330,7 @@ def test_figures_setting_draws_for_the_named_datasets_only(small_run, isolated_c
     args = [*base, "-c2", "--config", f"results={out}"]
     res = run(*args, "figures=none")
     assert res.returncode == 0, res.stderr[-3000:]
-    stages = ["identify", "tune", "validate_model", "staircase", "sine", "chirp"]
+    stages = ["identify", "tune", "validate_model", "staircase", "sine", "chirp", "closed_loop"]
     assert all("figures" not in stage_outputs(s, out, figures=False) for s in stages)
     figures = {
         str(Path(p).relative_to(small_run))

@@ -247,6 +247,8 @@ class _RunCheck:
             out["valve"] = values["valve"].astype(np.int8)
         if "u" in values:
             out["u"] = values["u"]
+        if "r" in values:  # a closed-loop run's set-point, in the file's pressure unit
+            out["r"] = _to_bar(values["r"], pu)
         return out
 
     def problems(self, file: str | None, run: str | None) -> list[Problem]:

@@ -16,11 +16,21 @@ SPEC_FILE = "dataset.yaml"
 
 
 #: Kinds of run.
-KINDS: tuple[str, ...] = ("charge", "discharge", "pulse", "staircase", "sine", "chirp")
+KINDS: tuple[str, ...] = (
+    "charge",
+    "discharge",
+    "pulse",
+    "staircase",
+    "sine",
+    "chirp",
+    "closed_loop",
+)
 
 
-#: Kinds of run driven through a pulse modulator: they need ``modulator`` and ``u``.
-MODULATED_KINDS: tuple[str, ...] = ("staircase", "sine", "chirp")
+#: Kinds of run driven through a pulse modulator: they need ``modulator`` (and the open-loop
+#: ones ``u``; a ``closed_loop`` run, under PI control, needs the set-point ``r`` and its
+#: ``controller``).
+MODULATED_KINDS: tuple[str, ...] = ("staircase", "sine", "chirp", "closed_loop")
 
 
 #: Where the data come from.
@@ -28,7 +38,7 @@ ORIGINS: tuple[str, ...] = ("bench", "synthetic")
 
 
 #: Canonical column names, in the order of a run table.
-CANONICAL_COLUMNS: tuple[str, ...] = ("t", "p", "valve", "u")
+CANONICAL_COLUMNS: tuple[str, ...] = ("t", "p", "valve", "u", "r")
 
 
 #: Columns each kind of run must have.
@@ -39,6 +49,7 @@ REQUIRED_COLUMNS: Mapping[str, tuple[str, ...]] = {
     "staircase": ("t", "p", "u"),
     "sine": ("t", "p", "u"),
     "chirp": ("t", "p", "u"),
+    "closed_loop": ("t", "p", "r"),
 }
 
 
@@ -97,7 +108,7 @@ _TOP_KEYS = ("name", "description", "origin", "rig", "recorded", "units", "colum
 _REQUIRED_TOP = ("name", "description", "origin", "rig", "runs")
 
 
-_RUN_KEYS = ("id", "kind", "file", "modulator", "notes", "columns", "units", "csv")
+_RUN_KEYS = ("id", "kind", "file", "modulator", "controller", "notes", "columns", "units", "csv")
 
 
 _UNIT_KEYS = ("time", "pressure")
@@ -109,10 +120,22 @@ _NAME_RE = re.compile(r"[A-Za-z0-9._-]+")
 _ID_RE = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,99}")
 
 
-_ARROW_TYPES = {"t": pa.float64(), "p": pa.float64(), "valve": pa.int8(), "u": pa.float64()}
+_ARROW_TYPES = {
+    "t": pa.float64(),
+    "p": pa.float64(),
+    "valve": pa.int8(),
+    "u": pa.float64(),
+    "r": pa.float64(),
+}
 
 
-_QUANTITY = {"t": "time", "p": "pressure", "valve": "valve command", "u": "input fraction u"}
+_QUANTITY = {
+    "t": "time",
+    "p": "pressure",
+    "valve": "valve command",
+    "u": "input fraction u",
+    "r": "set-point r (pressure units)",
+}
 
 
 _NA_TOKENS = frozenset(

@@ -149,6 +149,7 @@ def _scan_run(
             "run": run.id,
             "kind": run.kind,
             "modulator": run.modulator,
+            **({"controller": run.controller} if run.controller is not None else {}),
             "notes": run.notes,
             "source": {
                 "file": run.file,

@@ -144,6 +144,8 @@ def _normalise_meta(meta: Mapping[str, Any], columns: tuple[str, ...]) -> dict[s
         raise ValueError(f"meta['modulator'] is required for a {out['kind']} run")
     else:
         out["modulator"] = None
+    if out["kind"] == "closed_loop" and not isinstance(out.get("controller"), Mapping):
+        raise ValueError("meta['controller'] is required for a closed_loop run (kp, ki, dt)")
     units = out.setdefault("units", {"time": "s", "pressure": "bar"})
     if (
         not isinstance(units, Mapping)

@@ -4,6 +4,7 @@ parsed :class:`DatasetSpec`."""
 from __future__ import annotations
 
 import datetime
+import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -66,6 +67,10 @@ class RunEntry:
         How to read the run's file when it is delimited text: every key of
         :data:`spa.datasets.options.CSV_DEFAULTS`, from the defaults (of its file ending),
         the dataset's ``csv:`` and the run's; empty for other formats.
+    controller : dict or None
+        A ``closed_loop`` run's PI: ``dt`` (its step, s) and the mapping of
+        :meth:`spa.closedloop.controller.PIController.to_mapping` (``kp``, ``ki``, optional
+        ``schedule`` and ``feedforward``); None for other kinds.
     """
 
     id: str
@@ -76,6 +81,7 @@ class RunEntry:
     columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
     units: dict[str, str] = field(default_factory=lambda: {"time": "s", "pressure": "bar"})
     csv: dict[str, Any] = field(default_factory=dict)
+    controller: dict[str, Any] | None = None
 
     @property
     def time_unit(self) -> str:
@@ -204,6 +210,28 @@ def _check_modulator(value: Any) -> tuple[dict[str, Any] | None, list[str]]:
     except ValueError as exc:
         return None, [f"bad modulator settings: {exc}"]
     return {"type": kind, **full}, []
+
+
+def _check_controller(value: Any) -> tuple[dict[str, Any] | None, list[str]]:
+    """Check a closed-loop run's ``controller:``; return it (floats, lists) and the problems."""
+    from spa.closedloop.controller import PIController
+
+    example = "e.g. {kp: 4.0, ki: 4.5, dt: 0.001}"
+    if not isinstance(value, Mapping):
+        return None, [f"controller must be a mapping, {example}; got {value!r}"]
+    unknown = sorted(set(value) - {"kp", "ki", "dt", "schedule", "feedforward"})
+    if unknown or "kp" not in value or "dt" not in value:
+        what = f"unknown key(s) {unknown}" if unknown else "kp and dt are required"
+        keys = "kp, ki, dt, schedule, feedforward"
+        return None, [f"bad controller ({what}); expected {keys}, {example}"]
+    try:
+        dt = float(value["dt"])
+        if not (math.isfinite(dt) and 0.0 < dt <= 1.0):
+            raise ValueError(f"dt = {value['dt']!r} must be a step in s, in (0, 1]")
+        ctrl = PIController.from_mapping(dict(value))
+    except (TypeError, ValueError, KeyError) as exc:
+        return None, [f"bad controller: {exc}"]
+    return {**ctrl.to_mapping(), "dt": dt}, []
 
 
 def _check_run_file(folder: Path, value: Any) -> tuple[str | None, str | None]:
@@ -521,6 +549,17 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
                 "{type: dsm, period: <s>}",
                 "modulator",
             )
+        controller = None
+        if entry.get("controller") is not None:
+            controller, problems = _check_controller(entry["controller"])
+            for message in problems:
+                err(message, "controller")
+        elif kind == "closed_loop":
+            err(
+                "a closed_loop run needs its controller, e.g. {kp: 4.0, ki: 4.5, dt: 0.001} "
+                "(gains in 1/bar and 1/(bar*s), step in s)",
+                "controller",
+            )
         notes = entry.get("notes")
         if notes is not None and not isinstance(notes, str):
             err(f"notes must be text, got {notes!r}", "notes")
@@ -542,7 +581,11 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
             suffix = PurePosixPath(rel).suffix.lower()
             delimited = _FORMATS[suffix] == "csv"
             options = csv_options(options, suffix) if delimited else {}
-            parsed.runs.append(RunEntry(rid, kind, rel, modulator, notes, columns, units, options))
+            parsed.runs.append(
+                RunEntry(
+                    rid, kind, rel, modulator, notes, columns, units, options, controller=controller
+                )
+            )
 
 
 def find_datasets(raw_dir: str | Path) -> list[str]:

@@ -23,6 +23,7 @@ from spa.synthetic.sensor import Sensor, _ringing
 
 __all__ = [
     "RunSpec",
+    "closed_loop_runs",
     "dataset_runs",
     "generate_dataset",
     "identification_runs",
@@ -38,8 +39,10 @@ __all__ = [
 class RunSpec:
     """One simulated run: what the controller commands.
 
-    Either a fixed valve command (``valve``; identification experiments) or an input
-    fraction (``xi``) through ``modulator`` (``{"type": ..., settings}``).
+    Either a fixed valve command (``valve``; identification experiments), an input
+    fraction (``xi``) through ``modulator`` (``{"type": ..., settings}``), or a set-point
+    (``reference``, bar) tracked by ``controller`` (a PI mapping with its step ``dt``)
+    through ``modulator`` (closed-loop runs).
     """
 
     id: str
@@ -50,6 +53,8 @@ class RunSpec:
     modulator: Mapping[str, Any] | None = None
     notes: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
+    reference: np.ndarray | None = None
+    controller: Mapping[str, Any] | None = None
 
 
 def run_seed(seed: int, dataset: str, run_id: str) -> np.random.Generator:
@@ -93,7 +98,15 @@ def simulate_run(
             f"sensor.fs = {sensor.fs:g} Hz: 1/fs must be a whole number of controller steps "
             f"dt = {dt:g} s"
         )
-    if spec.valve is not None:
+    reference = None
+    if spec.reference is not None and spec.modulator is not None and spec.controller:
+        from spa.closedloop import PIController
+        from spa.closedloop.loop import closed_loop_arrays
+
+        reference = np.asarray(spec.reference, dtype=np.float64)
+        ctrl = PIController.from_mapping(dict(spec.controller))
+        p, xi, u = closed_loop_arrays(reference, dt, spec.modulator, ctrl, params, spec.p0)
+    elif spec.valve is not None:
         u = np.asarray(spec.valve, dtype=np.int8)
         xi = None
     elif spec.xi is not None and spec.modulator is not None:
@@ -103,7 +116,8 @@ def simulate_run(
         u = modulate(mod.kind, xi, dt, **mod.settings)
     else:
         raise ValueError(f"run {spec.id!r}: give either valve, or xi and modulator")
-    p = simulate(u, dt, params, p0=spec.p0)
+    if reference is None:
+        p = simulate(u, dt, params, p0=spec.p0)
     idx = np.arange(0, u.size, every)
     t = idx * dt
     logged = p[idx]
@@ -118,6 +132,8 @@ def simulate_run(
     table = {"t": t, "p": logged, "valve": u[idx]}
     if xi is not None:
         table["u"] = np.clip(xi[idx], 0.0, 1.0)
+    if reference is not None:
+        table["r"] = reference[idx]
     return pd.DataFrame(table)
 
 
@@ -280,7 +296,53 @@ def dataset_runs(
     ident = dict(experiments.get("identification", {}))
     runs = identification_runs(params, dt, **ident)
     modulated = {k: v for k, v in experiments.items() if k in ("staircase", "sine", "chirp")}
-    return runs + modulated_runs(cfg["modulators"], dt, modulated)
+    runs += modulated_runs(cfg["modulators"], dt, modulated)
+    if experiments.get("closed_loop"):
+        runs += closed_loop_runs(params, dt, experiments["closed_loop"])
+    return runs
+
+
+def closed_loop_runs(params: ValveParams, dt: float, cfg: Mapping[str, Any]) -> list[RunSpec]:
+    """Closed-loop runs: a set-point staircase tracked by a PI through each modulator.
+
+    Parameters
+    ----------
+    params : ValveParams
+        The valve the PI is designed for (SIMC on the averaged model: the fixed PI of
+        :func:`spa.closedloop.design.design_pi` at ``tau_c``), as a lab would after
+        identifying it.
+    dt : float
+        Controller step, s.
+    cfg : mapping
+        ``levels`` (bar), ``hold`` (s per level), ``modulators`` (settings), ``tau_c`` (s).
+
+    Returns
+    -------
+    list of RunSpec
+        Run ids ``closed_loop_<setting label>``; the staircase up then down, from rest at
+        0 bar.
+    """
+    from spa.closedloop.design import design_pi
+    from spa.closedloop.experiments import staircase_reference
+
+    levels = [float(v) for v in cfg["levels"]]
+    reference = staircase_reference(levels, float(cfg["hold"]), dt)
+    runs = []
+    for setting in cfg["modulators"]:
+        mod = Modulator.from_mapping(setting)
+        pi = design_pi(mod, params, levels=levels, tau_c=float(cfg.get("tau_c", 0.2)))
+        controller = {**pi["fixed"].to_mapping(), "dt": dt}
+        runs.append(
+            RunSpec(
+                f"closed_loop_{mod.label}",
+                "closed_loop",
+                modulator=mod.to_mapping(),
+                reference=reference,
+                controller=controller,
+                meta={"levels": levels, "hold": float(cfg["hold"])},
+            )
+        )
+    return runs
 
 
 def generate_dataset(
@@ -329,6 +391,7 @@ def generate_dataset(
             "kind": spec.kind,
             "origin": "synthetic",
             "modulator": dict(spec.modulator) if spec.modulator else None,
+            **({"controller": dict(spec.controller)} if spec.controller else {}),
             "notes": spec.notes,
             "description": str(cfg.get("description", "")),
             "truth": params.as_dict(),

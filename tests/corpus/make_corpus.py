@@ -126,9 +126,12 @@ def _good(folder: Path) -> None:
          "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15}},
         {"id": "stair_dsm", "kind": "staircase", "file": "stair_dsm.csv",
          "modulator": {"type": "dsm", "period": 0.02}},
+        {"id": "loop_iipfm", "kind": "closed_loop", "file": "loop_iipfm.csv",
+         "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
+         "controller": {"kp": 4.0, "ki": 4.5, "dt": 0.001}},
     ]
     doc = _spec(folder.name, runs, units={"time": "ms", "pressure": "kPa"},
-                columns={"t": "time_ms", "p": "P_kPa", "valve": "V", "u": "xi"})
+                columns={"t": "time_ms", "p": "P_kPa", "valve": "V", "u": "xi", "r": "R_kPa"})
     doc["description"] = "Small valid dataset exercising every kind, modulator and file format."
     _write_yaml(folder, doc)
     (folder / "csv").mkdir()
@@ -143,6 +146,7 @@ def _good(folder: Path) -> None:
                      {"time_ms": t_ms, "P_kPa": p_kpa, "V": valve.astype(float), "xi": xi})
     _csv(folder, "chirp_iipfm.csv", with_u)
     _csv(folder, "stair_dsm.csv", with_u)
+    _csv(folder, "loop_iipfm.csv", with_u.assign(R_kPa=np.where(t < 0.2, 20.0, 50.0)))
 
 
 def _multi(folder: Path) -> None:

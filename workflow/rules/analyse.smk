@@ -17,6 +17,7 @@ ANALYSE = {
         "staircase",
         "sine",
         "chirp",
+        "closed_loop",
         "page",
     ]
 }
@@ -51,6 +52,7 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
             cfg={
                 "identify": config["identification"],
                 **{s: config["linearity"][s] for s in ["staircase", "sine", "chirp"]},
+                "closed_loop": config.get("closed_loop", {}),
             },
             nominal=config["nominal"],
             seed=config["seed"],

@@ -1,0 +1,24 @@
+"""Closed-loop pressure control through the pulse modulator (issue: PI design and exact simulation).
+
+* :mod:`spa.closedloop.controller` – :class:`PIController`, one value type for P, PI,
+  gain-scheduled PI and feed-forward;
+* :mod:`spa.closedloop.kernels` – the per-step law of each modulator, compiled;
+* :mod:`spa.closedloop.loop` – :func:`simulate_closed_loop`, the exact compiled loop;
+* :mod:`spa.closedloop.reference` – the same loop in plain Python from the open-loop
+  functions (tests);
+* :mod:`spa.closedloop.design` – local models from the averaged analysis and SIMC tuning;
+* :mod:`spa.closedloop.metrics` – step and sine tracking metrics (docs/model.md section 8).
+"""
+
+from __future__ import annotations
+
+from spa._lazy import lazy_exports
+
+_EXPORTS: dict[str, str] = {
+    "PIController": "spa.closedloop.controller",
+    "simulate_closed_loop": "spa.closedloop.loop",
+}
+
+__all__ = sorted(_EXPORTS)
+
+_, __getattr__, __dir__ = lazy_exports(__name__, (), _EXPORTS)

@@ -1,0 +1,258 @@
+"""PI design from the identified valve: local models from the averaged analysis, SIMC tuning.
+
+For a modulator setting the averaged analysis (docs/model.md section 3) gives, at every input
+fraction ``xi``, the equilibrium pressure ``P_eq(xi)`` (Eq. 5) and the equivalent time
+constant ``tau_m(xi)`` (Eq. 9). Around the set-point ``r`` the loop sees a first-order plant
+with dead time,
+
+    K(r) = dP_eq/dxi at xi_ff(r) = P_eq^-1(r),   tau(r) = tau_m(xi_ff(r)),
+    theta(r) = (t_on + t_off)/2 + T(xi_ff(r))/2,
+
+the dead time being the valve's mean switching delay plus half the modulator's pulse period
+``T = t_h + t_l`` (Appendix A; a change of ``xi`` acts on average half a period later), the
+period capped at :data:`MAX_PERIOD`. SIMC (Skogestad 2003) turns a first-order-plus-dead-time
+model into a PI with one closed-loop time constant ``tau_c``:
+``Kp = tau/(K*(tau_c + theta))``, ``Ti = min(tau, 4*(tau_c + theta))``, ``Ki = Kp/Ti``.
+The fixed PI uses the local model at one design point; the scheduled PI uses it at every
+point of a set-point grid, plus the feed-forward ``xi_ff(r)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from spa import _checks as checks
+from spa.closedloop.controller import PIController
+from spa.model.averaging import equilibrium, pulse_times, time_constant, time_fractions
+from spa.model.modulators import Modulator
+from spa.model.params import ValveParams
+
+__all__ = [
+    "DEFAULT_TAU_C",
+    "LocalModels",
+    "design_pi",
+    "feedforward",
+    "local_models",
+    "simc",
+]
+
+#: Default closed-loop time constant of SIMC, s. Chosen by measurement
+#: (benchmarks/sweep_tau_c.py, docs/model.md section 8): on the nominal valve it is the
+#: shortest of 0.05-0.5 s for which the fixed PI of IIPFM (20 ms, G = 1.15) overshoots by at
+#: most about 5 % over the staircase 0.05-0.75 bar (0.1 s: 10 %); longer only slows the loop.
+DEFAULT_TAU_C = 0.2
+
+#: Longest pulse period counted in the dead time, s (IPFM near xi = 0 and IIPFM near xi = 1
+#: have unbounded periods, where the averaged model no longer describes the loop).
+MAX_PERIOD = 0.2
+
+_N_XI = 2001  # points of the xi grid on which P_eq is inverted and differentiated
+
+
+@dataclass(frozen=True)
+class LocalModels:
+    """First-order-plus-dead-time models of the loop at set-points ``r``.
+
+    Attributes
+    ----------
+    r : numpy.ndarray
+        Set-points, bar.
+    xi : numpy.ndarray
+        Feed-forward input fraction ``P_eq^-1(r)``.
+    gain : numpy.ndarray
+        ``K = dP_eq/dxi`` there, bar.
+    tau : numpy.ndarray
+        ``tau_m`` (Eq. 9), s.
+    dead_time : numpy.ndarray
+        ``theta``, s.
+    """
+
+    r: np.ndarray
+    xi: np.ndarray
+    gain: np.ndarray
+    tau: np.ndarray
+    dead_time: np.ndarray
+
+
+def _curve(mod: Modulator, params: ValveParams) -> tuple[np.ndarray, np.ndarray]:
+    """``(xi, P_eq)`` on a fine grid, restricted to where ``P_eq`` strictly increases."""
+    xi = np.linspace(0.0, 1.0, _N_XI)
+    peq = np.asarray(equilibrium(mod.kind, xi, params, **mod.settings), dtype=np.float64)
+    keep = np.concatenate(([True], np.diff(peq) > 0.0))
+    # Drop the flat dead-zone except its last point, and the flat saturation.
+    return xi[keep], peq[keep]
+
+
+def feedforward(
+    r: npt.ArrayLike, modulator: Modulator | dict[str, Any], params: ValveParams | None = None
+) -> np.ndarray:
+    """The averaged model's inverse: the input fraction whose ``P_eq`` is ``r``.
+
+    Parameters
+    ----------
+    r : array_like
+        Set-points, bar; outside the reachable range the edge of the range is used.
+    modulator : Modulator or mapping
+        Modulator setting.
+    params : ValveParams, optional
+        The valve; nominal when omitted.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``xi_ff(r)`` in [0, 1], by linear interpolation of the inverse of ``P_eq`` (Eq. 5)
+        on a grid of 2001 values of ``xi``.
+
+    Examples
+    --------
+    >>> xi = feedforward([0.3], {"type": "iipfm", "t_l": 0.02, "gain": 1.15})
+    >>> from spa.model.averaging import equilibrium
+    >>> p = equilibrium("iipfm", xi, t_l=0.02, gain=1.15)
+    >>> bool(abs(p[0] - 0.3) < 1e-3)
+    True
+    """
+    params = checks.valve_params(params)
+    mod = Modulator.from_mapping(modulator)
+    xi, peq = _curve(mod, params)
+    return np.interp(np.asarray(r, dtype=np.float64), peq, xi)
+
+
+def local_models(
+    r: npt.ArrayLike, modulator: Modulator | dict[str, Any], params: ValveParams | None = None
+) -> LocalModels:
+    """Static gain, time constant and dead time of the averaged loop at set-points ``r``.
+
+    Parameters
+    ----------
+    r : array_like
+        Set-points, bar (inside ``(0, k2)``).
+    modulator : Modulator or mapping
+        Modulator setting.
+    params : ValveParams, optional
+        The valve; nominal when omitted.
+
+    Returns
+    -------
+    LocalModels
+        As the module's docstring defines them.
+
+    Examples
+    --------
+    >>> m = local_models([0.2, 0.6], {"type": "iipfm", "t_l": 0.02, "gain": 1.15})
+    >>> bool(np.all(m.gain > 0) and np.all(m.tau > 0))
+    True
+    """
+    params = checks.valve_params(params)
+    mod = Modulator.from_mapping(modulator)
+    rr = np.atleast_1d(np.asarray(r, dtype=np.float64))
+    xi_grid, peq = _curve(mod, params)
+    slope = np.gradient(peq, xi_grid)
+    x = np.interp(rr, peq, xi_grid)
+    gain = np.interp(x, xi_grid, slope)
+    a1, a2 = time_fractions(mod.kind, x, params, **mod.settings)
+    tau = np.asarray(time_constant(a1, a2, params), dtype=np.float64)
+    t_h, t_l = pulse_times(mod.kind, x, **mod.settings)
+    period = np.minimum(np.asarray(t_h) + np.asarray(t_l), MAX_PERIOD)
+    theta = 0.5 * (params.t_on + params.t_off) + 0.5 * period
+    return LocalModels(rr, x, gain, tau, theta)
+
+
+def simc(
+    gain: npt.ArrayLike, tau: npt.ArrayLike, dead_time: npt.ArrayLike, tau_c: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """SIMC PI gains for first-order-plus-dead-time models (Skogestad 2003).
+
+    Parameters
+    ----------
+    gain, tau, dead_time : array_like
+        ``K`` (bar per unit of xi), ``tau`` (s) and ``theta`` (s); broadcast.
+    tau_c : float
+        Desired closed-loop time constant, s (> 0).
+
+    Returns
+    -------
+    kp, ki : numpy.ndarray
+        ``Kp = tau/(K*(tau_c + theta))`` in 1/bar and ``Ki = Kp/min(tau, 4*(tau_c + theta))``
+        in 1/(bar·s).
+
+    Examples
+    --------
+    >>> kp, ki = simc(0.8, 0.8, 0.02, 0.18)
+    >>> round(float(kp), 3), round(float(ki), 3)
+    (5.0, 6.25)
+    """
+    tau_c = checks.positive("tau_c", tau_c, "s")
+    k = np.asarray(gain, dtype=np.float64)
+    tau = np.asarray(tau, dtype=np.float64)
+    theta = np.asarray(dead_time, dtype=np.float64)
+    kp = tau / (k * (tau_c + theta))
+    ti = np.minimum(tau, 4.0 * (tau_c + theta))
+    return kp, kp / ti
+
+
+def design_pi(
+    modulator: Modulator | dict[str, Any],
+    params: ValveParams | None = None,
+    *,
+    levels: npt.ArrayLike,
+    tau_c: float = DEFAULT_TAU_C,
+    design_point: float | None = None,
+) -> dict[str, PIController]:
+    """A fixed and a gain-scheduled PI for a modulator setting on an identified valve.
+
+    Parameters
+    ----------
+    modulator : Modulator or mapping
+        Modulator setting.
+    params : ValveParams, optional
+        The valve; nominal when omitted.
+    levels : array_like
+        Set-points of the operating range, bar: the schedule's grid.
+    tau_c : float, optional
+        SIMC's closed-loop time constant, s.
+    design_point : float, optional
+        Set-point of the fixed PI's local model, bar; the middle of ``levels`` by default.
+
+    Returns
+    -------
+    dict
+        ``{"fixed": ..., "scheduled": ..., "scheduled_ff": ...}`` (:class:`PIController`):
+        SIMC at the design point; SIMC at every level, interpolated in the set-point; the
+        same plus the averaged model's feed-forward ``xi_ff(r)``.
+
+    Raises
+    ------
+    ValueError
+        If a local model is degenerate (a level outside the modulator's reachable range).
+    """
+    params = checks.valve_params(params)
+    mod = Modulator.from_mapping(modulator)
+    grid = np.unique(np.asarray(levels, dtype=np.float64))
+    mid = float(np.median(grid)) if design_point is None else float(design_point)
+    models = local_models(np.append(grid, mid), mod, params)
+    bad = ~(np.isfinite(models.tau) & (models.gain > 0))
+    if np.any(bad):
+        where = np.append(grid, mid)[bad]
+        raise ValueError(
+            f"{mod.label}: no local model at set-point(s) {where.tolist()} bar "
+            "(outside the range the modulator reaches on this valve)"
+        )
+    kp, ki = simc(models.gain, models.tau, models.dead_time, tau_c)
+    ff = (tuple(grid), tuple(np.clip(models.xi[:-1], 0.0, 1.0)))
+    if grid.size > 1:
+        gains: dict[str, Any] = {
+            "kp": tuple(kp[:-1]),
+            "ki": tuple(ki[:-1]),
+            "schedule": tuple(grid),
+        }
+    else:
+        gains = {"kp": float(kp[0]), "ki": float(ki[0])}
+    return {
+        "fixed": PIController(kp=float(kp[-1]), ki=float(ki[-1])),
+        "scheduled": PIController(**gains),
+        "scheduled_ff": PIController(**gains, feedforward=ff),
+    }

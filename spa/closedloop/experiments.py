@@ -1,0 +1,149 @@
+"""The closed-loop experiments: set-point staircase up and down, a set of steps, a sine.
+
+Each builds its set-point sequence, runs :func:`spa.closedloop.loop.simulate_closed_loop`
+and measures it with :mod:`spa.closedloop.metrics`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from spa.closedloop.controller import PIController
+from spa.closedloop.design import MAX_PERIOD, feedforward
+from spa.closedloop.loop import closed_loop_arrays, simulate_closed_loop
+from spa.closedloop.metrics import STEP_METRICS, sine_metrics, step_metrics, step_rows
+from spa.model.averaging import pulse_times
+from spa.model.modulators import Modulator
+from spa.model.params import ValveParams
+
+__all__ = [
+    "cycle_period",
+    "run_sine",
+    "run_staircase",
+    "run_steps",
+    "sine_reference",
+    "spread",
+    "staircase_reference",
+]
+
+
+def staircase_reference(levels: Sequence[float], hold: float, dt: float) -> np.ndarray:
+    """Set-points ``levels`` up, then back down, each held ``hold`` s, sampled every ``dt``.
+
+    Examples
+    --------
+    >>> staircase_reference([0.1, 0.2, 0.3], 0.002, 0.001).tolist()
+    [0.1, 0.1, 0.2, 0.2, 0.3, 0.3, 0.2, 0.2, 0.1, 0.1]
+    """
+    up = list(levels)
+    seq = up + up[-2::-1]
+    return np.repeat(np.asarray(seq, dtype=np.float64), round(hold / dt))
+
+
+def sine_reference(
+    offset: float, amplitude: float, frequency: float, duration: float, dt: float
+) -> np.ndarray:
+    """``offset + amplitude*sin(2*pi*frequency*t)`` for ``duration`` s."""
+    t = np.arange(round(duration / dt)) * dt
+    return offset + amplitude * np.sin(2.0 * np.pi * frequency * t)
+
+
+def cycle_period(modulator: Modulator, params: ValveParams, level: float, dt: float) -> float:
+    """The modulator's pulse period at the feed-forward of ``level`` (capped), s.
+
+    The window of the cycle-mean pressure (:func:`spa.closedloop.metrics.cycle_mean`).
+    """
+    xi = float(feedforward([level], modulator, params)[0])
+    t_h, t_l = pulse_times(modulator.kind, xi, **modulator.settings)
+    return float(np.clip(float(t_h) + float(t_l), 2.0 * dt, MAX_PERIOD))
+
+
+def _settled(
+    modulator: Modulator, controller: PIController, params: ValveParams, level: float
+) -> float:
+    """The integrator's state that holds ``level`` in the averaged model: ``xi_ff(level)``
+    for a PI without feed-forward, 0 with it (the feed-forward supplies it)."""
+    if controller.feedforward is not None:
+        return 0.0
+    return float(feedforward([level], modulator, params)[0])
+
+
+def run_staircase(
+    modulator: Modulator,
+    controller: PIController,
+    params: ValveParams,
+    levels: Sequence[float],
+    hold: float,
+    dt: float,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The staircase up and down, settled at the first level (pressure and integrator at
+    its averaged equilibrium): ``(run, step metrics)``."""
+    r = staircase_reference(levels, hold, dt)
+    run = simulate_closed_loop(
+        r,
+        dt,
+        modulator,
+        controller,
+        params,
+        p0=float(levels[0]),
+        integral0=_settled(modulator, controller, params, float(levels[0])),
+    )
+    period = cycle_period(modulator, params, float(np.median(levels)), dt)
+    return run, step_metrics(run, period, r_initial=float(levels[0]))
+
+
+def run_steps(
+    modulator: Modulator,
+    controller: PIController,
+    params: ValveParams,
+    levels: Sequence[float],
+    hold: float,
+    dt: float,
+) -> pd.DataFrame:
+    """One step from rest (0 bar, integrator at 0) to each level: one metrics row per level.
+
+    The cycle-mean window is the modulator's period at the middle level, as for the
+    staircase.
+    """
+    period = cycle_period(modulator, params, float(np.median(levels)), dt)
+    n = round(hold / dt)
+    t = np.arange(n, dtype=np.float64) * dt
+    rows = []
+    for level in levels:
+        r = np.full(n, float(level))
+        p, _, u = closed_loop_arrays(r, dt, modulator, controller, params, 0.0)
+        rows += step_rows(t, r, p, u, period, r_initial=0.0)
+    return pd.DataFrame(rows, columns=["r0", "r1", "t0", *STEP_METRICS])
+
+
+def run_sine(
+    modulator: Modulator,
+    controller: PIController,
+    params: ValveParams,
+    sine: dict[str, Any],
+    dt: float,
+) -> tuple[pd.DataFrame, dict[str, float]]:
+    """The sine reference (``offset``, ``amplitude``, ``frequency``, ``duration``, ``skip``)."""
+    r = sine_reference(sine["offset"], sine["amplitude"], sine["frequency"], sine["duration"], dt)
+    run = simulate_closed_loop(
+        r,
+        dt,
+        modulator,
+        controller,
+        params,
+        p0=float(r[0]),
+        integral0=_settled(modulator, controller, params, float(r[0])),
+    )
+    return run, sine_metrics(run, sine["frequency"], skip=float(sine.get("skip", 0.0)))
+
+
+def spread(values: npt.ArrayLike) -> float:
+    """Largest minus smallest finite value (NaN when none)."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    return float(v.max() - v.min()) if v.size else float("nan")

@@ -1,0 +1,34 @@
+"""What every modulator kernel shares."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+#: The relative tolerance of :mod:`spa.model.modulators` for event times (the same value:
+#: tests/test_closed_loop.py checks it).
+EPS = 1e-9
+
+
+def pulse_steps(width: float, dt: float) -> int:
+    """Steps a pulse of ``width`` s lasts, at least one (the open-loop modulators' rule)."""
+    return max(1, math.floor(width / dt + 0.5))
+
+
+@njit(cache=True)
+def integrate_and_fire(  # pragma: no cover
+    k: int, x: float, threshold_steps: float, width: float, st
+) -> int:
+    """One step of an integrator of ``x`` with reset by subtraction that fires pulses.
+
+    ``st = [integral up to t_k in steps, index of the next threshold multiple, end of the
+    pulse]``. It fires at step ``k`` when the integral up to ``t_k`` has crossed
+    ``(m - eps)*threshold_steps`` (the law of ``spa.model.modulators._firings``); a firing
+    starts (or extends) a pulse of ``width`` steps. Returns 1 while the pulse runs.
+    """
+    while st[0] >= (st[1] - EPS) * threshold_steps:
+        st[1] += 1.0
+        st[2] = k + width
+    st[0] += x
+    return 1 if k < st[2] else 0

@@ -1,0 +1,28 @@
+"""Inverse IPFM as a per-step state machine: integrate ``1 - xi``, fire LOW pulses of ``t_l``.
+
+The same integrate-and-fire law as IPFM on ``1 - xi``, with the output inverted (high by
+default), as :func:`spa.model.modulators.modulate` does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from spa.closedloop.kernels._common import integrate_and_fire, pulse_steps
+
+#: State: [integral of 1 - xi up to t_k in steps, next threshold index, end of the pulse].
+INITIAL = (0.0, 1.0, 0.0)
+
+
+def configure(settings: dict[str, float], dt: float) -> np.ndarray:
+    """Constants of the kernel: ``[threshold in steps, pulse width in steps]``."""
+    return np.array(
+        [settings["gain"] * settings["t_l"] / dt, float(pulse_steps(settings["t_l"], dt))]
+    )
+
+
+@njit(cache=True)
+def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: no cover
+    """Command ``u[k]``; ``1 - xi`` (sampled at step ``k``) enters the integral after it."""
+    return 1 - integrate_and_fire(k, 1.0 - xi, cfg[0], cfg[1], st)

@@ -1,0 +1,29 @@
+"""IPFM as a per-step state machine: integrate ``xi``, fire high pulses of width ``t_h``.
+
+The integral up to ``t_k`` (the running sum of ``xi`` in steps) is compared with the
+multiples of the threshold ``gain*t_h/dt``; each crossing starts (or extends) a high pulse of
+``round(t_h/dt)`` steps, as :func:`spa.model.modulators.modulate` does with cumulative sums.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from spa.closedloop.kernels._common import integrate_and_fire, pulse_steps
+
+#: State: [integral up to t_k in steps, next threshold index, end of the pulse].
+INITIAL = (0.0, 1.0, 0.0)
+
+
+def configure(settings: dict[str, float], dt: float) -> np.ndarray:
+    """Constants of the kernel: ``[threshold in steps, pulse width in steps]``."""
+    return np.array(
+        [settings["gain"] * settings["t_h"] / dt, float(pulse_steps(settings["t_h"], dt))]
+    )
+
+
+@njit(cache=True)
+def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: no cover
+    """Command ``u[k]``; ``xi`` (sampled at step ``k``) enters the integral after it."""
+    return integrate_and_fire(k, xi, cfg[0], cfg[1], st)

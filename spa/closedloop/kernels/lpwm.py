@@ -1,0 +1,51 @@
+"""LPWM (model-inverse PWM) as a per-step state machine: PWM whose duty inverts Eq. 5.
+
+At each period start the input fraction is mapped to the duty
+``d = (a*(1 - t_off*f_w) + b*t_on*f_w)/(a + b)`` with ``s = sqrt(k2*xi)``, ``a = s*tau2``,
+``b = (k2 - s²)*c1`` (0 at ``xi <= 0``, 1 at ``xi >= 1``) for the valve the setting names
+(the nominal one for what it omits), then the PWM law of :mod:`.pwm` runs on the duty: the
+open-loop LPWM's law, sample for sample.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from spa.closedloop.kernels import pwm
+
+#: State: PWM's.
+INITIAL = pwm.INITIAL
+
+_VALVE = {"c1": 0.533, "k2": 0.837, "tau2": 0.826, "t_on": 0.003, "t_off": 0.010}
+
+
+def configure(settings: dict[str, float], dt: float) -> np.ndarray:
+    """Constants: ``[period, dt, f_w, c1, k2, tau2, t_on, t_off]``."""
+    from spa.model.params import ValveParams
+
+    nominal = ValveParams()
+    valve = [float(settings.get(k, getattr(nominal, k))) for k in _VALVE]
+    f = float(settings["f_w"])
+    return np.array([1.0 / f, dt, f, *valve])
+
+
+@njit(cache=True)
+def duty(xi: float, cfg: np.ndarray) -> float:  # pragma: no cover
+    """The duty that makes the averaged equilibrium ``k2*xi`` for the configured valve."""
+    if xi <= 0.0:
+        return 0.0
+    if xi >= 1.0:
+        return 1.0
+    f, c1, k2, tau2, t_on, t_off = cfg[2], cfg[3], cfg[4], cfg[5], cfg[6], cfg[7]
+    root = np.sqrt(k2 * xi)
+    a = root * tau2
+    b = (k2 - root * root) * c1
+    d = (a * (1.0 - t_off * f) + b * (t_on * f)) / (a + b)
+    return min(max(d, 0.0), 1.0)
+
+
+@njit(cache=True)
+def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: no cover
+    """Command ``u[k]``: PWM on the duty of ``xi`` (only used at period starts)."""
+    return pwm.step(k, duty(xi, cfg), cfg, st)

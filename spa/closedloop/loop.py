@@ -1,0 +1,211 @@
+"""Exact closed-loop simulation: PI controller -> pulse modulator -> valve -> actuator.
+
+The loop is sequential (the controller reads the pressure the previous commands produced), so
+it runs as one numba-compiled loop over the samples; per step it evaluates the plant's closed
+form once (:func:`spa.model.plant.segment_pressure`, the same formula), the controller's law
+and the modulator's per-step kernel (:mod:`spa.closedloop.kernels`). Convention in
+docs/model.md section 8; checked against the open-loop functions and a plain-Python loop in
+tests/test_closed_loop.py.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+from numba import njit
+
+from spa import _checks as checks
+from spa.closedloop import kernels
+from spa.closedloop.controller import PIController, interp
+from spa.closedloop.kernels import KERNELS
+from spa.model.modulators import Modulator
+from spa.model.params import ValveParams
+
+__all__ = ["closed_loop_arrays", "segment_pressure_scalar", "simulate_closed_loop"]
+
+_interp = njit(cache=True)(interp)
+
+
+@njit(cache=True)
+def segment_pressure_scalar(  # pragma: no cover
+    on: bool, p_start: float, elapsed: float, c1: float, k2: float, tau2: float
+) -> float:
+    """:func:`spa.model.plant.segment_pressure` for one sample, compiled: the same formula.
+
+    Charging ``k2 + (p_start - k2)*exp(-e/tau2)``, exhausting
+    ``max(sqrt(p_start) - e/(2*c1), 0)**2``, with ``e = max(elapsed, 0)``.
+    """
+    e = max(elapsed, 0.0)
+    if on:
+        return math.exp(-e / tau2) * (p_start - k2) + k2
+    root = max(math.sqrt(p_start) - e / (2.0 * c1), 0.0)
+    return root * root
+
+
+@njit(cache=True)
+def _run_end(on: bool, p_start: float, active: float, c1: float, k2: float, tau2: float) -> float:
+    # spa.model.plant.run_start_pressures: the pressure a run of `active` s leaves.
+    if on:
+        return k2 + (p_start - k2) * math.exp(-active / tau2)
+    r = math.sqrt(p_start) - active / (2.0 * c1)
+    return r * r if r > 0.0 else 0.0
+
+
+@njit(cache=True)
+def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
+    r, dt, p0, i0, plant, grid, kp, ki, ff_r, ff_xi, kind, cfg, st, p_out, xi_out, u_out
+):
+    c1, k2, tau2, t_on, t_off = plant[0], plant[1], plant[2], plant[3], plant[4]
+    integ = i0
+    level = 0
+    start = 0
+    hold = 0.0
+    p_start = p0
+    r_prev = math.nan
+    g_kp = g_ki = g_ff = 0.0
+    for k in range(r.size):
+        # The pressure at t_k: the closed form of the run in progress.
+        if k == 0:
+            p = p0
+        else:
+            p = segment_pressure_scalar(
+                level == 1, p_start, k * dt - (start * dt + hold), c1, k2, tau2
+            )
+        # The controller: gains and feed-forward at the set-point, conditional integration.
+        rk = r[k]
+        if rk != r_prev:
+            g_kp = _interp(rk, grid, kp)
+            g_ki = _interp(rk, grid, ki)
+            g_ff = _interp(rk, ff_r, ff_xi)
+            r_prev = rk
+        e = rk - p
+        v = g_kp * e + integ + g_ff
+        xi = min(max(v, 0.0), 1.0)
+        if not ((v > 1.0 and e > 0.0) or (v < 0.0 and e < 0.0)):
+            integ += g_ki * dt * e
+        # The modulator over [t_k, t_k+1); a change of command starts a new run.
+        u = kernels.step(kind, k, xi, cfg, st)
+        if k == 0:
+            level = u
+        elif u != level:
+            p_start = _run_end(level == 1, p_start, max((k - start) * dt - hold, 0.0), c1, k2, tau2)
+            level = u
+            start = k
+            hold = t_on if u == 1 else t_off
+        p_out[k] = p
+        xi_out[k] = xi
+        u_out[k] = u
+
+
+def closed_loop_arrays(
+    reference: npt.ArrayLike,
+    dt: float,
+    modulator: Modulator | dict[str, Any],
+    controller: PIController,
+    params: ValveParams | None = None,
+    p0: float = 0.0,
+    *,
+    integral0: float = 0.0,
+    compiled: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The closed loop's ``(p, xi, valve)`` arrays (see :func:`simulate_closed_loop`).
+
+    ``integral0`` as :func:`simulate_closed_loop`.
+
+    ``compiled=False`` runs the same loop as plain Python (slow; for the tests).
+    """
+    params = checks.valve_params(params)
+    dt = checks.positive("dt", dt, "s")
+    p0 = checks.nonnegative("p0", p0, "bar")
+    if not isinstance(controller, PIController):
+        raise ValueError(f"controller must be a PIController, got {controller!r}")
+    mod = Modulator.from_mapping(modulator)
+    if mod.kind not in KERNELS:
+        raise ValueError(f"no closed-loop kernel for modulator kind {mod.kind!r}")
+    settings = dict(mod.settings)
+    from spa.model.modulators import check_settings
+
+    check_settings(mod.kind, dt, **settings)
+    r = checks.finite_array("reference", reference, ndim=1)
+    kernel = KERNELS[mod.kind]
+    n = r.size
+    p, xi, u = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
+    plant = np.array([params.c1, params.k2, params.tau2, params.t_on, params.t_off])
+    args = (r, dt, p0, float(integral0), plant, *controller.arrays())
+    state = np.array(kernel.INITIAL, dtype=np.float64)
+    cfg = kernel.configure(settings, dt)
+    run = _loop if compiled else _loop.py_func
+    run(*args, kernels.code(mod.kind), cfg, state, p, xi, u)
+    return p, xi, u
+
+
+def simulate_closed_loop(
+    reference: npt.ArrayLike,
+    dt: float,
+    modulator: Modulator | dict[str, Any],
+    controller: PIController,
+    params: ValveParams | None = None,
+    p0: float = 0.0,
+    *,
+    integral0: float = 0.0,
+) -> pd.DataFrame:
+    """Exact pressure of the actuator under PI control through a pulse modulator.
+
+    Parameters
+    ----------
+    reference : array_like of float, shape (n,)
+        Set-point ``r[k]`` at ``t_k = k*dt``, bar.
+    dt : float
+        Step shared by the controller and the modulator, s.
+    modulator : Modulator or mapping
+        The modulator setting, e.g. ``{"type": "iipfm", "t_l": 0.02, "gain": 1.15}``.
+    controller : PIController
+        Gains (fixed or scheduled over the set-point) and optional feed-forward.
+    params : ValveParams, optional
+        The plant; nominal when omitted.
+    p0 : float, optional
+        Pressure at ``t = 0``, bar; the valve is settled at ``t = 0``.
+    integral0 : float, optional
+        The integrator's state ``I_0`` (input fraction): ``xi_ff(r_0)`` starts a PI without
+        feed-forward settled at the equilibrium of ``r_0``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``t`` (s), ``r`` (bar), ``p`` (bar, the pressure the controller read at
+        ``t_k``), ``xi`` (the controller's output over ``[t_k, t_k+1)``) and ``valve`` (the
+        command over ``[t_k, t_k+1)``, int8).
+
+    Raises
+    ------
+    ValueError
+        For a non-finite reference, a bad step, ``p0`` or controller, or a modulator
+        setting that does not fit the step.
+
+    Notes
+    -----
+    At ``t_k`` the controller reads ``p_k``, forms ``e_k = r_k - p_k`` and
+    ``xi_k = clip(Kp(r_k)*e_k + I_k + xi_ff(r_k), 0, 1)``; ``I_{k+1} = I_k + Ki(r_k)*dt*e_k``
+    unless ``xi_k`` is clipped and ``e_k`` pushes it further out. ``xi_k`` drives the
+    modulator exactly as in open loop (fed ``xi``, the loop gives
+    :func:`spa.model.modulators.modulate`'s command and :func:`spa.model.plant.simulate`'s
+    pressure to 1e-12), and the command drives the exact four-state plant.
+
+    Examples
+    --------
+    >>> c = PIController(kp=1.0, ki=2.0)
+    >>> df = simulate_closed_loop([0.4] * 4000, 1e-3, {"type": "iipfm", "t_l": 0.02}, c)
+    >>> bool(abs(df["p"].iloc[-500:].mean() - 0.4) < 0.02)
+    True
+    """
+    p, xi, u = closed_loop_arrays(
+        reference, dt, modulator, controller, params, p0, integral0=integral0
+    )
+    n = p.size
+    t = np.arange(n, dtype=np.float64) * dt
+    r = np.asarray(reference, dtype=np.float64)
+    return pd.DataFrame({"t": t, "r": r, "p": p, "xi": xi, "valve": u})

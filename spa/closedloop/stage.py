@@ -1,0 +1,386 @@
+"""The ``closed_loop`` stage of a dataset: design PI controllers for its identified valve,
+simulate them exactly on the set-point experiments and measure them.
+
+For every modulator setting (the paper's selected settings and the dataset's recommended one)
+it designs a fixed PI, a gain-scheduled PI and the scheduled PI with the averaged model's
+feed-forward (:func:`spa.closedloop.design.design_pi`), runs the staircase up and down, the
+set of steps from rest and the sine (:mod:`spa.closedloop.experiments`) and tabulates the
+metrics (:mod:`spa.closedloop.metrics`) with their spread over the operating points.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from spa.closedloop.design import DEFAULT_TAU_C, design_pi
+from spa.closedloop.experiments import cycle_period, run_sine, run_staircase, run_steps, spread
+from spa.closedloop.metrics import STEP_METRICS, cycle_mean
+from spa.model.modulators import Modulator
+from spa.model.params import ValveParams
+
+__all__ = [
+    "CONTROLLERS",
+    "ClosedLoopResult",
+    "closed_loop",
+    "closed_loop_sentence",
+    "recorded_runs",
+    "write_controllers",
+]
+
+#: The controllers designed for every setting, in the order of the tables.
+CONTROLLERS = ("fixed", "scheduled", "scheduled_ff")
+
+#: Defaults of the config's ``closed_loop:`` section.
+DEFAULTS: dict[str, Any] = {
+    "dt": 0.001,
+    "tau_c": DEFAULT_TAU_C,
+    "levels": [0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75],
+    "hold": 3.0,
+    "step_hold": 2.0,
+    "sine": {"offset": 0.4, "amplitude": 0.2, "frequency": 0.5, "duration": 10.0, "skip": 2.0},
+    "max_level_fraction": 0.95,
+    "figure_decimate": 20,
+}
+
+
+@dataclass
+class ClosedLoopResult:
+    """What the stage writes.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        Long table: ``modulator``, ``description``, ``controller``, ``experiment``,
+        ``metric``, ``median``, ``min``, ``max``, ``spread`` (over operating points).
+    steps : pandas.DataFrame
+        One row per step of the staircase and the step set (Fig. 11's data).
+    traces : pandas.DataFrame
+        Decimated staircase traces: set-point and cycle-mean pressure (Fig. 10's data).
+    controllers : dict
+        ``controllers.yaml``: the gains per setting, the sentence and the setting it names.
+    skipped : dict
+        Setting label -> why it was left out.
+    """
+
+    table: pd.DataFrame
+    steps: pd.DataFrame
+    traces: pd.DataFrame
+    controllers: dict[str, Any]
+    skipped: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def sentence(self) -> str:
+        """The one-sentence recommendation (:func:`closed_loop_sentence`)."""
+        return str(self.controllers.get("sentence", ""))
+
+
+def _settings(
+    selected: Iterable[Mapping[str, Any] | Modulator], recommendation: Mapping[str, Any] | None
+) -> tuple[list[Modulator], Modulator | None]:
+    mods = [Modulator.from_mapping(m) for m in selected]
+    rec = None
+    best = (recommendation or {}).get("recommended")
+    if isinstance(best, Mapping) and best.get("setting"):
+        rec = Modulator.from_mapping(best["setting"])
+        if rec.label not in {m.label for m in mods}:
+            mods.append(rec)
+    return mods, rec
+
+
+def _summary(frame: pd.DataFrame, metrics: Iterable[str]) -> list[dict[str, Any]]:
+    rows = []
+    for metric in metrics:
+        v = frame[metric].to_numpy(np.float64)
+        finite = v[np.isfinite(v)]
+        rows.append(
+            {
+                "metric": metric,
+                "median": float(np.median(finite)) if finite.size else math.nan,
+                "min": float(finite.min()) if finite.size else math.nan,
+                "max": float(finite.max()) if finite.size else math.nan,
+                "spread": spread(v),
+                "n": int(v.size),
+                "n_missing": int(v.size - finite.size),
+            }
+        )
+    return rows
+
+
+def _evaluate(
+    mod: Modulator,
+    name: str,
+    ctrl: Any,
+    params: ValveParams,
+    levels: list[float],
+    c: Mapping[str, Any],
+) -> tuple[list[dict[str, Any]], list[pd.DataFrame], pd.DataFrame]:
+    """One setting and controller: table rows, per-step rows and the Fig. 10 trace."""
+    dt = float(c["dt"])
+    run, stair = run_staircase(mod, ctrl, params, levels, float(c["hold"]), dt)
+    step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
+    _, sine = run_sine(mod, ctrl, params, dict(c["sine"]), dt)
+    base = {"modulator": mod.label, "description": mod.description, "controller": name}
+    rows: list[dict[str, Any]] = []
+    step_rows = []
+    for experiment, frame in (("staircase", stair), ("steps", step_set)):
+        for row in _summary(frame, STEP_METRICS):
+            rows.append({**base, "experiment": experiment, **row})
+        step_rows.append(frame.assign(experiment=experiment, **base))
+    for metric, value in sine.items():
+        rows.append(
+            {
+                **base,
+                "experiment": "sine",
+                "metric": metric,
+                **dict.fromkeys(("median", "min", "max"), value),
+                "spread": 0.0,
+                "n": 1,
+                "n_missing": int(not math.isfinite(value)),
+            }
+        )
+    k = int(c["figure_decimate"])
+    period = cycle_period(mod, params, float(np.median(levels)), dt)
+    pm = cycle_mean(run["p"].to_numpy(), max(round(period / dt), 1))
+    trace = pd.DataFrame(
+        {
+            "modulator": mod.label,
+            "controller": name,
+            "t": run["t"].to_numpy()[::k],
+            "r": run["r"].to_numpy()[::k],
+            "p_mean": pm[::k],
+        }
+    )
+    return rows, step_rows, trace
+
+
+def closed_loop(
+    params: ValveParams,
+    selected: Iterable[Mapping[str, Any] | Modulator],
+    recommendation: Mapping[str, Any] | None = None,
+    cfg: Mapping[str, Any] | None = None,
+) -> ClosedLoopResult:
+    """Design, simulate and measure the closed loop for one valve.
+
+    Parameters
+    ----------
+    params : ValveParams
+        The identified valve.
+    selected : iterable of mappings or Modulator
+        The settings to close the loop with (the config's ``analytic.selected``).
+    recommendation : mapping, optional
+        The tuning stage's ``recommendation.yaml``; its recommended setting is added.
+    cfg : mapping, optional
+        The config's ``closed_loop:`` section (:data:`DEFAULTS` fill what it omits).
+
+    Returns
+    -------
+    ClosedLoopResult
+    """
+    c = {**DEFAULTS, **dict(cfg or {})}
+    dt, tau_c = float(c["dt"]), float(c["tau_c"])
+    levels = [float(v) for v in c["levels"] if v < c["max_level_fraction"] * params.k2]
+    if len(levels) < 2:
+        raise ValueError(
+            f"closed_loop.levels: fewer than two levels below {c['max_level_fraction']} * k2 = "
+            f"{c['max_level_fraction'] * params.k2:.3f} bar for this valve; got {c['levels']}"
+        )
+    mods, rec = _settings(selected, recommendation)
+    rows: list[dict[str, Any]] = []
+    step_rows: list[pd.DataFrame] = []
+    traces: list[pd.DataFrame] = []
+    gains: dict[str, Any] = {}
+    skipped: dict[str, str] = {}
+    for mod in mods:
+        try:
+            designs = design_pi(mod, params, levels=levels, tau_c=tau_c)
+            done = [_evaluate(mod, name, ctrl, params, levels, c) for name, ctrl in designs.items()]
+        except ValueError as exc:  # no local model, or no closed-loop law for the setting
+            skipped[mod.label] = str(exc)
+            continue
+        gains[mod.label] = {
+            "setting": mod.to_mapping(),
+            **{name: ctrl.to_mapping() for name, ctrl in designs.items()},
+        }
+        for more_rows, more_steps, trace in done:
+            rows += more_rows
+            step_rows += more_steps
+            traces.append(trace)
+    table = pd.DataFrame(rows)
+    steps = pd.concat(step_rows, ignore_index=True) if step_rows else pd.DataFrame()
+    controllers = {
+        "tau_c": tau_c,
+        "dt": dt,
+        "levels": levels,
+        "rule": "SIMC: Kp = tau/(K*(tau_c + theta)), Ki = Kp/min(tau, 4*(tau_c + theta))",
+        "controllers": gains,
+        "skipped": skipped,
+    }
+    choice = _choice(table, rec)
+    if choice is not None:
+        controllers["setting"] = gains[choice[0]]["setting"]
+        controllers["controller"] = choice[1]
+        controllers["sentence"] = closed_loop_sentence(table, gains, *choice)
+    else:
+        controllers["sentence"] = "No modulator setting could be designed for this valve."
+    return ClosedLoopResult(
+        table,
+        steps,
+        pd.concat(traces, ignore_index=True) if traces else pd.DataFrame(),
+        controllers,
+        skipped,
+    )
+
+
+def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> float:
+    sel = table[
+        (table.modulator == label)
+        & (table.controller == controller)
+        & (table.experiment == "staircase")
+        & (table.metric == metric)
+    ]
+    return float(sel["max"].iloc[0]) if len(sel) else math.nan
+
+
+def _choice(table: pd.DataFrame, rec: Modulator | None) -> tuple[str, str] | None:
+    """The setting (the recommended one, else the first designed) and its best controller:
+    the smallest worst-case rise time among those overshooting at most 10 %, else the
+    smallest worst-case overshoot."""
+    if table.empty:
+        return None
+    designed = list(dict.fromkeys(table.modulator))
+    label = rec.label if rec is not None and rec.label in designed else designed[0]
+    scores = []
+    for name in CONTROLLERS:
+        rise = _worst(table, label, name, "rise_time")
+        over = _worst(table, label, name, "overshoot")
+        scores.append((over > 10.0, rise if over <= 10.0 else over, name))
+    return label, min(scores)[2]
+
+
+def closed_loop_sentence(
+    table: pd.DataFrame, gains: Mapping[str, Any], label: str, controller: str
+) -> str:
+    """The recommendation: ``use <setting> with the <controller> PI (Kp, Ki): rise <= ...``."""
+    g = gains[label][controller]
+    desc = table.loc[table.modulator == label, "description"].iloc[0]
+
+    def fmt(v: Any) -> str:
+        if isinstance(v, list):
+            return f"{min(v):.3g}–{max(v):.3g}"
+        return f"{v:.3g}"
+
+    kind = {"fixed": "fixed", "scheduled": "gain-scheduled", "scheduled_ff": "gain-scheduled"}
+    ff = " with the averaged-model feed-forward" if controller == "scheduled_ff" else ""
+    rise = _worst(table, label, controller, "rise_time")
+    over = _worst(table, label, controller, "overshoot")
+    sse = table[
+        (table.modulator == label)
+        & (table.controller == controller)
+        & (table.experiment == "staircase")
+        & (table.metric == "steady_state_error")
+    ]
+    err = max(abs(float(sse["min"].iloc[0])), abs(float(sse["max"].iloc[0])))
+    return (
+        f"Closed loop: use {desc} with the {kind[controller]} PI{ff} "
+        f"(Kp = {fmt(g['kp'])} /bar, Ki = {fmt(g['ki'])} /(bar·s), controllers.yaml): over the "
+        f"set-point staircase, rise time (10–90 %) ≤ {rise:.2f} s, overshoot ≤ {over:.0f} % "
+        f"and steady-state error ≤ {err * 1e3:.1f} mbar in the exact simulation."
+    )
+
+
+#: Columns of ``runs.csv`` (recorded closed-loop runs against their replay).
+RUN_COLUMNS = (
+    "run",
+    "origin",
+    "modulator",
+    "kp",
+    "ki",
+    "dt",
+    "n_steps",
+    "fit",
+    "rmse",
+    "max_error",
+    "rise_time_max",
+    "rise_time_max_model",
+    "overshoot_max",
+    "overshoot_max_model",
+    "steady_state_error_max",
+    "steady_state_error_max_model",
+)
+
+
+def recorded_runs(
+    runs: Mapping[str, pd.DataFrame], metas: Mapping[str, Mapping[str, Any]], params: ValveParams
+) -> pd.DataFrame:
+    """The dataset's ``closed_loop`` runs: measured metrics and the replay on the model.
+
+    Parameters
+    ----------
+    runs, metas : mapping
+        Run id -> run table and metadata (:func:`spa.io.read_runs`); runs of other kinds
+        are ignored.
+    params : ValveParams
+        The identified valve.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run, :data:`RUN_COLUMNS`: the recording's worst rise time, overshoot and
+        steady-state error over its set-point steps beside the replay's (``*_model``), and
+        the replay's FIT %, RMSE and largest error (bar). The replay starts from the recorded
+        first pressure with the integrator at 0 (a run that starts from rest).
+    """
+    from spa.closedloop.controller import PIController
+    from spa.closedloop.replay import replay_closed_loop
+
+    rows = []
+    for rid, meta in metas.items():
+        if meta.get("kind") != "closed_loop":
+            continue
+        spec = dict(meta["controller"])
+        ctrl = PIController.from_mapping(spec)
+        res = replay_closed_loop(runs[rid], meta["modulator"], ctrl, params, float(spec["dt"]))
+        worst = {}
+        for metric in ("rise_time", "overshoot", "steady_state_error"):
+            for suffix, frame in (("", res.measured), ("_model", res.predicted)):
+                v = frame[metric].abs().to_numpy(np.float64)
+                worst[f"{metric}_max{suffix}"] = (
+                    float(np.nanmax(v)) if np.isfinite(v).any() else math.nan
+                )
+        rows.append(
+            {
+                "run": rid,
+                "origin": meta.get("origin", ""),
+                "modulator": Modulator.from_mapping(meta["modulator"]).label,
+                "kp": fmt_gain(spec["kp"]),
+                "ki": fmt_gain(spec.get("ki", 0.0)),
+                "dt": float(spec["dt"]),
+                "n_steps": len(res.measured),
+                "fit": res.fit,
+                "rmse": res.rmse,
+                "max_error": res.max_error,
+                **worst,
+            }
+        )
+    return pd.DataFrame(rows, columns=list(RUN_COLUMNS))
+
+
+def fmt_gain(value: Any) -> str:
+    """A gain or a schedule of gains as text (``4.1`` or ``3.9-4.5``)."""
+    if isinstance(value, list | tuple):
+        return f"{min(value):.4g}-{max(value):.4g}"
+    return f"{float(value):.4g}"
+
+
+def write_controllers(result: ClosedLoopResult, path: str | Path) -> None:
+    """Write ``controllers.yaml`` (plain floats and lists, key order kept)."""
+    with open(path, "w", encoding="utf-8") as fh:
+        yaml.safe_dump(result.controllers, fh, sort_keys=False, allow_unicode=True)

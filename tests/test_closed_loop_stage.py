@@ -1,0 +1,131 @@
+"""The closed_loop stage: designs, tables, controllers.yaml and the sentence."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from spa.closedloop.controller import PIController
+from spa.closedloop.stage import CONTROLLERS, closed_loop, write_controllers
+from spa.model.params import ValveParams
+
+SELECTED = [
+    {"type": "pwm", "f_w": 20.0},
+    {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
+]
+CFG = {
+    "levels": [0.1, 0.4, 0.7],
+    "hold": 1.5,
+    "step_hold": 1.0,
+    "sine": {"offset": 0.4, "amplitude": 0.1, "frequency": 0.5, "duration": 4.0, "skip": 1.0},
+}
+REC = {"recommended": {"setting": {"type": "dsm", "period": 0.02}}}
+
+
+@pytest.fixture(scope="module")
+def result():
+    return closed_loop(ValveParams(), SELECTED, REC, CFG)
+
+
+def test_every_setting_controller_and_experiment_is_tabulated(result) -> None:
+    t = result.table
+    assert set(t.modulator) == {"pwm-20Hz", "iipfm-20ms-G1.15", "dsm-20ms"}  # + recommended
+    assert set(t.controller) == set(CONTROLLERS)
+    assert set(t.experiment) == {"staircase", "steps", "sine"}
+    stair = t[(t.experiment == "staircase") & (t.metric == "rise_time")]
+    assert (stair["n"] == 4).all()  # 0.1 -> 0.4 -> 0.7 -> 0.4 -> 0.1
+    assert np.allclose(stair["spread"], stair["max"] - stair["min"])
+    steps = t[(t.experiment == "steps") & (t.metric == "overshoot")]
+    assert (steps["n"] == 3).all()
+
+
+def test_controllers_yaml_round_trips_to_the_designed_pi(result, tmp_path) -> None:
+    path = tmp_path / "controllers.yaml"
+    write_controllers(result, path)
+    data = yaml.safe_load(path.read_text())
+    assert data["setting"] == {"type": "dsm", "period": 0.02}  # the recommended setting
+    entry = data["controllers"]["iipfm-20ms-G1.15"]
+    sched = PIController.from_mapping(entry["scheduled"])
+    assert sched.schedule == (0.1, 0.4, 0.7)
+    assert PIController.from_mapping(entry["scheduled_ff"]).feedforward is not None
+    assert data["sentence"].startswith("Closed loop: use ΔΣM, T_ΔΣ = 20 ms with the ")
+    assert "rise time (10–90 %) ≤" in data["sentence"]
+
+
+def test_levels_above_the_valve_are_left_out() -> None:
+    low = ValveParams(k2=0.5)
+    res = closed_loop(low, SELECTED[:1], None, CFG)
+    assert res.controllers["levels"] == [0.1, 0.4]
+    with pytest.raises(ValueError, match="fewer than two levels"):
+        closed_loop(ValveParams(k2=0.3), SELECTED[:1], None, CFG)
+
+
+def test_a_setting_that_cannot_reach_the_levels_is_skipped() -> None:
+    # PWM at 80 Hz: its period is shorter than t_on + t_off = 13 ms, P_eq jumps from 0 to k2.
+    res = closed_loop(ValveParams(), [{"type": "pwm", "f_w": 80.0}, SELECTED[1]], None, CFG)
+    assert "pwm-80Hz" in res.skipped
+    assert set(res.table.modulator) == {"iipfm-20ms-G1.15"}
+
+
+def test_the_stage_is_deterministic(result) -> None:
+    again = closed_loop(ValveParams(), SELECTED, REC, CFG)
+    assert again.table.equals(result.table)
+    assert again.traces.equals(result.traces)
+
+
+def test_cli_design_pi(tmp_path, capsys) -> None:
+    import json
+
+    from spa.cli import main
+
+    params = tmp_path / "params.yaml"
+    params.write_text(yaml.safe_dump(ValveParams().as_dict()))
+    args = [str(params), "--modulator", "iipfm:t_l=0.02,gain=1.15", "--levels", "0.2,0.5"]
+    assert main(["design-pi", *args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["modulator"] == {"type": "iipfm", "t_l": 0.02, "gain": 1.15}
+    assert [row["r"] for row in out["local_models"]] == [0.2, 0.5]
+    assert out["controllers"]["scheduled"]["schedule"] == [0.2, 0.5]
+    assert main(["design-pi", *args]) == 0
+    assert "fixed PI: Kp = " in capsys.readouterr().out
+    assert main(["design-pi", str(params), "--modulator", "iipfm:t_l"]) == 1
+    assert "expected KIND:NAME=VALUE" in capsys.readouterr().out
+    assert main(["design-pi", str(tmp_path / "no.yaml"), "--modulator", "pwm:f_w=20"]) == 1
+
+
+def _recording(params: ValveParams, noise: float, fs_step: int = 1) -> tuple:
+    from spa.closedloop.experiments import staircase_reference
+    from spa.closedloop.loop import simulate_closed_loop
+
+    mod = {"type": "iipfm", "t_l": 0.02, "gain": 1.15}
+    ctrl = PIController(kp=4.0, ki=4.5)
+    r = staircase_reference([0.1, 0.4, 0.7], 2.0, 1e-3)
+    run = simulate_closed_loop(r, 1e-3, mod, ctrl, params, p0=0.1)
+    rng = np.random.default_rng(7)
+    run["p"] = run["p"] + rng.normal(0.0, noise, len(run))
+    return run.iloc[::fs_step].reset_index(drop=True), mod, ctrl
+
+
+def test_replay_of_a_closed_loop_recording() -> None:
+    from spa.closedloop.replay import replay_closed_loop
+
+    truth = ValveParams()
+    run, mod, ctrl = _recording(truth, 0.005)
+    same = replay_closed_loop(run, mod, ctrl, truth, 1e-3)
+    assert same.fit > 90.0
+    assert same.rmse == pytest.approx(0.005, rel=0.1)  # the noise is all that is left
+    assert len(same.measured) == len(same.predicted) == 4
+    np.testing.assert_allclose(same.measured["rise_time"], same.predicted["rise_time"], atol=0.02)
+    wrong = replay_closed_loop(run, mod, ctrl, ValveParams(k2=0.7, tau2=0.5), 1e-3)
+    # The loop hides much of a wrong model (it tracks the set-point anyway): the FIT drops by
+    # a few points only, the error well above the sensor's noise is the sign.
+    assert wrong.fit < same.fit - 2.0
+    assert wrong.rmse > 2.0 * same.rmse
+    # A recording at 200 Hz without the valve column replays on the controller's 1 ms step.
+    slow, _, _ = _recording(truth, 0.0, fs_step=5)
+    res = replay_closed_loop(slow.drop(columns="valve"), mod, ctrl, truth, 1e-3)
+    assert res.fit > 99.0
+    assert res.measured["switching_rate"].isna().all()
+    with pytest.raises(ValueError, match="'r'"):
+        replay_closed_loop(run.drop(columns="r"), mod, ctrl, truth, 1e-3)
