@@ -193,7 +193,12 @@ STAGES: tuple[Stage, ...] = (
             "Table 2 for this valve",
             "Each modulator's optimum of J for this valve, J there, Eq. 29's t_l*, J at the "
             "paper's setting, J_exact from the exact periodic steady state, and the range over "
-            "the corners of the identification's 95 % intervals.",
+            "the corners of the identification's 95 % intervals. optimum_exact is J_exact's "
+            "minimum over the settings that meet the tuning constraints (chattering, switching "
+            "rate, shortest pulse): J_exact alone keeps falling as the period grows, because "
+            "the pressure then fills and empties every cycle and its mean tends to k2 times the "
+            "duty, while it swings by most of k2. *_at_grid_edge: the optimum is the first or "
+            "last setting of the sweep.",
             required=False,
         ),
         Output(
