@@ -319,7 +319,9 @@ STAGES: tuple[Stage, ...] = (
             "sine/linearity.csv",
             TABLE,
             "Sine linearity",
-            "Per setting: sine frequency, lag found by cross-correlation, RMS and largest "
+            "Per setting: sine frequency, lag found by cross-correlation within max_lag (by "
+            "default half the sine's period; a lag on that limit is NaN, with lag_at_limit "
+            "true), RMS and largest "
             "(max_dev) deviation of P/max(P) from the line (0, 0)–(1, 1); the row 'linear' is "
             "the same input through a noise-free linear first-order plant (gain k2, the "
             "dataset's τ_m at ξ = 0.5, Eq. 9), analysed identically: the deviation a linear "

@@ -30,6 +30,7 @@ from spa.openloop import (
     sine_reference,
     staircase_analysis,
 )
+from spa.openloop.reference import first_order_response
 from spa.plots.openloop import fig6, fig7a, fig7b, fig8, fig9, no_data_figure, thin
 from spa.synthetic import (
     RunSpec,
@@ -326,6 +327,36 @@ def test_a_linear_plant_passes_the_sine_test_only_well_below_its_corner():
     assert slow["rms"] == pytest.approx((1 - g) / (2 * (1 + g)) * math.sqrt(1.22), rel=0.15)
     assert slow["rms"] < 0.005 and slow["lag"] == pytest.approx(slow["tau_m"], abs=0.03)
     assert fast["rms"] > 0.2  # at 0.5 Hz a linear plant fails the test: it measures dynamics
+
+
+@pytest.mark.parametrize("delay", [2.8, 4.3])
+def test_a_lag_beyond_the_old_2_s_limit_is_found_or_flagged(delay):
+    """Issue 25: the full config's sine (0.02 Hz) lags by 2.8-4.3 s at three settings. The
+    default search (half the sine's period) finds a delayed sine's lag; a limit below it
+    gives NaN and the flag instead of the limit as if it were the lag."""
+    run = sine_run(0.02)
+    shift = round(delay / 0.01)
+    delayed = np.r_[np.full(shift, 0.5), run["u"].to_numpy()[:-shift]]
+    run = run.assign(p=0.8 * delayed)
+    _, found = sine_analysis(run, settle=5.0)
+    assert found["lag"] == pytest.approx(delay, abs=0.02) and not found["lag_at_limit"]
+    assert found["max_lag"] == pytest.approx(25.0, rel=1e-6) and found["rms"] < 0.01
+    _, limited = sine_analysis(run, settle=5.0, max_lag=2.0)
+    assert math.isnan(limited["lag"]) and limited["lag_at_limit"] and limited["max_lag"] == 2.0
+    assert limited["rms"] > found["rms"]
+
+
+def test_a_slow_linear_plant_lags_by_seconds_and_is_found_with_its_reference():
+    """A first-order plant with tau 30 s lags a 0.02 Hz sine by atan(2 pi f tau)/(2 pi f),
+    3.5 s (the closed form); the reference row reports it with the same search."""
+    run = sine_run(0.02)
+    t, u = run["t"].to_numpy(), run["u"].to_numpy()
+    tau = 30.0
+    run = run.assign(p=first_order_response(t, u, gain=0.8, tau=tau, y0=0.4))
+    _, s = sine_analysis(run, settle=5.0)
+    expected = math.atan(2 * math.pi * 0.02 * tau) / (2 * math.pi * 0.02)
+    assert expected > 3.0 and s["lag"] == pytest.approx(expected, abs=0.1)
+    assert not s["lag_at_limit"]
 
 
 def test_a_linear_plant_has_a_false_alarm_rate_near_alpha_under_the_chirp():
