@@ -355,8 +355,12 @@ STAGES: tuple[Stage, ...] = (
             "chirp, its significance threshold 1 − α^(1/(K−1)) for K segments, the fraction "
             "of the principal domain above it (the two rows next to DC left out), and the "
             "mean, median and largest value; for simulated runs the spread of the fraction "
-            "over sensor-noise seeds. The row 'linear' is the same input through a noise-free "
-            "linear first-order plant: its fraction is the test's false-alarm rate.",
+            "over sensor-noise seeds, and significant_fraction_no_ringing: the same runs and "
+            "seeds logged without the sensor's ringing after each valve edge, which is locked "
+            "to the edges and reads as coupling. The row 'linear' is the same input through a "
+            "linear first-order plant, logged (simulated data) by the first run's sensor: its "
+            "noise, and its ringing after that run's valve edges; without the ringing its "
+            "fraction is the test's false-alarm rate (noise-free for bench data).",
             required=False,
         ),
         Output(
@@ -367,8 +371,10 @@ STAGES: tuple[Stage, ...] = (
             "Bicoherence maps over (f1, f2) of the pressure response to the chirp, on a fixed "
             "[0, 1] scale with the insignificant bins grey, for the paper's settings (a "
             "group's best where the dataset lacks one, named in the title) and the linear "
-            "reference; below, the significant fraction of every setting (bars: range over "
-            "noise seeds; dashed: the linear reference).",
+            "reference (simulated data: through the first run's sensor); below, the "
+            "significant fraction of every setting (bars: range over noise seeds; dashed: the "
+            "linear reference; hollow circles and dotted: the same without the sensor's "
+            "ringing).",
             required=False,
         ),
         Output("fig9_csv", "chirp/fig9.csv", DATA),

@@ -19,7 +19,9 @@ from spa.openloop import (
     chirp_reference,
     fallback_note,
     measured_thresholds,
+    no_ringing_spread,
     noise_free_pressure,
+    noise_replicates,
     noise_spread,
     paper_case,
     paper_settings,
@@ -31,6 +33,7 @@ from spa.openloop import (
     staircase_analysis,
 )
 from spa.openloop.reference import first_order_response
+from spa.openloop.replicas import through_sensor
 from spa.plots.openloop import fig6, fig7a, fig7b, fig8, fig9, no_data_figure, thin
 from spa.synthetic import (
     RunSpec,
@@ -546,3 +549,60 @@ def test_an_input_of_another_shape_is_named_with_its_kind():
     assert "does not speed up" in input_shape_problem("chirp", sine)
     with pytest.raises(ValueError, match="run 'r1' is labelled staircase but u goes down"):
         check_input_shape("r1", "staircase", sine)
+
+
+@pytest.fixture(scope="module")
+def pwm_chirp(tmp_path_factory):
+    """A simulated PWM 20 Hz chirp, 30 s, logged with noise and the ringing after each edge."""
+    from spa.io import read_runs
+    from spa.synthetic import generate_dataset
+
+    cfg = {
+        "params": NOMINAL.as_dict(),
+        "controller_dt": 1e-3,
+        "sensor": {"fs": 1000.0, "noise": 0.005, "quantum": 0.001,
+                   "ringing": {"amplitude": 0.01, "frequency": 60.0, "damping": 60.0}},
+        "modulators": [{"type": "pwm", "f_w": 20.0}],
+    }  # fmt: skip
+    experiments = {
+        "chirp": {"f0": 0.1, "f1": 100.0, "duration": 30.0, "offset": 0.5, "amplitude": 0.25}
+    }
+    out = tmp_path_factory.mktemp("chirp") / "runs"
+    generate_dataset("mini", cfg, experiments, 11, out)
+    runs, metas = read_runs(out)
+    return runs["chirp_pwm-20Hz"], metas["chirp_pwm-20Hz"]
+
+
+def test_the_linear_reference_is_logged_by_the_runs_own_sensor(pwm_chirp):
+    """Issue 25: the reference goes through the sensor model of the runs, with their seeds:
+    the run's true pressure through it is the recorded run, bit for bit."""
+    run, meta = pwm_chirp
+    true = noise_free_pressure(run, meta)
+    np.testing.assert_array_equal(through_sensor(true, run, meta, 0), run["p"].to_numpy())
+    quiet = next(noise_replicates(meta, 1, ringing=False, first=0))
+    assert np.array_equal(through_sensor(true, run, meta, 0, ringing=False), quiet)
+    ringing = np.abs(run["p"].to_numpy() - quiet)  # the same noise draws: only the ringing
+    assert 0.0 < ringing.max() <= 0.01 + 0.001
+    assert through_sensor(true, run, {**meta, "origin": "bench"}) is None
+
+
+def test_ringing_reads_as_coupling_and_the_columns_compare_like_with_like(pwm_chirp):
+    """The ringing after each edge is locked to the edges, so the bicoherence reads it as
+    coupling: a linear plant seen through the sensor is significant well above alpha, and
+    without the ringing it is not."""
+    run, meta = pwm_chirp
+    options = {"nfft": 128, "decimate": 4}
+    _, _, recorded = chirp_analysis(run, **options)
+    quiet = no_ringing_spread(meta, 3, **options)
+    assert quiet == no_ringing_spread(meta, 3, **options)  # deterministic
+    assert quiet["significant_fraction_no_ringing"] < 0.6 * recorded["significant_fraction"]
+    name = "significant_fraction_no_ringing"
+    assert quiet[f"{name}_min"] <= quiet[name] <= quiet[f"{name}_max"]
+    mods = [meta["modulator"]]
+    _, _, plain = chirp_reference(run, NOMINAL, mods, **options)
+    _, _, ref = chirp_reference(run, NOMINAL, mods, meta, 3, **options)
+    assert "significant_fraction_no_ringing" not in plain  # noise-free: as for a bench run
+    assert plain["significant_fraction"] <= 0.03
+    assert ref["significant_fraction_no_ringing"] <= 0.03 < ref["significant_fraction"]
+    assert ref["seeds"] == 3 and ref["significant_fraction_min"] <= ref["significant_fraction"]
+    assert no_ringing_spread({**meta, "origin": "bench"}, 3, **options) == {}
