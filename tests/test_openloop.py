@@ -462,6 +462,10 @@ def test_figures_have_one_panel_per_modulator(paper_staircases):
     figure = fig9(maps, sweep=sweep, shown=["a"])
     assert len(figure.axes) == 4  # and the sweep panel, where only the shown bar is outlined
     assert [bar.get_edgecolor()[3] for bar in figure.axes[-1].patches] == [1.0, 0.0]
+    quiet = fig9(maps, sweep=sweep.assign(significant_fraction_no_ringing=[0.05, 0.04, 0.006]))
+    labels = quiet.axes[-1].get_legend_handles_labels()[1]
+    assert "without the sensor's ringing" in labels  # hollow circles, and the linear level
+    assert "without the sensor's ringing: linear 0.006" in labels
     table3 = pd.DataFrame(
         {"modulator": ["pwm"], "setting": ["a"], "fit": [70.0], "paper_fit": [75.0],
          "tau_mean": [0.8], "tau_sd": [0.2]}

@@ -176,11 +176,14 @@ def _sweep_panel(
         ax.plot(x, y2, "o", mfc="white", mec="k", ms=4, label=label)
         if level is not None and np.isfinite(level):
             ax.axhline(level, color="0.3", ls=":", lw=1.0, label=f"{label}: linear {level:.3g}")
+        top = np.nanmax(np.r_[y, y2, 0.0])
+        if top > 0:  # room for a one-row legend above the tallest bar
+            ax.set_ylim(top=1.3 * top)
     ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=8)
     ax.set_ylabel(ylabel, fontsize=8)
     ax.grid(True, axis="y", lw=0.3, alpha=0.5)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=7, loc="upper left", **({"ncols": 3} if other is not None else {}))
 
 
 def fig7a(
