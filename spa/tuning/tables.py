@@ -293,11 +293,11 @@ def tuning_table(
 
     Notes
     -----
-    ``J_exact`` is not restricted to the constraints' settings, it falls towards 0 as the
-    period grows: the pressure then swings from near 0 to near ``k2`` every cycle, and its
-    cycle mean tends to ``k2`` times the duty, a line in ``xi``. Its unconstrained minimum
-    therefore sits at the longest period of the grid, with a chattering of most of ``k2``;
-    the chattering and switching constraints keep ``optimum_exact`` to usable settings.
+    Over the whole grid, ``J_exact`` falls towards 0 as the period grows: the pressure then
+    swings from near 0 to near ``k2`` every cycle, and its cycle mean tends to ``k2`` times
+    the duty, a line in ``xi``. Its unconstrained minimum therefore sits at the longest period
+    of the grid, with a chattering of most of ``k2``; the chattering and switching
+    constraints keep ``optimum_exact`` to usable settings.
 
     Raises
     ------
