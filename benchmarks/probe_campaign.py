@@ -220,6 +220,60 @@ PROBES["api_bicoherence_one_segment"] = api(
     "spa.bicoherence(np.random.default_rng(0).normal(size=256), 1e3, nfft=256)", "1 segment"
 )
 
+
+# ---- numbers that mislead ----------------------------------------------------------------
+def numbers(code: str) -> Probe:
+    """A claim checked in a fresh interpreter: it passes when the code prints 'ok ...'."""
+
+    def run(tmp: Path) -> tuple[bool, str]:
+        res = sh([PY, "-c", f"import numpy as np, pandas as pd, spa\n{code}"], cwd=tmp)
+        last = (res.stdout.strip().splitlines() or [res.stderr.strip()[-200:]])[-1]
+        return res.returncode == 0 and last.startswith("ok"), last
+
+    return run
+
+
+PROBES["table2_exact_optimum_meets_the_constraints"] = numbers(
+    "from spa.tuning import tune\n"
+    "from spa.tuning.recommend import setting_metrics\n"
+    "v = spa.ValveParams(c1=0.45, k2=1.05, tau2=0.70, t_on=0.004, t_off=0.009)\n"
+    "t = tune(v).table2.set_index('modulator')\n"
+    "s = {k: r.optimum_exact * (1 if k == 'pwm' else 1e-3) for k, r in t.iterrows()}\n"
+    "c = {k: float(setting_metrics(k, x, v)['chattering']) for k, x in s.items()}\n"
+    "edge = t[['optimum_at_grid_edge', 'optimum_exact_at_grid_edge']].any().any()\n"
+    "bad = max(c.values()) > 0.05 or edge\n"
+    "print(('FAIL ' if bad else 'ok ') + str(dict(t.optimum_exact)) + ' chattering ' + str(c))"
+)
+PROBES["chirp_reference_through_the_runs_sensor"] = numbers(
+    "from spa.openloop import chirp_reference, no_ringing_spread\n"
+    "from spa.synthetic import generate_dataset\n"
+    "from spa.io import read_runs\n"
+    "cfg = {'params': spa.ValveParams().as_dict(), 'controller_dt': 1e-3,\n"
+    "       'sensor': {'fs': 1e3, 'noise': 0.005, 'quantum': 0.001,\n"
+    "                  'ringing': {'amplitude': 0.01, 'frequency': 60.0, 'damping': 60.0}},\n"
+    "       'modulators': [{'type': 'pwm', 'f_w': 20.0}]}\n"
+    "exp = {'chirp': {'f0': 0.1, 'f1': 100.0, 'duration': 30.0, 'offset': 0.5,\n"
+    "                 'amplitude': 0.25}}\n"
+    "generate_dataset('p', cfg, exp, 1, 'runs')\n"
+    "runs, metas = read_runs('runs')\n"
+    "run, meta = runs['chirp_pwm-20Hz'], metas['chirp_pwm-20Hz']\n"
+    "o = {'nfft': 128, 'decimate': 4}\n"
+    "ref = chirp_reference(run, spa.ValveParams(), [meta['modulator']], meta, 2, **o)[2]\n"
+    "quiet = no_ringing_spread(meta, 2, **o)\n"
+    "a, b = ref['significant_fraction'], ref['significant_fraction_no_ringing']\n"
+    "print(('ok ' if b < a and quiet else 'FAIL ') + f'linear {a:.4f}, without ringing {b:.4f}')"
+)
+PROBES["sine_lag_beyond_2_s_found_or_flagged"] = numbers(
+    "from spa.openloop import sine_analysis\n"
+    "t = np.arange(0, 300, 0.01)\n"
+    "u = 0.5 + 0.4 * np.sin(2 * np.pi * 0.02 * t)\n"
+    "run = pd.DataFrame({'t': t, 'u': u, 'p': np.roll(u, 350)})\n"
+    "found, lim = sine_analysis(run)[1], sine_analysis(run, max_lag=2.0)[1]\n"
+    "good = abs(found['lag'] - 3.5) < 0.1 and np.isnan(lim['lag']) and lim['lag_at_limit']\n"
+    "print(('ok ' if good else 'FAIL ') + f\"lag {found['lag']}, limited {lim['lag']}\")"
+)
+
+
 # ---- configuration -----------------------------------------------------------------------
 for name, value, needle in [
     ("sweep_backwards", "analytic={sweeps: {pwm: {start: 80, stop: 1, step: 1}}}", "below stop"),

@@ -94,7 +94,7 @@ def linear_chirp(config: dict) -> None:
     xi = chirp_input(t, cfg["f0"], cfg["f1"], cfg["duration"], cfg["offset"], cfg["amplitude"])
     run = pd.DataFrame({"t": t, "p": 0.0, "u": xi})
     mods = config["simulated"]["sim"]["modulators"]
-    print("[C] chirp: linear first-order plant, 1 kHz, as the sim sensor logs")
+    print("[C] chirp: linear first-order plant, nominal valve, sampled at 1 kHz, noise-free")
     for norm in ("bounded", "hosa"):
         f, bic, row = chirp_reference(run, NOMINAL, mods, **{**options, "normalisation": norm})
         domain = bic[principal_domain_mask(f)]

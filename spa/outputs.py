@@ -194,7 +194,12 @@ STAGES: tuple[Stage, ...] = (
             "Table 2 for this valve",
             "Each modulator's optimum of J for this valve, J there, Eq. 29's t_l*, J at the "
             "paper's setting, J_exact from the exact periodic steady state, and the range over "
-            "the corners of the identification's 95 % intervals.",
+            "the corners of the identification's 95 % intervals. optimum_exact is J_exact's "
+            "minimum over the settings that meet the tuning constraints (chattering, switching "
+            "rate, shortest pulse): J_exact alone keeps falling as the period grows, because "
+            "the pressure then fills and empties every cycle and its mean tends to k2 times the "
+            "duty, while it swings by most of k2. *_at_grid_edge: the optimum is the first or "
+            "last setting of the sweep.",
             required=False,
         ),
         Output(
@@ -315,7 +320,9 @@ STAGES: tuple[Stage, ...] = (
             "sine/linearity.csv",
             TABLE,
             "Sine linearity",
-            "Per setting: sine frequency, lag found by cross-correlation, RMS and largest "
+            "Per setting: sine frequency, lag found by cross-correlation within max_lag (by "
+            "default half the sine's period; a lag on that limit is NaN, with lag_at_limit "
+            "true), RMS and largest "
             "(max_dev) deviation of P/max(P) from the line (0, 0)–(1, 1); the row 'linear' is "
             "the same input through a noise-free linear first-order plant (gain k2, the "
             "dataset's τ_m at ξ = 0.5, Eq. 9), analysed identically: the deviation a linear "
@@ -349,8 +356,12 @@ STAGES: tuple[Stage, ...] = (
             "chirp, its significance threshold 1 − α^(1/(K−1)) for K segments, the fraction "
             "of the principal domain above it (the two rows next to DC left out), and the "
             "mean, median and largest value; for simulated runs the spread of the fraction "
-            "over sensor-noise seeds. The row 'linear' is the same input through a noise-free "
-            "linear first-order plant: its fraction is the test's false-alarm rate.",
+            "over sensor-noise seeds, and significant_fraction_no_ringing: the same runs and "
+            "seeds logged without the sensor's ringing after each valve edge, which is locked "
+            "to the edges and reads as coupling. The row 'linear' is the same input through a "
+            "linear first-order plant, logged (simulated data) by the first run's sensor: its "
+            "noise, and its ringing after that run's valve edges; without the ringing its "
+            "fraction is the test's false-alarm rate (noise-free for bench data).",
             required=False,
         ),
         Output(
@@ -361,8 +372,10 @@ STAGES: tuple[Stage, ...] = (
             "Bicoherence maps over (f1, f2) of the pressure response to the chirp, on a fixed "
             "[0, 1] scale with the insignificant bins grey, for the paper's settings (a "
             "group's best where the dataset lacks one, named in the title) and the linear "
-            "reference; below, the significant fraction of every setting (bars: range over "
-            "noise seeds; dashed: the linear reference).",
+            "reference (simulated data: through the first run's sensor); below, the "
+            "significant fraction of every setting (bars: range over noise seeds; dashed: the "
+            "linear reference; hollow circles and dotted: the same without the sensor's "
+            "ringing).",
             required=False,
         ),
         Output("fig9_csv", "chirp/fig9.csv", DATA),

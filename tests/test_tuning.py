@@ -35,6 +35,7 @@ from spa.tuning import (
     tune,
     tuning_table,
 )
+from spa.tuning.recommend import TuningOptions, setting_metrics
 
 P = ValveParams()
 
@@ -365,7 +366,51 @@ def test_j_exact_column_is_the_exact_cost_at_the_optimum(example_table2):
     for kind, row in example_table2.iterrows():
         value = row["optimum"] * (1.0 if kind == "pwm" else 1e-3)
         assert row["J_exact"] == pytest.approx(float(exact_cost(kind, value, EXAMPLE)), rel=1e-12)
-        assert row["J_exact_min"] <= row["J_exact"]
+        if setting_metrics(kind, value, EXAMPLE)["chattering"] <= 0.05:  # J's optimum is usable
+            assert row["J_exact_min"] <= row["J_exact"]
+
+
+def _seconds(kind: str, shown: float) -> float:
+    return shown if kind == "pwm" else shown * 1e-3
+
+
+def test_j_exact_optimum_meets_the_constraints_and_is_interior(example_table2):
+    """Issue 25: unconstrained, J_exact's minimum is the grid's longest period (IPFM, ΔΣM
+    999.5 ms), where the pressure swings by most of k2; restricted to the settings that meet
+    the tuning constraints it is an interior one (ΔΣM 16.5 ms for this valve)."""
+    limits = TuningOptions()
+    for kind, row in example_table2.iterrows():
+        value = _seconds(kind, row["optimum_exact"])
+        m = setting_metrics(kind, value, EXAMPLE)
+        assert m["chattering"] <= limits.max_chattering
+        assert m["switching_rate"] <= limits.max_switching_rate
+        assert m["min_pulse"] >= limits.min_pulse_width * (1 - 1e-9)
+        assert not row["optimum_exact_at_grid_edge"] and not row["optimum_at_grid_edge"]
+        assert row["J_exact_min"] == pytest.approx(float(exact_cost(kind, value, EXAMPLE)))
+    assert example_table2.loc["dsm", "optimum_exact"] == pytest.approx(16.5)
+    free = {"max_switching_rate": None, "max_chattering": None, "min_pulse_width": None}
+    loose = tuning_table(SWEEPS, EXAMPLE, 100, options=TuningOptions(**free))
+    loose = loose.set_index("modulator")
+    for kind in ("ipfm", "dsm"):  # J_exact -> 0 as the period grows
+        row = loose.loc[kind]
+        assert row["optimum_exact"] == pytest.approx(999.5) and row["optimum_exact_at_grid_edge"]
+        assert row["J_exact_min"] < example_table2.loc[kind, "J_exact_min"]
+        swing = setting_metrics(kind, 0.9995, EXAMPLE)["chattering"]
+        assert swing > 0.7 * EXAMPLE.k2
+
+
+def test_j_exact_optimum_is_nan_when_no_setting_meets_the_constraints():
+    small = {k: {**g, "step": g["step"] * 10} for k, g in SWEEPS.items()}
+    table = tuning_table(small, EXAMPLE, 50, options=TuningOptions(max_chattering=1e-6))
+    assert table["optimum_exact"].isna().all() and table["J_exact_min"].isna().all()
+    assert not table["optimum_exact_at_grid_edge"].any()
+
+
+def test_an_optimum_on_the_last_setting_is_flagged():
+    narrow = {**SWEEPS, "pwm": {"start": 1.0, "stop": 10.0, "step": 0.5}}  # optimum near 18 Hz
+    table = tuning_table(narrow, EXAMPLE, 50).set_index("modulator")
+    assert table.loc["pwm", "optimum"] == 10.0 and table.loc["pwm", "optimum_at_grid_edge"]
+    assert not table.loc["iipfm", "optimum_at_grid_edge"]
 
 
 def test_j_exact_equals_j_under_fast_switching():

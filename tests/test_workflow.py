@@ -86,7 +86,12 @@ def test_small_config_produces_the_open_loop_analyses(small_run):
     sine = pd.read_csv(small_run / "sim" / "sine" / "linearity.csv")
     chirp = pd.read_csv(small_run / "sim" / "chirp" / "bicoherence.csv")
     assert len(sine) == len(chirp) == 6 and sine["modulator"].iloc[-1] == "linear"
-    assert chirp["significant_fraction"].iloc[-1] <= 0.03
+    # the linear reference logged by the first run's sensor: its false-alarm rate without the
+    # ringing after the valve edges, which the bicoherence reads as coupling
+    linear = chirp.iloc[-1]
+    assert linear["significant_fraction_no_ringing"] <= 0.03 < linear["significant_fraction"]
+    runs = chirp.iloc[:-1]
+    assert (runs["significant_fraction_no_ringing"] < runs["significant_fraction"]).all()
     assert chirp[["significant_fraction", "max_bicoherence"]].le(1.0).all().all()
     # raw/example holds two staircases and no sine or chirp run: empty tables, not errors
     assert len(pd.read_csv(small_run / "example" / "staircase" / "table3.csv")) == 2

@@ -12,14 +12,15 @@ fraction) and returns tables ready to be written:
 * `chirp_analysis` (:mod:`~spa.openloop.chirp`): the bounded bicoherence of the pressure
   (Fig. 9), its significance threshold and the fraction of the map above it.
 
-`sine_reference` and `chirp_reference` put the same input through a noise-free linear
-first-order plant (:mod:`~spa.openloop.reference`) and analyse it identically: the row with
-``modulator = "linear"`` of each table. For simulated runs, :mod:`~spa.openloop.replicas`
-gives the noise-free pressure and fresh-noise replicates. The array functions behind the
-analyses are in :mod:`~spa.openloop.levels`, :mod:`~spa.openloop.steps`,
-:mod:`~spa.openloop.sine_fit` and :mod:`~spa.openloop.spectra`; the paper's printed values
-and settings in :mod:`~spa.openloop.paper`; the choice of runs and of the settings a figure
-shows in :mod:`~spa.openloop.selection`.
+`sine_reference` and `chirp_reference` put the same input through a linear first-order
+plant (:mod:`~spa.openloop.reference`) and analyse it identically: the row with
+``modulator = "linear"`` of each table (noise-free, except that a simulated chirp's reference
+is logged by the run's own sensor). For simulated runs, :mod:`~spa.openloop.replicas` gives
+the noise-free pressure, fresh-noise replicates and any record through the run's sensor.
+The array functions behind the analyses are in :mod:`~spa.openloop.levels`,
+:mod:`~spa.openloop.steps`, :mod:`~spa.openloop.sine_fit` and :mod:`~spa.openloop.spectra`;
+the paper's printed values and settings in :mod:`~spa.openloop.paper`; the choice of runs
+and of the settings a figure shows in :mod:`~spa.openloop.selection`.
 """
 
 from __future__ import annotations

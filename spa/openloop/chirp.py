@@ -8,6 +8,14 @@ reference (`spa.openloop.reference`) driven by the run's input: its fraction is 
 reports for a plant without any nonlinearity. `noise_spread` repeats the analysis of a
 simulated run over fresh sensor noise (`spa.openloop.replicas`) to show how much of a
 difference between settings is noise.
+
+The simulated sensor adds a damped ringing after every valve edge. It is locked to the
+edges, so the bicoherence reads it as coupling. For a simulated dataset every row is
+therefore given two ways, over the same noise seeds: as the sensor logs it
+(``significant_fraction``) and with the sensor's noise but without its ringing
+(``significant_fraction_no_ringing``). The linear reference goes through the same sensor as
+the run whose input drives it (its ringing after that run's valve edges, its noise seeds),
+so that each column compares like with like.
 """
 
 from __future__ import annotations
@@ -26,7 +34,7 @@ from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.openloop._arrays import run_columns, uniform_step
 from spa.openloop.reference import linear_reference
-from spa.openloop.replicas import noise_replicates
+from spa.openloop.replicas import is_simulated, noise_replicates, through_sensor
 from spa.openloop.spectra import (
     bicoherence,
     mean_bicoherence,
@@ -37,7 +45,13 @@ from spa.openloop.spectra import (
 )
 from spa.synthetic import Sensor
 
-__all__ = ["chirp_analysis", "chirp_bicoherence", "chirp_reference", "noise_spread"]
+__all__ = [
+    "chirp_analysis",
+    "chirp_bicoherence",
+    "chirp_reference",
+    "no_ringing_spread",
+    "noise_spread",
+]
 
 
 def chirp_bicoherence(
@@ -150,10 +164,52 @@ def chirp_analysis(
     return chirp_bicoherence(p, dt, **options)
 
 
+def _spread(name: str, fractions: list[float]) -> dict[str, float]:
+    """``name`` (the first seed's), ``name_min`` and ``name_max`` over the seeds."""
+    return {
+        name: fractions[0],
+        f"{name}_min": float(np.min(fractions)),
+        f"{name}_max": float(np.max(fractions)),
+    }
+
+
+def no_ringing_spread(meta: Mapping[str, Any], seeds: int, **options: Any) -> dict[str, float]:
+    """A simulated chirp run's significant fraction without the sensor's ringing.
+
+    Parameters
+    ----------
+    meta : mapping
+        The run's metadata (a simulated run: `spa.openloop.replicas.is_simulated`).
+    seeds : int
+        Noise realisations (>= 1): the run's own seed and ``seeds - 1`` others, those of
+        `noise_spread`.
+    **options
+        As `chirp_analysis`.
+
+    Returns
+    -------
+    dict
+        ``significant_fraction_no_ringing``: the run re-simulated with its own noise and ADC
+        step but without the ringing after the valve edges; ``_min`` and ``_max`` over the
+        seeds. Empty for a run that is not the simulator's.
+    """
+    n = _checks.integer("seeds", seeds)
+    if not is_simulated(meta):
+        return {}
+    dt = 1.0 / Sensor.from_mapping(meta["sensor"]).fs
+    quiet = [
+        chirp_bicoherence(p, dt, **options)[2]["significant_fraction"]
+        for p in noise_replicates(meta, n, ringing=False, first=0)
+    ]
+    return _spread("significant_fraction_no_ringing", quiet)
+
+
 def chirp_reference(
     run: pd.DataFrame,
     params: ValveParams,
     modulators: Iterable[Mapping[str, Any] | Modulator],
+    meta: Mapping[str, Any] | None = None,
+    seeds: int = 1,
     **options: Any,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """The linear reference's row of a chirp table: a run's input through a linear plant.
@@ -163,20 +219,51 @@ def chirp_reference(
     run, params, modulators
         A chirp run (its ``t`` and ``u`` drive the reference), the dataset's parameters and
         its chirp runs' settings: as `spa.openloop.reference.linear_reference`.
+    meta : mapping, optional
+        The run's metadata. For a simulated run logged at every controller step the
+        reference is logged by the run's sensor (`spa.openloop.replicas.through_sensor`):
+        the ringing after the run's valve edges and the noise of its seeds, as the runs are.
+    seeds : int, default 1
+        Noise realisations, as `noise_spread` (with ``meta`` only).
     **options
         As `chirp_analysis`.
 
     Returns
     -------
     f, bic : numpy.ndarray
-        As `chirp_analysis`.
+        As `chirp_analysis`: of the reference as logged (through the run's sensor with
+        ``meta``, else noise-free).
     row : dict
         ``run``, ``modulator`` and ``setting`` all ``"linear"``, ``gain`` 1, ``tau_m`` (s)
-        and `chirp_analysis`'s summary.
+        and `chirp_analysis`'s summary; through the sensor also the columns of
+        `noise_spread` and `no_ringing_spread`.
     """
+    n = _checks.integer("seeds", seeds)
     reference, tags = linear_reference(run, params, modulators)
-    f, bic, summary = chirp_analysis(reference, **options)
-    return f, bic, {**tags, **summary}
+    clean = reference["p"].to_numpy()
+    recorded = None if meta is None else through_sensor(clean, run, meta)
+    if recorded is None:
+        f, bic, summary = chirp_analysis(reference, **options)
+        return f, bic, {**tags, **summary}
+    dt = float(meta["controller_dt"])
+
+    def logged(replicate: int, ringing: bool) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        p = through_sensor(clean, run, meta, replicate, ringing=ringing)
+        return chirp_bicoherence(p, dt, **options)
+
+    f, bic, summary = chirp_bicoherence(recorded, dt, **options)
+    summaries = [summary] + [logged(r, True)[2] for r in range(1, n)]
+    quiet = [logged(r, False)[2]["significant_fraction"] for r in range(n)]
+    return (
+        f,
+        bic,
+        {
+            **tags,
+            **summary,
+            **_seed_spread(summaries),
+            **_spread("significant_fraction_no_ringing", quiet),
+        },
+    )
 
 
 def noise_spread(
@@ -204,16 +291,19 @@ def noise_spread(
     """
     n = _checks.integer("seeds", seeds)
     dt = 1.0 / Sensor.from_mapping(meta["sensor"]).fs
-    fractions = [float(recorded["significant_fraction"])]
-    means = [float(recorded["mean_bicoherence"])]
-    for p in noise_replicates(meta, n - 1):
-        summary = chirp_bicoherence(p, dt, **options)[2]
-        fractions.append(summary["significant_fraction"])
-        means.append(summary["mean_bicoherence"])
-    sd = float(np.std(fractions, ddof=1)) if n > 1 else math.nan
+    summaries = [recorded]
+    summaries += [chirp_bicoherence(p, dt, **options)[2] for p in noise_replicates(meta, n - 1)]
+    return _seed_spread(summaries)
+
+
+def _seed_spread(summaries: list[Mapping[str, Any]]) -> dict[str, float]:
+    """`noise_spread`'s columns from the summaries of every seed (the recorded one first)."""
+    n = len(summaries)
+    fractions = [float(s["significant_fraction"]) for s in summaries]
+    means = [float(s["mean_bicoherence"]) for s in summaries]
     return {
         "seeds": n,
-        "significant_fraction_sd": sd,
+        "significant_fraction_sd": float(np.std(fractions, ddof=1)) if n > 1 else math.nan,
         "significant_fraction_min": float(np.min(fractions)),
         "significant_fraction_max": float(np.max(fractions)),
         "mean_bicoherence_sd": float(np.std(means, ddof=1)) if n > 1 else math.nan,

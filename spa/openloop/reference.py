@@ -6,7 +6,8 @@ pressure, so that ``xi = 1`` maps to ``k2`` as on the ideal line of Fig. 7a) and
 constant ``tau_m`` of Eq. 9 at ``xi = 0.5`` (the median over the dataset's settings). It is driven
 by the very input fraction of a recorded run, without noise, and analysed exactly as the
 runs are: whatever deviation or bicoherence it shows is what the analysis itself reports for
-a linear plant (lag, finite record, windowing), not nonlinearity.
+a linear plant (lag, finite record, windowing), not nonlinearity. (The chirp analysis of a
+simulated dataset also logs it through the run's sensor, `spa.openloop.chirp.chirp_reference`.)
 
 >>> import numpy as np
 >>> t = np.arange(0.0, 10.0, 0.01)

@@ -27,7 +27,14 @@ from spa.openloop.sine_fit import compensate_lag, sine_linearity
 #: nonlinearity: a linear first-order plant's RMS deviation is at most about 0.012 there.
 LOW_FREQUENCY = 0.3
 
-__all__ = ["LOW_FREQUENCY", "frequency_note", "sine_analysis", "sine_frequency", "sine_reference"]
+__all__ = [
+    "LOW_FREQUENCY",
+    "frequency_note",
+    "lag_search_limit",
+    "sine_analysis",
+    "sine_frequency",
+    "sine_reference",
+]
 
 
 def sine_frequency(t: np.ndarray, u: np.ndarray) -> float:
@@ -59,8 +66,36 @@ def sine_frequency(t: np.ndarray, u: np.ndarray) -> float:
     return float((k.size - 1) / (crossing[-1] - crossing[0]))
 
 
+def lag_search_limit(frequency: float, max_lag: float | None = None) -> float | None:
+    """The largest lag the cross-correlation of a sine run searches, s.
+
+    Parameters
+    ----------
+    frequency : float
+        The sine's frequency, Hz (`sine_frequency`; NaN when it cannot be measured).
+    max_lag : float or None, default None
+        A limit in s; None: half the sine's period. Within half a period the lag of a
+        periodic response is unique (the next candidate is a whole period later), and a
+        first-order plant lags by less than a quarter period, however slow.
+
+    Returns
+    -------
+    float or None
+        ``max_lag`` when given, else ``1/(2*frequency)``; None (the whole record) when
+        neither is known.
+
+    Examples
+    --------
+    >>> lag_search_limit(0.02), lag_search_limit(0.02, 2.0), lag_search_limit(float("nan"))
+    (25.0, 2.0, None)
+    """
+    if max_lag is not None:
+        return float(max_lag)
+    return 0.5 / frequency if math.isfinite(frequency) and frequency > 0.0 else None
+
+
 def sine_analysis(
-    run: pd.DataFrame, *, settle: float = 0.0, max_lag: float | None = 2.0
+    run: pd.DataFrame, *, settle: float = 0.0, max_lag: float | None = None
 ) -> tuple[pd.DataFrame, dict[str, float]]:
     """Linearity of the response to a sine of piece-wise decreasing amplitude (Fig. 8).
 
@@ -70,8 +105,9 @@ def sine_analysis(
         Run table with ``t`` (s, uniformly spaced), ``p`` (bar) and ``u`` (input fraction).
     settle : float, default 0.0
         Seconds dropped at the start (a hold at the offset before the sine starts).
-    max_lag : float or None, default 2.0
-        Largest lag searched by the cross-correlation, s (None: the whole record).
+    max_lag : float or None, default None
+        Largest lag searched by the cross-correlation, s (None: half the sine's period,
+        `lag_search_limit`).
 
     Returns
     -------
@@ -79,17 +115,41 @@ def sine_analysis(
         ``t``, ``xi`` (input) and ``p_norm`` (pressure shifted back by the lag, divided by
         its maximum) over the overlapping part.
     summary : dict
-        ``frequency`` (Hz, `sine_frequency`), ``lag`` (s), ``rms`` and ``max_dev`` (RMS and
-        largest ``|p_norm - xi|``), ``p_max`` (bar).
+        ``frequency`` (Hz, `sine_frequency`), ``lag`` (s; NaN when the correlation peaks on
+        the search limit, where the true lag is likely beyond it), ``lag_at_limit`` (bool,
+        that case), ``max_lag`` (the limit searched, s; NaN: the whole record), ``rms`` and
+        ``max_dev`` (RMS and largest ``|p_norm - xi|``; with the lag at the limit, at that
+        shift), ``p_max`` (bar).
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 300.0, 0.01)
+    >>> u = 0.5 + 0.4 * np.sin(2 * np.pi * 0.02 * t)
+    >>> run = pd.DataFrame({"t": t, "u": u, "p": np.roll(u, 300)})  # 3 s late
+    >>> round(sine_analysis(run)[1]["lag"], 1)  # the raw correlation: 2.97
+    3.0
+    >>> summary = sine_analysis(run, max_lag=2.0)[1]
+    >>> summary["lag"], summary["lag_at_limit"]
+    (nan, True)
     """
     t, p, u = run_columns(run, ("t", "p", "u"), "sine_analysis")
     keep = t >= t[0] + settle
     if keep.sum() < 2:
         raise ValueError(f"sine_analysis: settle = {settle} s leaves no samples")
-    lag, ta, xa, pa = compensate_lag(t[keep], u[keep], p[keep], max_lag=max_lag)
+    frequency = sine_frequency(t[keep], u[keep])
+    limit = lag_search_limit(frequency, max_lag)
+    lag, ta, xa, pa = compensate_lag(t[keep], u[keep], p[keep], max_lag=limit)
+    dt = (t[keep][-1] - t[keep][0]) / max(int(keep.sum()) - 1, 1)
+    at_limit = limit is not None and lag >= math.floor(limit / dt + 1e-9) * dt - 0.5 * dt
     lin = sine_linearity(xa, pa)
     aligned = pd.DataFrame({"t": ta, "xi": xa, "p_norm": pa / lin["p_max"]})
-    return aligned, {"frequency": sine_frequency(t[keep], u[keep]), "lag": lag, **lin}
+    return aligned, {
+        "frequency": frequency,
+        "lag": math.nan if at_limit else lag,
+        "lag_at_limit": bool(at_limit),
+        "max_lag": math.nan if limit is None else limit,
+        **lin,
+    }
 
 
 def sine_reference(
@@ -98,7 +158,7 @@ def sine_reference(
     modulators: Iterable[Mapping[str, Any] | Modulator],
     *,
     settle: float = 0.0,
-    max_lag: float | None = 2.0,
+    max_lag: float | None = None,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """The linear reference's row of a sine table: a run's input through a linear plant.
 

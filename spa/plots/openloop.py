@@ -156,12 +156,15 @@ def _sweep_panel(
     paper: str | None = None,
     reference: float | None = None,
     ylabel: str = "",
+    other: tuple[str, str, float | None] | None = None,
 ) -> None:
     """One bar per setting of ``table`` (in its order), coloured by modulator.
 
     ``shown`` settings are outlined; ``error`` is a column of symmetric errors or a pair of
     columns (low, high); ``paper`` a column of the paper's values (black diamonds);
-    ``reference`` a level drawn as a dashed line (the linear reference).
+    ``reference`` a level drawn as a dashed line (the linear reference); ``other`` a second
+    measure of every setting, ``(column, label, reference)``: hollow circles, and its
+    reference as a dotted line.
     """
     from matplotlib.colors import to_rgba
 
@@ -184,11 +187,20 @@ def _sweep_panel(
         ax.axhline(
             reference, color="0.3", ls="--", lw=1.0, label=f"linear reference {reference:.3g}"
         )
+    if other is not None and other[0] in table.columns and table[other[0]].notna().any():
+        column, label, level = other
+        y2 = table[column].to_numpy(dtype=float)
+        ax.plot(x, y2, "o", mfc="white", mec="k", ms=4, label=label)
+        if level is not None and np.isfinite(level):
+            ax.axhline(level, color="0.3", ls=":", lw=1.0, label=f"{label}: linear {level:.3g}")
+        top = np.nanmax(np.r_[y, y2, 0.0])
+        if top > 0:  # room for a one-row legend above the tallest bar
+            ax.set_ylim(top=1.3 * top)
     ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=8)
     ax.set_ylabel(ylabel, fontsize=8)
     ax.grid(True, axis="y", lw=0.3, alpha=0.5)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=7, loc="upper left", **({"ncols": 3} if other is not None else {}))
 
 
 def fig7a(
@@ -470,8 +482,9 @@ def fig9(
     sweep : pandas.DataFrame, optional
         The bicoherence table of every setting (``modulator``, ``setting``,
         ``significant_fraction``, optionally ``significant_fraction_min``/``_max`` over noise
-        seeds), with the linear reference's row (``modulator == "linear"``): drawn below the
-        maps, the significant fraction per setting.
+        seeds and ``significant_fraction_no_ringing``), with the linear reference's row
+        (``modulator == "linear"``): drawn below the maps, the significant fraction per
+        setting (bars) and without the sensor's ringing (hollow circles).
     shown : sequence of str, optional
         The settings whose maps are shown (outlined in the sweep panel).
     note : str, optional
@@ -513,13 +526,18 @@ def fig9(
     if sweep is not None:
         _require(sweep, ["modulator", "setting", "significant_fraction"], "sweep")
         runs = sweep[sweep["modulator"] != REFERENCE]
-        ref = sweep.loc[sweep["modulator"] == REFERENCE, "significant_fraction"]
+        ref_rows = sweep[sweep["modulator"] == REFERENCE]
+        ref = ref_rows["significant_fraction"]
+        quiet = "significant_fraction_no_ringing"
+        quiet_ref = ref_rows[quiet] if quiet in ref_rows.columns else ref.iloc[:0]
         _sweep_panel(
             fig.add_subplot(grid[nrows, :]), runs, "significant_fraction",
             shown=shown,
             error=("significant_fraction_min", "significant_fraction_max"),
             reference=float(ref.iloc[0]) if ref.size else None,
             ylabel="fraction of the domain significant",
+            other=(quiet, "without the sensor's ringing",
+                   float(quiet_ref.iloc[0]) if quiet_ref.size else None),
         )  # fmt: skip
     if note:
         fig.suptitle(textwrap.fill(note, 120), fontsize=9)

@@ -19,7 +19,7 @@ from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 from spa.synthetic.inputs import chirp_input, sine_input, staircase_input
-from spa.synthetic.sensor import Sensor, _ringing
+from spa.synthetic.sensor import Sensor, sensor_record
 
 __all__ = [
     "RunSpec",
@@ -120,15 +120,7 @@ def simulate_run(
         p = simulate(u, dt, params, p0=spec.p0)
     idx = np.arange(0, u.size, every)
     t = idx * dt
-    logged = p[idx]
-    if sensor.ringing is not None:
-        edges = np.flatnonzero(np.diff(u)) + 1
-        sign = np.where(u[edges] == 1, 1.0, -1.0)
-        logged = logged + _ringing(t, edges * dt, sign, sensor.ringing)
-    if sensor.noise > 0:
-        logged = logged + rng.normal(0.0, sensor.noise, logged.size)
-    if sensor.quantum > 0:
-        logged = np.round(logged / sensor.quantum) * sensor.quantum
+    logged = sensor_record(t, p[idx], u, dt, sensor, rng)
     table = {"t": t, "p": logged, "valve": u[idx]}
     if xi is not None:
         table["u"] = np.clip(xi[idx], 0.0, 1.0)

@@ -7,8 +7,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-__all__ = ["Ringing", "Sensor"]
+__all__ = ["Ringing", "Sensor", "sensor_record"]
 
 # ---- sensor -----------------------------------------------------------------------------
 
@@ -69,3 +70,53 @@ def _ringing(t: np.ndarray, edge_t: np.ndarray, edge_sign: np.ndarray, r: Ringin
         * np.sin(2 * np.pi * r.frequency * s)
     )
     return out
+
+
+def sensor_record(
+    t: npt.ArrayLike,
+    p: npt.ArrayLike,
+    command: npt.ArrayLike,
+    dt: float,
+    sensor: Sensor,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """What the sensor logs of a pressure: ringing after each valve edge, noise, ADC step.
+
+    Parameters
+    ----------
+    t : array_like of float, shape (n,)
+        Logging instants, s (whole multiples of ``dt``).
+    p : array_like of float, shape (n,)
+        The pressure at ``t``, bar.
+    command : array_like of int, shape (m,)
+        The valve command at every controller step; its edges start the ringing.
+    dt : float
+        Controller step, s.
+    sensor : Sensor
+        Noise, quantum and ringing (its ``fs`` is not used: ``t`` is given).
+    rng : numpy.random.Generator
+        Source of the noise (one draw of ``n`` normals when ``sensor.noise > 0``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        ``p`` plus the ringing, plus the noise, rounded to the ADC step, in that order.
+
+    Examples
+    --------
+    >>> quiet = Sensor(noise=0.0, quantum=0.001)
+    >>> sensor_record([0.0, 0.001], [0.1234, 0.2], [0, 0], 0.001, quiet, None).tolist()
+    [0.123, 0.2]
+    """
+    times = np.asarray(t, dtype=np.float64)
+    logged = np.asarray(p, dtype=np.float64)
+    u = np.asarray(command)
+    if sensor.ringing is not None:
+        edges = np.flatnonzero(np.diff(u)) + 1
+        sign = np.where(u[edges] == 1, 1.0, -1.0)
+        logged = logged + _ringing(times, edges * dt, sign, sensor.ringing)
+    if sensor.noise > 0:
+        logged = logged + rng.normal(0.0, sensor.noise, logged.size)
+    if sensor.quantum > 0:
+        logged = np.round(logged / sensor.quantum) * sensor.quantum
+    return logged

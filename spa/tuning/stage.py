@@ -259,13 +259,13 @@ def tune(
     grids = check_sweeps(DEFAULT_SWEEPS if sweeps is None else sweeps, p)
 
     data = sweep_frame(grids, p, n, exact=True)
-    table2 = tuning_table(grids, p, n, ident.intervals, data)
+    candidates = candidate_frame(grids, p, n, opts, data)
+    table2 = tuning_table(grids, p, n, ident.intervals, data, opts, candidates)
     optima = [
         setting(k, v * get_kind(k).unscale, p)
         for k, v in zip(table2["modulator"], table2["optimum"], strict=True)
     ]
     curves = equilibrium_frame({m.kind: m.value for m in optima}, p, n, exact=True)
-    candidates = candidate_frame(grids, p, n, opts, data)
     rec = dict(recommend(candidates, p, n, opts, linearity))
     best = rec["recommended"]
     chosen = Modulator.from_mapping(best["setting"]) if best else None

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +37,7 @@ from spa.tuning.cost import (
 )
 from spa.tuning.exact import exact_cost, exact_curve
 from spa.tuning.intervals import INTERVAL_METHOD, propagate
+from spa.tuning.recommend import TuningOptions, candidate_frame
 
 __all__ = ["equilibrium_frame", "optimum_table", "sweep_frame", "tuning_table"]
 
@@ -207,6 +209,25 @@ def _best(frame: pd.DataFrame, column: str) -> pd.Series:
     return frame.loc[frame[column].idxmin(skipna=True)]
 
 
+def _at_edge(rows: pd.DataFrame, value: float) -> bool:
+    """Whether ``value`` is the first or the last setting of a sweep where ``J`` is defined."""
+    defined = rows.loc[np.isfinite(rows["J"].to_numpy(dtype=float)), "value"]
+    return bool(np.isfinite(value) and value in (defined.iloc[0], defined.iloc[-1]))
+
+
+def _meeting_constraints(
+    rows: pd.DataFrame, candidates: pd.DataFrame, kind: str, params: ValveParams
+) -> pd.DataFrame:
+    """The rows of one modulator's sweep whose setting (default gain) meets the constraints."""
+    c = candidates[candidates["modulator"] == kind]
+    gain = c["gain"].to_numpy(dtype=float)
+    default = modulator_settings(kind, c["value"].to_numpy(dtype=float), params).get("gain")
+    if default is not None:  # IIPFM's 1 + t_on/t_l (a gain sweep adds other rows)
+        c = c[np.isclose(gain, np.asarray(default, dtype=float), rtol=1e-12, atol=0.0)]
+    ok = c.loc[c["feasible"].to_numpy(dtype=bool), "value"].to_numpy(dtype=float)
+    return rows[np.isin(rows["value"].to_numpy(dtype=float), ok)]
+
+
 def _corner_optima(
     grids: Mapping[str, Mapping[str, float]], params: ValveParams, n_xi: int
 ) -> npt.NDArray[np.float64]:
@@ -224,6 +245,8 @@ def tuning_table(
     n_xi: int = 100,
     intervals: Mapping[str, tuple[float, float]] | None = None,
     data: pd.DataFrame | None = None,
+    options: TuningOptions | None = None,
+    candidates: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """Table 2 for one valve: each modulator's optimum, J and J_exact, with intervals.
 
@@ -236,6 +259,13 @@ def tuning_table(
         propagated by :func:`spa.tuning.intervals.propagate` (corners of the box).
     data : pandas.DataFrame, optional
         ``sweep_frame(sweeps, params, n_xi, exact=True)`` when already computed.
+    options : TuningOptions, optional
+        The constraints (switching rate, chattering, shortest pulse, ranges) that
+        ``optimum_exact`` must meet; the defaults of
+        :class:`~spa.tuning.recommend.TuningOptions` when omitted.
+    candidates : pandas.DataFrame, optional
+        :func:`spa.tuning.recommend.candidate_frame` of the same sweeps and ``options``
+        when already computed.
 
     Returns
     -------
@@ -255,9 +285,21 @@ def tuning_table(
           parameters' 95 % box (each corner re-optimised), and ``interval_method``
           (``"corners"``, or ``"none"`` without intervals: then the ends equal the values);
         * ``label`` (the optimum's :attr:`~spa.model.modulators.Modulator.label`),
-          ``J_exact_paper_setting``, ``optimum_exact`` and ``J_exact_min`` (the grid minimum
-          of ``J_exact``), ``constraint`` (Section 5.1), ``paper_optimum`` and
-          ``paper_J_min`` (the paper's printed Table 2, for reference only).
+          ``J_exact_paper_setting``, ``optimum_exact`` and ``J_exact_min`` (the smallest
+          ``J_exact`` over the settings that meet ``options``' constraints; NaN when none
+          does), ``constraint`` (Section 5.1), ``paper_optimum`` and ``paper_J_min`` (the
+          paper's printed Table 2, for reference only);
+        * ``optimum_at_grid_edge`` and ``optimum_exact_at_grid_edge``: True when that
+          optimum is the first or the last setting of the sweep (where ``J`` is defined), so
+          that the true minimum may lie outside the grid.
+
+    Notes
+    -----
+    Over the whole grid, ``J_exact`` falls towards 0 as the period grows: the pressure then
+    swings from near 0 to near ``k2`` every cycle, and its cycle mean tends to ``k2`` times
+    the duty, a line in ``xi``. Its unconstrained minimum therefore sits at the longest period
+    of the grid, with a chattering of most of ``k2``; the chattering and switching
+    constraints keep ``optimum_exact`` to usable settings.
 
     Raises
     ------
@@ -269,11 +311,20 @@ def tuning_table(
     grids = check_sweeps(sweeps, p)
     if data is None:
         data = sweep_frame(grids, p, n, exact=True)
+    if candidates is None:
+        opts = replace(options or TuningOptions(), gain_sweep=None)
+        candidates = candidate_frame(grids, p, n, opts, data)
     lo, hi = propagate(lambda q: _corner_optima(grids, q, n), p, intervals)
     rows = []
     for i, kind in enumerate(grids):
         d = data[data["modulator"] == kind]
-        best, best_exact = _best(d, "J"), _best(d, "J_exact")
+        best = _best(d, "J")
+        usable = _meeting_constraints(d, candidates, kind, p)
+        if np.isfinite(usable["J_exact"].to_numpy(dtype=float)).any():
+            best_exact = _best(usable, "J_exact")
+            value_exact, j_exact_min = float(best_exact["value"]), float(best_exact["J_exact"])
+        else:
+            value_exact = j_exact_min = np.nan
         value = float(best["value"])
         mod = setting(kind, value, p)
         paper = paper_setting(kind, p)
@@ -302,11 +353,13 @@ def tuning_table(
                 "interval_method": INTERVAL_METHOD if intervals else "none",
                 "label": mod.label,
                 "J_exact_paper_setting": float(exact_cost(kind, paper.value, p, n)),
-                "optimum_exact": round(float(best_exact["value"]) * scale, 9),
-                "J_exact_min": float(best_exact["J_exact"]),
+                "optimum_exact": round(value_exact * scale, 9),
+                "J_exact_min": j_exact_min,
                 "constraint": constraint(kind, p),
                 "paper_optimum": PAPER_TABLE2.get(kind, _NO_PAPER)[1],
                 "paper_J_min": PAPER_TABLE2.get(kind, _NO_PAPER)[0],
+                "optimum_at_grid_edge": _at_edge(d, value),
+                "optimum_exact_at_grid_edge": _at_edge(d, value_exact),
             }
         )
     return pd.DataFrame(rows)

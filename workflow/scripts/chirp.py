@@ -8,6 +8,7 @@ from spa.openloop import (
     chirp_reference,
     fallback_note,
     is_simulated,
+    no_ringing_spread,
     noise_spread,
     paper_settings,
     run_tags,
@@ -34,6 +35,7 @@ def main() -> None:
             f, bic, summary = chirp_analysis(runs[rid], **cfg)
             if is_simulated(metas[rid]) and seeds > 1:  # the spread over sensor-noise seeds
                 summary.update(noise_spread(metas[rid], summary, seeds, **cfg))
+                summary.update(no_ringing_spread(metas[rid], seeds, **cfg))
         rows.append({"run": rid, **tags.loc[rid], **summary})
         maps[rid] = (f, bic, summary["threshold"], summary["fmin"])
         log.info(
@@ -47,7 +49,8 @@ def main() -> None:
         # The same input (the first run's) through the linear first-order reference.
         params = read_params(snakemake.input.params)
         mods = [metas[r]["modulator"] for r in ids]
-        f, bic, ref = chirp_reference(runs[ids[0]], params, mods, **cfg)
+        first = ids[0]  # through its sensor (ringing after its edges, its noise) if simulated
+        f, bic, ref = chirp_reference(runs[first], params, mods, metas[first], seeds, **cfg)
         log.info("linear reference: tau_m %.3f s, significant fraction %.4f",
                  ref["tau_m"], ref["significant_fraction"])  # fmt: skip
         table = pd.DataFrame([*rows, ref])

@@ -1,0 +1,78 @@
+"""The documentation is written in our own words: no long run of words taken from the notes.
+
+docs/ and the README were written from reference notes kept beside the repository
+(``../shared``: the model's clean equations, a style guide and the paper's text). A run of
+``RUN`` or more identical words (case and punctuation ignored) shared with any of them is a
+passage copied rather than restated. The check skips where ``../shared`` is absent; CI clones
+the repository beside it, so there it runs. ``SPA_SHARED`` names another folder.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+RUN = 10  # words
+
+
+def shared_folder() -> Path | None:
+    """The reference notes' folder, or None where this checkout has none beside it."""
+    for candidate in (os.environ.get("SPA_SHARED"), ROOT.parent / "shared"):
+        if candidate and (Path(candidate) / "MODEL.md").is_file():
+            return Path(candidate)
+    return None
+
+
+def words(text: str) -> list[str]:
+    """Lower-case words, punctuation and underscores ignored (``t_on`` is ``t on``)."""
+    return re.findall(r"[^\W_]+", text.lower())
+
+
+def runs(text: str, n: int = RUN) -> set[tuple[str, ...]]:
+    """Every run of ``n`` consecutive words of ``text``."""
+    w = words(text)
+    return {tuple(w[i : i + n]) for i in range(len(w) - n + 1)}
+
+
+def shared_runs(text: str, sources: dict[str, str], n: int = RUN) -> list[str]:
+    """The runs of ``n`` words ``text`` shares with each source, as ``source: words``."""
+    mine = runs(text, n)
+    found = []
+    for name, source in sources.items():
+        found += [f"{name}: {' '.join(r)}" for r in sorted(mine & runs(source, n))]
+    return found
+
+
+def test_the_checker_finds_a_run_of_ten_words_and_not_of_nine():
+    source = {"notes": "The valve, when OPEN, fills the actuator from the supply at once."}
+    ten = "we say: the valve when open fills the actuator from the supply, we think"
+    nine = "we say: a valve when open fills the actuator from the supply, we think"
+    assert shared_runs(ten, source) == [
+        "notes: the valve when open fills the actuator from the supply"
+    ]
+    assert shared_runs(nine, source) == []
+    assert words("t_on = 3 ms; P+ - P-") == ["t", "on", "3", "ms", "p", "p"]
+
+
+def documents() -> list[Path]:
+    """Every text file under docs/, and the README."""
+    text = {".md", ".py", ".rst", ".txt"}
+    docs = sorted(p for p in (ROOT / "docs").rglob("*") if p.is_file() and p.suffix in text)
+    return [*docs, ROOT / "README.md"]
+
+
+@pytest.mark.parametrize("doc", documents(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_run_of_ten_words_is_copied_from_the_reference_notes(doc):
+    folder = shared_folder()
+    if folder is None:
+        pytest.skip("no reference notes beside the repository (../shared)")
+    notes = [folder / "MODEL.md", folder / "STYLE.md", *sorted((folder / "paper").glob("*.txt"))]
+    sources = {p.name: p.read_text(encoding="utf-8", errors="replace") for p in notes}
+    copied = shared_runs(doc.read_text(encoding="utf-8"), sources)
+    assert not copied, f"{doc.name} repeats {len(copied)} runs of {RUN} words:\n" + "\n".join(
+        copied
+    )
