@@ -80,8 +80,9 @@ def generate(folder: Path, rows: int, rate: float) -> int:
         fh.write(b"time_ms,P_kPa,valve_cmd,xi\n")
         options = pacsv.WriteOptions(include_header=False)
         for k, noisy, valve, xi in signal_chunks(rows, rate):
-            table = pa.table({"time_ms": k * (1000.0 / rate), "P_kPa": noisy,
-                              "valve_cmd": valve, "xi": xi})
+            table = pa.table(
+                {"time_ms": k * (1000.0 / rate), "P_kPa": noisy, "valve_cmd": valve, "xi": xi}
+            )
             pacsv.write_csv(table, fh, write_options=options)
     return path.stat().st_size
 
@@ -118,10 +119,14 @@ def main() -> int:
         print(f"CSV: {size / 1e9:.2f} GB, generated in {t_gen:.0f} s")
         print(f"ingest wall time: {wall:.1f} s ({rows / wall / 1e6:.2f} M rows/s)")
         print(f"ingest peak RSS: {peak_kib / 1024:.0f} MiB")
-        print(f"run table: {result.stat().st_size / 1e9:.2f} GB, {meta.num_row_groups} row "
-              f"groups, columns {schema.names} {[str(t) for t in schema.types]}")
-        print(f"python {platform.python_version()}, numpy {np.__version__}, "
-              f"pyarrow {pa.__version__}, {platform.machine()}")
+        print(
+            f"run table: {result.stat().st_size / 1e9:.2f} GB, {meta.num_row_groups} row "
+            f"groups, columns {schema.names} {[str(t) for t in schema.types]}"
+        )
+        print(
+            f"python {platform.python_version()}, numpy {np.__version__}, "
+            f"pyarrow {pa.__version__}, {platform.machine()}"
+        )
     return 0
 
 

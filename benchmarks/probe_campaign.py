@@ -424,8 +424,12 @@ def _stray(raw: Path) -> None:
         (folder / junk).write_text("x")
     (raw / "stray").mkdir()  # no dataset.yaml: not a dataset
     (raw / "stray" / "a.csv").write_text("x")
-    shutil.copytree(folder, raw / os.fsdecode(b"Pr\xfcfstand"), symlinks=True,
-                    ignore=shutil.ignore_patterns("pipe"))  # a dataset named in Latin-1
+    shutil.copytree(
+        folder,
+        raw / os.fsdecode(b"Pr\xfcfstand"),
+        symlinks=True,
+        ignore=shutil.ignore_patterns("pipe"),
+    )  # a dataset named in Latin-1
 
 
 @probe

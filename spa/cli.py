@@ -313,7 +313,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("params", metavar="PARAMS.yaml", help="identified parameters")
     p.add_argument(
-        "--modulator", required=True, metavar="KIND:NAME=VALUE,...",
+        "--modulator",
+        required=True,
+        metavar="KIND:NAME=VALUE,...",
         help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20",
     )
     p.add_argument("--tau-c", type=float, default=0.2, help="closed-loop time constant, s")

@@ -55,8 +55,12 @@ def make_dataset(
     """Write ``root/raw/<name>/`` with ``dataset.yaml`` and ``files`` (by extension)."""
     folder = root / "raw" / name
     folder.mkdir(parents=True)
-    doc = {"name": name, "description": "test bench", "origin": "bench",
-           "rig": {"valve": "v", "actuator": "a", "sensors": "s", "controller": "c"}}
+    doc = {
+        "name": name,
+        "description": "test bench",
+        "origin": "bench",
+        "rig": {"valve": "v", "actuator": "a", "sensors": "s", "controller": "c"},
+    }
     doc.update(extra)
     doc["runs"] = runs
     (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
@@ -76,8 +80,9 @@ def make_dataset(
 
 def frame(n: int = 50, u: bool = False) -> pd.DataFrame:
     t = np.arange(n) * 0.002
-    df = pd.DataFrame({"t": t, "p": 0.5 * (1 - np.exp(-t / 0.03)),
-                       "valve": (np.arange(n) // 7 % 2).astype(int)})
+    df = pd.DataFrame(
+        {"t": t, "p": 0.5 * (1 - np.exp(-t / 0.03)), "valve": (np.arange(n) // 7 % 2).astype(int)}
+    )
     if u:
         df["u"] = np.linspace(0.0, 1.0, n)
     return df
@@ -123,12 +128,30 @@ def test_bad_corpus_reports_expected_problem(case: Path, tmp_path: Path, capsys)
 def test_corpus_covers_the_contract() -> None:
     names = {p.name for p in BAD}
     for required in [
-        "missing_yaml", "unparsable_yaml", "unknown_key_typo", "unknown_kind",
-        "unknown_modulator_type", "bad_modulator_settings", "path_absolute", "path_dotdot",
-        "path_symlink", "missing_file", "empty_file", "truncated_csv", "truncated_parquet",
-        "unreadable_mat", "missing_column", "missing_mat_variable", "non_numeric", "nan_inf",
-        "time_backwards", "time_duplicated", "valve_not_binary", "u_out_of_range",
-        "pressure_looks_kpa", "many_problems",
+        "missing_yaml",
+        "unparsable_yaml",
+        "unknown_key_typo",
+        "unknown_kind",
+        "unknown_modulator_type",
+        "bad_modulator_settings",
+        "path_absolute",
+        "path_dotdot",
+        "path_symlink",
+        "missing_file",
+        "empty_file",
+        "truncated_csv",
+        "truncated_parquet",
+        "unreadable_mat",
+        "missing_column",
+        "missing_mat_variable",
+        "non_numeric",
+        "nan_inf",
+        "time_backwards",
+        "time_duplicated",
+        "valve_not_binary",
+        "u_out_of_range",
+        "pressure_looks_kpa",
+        "many_problems",
     ]:
         assert required in names
     assert (CORPUS / "bad" / "path_symlink" / "charge1.csv").is_symlink()
@@ -156,8 +179,12 @@ def test_good_corpus_passes_without_warnings() -> None:
     assert problems == []
     assert [s.run for s in summaries] == load_spec(GOOD).run_ids
     assert {s.kind for s in summaries} == set(ds.KINDS)
-    assert {s.modulator["type"] for s in summaries if s.modulator} == {"pwm", "ipfm", "iipfm",
-                                                                     "dsm"}
+    assert {s.modulator["type"] for s in summaries if s.modulator} == {
+        "pwm",
+        "ipfm",
+        "iipfm",
+        "dsm",
+    }
     for s in summaries:
         assert s.rows == 400
         assert s.rate_hz == pytest.approx(1000.0)
@@ -177,8 +204,14 @@ def test_load_spec_fills_defaults(tmp_path: Path) -> None:
     assert spec.columns == {"t": "t", "p": "p", "valve": "valve", "u": "u", "r": "r"}
     (run,) = spec.runs
     assert run == ds.RunEntry("c1", "charge", "c1.csv", None, "first", csv=run.csv)
-    assert run.csv == {"sep": ",", "decimal": ".", "encoding": None, "skip_rows": 0,
-                       "comment": None, "units_row": False}
+    assert run.csv == {
+        "sep": ",",
+        "decimal": ".",
+        "encoding": None,
+        "skip_rows": 0,
+        "comment": None,
+        "units_row": False,
+    }
     assert (run.time_unit, run.pressure_unit, run.columns) == ("s", "bar", spec.columns)
     assert spec.run_path("c1") == folder / "c1.csv"
 
@@ -193,17 +226,19 @@ def test_find_datasets_lists_folders_with_a_description(tmp_path: Path) -> None:
 
 
 def test_load_spec_completes_modulator_settings(tmp_path: Path) -> None:
-    runs = [{"id": "s", "kind": "sine", "file": "s.csv", "modulator": {"type": "ipfm",
-                                                                     "t_h": "20e-3"}}]
+    runs = [
+        {"id": "s", "kind": "sine", "file": "s.csv", "modulator": {"type": "ipfm", "t_h": "20e-3"}}
+    ]
     spec = load_spec(make_dataset(tmp_path, runs, {"s.csv": frame(u=True)}))
     assert spec.runs[0].modulator == {"type": "ipfm", "t_h": 0.02, "gain": 1.0}
 
 
 def test_load_spec_raises_listing_every_problem(tmp_path: Path) -> None:
-    runs = [{"id": "a", "kind": "stair", "file": "a.csv"},
-            {"id": "b", "kind": "sine", "file": "b.csv", "modulator": {"type": "pwm"}}]
-    folder = make_dataset(tmp_path, runs, {"a.csv": frame(), "b.csv": frame(u=True)},
-                          origin="lab")
+    runs = [
+        {"id": "a", "kind": "stair", "file": "a.csv"},
+        {"id": "b", "kind": "sine", "file": "b.csv", "modulator": {"type": "pwm"}},
+    ]
+    folder = make_dataset(tmp_path, runs, {"a.csv": frame(), "b.csv": frame(u=True)}, origin="lab")
     with pytest.raises(DatasetError) as info:
         load_spec(folder)
     assert isinstance(info.value, ValueError)
@@ -220,18 +255,54 @@ def test_run_ids_differing_in_case_collide(tmp_path: Path) -> None:
     assert "duplicate run id 'run1' ('Run1' differs only in case)" in str(problems[0])
 
 
-_KEYS = st.sampled_from(["name", "description", "origin", "rig", "units", "columns", "runs",
-                         "id", "kind", "file", "modulator", "notes", "type", "f_w", "gain",
-                         "time", "pressure", "t", "p", "valve", "u", "x"])
-_LEAVES = st.one_of(st.none(), st.booleans(), st.integers(-3, 3), st.floats(), st.text(max_size=5),
-                    st.sampled_from(["charge", "pwm", "kPa", "bench", "c1.csv", "../c1.csv"]))
-_YAML = st.dictionaries(_KEYS, st.recursive(
-    _LEAVES, lambda c: st.one_of(st.lists(c, max_size=3), st.dictionaries(_KEYS, c, max_size=4)),
-    max_leaves=10), max_size=7)
+_KEYS = st.sampled_from(
+    [
+        "name",
+        "description",
+        "origin",
+        "rig",
+        "units",
+        "columns",
+        "runs",
+        "id",
+        "kind",
+        "file",
+        "modulator",
+        "notes",
+        "type",
+        "f_w",
+        "gain",
+        "time",
+        "pressure",
+        "t",
+        "p",
+        "valve",
+        "u",
+        "x",
+    ]
+)
+_LEAVES = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-3, 3),
+    st.floats(),
+    st.text(max_size=5),
+    st.sampled_from(["charge", "pwm", "kPa", "bench", "c1.csv", "../c1.csv"]),
+)
+_YAML = st.dictionaries(
+    _KEYS,
+    st.recursive(
+        _LEAVES,
+        lambda c: st.one_of(st.lists(c, max_size=3), st.dictionaries(_KEYS, c, max_size=4)),
+        max_leaves=10,
+    ),
+    max_size=7,
+)
 
 
-@settings(max_examples=150, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(doc=_YAML)
 def test_any_yaml_gives_problems_not_exceptions(tmp_path: Path, doc: dict[str, Any]) -> None:
     folder = tmp_path / "ds"
@@ -258,8 +329,14 @@ def test_problem_str_names_every_location() -> None:
 
 
 def test_warning_for_modulated_run_without_valve(tmp_path: Path) -> None:
-    runs = [{"id": "s", "kind": "staircase", "file": "s.csv",
-             "modulator": {"type": "dsm", "period": 0.02}}]
+    runs = [
+        {
+            "id": "s",
+            "kind": "staircase",
+            "file": "s.csv",
+            "modulator": {"type": "dsm", "period": 0.02},
+        }
+    ]
     folder = make_dataset(tmp_path, runs, {"s.csv": frame(u=True).drop(columns="valve")})
     problems = validate_dataset(folder)
     assert [p.level for p in problems] == ["warning"]
@@ -279,8 +356,9 @@ def test_warning_when_time_looks_like_ms(tmp_path: Path) -> None:
 def test_warning_when_pressure_is_tiny(tmp_path: Path, kind: str, warned: bool) -> None:
     df = frame()  # in bar, up to 0.481, but declared as kPa
     runs = [dict(CHARGE, kind=kind)]
-    problems = validate_dataset(make_dataset(tmp_path, runs, {"c1.csv": df},
-                                             units={"pressure": "kPa"}))
+    problems = validate_dataset(
+        make_dataset(tmp_path, runs, {"c1.csv": df}, units={"pressure": "kPa"})
+    )
     assert [p.level for p in problems] == (["warning"] if warned else [])
     if warned:
         assert "pressure never exceeds 0.00481 bar in magnitude" in problems[0].message
@@ -326,16 +404,19 @@ def test_checks_carry_across_chunks(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert "duplicated time stamp" in problem.message
 
 
-def test_malformed_line_is_numbered_across_blocks(tmp_path: Path,
-                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+def test_malformed_line_is_numbered_across_blocks(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(delimited, "_CSV_BLOCK", 200)
     lines = frame(400).to_csv(index=False).splitlines()
     lines[149] = "0.5,0.1"  # line 150 of the file: two fields instead of three
     lines[301] = lines[301].replace(",", ",x", 1)  # line 302: text in p
     folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": ("\n".join(lines) + "\n").encode()})
     messages = [str(p) for p in validate_dataset(folder)]
-    assert any("[run 'c1', line 150]: malformed line: expected 3 comma-separated fields, got 2"
-               in m for m in messages), messages
+    assert any(
+        "[run 'c1', line 150]: malformed line: expected 3 comma-separated fields, got 2" in m
+        for m in messages
+    ), messages
     # the malformed line blurs the row -> line mapping of its own block only
     assert any("column 'p', row 300 (line 302)]: non-numeric value" in m for m in messages)
 
@@ -348,8 +429,9 @@ def test_blank_lines_are_skipped(tmp_path: Path) -> None:
     assert str(problem).startswith("error: c1.csv [run 'c1', column 't', row 4]: duplicated")
 
 
-def test_chunking_does_not_change_the_output(tmp_path: Path,
-                                             monkeypatch: pytest.MonkeyPatch) -> None:
+def test_chunking_does_not_change_the_output(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": frame(3000)})
     monkeypatch.setattr(runtable, "_ROW_GROUP", 1000)
     whole = ingest_dataset(folder, tmp_path / "a")[0].read_bytes()
@@ -364,11 +446,15 @@ def test_chunking_does_not_change_the_output(tmp_path: Path,
 
 @pytest.mark.parametrize(
     ("unit", "value", "bar"),
-    [("bar", 0.8, 0.8), ("mbar", 1500.0, 1.5), ("kPa", 250.0, 2.5), ("kPa", 80.0, 0.8),
-     ("psi", 100.0, 6.89475729)],
+    [
+        ("bar", 0.8, 0.8),
+        ("mbar", 1500.0, 1.5),
+        ("kPa", 250.0, 2.5),
+        ("kPa", 80.0, 0.8),
+        ("psi", 100.0, 6.89475729),
+    ],
 )
-def test_pressure_units_convert_to_bar(tmp_path: Path, unit: str, value: float,
-                                       bar: float) -> None:
+def test_pressure_units_convert_to_bar(tmp_path: Path, unit: str, value: float, bar: float) -> None:
     df = pd.DataFrame({"t": [0.0, 0.001, 0.002], "p": [0.0, value, value]})
     folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": df}, units={"pressure": unit})
     out, meta = read_run_table(ingest_dataset(folder, tmp_path / "out")[0])
@@ -385,11 +471,21 @@ def test_conversion_factors_are_the_documented_ones() -> None:
 
 def test_ms_and_renamed_columns(tmp_path: Path) -> None:
     t_ms = np.arange(0, 100, 0.5)
-    df = pd.DataFrame({"V": np.ones(t_ms.size, dtype=int), "time [ms]": t_ms,
-                       "P (kPa)": np.full(t_ms.size, 45.0), "extra": 1.0})
-    folder = make_dataset(tmp_path, [CHARGE], {"c1.csv": df}, units={"time": "ms",
-                          "pressure": "kPa"}, columns={"t": "time [ms]", "p": "P (kPa)",
-                                                       "valve": "V"})
+    df = pd.DataFrame(
+        {
+            "V": np.ones(t_ms.size, dtype=int),
+            "time [ms]": t_ms,
+            "P (kPa)": np.full(t_ms.size, 45.0),
+            "extra": 1.0,
+        }
+    )
+    folder = make_dataset(
+        tmp_path,
+        [CHARGE],
+        {"c1.csv": df},
+        units={"time": "ms", "pressure": "kPa"},
+        columns={"t": "time [ms]", "p": "P (kPa)", "valve": "V"},
+    )
     out, meta = read_run_table(ingest_dataset(folder, tmp_path / "out")[0])
     assert list(out.columns) == ["t", "p", "valve"]
     assert out.dtypes.astype(str).tolist() == ["float64", "float64", "int8"]
@@ -402,8 +498,10 @@ def test_ms_and_renamed_columns(tmp_path: Path) -> None:
 def test_csv_parquet_and_mat_give_the_same_table(tmp_path: Path) -> None:
     df = frame(60, u=True)
     mod = {"type": "iipfm", "t_l": 0.02, "gain": 1.15}
-    runs = [{"id": f"r_{ext}", "kind": "chirp", "file": f"d/r.{ext}", "modulator": mod}
-            for ext in ("csv", "parquet", "mat")]
+    runs = [
+        {"id": f"r_{ext}", "kind": "chirp", "file": f"d/r.{ext}", "modulator": mod}
+        for ext in ("csv", "parquet", "mat")
+    ]
     pq_df = df.astype({"valve": "int8", "p": "float32"})
     mat = {k: df[k].to_numpy().reshape(-1, 1) for k in df}  # column vectors
     folder = make_dataset(tmp_path, runs, {"d/r.csv": df, "d/r.parquet": pq_df, "d/r.mat": mat})
@@ -413,16 +511,29 @@ def test_csv_parquet_and_mat_give_the_same_table(tmp_path: Path) -> None:
     expected = df.astype({"valve": "int8"})
     pd.testing.assert_frame_equal(tables[0][0], expected)
     pd.testing.assert_frame_equal(tables[2][0], expected)
-    pd.testing.assert_frame_equal(tables[1][0],
-                                  expected.assign(p=df["p"].astype("float32").astype(float)))
+    pd.testing.assert_frame_equal(
+        tables[1][0], expected.assign(p=df["p"].astype("float32").astype(float))
+    )
     assert [m["source"]["format"] for _, m in tables] == ["csv", "parquet", "mat"]
 
 
 def test_metadata_round_trip_and_sha256(tmp_path: Path) -> None:
-    runs = [{"id": "st", "kind": "staircase", "file": "st.csv", "notes": "5 s steps",
-             "modulator": {"type": "pwm", "f_w": 20}}]
-    folder = make_dataset(tmp_path, runs, {"st.csv": frame(u=True)}, origin="synthetic",
-                          units={"time": "s", "pressure": "bar"})
+    runs = [
+        {
+            "id": "st",
+            "kind": "staircase",
+            "file": "st.csv",
+            "notes": "5 s steps",
+            "modulator": {"type": "pwm", "f_w": 20},
+        }
+    ]
+    folder = make_dataset(
+        tmp_path,
+        runs,
+        {"st.csv": frame(u=True)},
+        origin="synthetic",
+        units={"time": "s", "pressure": "bar"},
+    )
     (path,) = ingest_dataset(folder, tmp_path / "out")
     meta = read_run_meta(path)
     raw = pq.ParquetFile(path).metadata.metadata[b"spa"]
@@ -437,9 +548,12 @@ def test_metadata_round_trip_and_sha256(tmp_path: Path) -> None:
         "kind": "staircase",
         "modulator": {"type": "pwm", "f_w": 20.0},
         "notes": "5 s steps",
-        "source": {"file": "st.csv", "format": "csv",
-                   "sha256": hashlib.sha256((folder / "st.csv").read_bytes()).hexdigest(),
-                   "columns": {"t": "t", "p": "p", "valve": "valve", "u": "u"}},
+        "source": {
+            "file": "st.csv",
+            "format": "csv",
+            "sha256": hashlib.sha256((folder / "st.csv").read_bytes()).hexdigest(),
+            "columns": {"t": "t", "p": "p", "valve": "valve", "u": "u"},
+        },
         "units": {"time": "s", "pressure": "bar"},
     }
     assert str(tmp_path) not in raw.decode()  # no absolute paths
@@ -478,8 +592,13 @@ def test_failed_ingest_keeps_earlier_outputs(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------------------- run tables
 
-META = {"dataset": "sim", "run": "stair_pwm-20Hz", "kind": "staircase", "origin": "synthetic",
-        "modulator": {"type": "pwm", "f_w": 20}}
+META = {
+    "dataset": "sim",
+    "run": "stair_pwm-20Hz",
+    "kind": "staircase",
+    "origin": "synthetic",
+    "modulator": {"type": "pwm", "f_w": 20},
+}
 
 
 def test_write_run_table_enforces_canonical_form(tmp_path: Path) -> None:
@@ -561,8 +680,13 @@ def test_cli_validate_good_prints_one_line_per_run(capsys) -> None:
 
 def test_cli_exit_codes_in_a_subprocess() -> None:
     def run(*args: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run([sys.executable, "-m", "spa", *args], capture_output=True,
-                              text=True, cwd=REPO, check=False)
+        return subprocess.run(
+            [sys.executable, "-m", "spa", *args],
+            capture_output=True,
+            text=True,
+            cwd=REPO,
+            check=False,
+        )
 
     good = str(GOOD.relative_to(REPO))
     ok = run("validate", good)
@@ -658,10 +782,14 @@ _CSV_LINES = st.lists(
 )
 
 
-@settings(max_examples=120, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(lines=_CSV_LINES, ending=st.sampled_from(["\n", "\r\n", "\r"]),
-       encoding=st.sampled_from(["utf-8", "utf-8-sig", "utf-16", "latin-1"]))
+@settings(
+    max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    lines=_CSV_LINES,
+    ending=st.sampled_from(["\n", "\r\n", "\r"]),
+    encoding=st.sampled_from(["utf-8", "utf-8-sig", "utf-16", "latin-1"]),
+)
 def test_any_csv_gives_a_valid_run_or_a_clean_dataset_error(
     tmp_path: Path, lines: list[str], ending: str, encoding: str
 ) -> None:
@@ -692,7 +820,8 @@ def test_any_csv_gives_a_valid_run_or_a_clean_dataset_error(
     written = {p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file()}
     assert all(p.parts[0] in ("raw", "results") for p in written)
     assert {p for p in written if p.parts[0] == "raw"} == {
-        Path("raw/ds/dataset.yaml"), Path("raw/ds/c1.csv")
+        Path("raw/ds/dataset.yaml"),
+        Path("raw/ds/c1.csv"),
     }
 
 

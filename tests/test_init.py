@@ -175,9 +175,7 @@ def test_every_configured_modulator_on_short_runs() -> None:
     and a chirp (short ones): every kind, type and setting is recognised."""
     cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     # LPWM's duty is not u (it inverts a valve the log does not name): not guessable
-    mods = [
-        m for m in cfg["simulated"]["sim"]["modulators"] if get_kind(m["type"]).guess_rank < 10
-    ]
+    mods = [m for m in cfg["simulated"]["sim"]["modulators"] if get_kind(m["type"]).guess_rank < 10]
     wrong = []
     for spec in modulated_runs(mods, DT, EXPERIMENTS):
         run = _simulated(spec)

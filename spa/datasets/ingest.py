@@ -415,6 +415,7 @@ def _check_writable(out: Path) -> None:
         probe.unlink()
     except OSError as exc:
         raise type(exc)(
-            exc.errno, f"the output folder is not writable ({exc.strerror}); the recordings "
-            "were not read", str(out)
+            exc.errno,
+            f"the output folder is not writable ({exc.strerror}); the recordings were not read",
+            str(out),
         ) from None

@@ -24,6 +24,7 @@ from spa.model.params import ValveParams
 
 __all__ = ["THRESHOLD_FORMULAS", "threshold_table", "thresholds"]
 
+
 #: Table 1 as text: ``kind -> (dead-zone, saturation)`` closed forms of ``xi`` (clipped to
 #: [0, 1]). The ΔΣM forms reduce to the paper's 0 and 1 when ``period >= 2*t_on, 2*t_off``.
 class _Formulas(Mapping[str, tuple[str, str]]):

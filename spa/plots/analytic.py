@@ -33,6 +33,7 @@ def _panel_order() -> list[str]:
     """Fig. 5's panels: the paper's order, then any further kind in table order."""
     return [*PAPER_FIG5_ORDER, *(k for k in MODULATOR_ORDER if k not in PAPER_FIG5_ORDER)]
 
+
 _MS_TICKS = [12.5, 20, 30, 50, 100, 200, 500, 1000]
 _HZ_TICKS = [1, 2, 5, 10, 20, 50, 80]
 

@@ -44,6 +44,7 @@ OKABE_ITO: Final[tuple[str, ...]] = (
     "#CC79A7",
 )
 
+
 class _ByKind(Mapping[str, str]):
     """``kind -> attribute`` of every registered kind, in table order."""
 

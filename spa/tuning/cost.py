@@ -46,6 +46,7 @@ __all__ = [
 #: The swept parameter of each modulator: ``kind -> (setting name, unit)``.
 SWEPT_PARAMETER: Mapping[str, tuple[str, str]] = PARAMETER
 
+
 class _Grids(Mapping[str, Mapping[str, float]]):
     """``kind -> {start, stop, step}``: each registered kind's default grid."""
 

@@ -112,9 +112,7 @@ def _matrix_header(buf: bytes, order: str) -> tuple[str, list[int], str]:
     return name.rstrip(b"\0").decode("latin-1"), [max(d, 0) for d in dims], kind
 
 
-def _v5_variables(
-    path: Path, limit: int
-) -> list[tuple[str, list[int], str, int, int | None]]:
+def _v5_variables(path: Path, limit: int) -> list[tuple[str, list[int], str, int, int | None]]:
     """(name, dims, class, compressed size, expanded size or None above ``limit``) of each
     top-level variable of a v5 file; nothing is kept of the expanded data."""
     out: list[tuple[str, list[int], str, int, int | None]] = []
