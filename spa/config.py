@@ -175,13 +175,20 @@ def grid_errors(config: Mapping[str, Any]) -> list[str]:
                 f"(about {_mb(n * n_xi)} an array); at most {MAX_GRID_VALUES:,}"
             )
     gains = points.get("tuning.gain_sweep", 1)
-    iipfm = points.get("analytic.sweeps.iipfm", 1)
-    if 1 < gains <= MAX_SWEEP_POINTS and gains * iipfm * n_xi > MAX_GRID_VALUES:
-        lines.append(
-            f"tuning.gain_sweep: {gains:,} gains x {iipfm:,} t_l x n_xi {n_xi:,} = "
-            f"{gains * iipfm * n_xi:,} values (about {_mb(gains * iipfm * n_xi)}); at most "
-            f"{MAX_GRID_VALUES:,}"
-        )
+    from spa.model.modulators import REGISTRY
+
+    for name, kind in REGISTRY.items():
+        swept = points.get(f"analytic.sweeps.{name}", 1)
+        if (
+            kind.gain_swept
+            and 1 < gains <= MAX_SWEEP_POINTS
+            and gains * swept * n_xi > MAX_GRID_VALUES
+        ):
+            lines.append(
+                f"tuning.gain_sweep: {gains:,} gains x {swept:,} {kind.parameter} x n_xi "
+                f"{n_xi:,} = {gains * swept * n_xi:,} values (about "
+                f"{_mb(gains * swept * n_xi)}); at most {MAX_GRID_VALUES:,}"
+            )
     for kind, bounds in (tuning.get("ranges") or {}).items():
         if isinstance(bounds, list) and len(bounds) == 2 and bounds[0] > bounds[1]:
             lines.append(

@@ -7,7 +7,7 @@ import pytest
 
 import spa
 from spa.closedloop.controller import PIController, interp
-from spa.closedloop.kernels import KERNELS
+from spa.model.modulators.kernels import KERNELS
 from spa.closedloop.loop import closed_loop_arrays, segment_pressure_scalar
 from spa.closedloop.reference import closed_loop_reference
 from spa.model.modulators import MODULATORS, Modulator
@@ -37,7 +37,7 @@ def test_every_modulator_has_a_kernel() -> None:
 def test_kernels_share_the_open_loop_tolerance_and_pulse_widths() -> None:
     import importlib
 
-    from spa.closedloop.kernels._common import EPS, pulse_steps
+    from spa.model.modulators.kernels._common import EPS, pulse_steps
 
     mods = importlib.import_module("spa.model.modulators")
     pulses = getattr(mods, "_pulses", None)
@@ -50,7 +50,7 @@ def test_kernels_share_the_open_loop_tolerance_and_pulse_widths() -> None:
 
 @pytest.mark.parametrize("f_w", [20.0, 7.3])
 def test_lpwm_kernel_is_pwm_of_the_model_inverse_duty(f_w: float) -> None:
-    from spa.closedloop.kernels import lpwm
+    from spa.model.modulators.kernels import lpwm
 
     rng = np.random.default_rng(5)
     xi = np.clip(np.repeat(rng.uniform(-0.1, 1.1, 30), 97), 0.0, 1.0)

@@ -2,7 +2,7 @@
 
 * :mod:`spa.closedloop.controller` – :class:`PIController`, one value type for P, PI,
   gain-scheduled PI and feed-forward;
-* :mod:`spa.closedloop.kernels` – the per-step law of each modulator, compiled;
+* :mod:`spa.model.modulators.kernels` – the per-step law of each modulator, compiled;
 * :mod:`spa.closedloop.loop` – :func:`simulate_closed_loop`, the exact compiled loop;
 * :mod:`spa.closedloop.reference` – the same loop in plain Python from the open-loop
   functions (tests);

@@ -3,7 +3,7 @@
 The loop is sequential (the controller reads the pressure the previous commands produced), so
 it runs as one numba-compiled loop over the samples; per step it evaluates the plant's closed
 form once (:func:`spa.model.plant.segment_pressure`, the same formula), the controller's law
-and the modulator's per-step kernel (:mod:`spa.closedloop.kernels`). Convention in
+and the modulator's per-step kernel (:mod:`spa.model.modulators.kernels`). Convention in
 docs/model.md section 8; checked against the open-loop functions and a plain-Python loop in
 tests/test_closed_loop.py.
 """
@@ -19,9 +19,9 @@ import pandas as pd
 from numba import njit
 
 from spa import _checks as checks
-from spa.closedloop import kernels
+from spa.model.modulators import kernels
 from spa.closedloop.controller import PIController, interp
-from spa.closedloop.kernels import KERNELS
+from spa.model.modulators.kernels import KERNELS
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from spa.closedloop.kernels._common import integrate_and_fire, pulse_steps
+from spa.model.modulators.kernels._common import integrate_and_fire, pulse_steps
 
 #: State: [integral up to t_k in steps, next threshold index, end of the pulse].
 INITIAL = (0.0, 1.0, 0.0)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from spa.closedloop.kernels._common import EPS
+from spa.model.modulators.kernels._common import EPS
 
 #: State: [index m of the next tick, step of the next tick, S, ones so far, output].
 INITIAL = (0.0, 0.0, 0.0, 0.0, 0.0)

@@ -23,7 +23,7 @@ from types import ModuleType
 import numpy as np
 from numba import njit
 
-from spa.closedloop.kernels import dsm, iipfm, ipfm, lpwm, pwm
+from spa.model.modulators.kernels import dsm, iipfm, ipfm, lpwm, pwm
 
 __all__ = ["KERNELS", "code", "step"]
 

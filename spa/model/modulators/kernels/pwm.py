@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
-from spa.closedloop.kernels._common import EPS
+from spa.model.modulators.kernels._common import EPS
 
 #: State: [period index j of the next start, step of the next start, end of the high part].
 INITIAL = (0.0, 0.0, 0.0)

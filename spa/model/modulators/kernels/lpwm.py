@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from spa.closedloop.kernels import pwm
+from spa.model.modulators.kernels import pwm
 
 #: State: PWM's.
 INITIAL = pwm.INITIAL
