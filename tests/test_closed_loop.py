@@ -7,10 +7,10 @@ import pytest
 
 import spa
 from spa.closedloop.controller import PIController, interp
-from spa.model.modulators.kernels import KERNELS
 from spa.closedloop.loop import closed_loop_arrays, segment_pressure_scalar
 from spa.closedloop.reference import closed_loop_reference
 from spa.model.modulators import MODULATORS, Modulator
+from spa.model.modulators.kernels import KERNELS
 from spa.model.params import ValveParams
 from spa.model.plant import segment_pressure
 

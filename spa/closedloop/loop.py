@@ -19,10 +19,9 @@ import pandas as pd
 from numba import njit
 
 from spa import _checks as checks
-from spa.model.modulators import kernels
 from spa.closedloop.controller import PIController, interp
+from spa.model.modulators import Modulator, kernels
 from spa.model.modulators.kernels import KERNELS
-from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
 __all__ = ["closed_loop_arrays", "segment_pressure_scalar", "simulate_closed_loop"]
