@@ -102,3 +102,25 @@ def test_simulated_closed_loop_runs() -> None:
     meta = {"kind": "closed_loop", "modulator": MOD, "controller": specs[0].controller}
     out = recorded_runs({"x": table}, {"x": meta}, params)
     assert out.iloc[0].fit > 99.9
+
+
+def test_init_drafts_a_closed_loop_run_and_asks_for_its_controller(tmp_path: Path) -> None:
+    from spa.datasets.draft_yaml import draft_dataset
+
+    folder = _bench(tmp_path)
+    (folder / "dataset.yaml").unlink()
+    text = draft_dataset(folder)
+    doc = yaml.safe_load(text)
+    assert doc["columns"]["r"] == "setpoint" and doc["columns"]["p"] == "P"
+    run = doc["runs"][0]
+    assert run["kind"] == "closed_loop"
+    assert run["modulator"]["type"] == "iipfm"
+    assert run["controller"] == "TODO"  # the gains are not in the data
+    (folder / "dataset.yaml").write_text(text)
+    errors = [str(p) for p in check_dataset(folder)[0] if p.is_error]
+    assert any("controller" in e for e in errors), errors
+    doc["runs"][0]["controller"] = CTRL
+    doc["rig"] = {"valve": "v"}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
+    errors = [str(p) for p in check_dataset(folder)[0] if p.is_error]
+    assert errors == []

@@ -72,6 +72,7 @@ def test_roles_of_the_example_columns() -> None:
         "valve": "valve_cmd",
         "u": "xi_ref",
         "p": "P_act_kPa",
+        "r": None,
     }
     assert all(v.reason for v in g.values())
 

@@ -8,7 +8,9 @@ Every function here is pure: it takes the columns of one file as arrays and retu
 The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
 
 * **roles**: a strictly increasing column is time; a column holding only 0 and 1 is the valve
-  command; one within [0, 1] is the input fraction ``u``; the others are pressure candidates,
+  command; a column named like a pressure set-point (``r``, ``sp``, ``setpoint``, ``p_ref``,
+  ``p_set``, ``p_target``, ``p_des``, ...) is the closed loop's set-point ``r``; one within
+  [0, 1] is the input fraction ``u``; the others are pressure candidates,
   of which the one named like a pressure (``p``, ``pressure``, ``kPa``, ...) or else the one of
   largest variance is the pressure. Names break ties (``time``, ``valve``, ``xi``, ...).
 * **time unit**: a bench samples at 100 Hz to 100 kHz, so a median step in
@@ -16,7 +18,9 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
 * **pressure unit**: a soft actuator runs at 0 to about 4 bar, so the largest magnitude
   (99.9th percentile, robust to a spike) is in bar up to 6, psi up to 90, kPa up to 600 and
   mbar up to 6000; above, undecided. Ranges overlap: 0.5 bar read in kPa (50) looks like psi.
-* **kind**: an input ``u`` that moves gives a modulated run, by the shape of ``u``: piecewise
+* **kind**: a set-point column ``r`` gives a closed-loop run (``closed_loop``; its PI's gains
+  are not in the data, so the draft asks for them); else an input ``u`` that moves gives a
+  modulated run, by the shape of ``u``: piecewise
   constant with at least 3 levels held at least 0.2 s → staircase; upward crossings of its
   mid-range at a steady period (spread < 10 %) → sine; crossings whose period shrinks (or
   grows) steadily (rank correlation with time above 0.7 in magnitude) by a factor > 2 → chirp.
@@ -60,6 +64,12 @@ _NAME_HINTS: Mapping[str, re.Pattern[str]] = {
     "valve": re.compile(r"valve|vent|ventil|solenoid|cmd|command|switch|onoff|on_off", re.I),
     "u": re.compile(r"^(u|xi|x|duty|d)([_ .\-\[(].*)?$|xi|duty|ref|input|frac|setpoint", re.I),
     "p": re.compile(r"^(p|pa)([_ .\-\[(\d].*)?$|press|kpa|mbar|bar|psi|act", re.I),
+    # the set-point of a closed loop; a bare "ref" or "reference" stays the input fraction's
+    "r": re.compile(
+        r"^(r|sp|w|target|setpoint|set_point|set-point|sollwert|consigna|"
+        r"p_?(ref|set|sp|r|d|des|desired|target|cmd|demand))([_ .\-\[(].*)?$|setpoint|set_point",
+        re.I,
+    ),
 }
 
 
@@ -123,6 +133,7 @@ _SCORE_WORD = {
     "valve": "the most switching",
     "u": "the largest variance",
     "p": "the largest variance",
+    "r": "the largest variance",
 }
 
 
@@ -138,8 +149,8 @@ def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
     Returns
     -------
     dict of str to Guess
-        For each canonical name ``t``, ``p``, ``valve``, ``u``: the file column (None when no
-        column fits; ``valve`` and ``u`` are optional) and the reason.
+        For each canonical name ``t``, ``p``, ``valve``, ``u``, ``r``: the file column (None
+        when no column fits; ``valve``, ``u`` and ``r`` are optional) and the reason.
 
     Examples
     --------
@@ -162,6 +173,13 @@ def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
     switches = {k: float(np.count_nonzero(np.diff(finite[k]))) for k in binary}
     out["valve"] = _pick("valve", binary, switches, "holding only 0 and 1")
     rest = [k for k in rest if k != out["valve"].value]
+    setpoints = _named("r", [k for k in rest if np.ptp(finite[k]) > 0])
+    if setpoints:
+        var_r = {k: float(np.var(finite[k])) for k in setpoints}
+        out["r"] = _pick("r", setpoints, var_r, "named like a pressure set-point")
+    else:
+        out["r"] = Guess(None, "no column named like a set-point (r, sp, p_ref, ...)")
+    rest = [k for k in rest if k != out["r"].value]
     named_p = set(_named("p", rest)) - set(_named("u", rest))
     fractions = [k for k in rest if _fraction(finite[k]) and k not in named_p]
     others = [k for k in rest if k not in fractions]

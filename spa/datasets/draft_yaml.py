@@ -49,7 +49,14 @@ TODO = "TODO"
 
 _MAX_DEPTH = 2  # sub-folder levels searched for data files
 
-_ROLES = ("t", "p", "valve", "u")
+_ROLES = ("t", "p", "valve", "u", "r")
+
+#: The kind of a run with a set-point column, and what its draft asks for.
+CLOSED_LOOP = "closed_loop"
+_CONTROLLER_TODO = (
+    "the PI that ran, not in the data: {kp: <1/bar>, ki: <1/(bar s)>, dt: <s>} "
+    "(raw/README.md, controller)"
+)
 
 
 @dataclass
@@ -237,7 +244,10 @@ def _guess_run(draft: FileDraft, time_unit: str | None) -> None:
         return
     t = draft.data[col["t"]] * (1e-3 if time_unit == "ms" else 1.0)
     arrays = {k: None if col[k] is None else draft.data[col[k]] for k in ("p", "valve", "u")}
-    draft.kind = guess_kind(t, arrays["p"], arrays["valve"], arrays["u"])
+    if col.get("r") is not None:
+        draft.kind = Guess(CLOSED_LOOP, f"a set-point column {col['r']!r} beside the pressure")
+    else:
+        draft.kind = guess_kind(t, arrays["p"], arrays["valve"], arrays["u"])
     if draft.kind.value in MODULATED_KINDS or (draft.kind.value is None and col["u"]):
         if arrays["valve"] is None:
             draft.modulator = Guess(None, "could not tell the modulator: no valve column")
@@ -408,6 +418,8 @@ def render_draft(
         out.append(f"    file: {_scalar(d.file)}")
         if d.modulator is not None:
             out.append(_line("    ", "modulator", d.modulator))
+        if d.kind.value == CLOSED_LOOP:
+            out.append(f"    controller: {TODO}{_comment(_CONTROLLER_TODO)}")
         if not same_units:
             out += _units_block("    ", d.units)
         if roles is None:

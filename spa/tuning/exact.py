@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+import pandas as pd
 
 from spa import _checks as checks
 from spa._docs import fill_doc
@@ -20,7 +21,14 @@ from spa.model.modulators import get_kind
 from spa.model.params import ValveParams
 from spa.tuning.cost import _on_xi_grid, deviation_cost
 
-__all__ = ["exact_cost", "exact_curve"]
+__all__ = ["COST_TIE", "best_first", "exact_cost", "exact_curve", "tied_optimum"]
+
+#: Costs (bar) that differ by less than this are equal when settings are ranked. Model-inverse
+#: PWM makes ``J`` zero by construction: its ``J`` over the sweep is rounding error (below
+#: 1e-13), and ranking by it would pick an arbitrary setting. Its settings are then ranked by
+#: the other cost. For the paper's four modulators the costs of grid neighbours differ by far
+#: more, and nothing changes.
+COST_TIE = 1e-9
 
 
 @fill_doc
@@ -107,3 +115,73 @@ def exact_cost(
     curve = exact_curve(kind, value, p, n_xi, gain=gain)
     xi = np.linspace(0.0, 1.0, curve.shape[-1])
     return np.asarray(deviation_cost(curve, xi, p.k2), dtype=np.float64)[()]
+
+
+def best_first(frame: pd.DataFrame, score: str) -> pd.DataFrame:
+    """Rows of ``frame`` ranked by ``score``, ties within :data:`COST_TIE` by the other cost.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Settings with columns ``J`` and ``J_exact`` (bar; NaN where infeasible).
+    score : {"J", "J_exact"}
+        The cost that ranks; the other breaks its ties.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame`` sorted best first (a stable sort: equal rows keep their order); rows
+        whose ``score`` is NaN last.
+
+    Examples
+    --------
+    >>> f = pd.DataFrame({"J": [2e-15, 1e-15, 3.6], "J_exact": [0.07, 0.6, 3.6]})
+    >>> best_first(f, "J").index.tolist()
+    [0, 1, 2]
+    """
+    other = "J_exact" if score == "J" else "J"
+    bucket = np.round(frame[score].to_numpy(dtype=float) / COST_TIE)
+    keys = pd.DataFrame({"_bucket": bucket, "_other": frame[other].to_numpy(dtype=float)})
+    order = keys.sort_values(["_bucket", "_other"], kind="stable", na_position="last").index
+    return frame.iloc[order.to_numpy()]
+
+
+def tied_optimum(
+    kind: str,
+    values: npt.NDArray[np.float64],
+    j: npt.NDArray[np.float64],
+    params: ValveParams | None = None,
+    n_xi: int = 100,
+) -> int:
+    """Index of the smallest ``J``, ties within :data:`COST_TIE` broken by ``J_exact``.
+
+    Parameters
+    ----------
+    kind : str
+        Modulator kind.
+    values, j : numpy.ndarray
+        The sweep's grid and its ``J`` (NaN where infeasible), as from
+        :func:`spa.tuning.cost.sweep`; at least one finite.
+    params : ValveParams, optional
+        Valve parameters; nominal when omitted.
+    n_xi : int, default 100
+        Points of ``xi`` in ``J_exact``.
+
+    Returns
+    -------
+    int
+        The first index of the smallest ``J`` unless several settings tie with it; then the
+        tied setting with the smallest :func:`exact_cost` (computed for the tied ones only).
+
+    Examples
+    --------
+    >>> tied_optimum("pwm", np.array([10.0, 20.0]), np.array([1e-15, 2e-15]))
+    1
+    """
+    j = np.asarray(j, dtype=np.float64)
+    i = int(np.nanargmin(j))
+    tied = np.flatnonzero(np.round(j / COST_TIE) == np.round(j[i] / COST_TIE))
+    if tied.size < 2:
+        return i
+    exact = np.asarray(exact_cost(kind, np.asarray(values)[tied], params, n_xi), dtype=float)
+    return int(tied[int(np.nanargmin(exact))])

@@ -35,7 +35,7 @@ from spa.model.thresholds import thresholds
 from spa.openloop import staircase_analysis
 from spa.synthetic import staircase_input
 from spa.tuning.cost import _on_xi_grid, feasible, linearity_cost, modulator_settings, sweep_grid
-from spa.tuning.exact import exact_cost
+from spa.tuning.exact import best_first, exact_cost
 
 __all__ = [
     "CONSTRAINTS",
@@ -455,7 +455,7 @@ def recommend(
     """
     opts = options or TuningOptions()
     feasible_rows = candidates[candidates["feasible"]]
-    best = feasible_rows.sort_values(opts.score, kind="stable").drop_duplicates("modulator")
+    best = best_first(feasible_rows, opts.score).drop_duplicates("modulator")
     entries = [_entry(row, params, n_xi, opts, linearity) for _, row in best.iterrows()]
     runners_up: list[dict[str, Any]] = entries[1:]
     for kind in MODULATOR_ORDER:

@@ -35,7 +35,7 @@ from spa.tuning.cost import (
     setting,
     sweep,
 )
-from spa.tuning.exact import exact_cost, exact_curve
+from spa.tuning.exact import best_first, exact_cost, exact_curve, tied_optimum
 from spa.tuning.intervals import INTERVAL_METHOD, propagate
 from spa.tuning.recommend import TuningOptions, candidate_frame
 
@@ -205,8 +205,8 @@ def equilibrium_frame(
 
 
 def _best(frame: pd.DataFrame, column: str) -> pd.Series:
-    """The row of ``frame`` with the smallest finite ``column`` (the first of ties)."""
-    return frame.loc[frame[column].idxmin(skipna=True)]
+    """The row of ``frame`` with the smallest finite ``column`` (:func:`best_first`)."""
+    return best_first(frame, column).iloc[0]
 
 
 def _at_edge(rows: pd.DataFrame, value: float) -> bool:
@@ -234,8 +234,12 @@ def _corner_optima(
     """``[optimum, J_min, J_exact at it]`` per modulator (rows in order) for one valve."""
     rows = []
     for kind, g in grids.items():
-        value, j_min = optimum(kind, params, g["start"], g["stop"], g["step"], n_xi)
-        rows.append([value, j_min, float(exact_cost(kind, value, params, n_xi))])
+        values, j = sweep(kind, params, g["start"], g["stop"], g["step"], n_xi)
+        if not np.any(np.isfinite(j)):  # the error of optimum(): no feasible grid point
+            optimum(kind, params, g["start"], g["stop"], g["step"], n_xi)
+        i = tied_optimum(kind, values, j, params, n_xi)
+        value = float(values[i])
+        rows.append([value, float(j[i]), float(exact_cost(kind, value, params, n_xi))])
     return np.array(rows)
 
 
