@@ -241,14 +241,14 @@ def test_runaway_grids_and_empty_ranges_are_one_config_error_each():
     cfg["tuning"]["gain_sweep"] = {"start": 1.0, "stop": 1.3, "step": 0.001}
     cfg["experiments"]["chirp"]["duration"] = 1e6
     errors = config_errors(cfg, _schema())
-    assert len(errors) == 7, errors
+    assert len(errors) == 8, errors  # n_xi x grid: ipfm, iipfm, dsm and lpwm
     assert errors[0].startswith("analytic.sweeps.pwm.step: 1e-07 gives 790,000,001 points")
     assert errors[1].startswith("analytic.n_xi: 30,000 x the 988 points of analytic.sweeps.ipfm")
-    assert "tuning.gain_sweep: 301 gains x 988 t_l x n_xi 30,000" in errors[4]
-    assert errors[5] == (
+    assert "tuning.gain_sweep: 301 gains x 988 t_l x n_xi 30,000" in errors[5]
+    assert errors[6] == (
         "tuning.ranges.pwm: [50.0, 5.0]: the lower bound 50.0 is above the upper bound 5.0"
     )
-    assert "experiments.chirp: a run of 1,000,000 s is 1,000,000,000 samples" in errors[6]
+    assert "experiments.chirp: a run of 1,000,000 s is 1,000,000,000 samples" in errors[7]
 
 
 def test_numbers_given_as_strings_on_the_command_line_are_numbers():

@@ -391,7 +391,7 @@ def test_missing_or_altered_outputs_are_rebuilt_and_nothing_else(tmp_path, isola
     assert plan.returncode == 0, plan.stderr[-3000:]
     rules = re.findall(r"^rule (\w+):", plan.stdout, flags=re.M)
     assert sorted(rules) == sorted(
-        ["simulate_dataset", "analyse", "analyse", "analytic_table1", "report", "check"]
+        ["simulate_dataset", "analyse", "analyse", "analytic_table1", "overview", "report", "check"]
     ), plan.stdout[-3000:]
     res = run(*args)
     assert res.returncode == 0, res.stderr[-3000:]
