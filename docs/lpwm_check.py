@@ -68,7 +68,7 @@ def main(results: Path) -> None:
             }
         )
         if intervals:
-            for f_w in (20.0, f_opt):
+            for f_w in dict.fromkeys((20.0, f_exact, f_opt)):  # 20 Hz, recommended, J optimum
                 t = valve_sensitivity({"type": INVERSE, "f_w": f_w}, p, intervals, n_xi)
                 corners.append(
                     {

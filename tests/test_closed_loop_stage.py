@@ -44,12 +44,19 @@ def test_controllers_yaml_round_trips_to_the_designed_pi(result, tmp_path) -> No
     path = tmp_path / "controllers.yaml"
     write_controllers(result, path)
     data = yaml.safe_load(path.read_text())
-    assert data["setting"] == {"type": "dsm", "period": 0.02}  # the recommended setting
+    # the chosen loop: the fastest worst-case rise among those overshooting at most 10 %
+    stair = result.table[result.table.experiment == "staircase"]
+    worst = stair.pivot_table(index=["modulator", "controller"], columns="metric", values="max")
+    ok = worst[worst["overshoot"] <= 10.0]
+    label, controller = ok["rise_time"].idxmin()
+    assert data["setting"] == data["controllers"][label]["setting"]
+    assert data["controller"] == controller
     entry = data["controllers"]["iipfm-20ms-G1.15"]
     sched = PIController.from_mapping(entry["scheduled"])
     assert sched.schedule == (0.1, 0.4, 0.7)
     assert PIController.from_mapping(entry["scheduled_ff"]).feedforward is not None
-    assert data["sentence"].startswith("Closed loop: use ΔΣM, T_ΔΣ = 20 ms with the ")
+    description = stair.loc[stair.modulator == label, "description"].iloc[0]
+    assert data["sentence"].startswith(f"Closed loop: use {description} with the ")
     assert "rise time (10–90 %) ≤" in data["sentence"]
 
 

@@ -239,6 +239,10 @@ def closed_loop(
     )
 
 
+#: Worst-case overshoot (%) over the staircase that a chosen loop may have.
+MAX_OVERSHOOT = 10.0
+
+
 def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> float:
     sel = table[
         (table.modulator == label)
@@ -250,19 +254,31 @@ def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> flo
 
 
 def _choice(table: pd.DataFrame, rec: Modulator | None) -> tuple[str, str] | None:
-    """The setting (the recommended one, else the first designed) and its best controller:
-    the smallest worst-case rise time among those overshooting at most 10 %, else the
-    smallest worst-case overshoot."""
+    """The setting and controller to use: over every designed setting and controller, the
+    smallest worst-case rise time among those overshooting at most 10 % over the staircase,
+    else the smallest worst-case overshoot; ties go to the tuning's recommended setting, then
+    to the order of the table.
+
+    The open-loop recommendation ranks linearity; a loop also needs speed without overshoot,
+    so the closed loop chooses on its own metrics (its sentence names the setting).
+    """
     if table.empty:
         return None
     designed = list(dict.fromkeys(table.modulator))
-    label = rec.label if rec is not None and rec.label in designed else designed[0]
+    recommended = rec.label if rec is not None else None
     scores = []
-    for name in CONTROLLERS:
-        rise = _worst(table, label, name, "rise_time")
-        over = _worst(table, label, name, "overshoot")
-        scores.append((over > 10.0, rise if over <= 10.0 else over, name))
-    return label, min(scores)[2]
+    for order, label in enumerate(designed):
+        for name in CONTROLLERS:
+            rise = _worst(table, label, name, "rise_time")
+            over = _worst(table, label, name, "overshoot")
+            if not (math.isfinite(rise) and math.isfinite(over)):
+                continue
+            key = rise if over <= MAX_OVERSHOOT else over
+            scores.append((over > MAX_OVERSHOOT, key, label != recommended, order, label, name))
+    if not scores:
+        return None
+    best = min(scores)
+    return best[4], best[5]
 
 
 def closed_loop_sentence(
