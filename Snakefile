@@ -8,7 +8,7 @@ configfile: "config/config.yaml"
 
 
 # The front page of `snakemake --report report.zip`; each table and figure has its own
-# caption and category (workflow/report/, spa.workflow_report).
+# caption and category (workflow/report/, spa.pipeline.workflow_report).
 report: "workflow/report/workflow.rst"
 
 

@@ -11,7 +11,8 @@ with the small configuration is timed twice:
 - cold: an empty results folder (every output is missing, so each is named as a target of
   reproduce-all as well: the most the workflow's rebuild check adds);
 - no-op: a results folder where every output exists, made by creating each one (empty, the
-  report last) and recording them as a finished run does (spa.provenance.record_outputs), so
+  report last) and recording them as a finished run does
+  (spa.pipeline.provenance.record_outputs), so
   that the workflow checks every output's existence and every recorded size and time. No job
   runs: this is the DAG and the check alone, what a second `reproduce-all` costs before it
   says "Nothing to be done".
@@ -48,7 +49,7 @@ def dry_run(raw: Path, results: Path) -> tuple[float, str]:
 
 def fake_complete_run(results: Path, datasets: list[str]) -> None:
     """Every output of the run, empty, in the order of the pipeline; the run recorded."""
-    from spa.outputs import all_targets
+    from spa.pipeline.outputs import all_targets
 
     last = {str(results / "report.html"), str(results / "status.yaml")}
     targets = sorted(all_targets(results, datasets), key=lambda p: p in last)
@@ -61,7 +62,7 @@ def fake_complete_run(results: Path, datasets: list[str]) -> None:
     for path in map(Path, targets):  # strictly increasing times: nothing is stale
         os.utime(path, ns=(time.time_ns(), time.time_ns()))
     try:  # a tree without the record (to compare with one) skips it
-        from spa.provenance import output_ledger, record_outputs
+        from spa.pipeline.provenance import output_ledger, record_outputs
     except ImportError:
         return
     record_outputs(targets, ROOT / output_ledger(results))
@@ -88,7 +89,7 @@ def main() -> None:
                 sys.exit(f"the faked complete run is not complete:\n{text[-3000:]}")
             noop.append(elapsed)
         try:
-            from spa.provenance import output_ledger
+            from spa.pipeline.provenance import output_ledger
 
             (ROOT / output_ledger(results)).unlink(missing_ok=True)
         except ImportError:

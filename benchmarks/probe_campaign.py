@@ -401,8 +401,8 @@ PROBES["env_file_size_limit_then_rerun"] = _environment_probe(
 def probe_env_injected_enospc(tmp: Path) -> tuple[bool, str]:
     code = (
         "import errno, logging, sys\nfrom pathlib import Path\nfrom types import SimpleNamespace\n"
-        "from spa.jobs import Names\nfrom spa.status import run_stage\n"
-        "from spa.outputs import stage_outputs\n"
+        "from spa.pipeline.jobs import Names\nfrom spa.pipeline.status import run_stage\n"
+        "from spa.pipeline.outputs import stage_outputs\n"
         f"base = Path({str(tmp)!r})\n"
         "out = {k: str(base / v) for k, v in stage_outputs('sine', 'r', 'd').items()}\n"
         "job = SimpleNamespace(output=Names(out), wildcards=Names({'dataset': 'd'}))\n"

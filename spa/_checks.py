@@ -19,8 +19,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from spa.model.params import ValveParams
-
 __all__ = [
     "ArgumentTypeError",
     "finite_array",
@@ -30,8 +28,12 @@ __all__ = [
     "number",
     "positive",
     "positive_array",
-    "valve_params",
 ]
+
+#: Most points a sweep (``analytic.sweeps.*``, ``tuning.gain_sweep``) may have.
+MAX_SWEEP_POINTS = 100_000
+#: Most values of one cost evaluation, sweep points x ``n_xi`` (x gains): 160 MB per array.
+MAX_GRID_VALUES = 20_000_000
 
 _REALS = (int, float, np.integer, np.floating)
 
@@ -224,18 +226,3 @@ def positive_array(name: str, value: Any) -> npt.NDArray[np.float64]:
     if np.any(bad):
         raise ValueError(f"{name} must be finite and > 0 everywhere; {_where(name, bad, x)}")
     return x
-
-
-def valve_params(params: ValveParams | None, name: str = "params") -> ValveParams:
-    """``params``, or the nominal :class:`~spa.model.params.ValveParams` when None.
-
-    Raises
-    ------
-    ArgumentTypeError
-        If ``params`` is neither None nor a ValveParams.
-    """
-    if params is None:
-        return ValveParams()
-    if not isinstance(params, ValveParams):
-        raise ArgumentTypeError(f"{name} must be a ValveParams, got {type(params).__name__}")
-    return params

@@ -41,7 +41,7 @@ def _validate(args: argparse.Namespace, out: TextIO) -> int:
 
 def _ingest(args: argparse.Namespace, out: TextIO) -> int:
     from spa.datasets import DatasetError, ingest_dataset
-    from spa.safety import INGEST_MARKER, check_ingest_output
+    from spa.pipeline.safety import INGEST_MARKER, check_ingest_output
 
     try:
         target = check_ingest_output(args.out_dir, args.folder)
@@ -186,17 +186,15 @@ def _tune(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _design_pi(args: argparse.Namespace, out: TextIO) -> int:
-    from spa.closedloop.describe import (
-        design_summary,
-        format_design,
-        parse_modulator_spec,
-        read_params,
-    )
+    from spa.closedloop.describe import design_summary, format_design, parse_modulator_spec
+    from spa.tuning.stage import read_identified
 
     try:
         mod = parse_modulator_spec(args.modulator)
         levels = [float(v) for v in args.levels.split(",")] if args.levels else None
-        summary = design_summary(read_params(args.params), mod, tau_c=args.tau_c, levels=levels)
+        summary = design_summary(
+            read_identified(str(args.params)).params, mod, tau_c=args.tau_c, levels=levels
+        )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)
         return 1

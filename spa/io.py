@@ -12,6 +12,7 @@ if TYPE_CHECKING:
     from spa.model.params import ValveParams
 
 __all__ = [
+    "PNG_DPI",
     "get_logger",
     "package_digest",
     "peak_rss_mib",
@@ -20,6 +21,10 @@ __all__ = [
     "read_yaml",
     "write_csv",
 ]
+
+#: Resolution of the figures' PNG, dots per inch (print quality); the report shows them at
+#: 100 CSS px per inch.
+PNG_DPI = 200
 
 
 def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:

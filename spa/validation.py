@@ -23,7 +23,7 @@ import pandas as pd
 from spa._progress import progress
 from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
-from spa.model.plant import replay
+from spa.model.plant import edge_indices, replay
 
 __all__ = [
     "ValidationResult",
@@ -34,11 +34,6 @@ __all__ = [
     "validate_run",
     "validate_runs",
 ]
-
-
-def _edges(valve: npt.NDArray[np.int8]) -> npt.NDArray[np.int64]:
-    """Indices ``k`` where ``valve[k] != valve[k-1]`` (an edge at ``t[k]``)."""
-    return np.flatnonzero(valve[1:] != valve[:-1]) + 1
 
 
 def _check_times(t: npt.ArrayLike, name: str = "t") -> npt.NDArray[np.float64]:
@@ -116,7 +111,7 @@ def model_response(
     v = _check_valve(valve, tt.size)
     if not (math.isfinite(p0) and p0 >= 0.0):
         raise ValueError(f"p0 must be finite and >= 0 bar, got {p0!r}")
-    k = np.concatenate(([0], _edges(v)))
+    k = np.concatenate(([0], edge_indices(v)))
     level = v[k].astype(bool)
     hold = np.where(level, params.t_on, params.t_off)
     hold[0] = 0.0
@@ -329,7 +324,7 @@ def validate_run(
         # a setting that inverts a valve without naming one inverts the identified valve
         setting = Modulator.from_mapping(modulator).bind(params)
         grid, command = command_from_input(t, table["u"].to_numpy(), setting)
-        k = np.concatenate(([0], _edges(command)))
+        k = np.concatenate(([0], edge_indices(command)))
         level = command[k].astype(bool)
         hold = np.where(level, params.t_on, params.t_off)
         hold[0] = 0.0

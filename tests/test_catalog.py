@@ -1,6 +1,6 @@
 """The Snakemake workflow catalog's conventions: config/README.md naming
 every key of the schema, .snakemake-workflow-catalog.yml, and `snakemake --report` with a
-caption and a category for every table and figure (spa.workflow_report)."""
+caption and a category for every table and figure (spa.pipeline.workflow_report)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from pathlib import Path
 
 import yaml
 
-from spa.outputs import FIGURE, FIGURES, STAGES, TABLE
-from spa.workflow_report import caption_file, caption_rst, report_flags, report_outputs
+from spa.pipeline.outputs import FIGURE, FIGURES, STAGES, TABLE
+from spa.pipeline.workflow_report import caption_file, caption_rst, report_flags, report_outputs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -73,8 +73,8 @@ def test_catalog_file_and_standard_layout():
 
 
 def test_caption_files_match_the_registry():
-    """workflow/report holds one caption per reported output, as spa.workflow_report writes it
-    (`python -m spa.workflow_report workflow/report` after a caption changed)."""
+    """workflow/report holds one caption per reported output, as spa.pipeline.workflow_report
+    writes it (`python -m spa.pipeline.workflow_report workflow/report` after a caption changed)."""
     folder = ROOT / "workflow" / "report"
     items = report_outputs()
     captions = {p.name for p in folder.glob("*.rst")} - {"workflow.rst"}  # the front page

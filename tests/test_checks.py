@@ -10,6 +10,7 @@ import pytest
 from spa import ValveParams, modulate
 from spa import _checks as checks
 from spa.model.averaging import equilibrium, time_fractions
+from spa.model.params import valve_params
 from spa.tuning import linearity_cost
 
 
@@ -76,9 +77,9 @@ def test_positive_array():
 
 
 def test_valve_params():
-    assert checks.valve_params(None) == ValveParams()
+    assert valve_params(None) == ValveParams()
     with pytest.raises(checks.ArgumentTypeError, match="params must be a ValveParams, got dict"):
-        checks.valve_params({"c1": 1.0})
+        valve_params({"c1": 1.0})
 
 
 @pytest.mark.parametrize(

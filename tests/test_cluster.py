@@ -190,7 +190,7 @@ def test_every_cluster_job_went_through_submit_with_its_resources(cluster_run):
 
 def test_keep_going_on_the_cluster_finishes_good_datasets(tmp_path):
     """A broken bench dataset fails alone on the cluster: its stages record the failure
-    (spa.status) instead of failing their jobs, and the other datasets finish."""
+    (spa.pipeline.status) instead of failing their jobs, and the other datasets finish."""
     raw = tmp_path / "raw"
     shutil.copytree(ROOT / "raw" / "example", raw / "example")
     shutil.copytree(ROOT / "raw" / "example", raw / "broken")
@@ -253,7 +253,7 @@ def test_local_cluster_receives_one_submission_per_dataset(tmp_path, isolated_co
 
 def _dataset_targets(out: Path, dataset: str) -> list[Path]:
     """The status file of every per-dataset stage of ``dataset``: written last by each."""
-    from spa.outputs import STAGES, stage_outputs
+    from spa.pipeline.outputs import STAGES, stage_outputs
 
     paths = []
     for stage in STAGES:

@@ -1,4 +1,4 @@
-"""spa.jobs: a shared job's view for each of its stages."""
+"""spa.pipeline.jobs: a shared job's view for each of its stages."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from spa.jobs import Names, joined_outputs, stage_job
-from spa.outputs import stage_outputs
+from spa.pipeline.jobs import Names, joined_outputs, stage_job
+from spa.pipeline.outputs import stage_outputs
 
 
 def shared_job(stages: list[str]) -> SimpleNamespace:
@@ -57,7 +57,7 @@ def test_a_failed_stage_skips_the_stages_that_read_it_and_no_other(tmp_path) -> 
     reads runs and params only), while a failed identification skips both."""
     import logging
 
-    from spa.status import read_status, run_stage, write_status
+    from spa.pipeline.status import read_status, run_stage, write_status
 
     stages = ["staircase", "sine"]
     job = shared_job(stages)
@@ -114,7 +114,7 @@ def test_an_earlier_stage_outputs_are_a_later_stage_inputs() -> None:
 
 
 def test_figures_the_job_does_not_draw_are_removed_and_nothing_else(tmp_path) -> None:
-    from spa.jobs import remove_undrawn_figures
+    from spa.pipeline.jobs import remove_undrawn_figures
 
     res = tmp_path / "res"
     stages = {"identify": "identify", "validate_model": "validate_model"}
@@ -164,7 +164,7 @@ def test_an_error_of_the_environment_fails_the_job_and_records_nothing(
     import logging
 
     from spa import io
-    from spa.status import EnvironmentFailure, run_stage
+    from spa.pipeline.status import EnvironmentFailure, run_stage
 
     job = shared_job(["sine"])
     job.output = Names({k: str(tmp_path / v) for k, v in job.output.items()})
@@ -180,7 +180,7 @@ def test_an_error_of_the_environment_fails_the_job_and_records_nothing(
 
 
 def test_a_refused_recording_is_the_data_and_a_refused_output_the_environment(tmp_path) -> None:
-    from spa.status import environment_error
+    from spa.pipeline.status import environment_error
 
     denied = PermissionError(13, "Permission denied")
     denied.filename = str(tmp_path / "raw" / "d" / "a.csv")

@@ -22,8 +22,8 @@ from spa.model.modulators import (
     register,
 )
 from spa.model.params import ValveParams
-from spa.model.periodic import periodic_mean
 from spa.model.plant import simulate
+from spa.model.steady_state import periodic_mean
 from spa.model.thresholds import thresholds
 from spa.openloop import staircase_analysis
 from spa.plots.style import setting_sort_key

@@ -1,4 +1,5 @@
-"""The registry of outputs (spa.outputs) and the choice of datasets (spa.config)."""
+"""The registry of outputs (spa.pipeline.outputs) and the choice of datasets
+(spa.pipeline.config)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from spa.config import ConfigError, discover_datasets, figure_datasets
-from spa.outputs import (
+from spa.pipeline.config import ConfigError, discover_datasets, figure_datasets
+from spa.pipeline.outputs import (
     FIGURE,
     FIGURES,
     RUNS,
@@ -150,14 +151,14 @@ def test_wildcard_choice_matches_exactly_the_names():
 
 def test_the_registry_imports_without_pandas_or_matplotlib():
     code = (
-        "import sys, spa.outputs, spa.config\n"
+        "import sys, spa.pipeline.outputs, spa.pipeline.config\n"
         "print(sorted({'pandas', 'matplotlib'} & set(sys.modules)))"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.strip() == "[]"
 
 
-# --- spa.config.discover_datasets ------------------------------------------------------------
+# --- spa.pipeline.config.discover_datasets ------------------------------------------------
 
 
 def _raw(tmp_path: Path, *names: str) -> Path:
@@ -210,7 +211,7 @@ def _full_config():
 
 
 def test_config_relations_the_schema_cannot_state_are_checked():
-    from spa.config import config_errors
+    from spa.pipeline.config import config_errors
 
     cfg = _full_config()
     assert config_errors(cfg, _schema()) == []
@@ -226,7 +227,7 @@ def test_config_relations_the_schema_cannot_state_are_checked():
 def test_runaway_grids_and_empty_ranges_are_one_config_error_each():
     """A sweep step of 1e-7 (790 M points), n_xi of 1e9, a gain sweep too large for the
     IIPFM grid, a simulated run of 1e9 samples and a range [50, 5] are refused by key."""
-    from spa.config import config_errors, grid_errors
+    from spa.pipeline.config import config_errors, grid_errors
 
     cfg = _full_config()
     assert grid_errors(cfg) == []
@@ -253,7 +254,7 @@ def test_runaway_grids_and_empty_ranges_are_one_config_error_each():
 
 def test_numbers_given_as_strings_on_the_command_line_are_numbers():
     """`--config 'analytic={n_xi: 30}'` hands Snakemake's config '30', a string."""
-    from spa.config import coerce_numbers, config_errors
+    from spa.pipeline.config import coerce_numbers, config_errors
 
     cfg = _full_config()
     cfg["analytic"]["n_xi"] = "30"

@@ -16,9 +16,9 @@ from spa.model.periodic import (
     discharge_integral,
     dsm_mean,
     dsm_runs,
-    periodic_mean,
     train_mean,
 )
+from spa.model.steady_state import periodic_mean
 
 P = ValveParams()
 

@@ -280,7 +280,7 @@ def test_save_figure_refuses_what_is_not_a_png(tmp_path):
 
 
 def test_a_failed_stage_leaves_a_valid_svg_beside_its_png(tmp_path):
-    from spa.status import write_placeholder
+    from spa.pipeline.status import write_placeholder
 
     write_placeholder(tmp_path / "fig8.svg", "vector", "sine failed")
     assert (tmp_path / "fig8.svg").read_text().startswith("<svg xmlns=")

@@ -104,7 +104,7 @@ def test_optional_outputs_are_skipped_when_missing(report):
 
 
 def test_sections_show_what_the_registry_of_outputs_lists(fake_results, report):
-    from spa.outputs import FIGURES, section_outputs
+    from spa.pipeline.outputs import FIGURES, section_outputs
 
     secs = sections(report)
     for section, html in (("analytic", secs["analytic"]), ("dataset", secs["dataset-sim"])):
@@ -279,7 +279,7 @@ def test_report_opens_with_a_summary_per_dataset(fake_results, report):
 
 
 def test_summary_names_a_failed_dataset_and_its_first_errors(fake_results, tmp_path):
-    from spa.status import write_status
+    from spa.pipeline.status import write_status
 
     root = tmp_path / "results"
     shutil.copytree(fake_results.root, root)

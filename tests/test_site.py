@@ -75,7 +75,7 @@ def test_the_index_links_every_page_and_embeds_the_overview_alone(fake_results, 
 
 
 def test_failed_datasets_come_first_on_the_index(fake_results, site, tmp_path):
-    from spa.status import write_status
+    from spa.pipeline.status import write_status
 
     root = tmp_path / "results"
     shutil.copytree(site, root)

@@ -22,8 +22,9 @@ def run(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
 
 
 def test_small_config_produces_every_target(small_run):
-    """Every output the registry names (spa.outputs), for both datasets, is there and not empty."""
-    from spa.outputs import all_targets
+    """Every output the registry names (spa.pipeline.outputs), for both datasets, is there
+    and not empty."""
+    from spa.pipeline.outputs import all_targets
 
     targets = [Path(p) for p in all_targets(small_run, ["sim", "example"])]
     assert small_run / "report.html" in targets
@@ -47,7 +48,7 @@ def test_every_figure_is_for_print_with_its_vector_copy_and_data(small_run):
     wide at 200 dpi or more, an SVG copy beside it and the plotted data as CSV."""
     import struct
 
-    from spa.outputs import FIGURE, STAGES, VECTOR
+    from spa.pipeline.outputs import FIGURE, STAGES, VECTOR
 
     pngs = sorted(small_run.rglob("*.png"))
     registered = {o.path for s in STAGES for o in s.outputs if o.kind == FIGURE}
@@ -328,7 +329,7 @@ def test_figures_setting_draws_for_the_named_datasets_only(small_run, isolated_c
     """`figures: none` writes every table and every figure's data, byte for byte those of a
     run with figures, and no figure; naming one dataset then draws its figures alone (the
     other dataset's analysis does not rerun); a rerun without figures removes them."""
-    from spa.outputs import figure_paths, stage_outputs
+    from spa.pipeline.outputs import figure_paths, stage_outputs
 
     out = tmp_path / "results"
     base = ["reproduce-all", "--configfile", "config/small.yaml", str(isolated_config)]
@@ -405,7 +406,7 @@ def test_stray_files_in_raw_stop_nothing_and_a_bad_named_file_fails_its_dataset(
     run file that is a pipe is an error of its dataset alone, never opened."""
     import os
 
-    from spa.provenance import dataset_digest
+    from spa.pipeline.provenance import dataset_digest
 
     raw = tmp_path / "raw"
     for name in ["example", "piped"]:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -120,10 +119,3 @@ def format_design(summary: Mapping[str, Any], as_json: bool = False) -> str:
             f"overshoot {s['overshoot_min']:.1f}-{s['overshoot_max']:.1f} %"
         )
     return "\n".join(lines)
-
-
-def read_params(path: str | Path) -> ValveParams:
-    """The valve of an identification's ``params.yaml`` (or a flat mapping file)."""
-    from spa.tuning.stage import read_identified
-
-    return read_identified(str(path)).params

@@ -29,7 +29,7 @@ from spa import _checks as checks
 from spa.closedloop.controller import PIController
 from spa.model.averaging import equilibrium, pulse_times, time_constant, time_fractions
 from spa.model.modulators import Modulator
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 
 __all__ = [
     "DEFAULT_TAU_C",
@@ -115,7 +115,7 @@ def feedforward(
     >>> bool(abs(p[0] - 0.3) < 1e-3)
     True
     """
-    params = checks.valve_params(params)
+    params = valve_params(params)
     mod = Modulator.from_mapping(modulator)
     xi, peq = _curve(mod, params)
     return np.interp(np.asarray(r, dtype=np.float64), peq, xi)
@@ -146,7 +146,7 @@ def local_models(
     >>> bool(np.all(m.gain > 0) and np.all(m.tau > 0))
     True
     """
-    params = checks.valve_params(params)
+    params = valve_params(params)
     mod = Modulator.from_mapping(modulator)
     rr = np.atleast_1d(np.asarray(r, dtype=np.float64))
     xi_grid, peq = _curve(mod, params)
@@ -229,7 +229,7 @@ def design_pi(
     ValueError
         If a local model is degenerate (a level outside the modulator's reachable range).
     """
-    params = checks.valve_params(params)
+    params = valve_params(params)
     mod = Modulator.from_mapping(modulator)
     grid = np.unique(np.asarray(levels, dtype=np.float64))
     mid = float(np.median(grid)) if design_point is None else float(design_point)

@@ -22,7 +22,7 @@ from spa import _checks as checks
 from spa.closedloop.controller import PIController, interp
 from spa.model.modulators import Modulator, kernels
 from spa.model.modulators.kernels import KERNELS
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 
 __all__ = ["closed_loop_arrays", "segment_pressure_scalar", "simulate_closed_loop"]
 
@@ -117,7 +117,7 @@ def closed_loop_arrays(
 
     ``compiled=False`` runs the same loop as plain Python (slow; for the tests).
     """
-    params = checks.valve_params(params)
+    params = valve_params(params)
     dt = checks.positive("dt", dt, "s")
     p0 = checks.nonnegative("p0", p0, "bar")
     if not isinstance(controller, PIController):

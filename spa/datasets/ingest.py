@@ -28,7 +28,7 @@ from spa.datasets.readers.base import _ReadError, _Retry
 from spa.datasets.readers.sniff import csv_hint
 from spa.datasets.runtable import _meta_bytes, _RunWriter, _sha256
 from spa.datasets.spec import RunEntry, _parse_spec, _Parsed
-from spa.status import ENVIRONMENT_ERRNOS
+from spa.errors import ENVIRONMENT_ERRNOS
 
 # --------------------------------------------------------------------------- scanning
 

@@ -31,8 +31,8 @@ from spa.datasets.contract import (
     RUN_TABLE_FORMAT,
     TIME_UNITS,
 )
+from spa.datasets.fields import _check_modulator
 from spa.datasets.problems import _one_of
-from spa.datasets.spec import _check_modulator
 
 _ROW_GROUP = 1 << 20  # rows per row group of a run table
 

@@ -23,8 +23,7 @@ from spa.identification.results import (
     Runs,
 )
 from spa.model.params import ValveParams
-from spa.model.plant import replay, segment_pressure
-from spa.validation import _edges
+from spa.model.plant import edge_indices, replay, segment_pressure
 
 __all__ = ["fit_delays"]
 
@@ -71,7 +70,7 @@ def _pulse_run(rid: str, table: pd.DataFrame) -> _PulseRun:
     t, p, valve = _arrays(table, rid)
     if valve is None:
         raise IdentificationError(f"pulse run {rid!r} has no 'valve' column (the command)")
-    k = np.concatenate(([0], _edges(valve)))
+    k = np.concatenate(([0], edge_indices(valve)))
     tt = t - t[0]
     return _PulseRun(
         rid=rid,

@@ -13,7 +13,7 @@ import pandas as pd
 from scipy.signal import savgol_filter
 
 from spa.identification.results import FloatArray, IdentificationError, Runs
-from spa.validation import _edges
+from spa.model.plant import edge_indices
 
 __all__ = ["pressure_rate"]
 
@@ -174,7 +174,7 @@ def _select_edge(valve: np.ndarray | None, rising: bool, rid: str, kind: str) ->
     if valve is None:
         return 0, -1
     target = 1 if rising else 0
-    k = _edges(valve)
+    k = edge_indices(valve)
     k = k[valve[k] == target]
     if k.size:
         start = int(k[0])

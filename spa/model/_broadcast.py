@@ -7,15 +7,14 @@ NumPy scalar back when every input was a scalar.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any, TypeAlias
+from typing import TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
 
-__all__ = ["Floats", "as_output", "input_fraction", "safe_div", "settings_arrays"]
+__all__ = ["Floats", "as_output", "input_fraction", "safe_div"]
 
 #: A float64 array, or a NumPy float scalar when every input was a scalar.
 Floats: TypeAlias = npt.NDArray[np.float64] | np.float64
@@ -24,26 +23,6 @@ Floats: TypeAlias = npt.NDArray[np.float64] | np.float64
 def input_fraction(xi: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """``xi`` as a finite float64 array clipped to [0, 1] (as the modulators clip it)."""
     return np.clip(checks.finite_array("xi", xi), 0.0, 1.0)
-
-
-def settings_arrays(kind: str, settings: Mapping[str, Any]) -> dict[str, Any]:
-    """Validate settings like :func:`spa.model.modulators.check_settings`, allowing arrays.
-
-    Scalar settings go through ``check_settings`` unchanged (same messages); array-valued
-    ones must be finite and > 0 everywhere.
-    """
-    from spa.model.modulators import check_settings  # the kinds use safe_div from here
-
-    scalars: dict[str, Any] = {}
-    arrays: dict[str, npt.NDArray[np.float64]] = {}
-    for name, value in settings.items():
-        if np.ndim(value) == 0:
-            scalars[name] = value
-        else:
-            arrays[name] = checks.positive_array(f"{kind}: setting {name!r}", value)
-    out: dict[str, Any] = check_settings(kind, **scalars, **dict.fromkeys(arrays, 1.0))
-    out.update(arrays)
-    return out
 
 
 def as_output(a: npt.ArrayLike) -> Floats:

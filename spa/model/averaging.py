@@ -30,18 +30,17 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model._broadcast import (
     Floats,
     as_output,
     input_fraction,
     safe_div,
-    settings_arrays,
 )
 from spa.model.chattering import chattering_estimate, pseudo_steady_mean, pseudo_steady_state
 from spa.model.modulators import get_kind
-from spa.model.params import ValveParams
+from spa.model.modulators.core import settings_arrays
+from spa.model.params import ValveParams, valve_params
 from spa.model.thresholds import THRESHOLD_FORMULAS, threshold_table, thresholds
 
 __all__ = [
@@ -114,7 +113,7 @@ def pulse_times(
     >>> pulse_times("iipfm", [0.0, 1.0], t_l=0.02)[0].tolist()
     [0.0, inf]
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     s = settings_arrays(kind, settings)
     t_h, t_l = get_kind(kind).pulse_times(input_fraction(xi), s, p)
     return as_output(np.asarray(t_h)), as_output(np.asarray(t_l))
@@ -174,7 +173,7 @@ def time_fractions(
     >>> round(float(a2), 12)
     0.0
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     s = settings_arrays(kind, settings)
     x = input_fraction(xi)
     a1, a2 = get_kind(kind).fractions(x, s, p)
@@ -227,7 +226,7 @@ def equilibrium_pressure(
     >>> round(float(equilibrium_pressure(0.25, 0.425, p)), 4)  # t_h = t_l = 20 ms
     0.3207
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     a1, a2 = np.broadcast_arrays(np.asarray(alpha1, np.float64), np.asarray(alpha2, np.float64))
     if not (np.all(np.isfinite(a1)) and np.all(np.isfinite(a2))):
         raise ValueError("alpha1 and alpha2 must be finite")
@@ -276,7 +275,7 @@ def equilibrium(
     >>> float(equilibrium("pwm", 0.85, p, f_w=20.0)) == p.k2  # above 1 - t_off*f_w = 0.8
     True
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     a1, a2 = time_fractions(kind, xi, p, **settings)
     return equilibrium_pressure(a1, a2, p)
 
@@ -313,7 +312,7 @@ def time_constant(
     >>> bool(np.isnan(time_constant(0.5, 0.0, p)))
     True
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     a1, a2 = np.broadcast_arrays(np.asarray(alpha1, np.float64), np.asarray(alpha2, np.float64))
     sq = np.sqrt(np.asarray(equilibrium_pressure(a1, a2, p)))
     valid = (a2 > 0.0) & (a1 >= 0.0)

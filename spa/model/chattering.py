@@ -15,10 +15,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model._broadcast import Floats, as_output
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 
 __all__ = ["chattering_estimate", "pseudo_steady_mean", "pseudo_steady_state"]
 
@@ -59,7 +58,7 @@ def chattering_estimate(
     >>> round(float(chattering_estimate(0.02, 0.4, p)), 5)
     0.01058
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     th, pe = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(p_eq, np.float64))
     gap = np.maximum(p.k2 - pe, 0.0)
     with np.errstate(invalid="ignore"):
@@ -109,7 +108,7 @@ def pseudo_steady_state(
     >>> round(float(hi), 4), round(float(lo), 4)
     (0.326, 0.3154)
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     if np.any(np.isnan(th)) or np.any(np.isnan(tl)) or np.any(th < 0) or np.any(tl < 0):
         raise ValueError("t_h and t_l must be >= 0 (inf allowed), not NaN")

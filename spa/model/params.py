@@ -5,7 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields
 
-__all__ = ["ValveParams"]
+from spa._checks import ArgumentTypeError
+
+__all__ = ["ValveParams", "valve_params"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,3 +69,18 @@ class ValveParams:
     def as_dict(self) -> dict[str, float]:
         """Return the parameters as a plain ``{name: value}`` dictionary."""
         return asdict(self)
+
+
+def valve_params(params: ValveParams | None, name: str = "params") -> ValveParams:
+    """``params``, or the nominal :class:`~spa.model.params.ValveParams` when None.
+
+    Raises
+    ------
+    ArgumentTypeError
+        If ``params`` is neither None nor a ValveParams.
+    """
+    if params is None:
+        return ValveParams()
+    if not isinstance(params, ValveParams):
+        raise ArgumentTypeError(f"{name} must be a ValveParams, got {type(params).__name__}")
+    return params

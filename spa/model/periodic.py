@@ -11,7 +11,7 @@ For a constant input fraction every modulator's pulse train is periodic, and the
   (:func:`dsm_runs`); :func:`dsm_mean` finds the orbit's fixed point by Newton's method on
   the cycle map (the composition of :func:`spa.model.plant.charge` and
   :func:`spa.model.plant.discharge` over the pattern's runs) and integrates it.
-* :func:`periodic_mean` dispatches on the modulator.
+* :func:`spa.model.steady_state.periodic_mean` dispatches on the modulator.
 
 Over a cycle the pressure holds (for ``t_on`` after a rising edge, ``t_off`` after a falling
 one), charges or discharges. With ``P0`` the pressure where an active part starts, ``P1``
@@ -27,17 +27,15 @@ from __future__ import annotations
 
 from fractions import Fraction
 from functools import lru_cache
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
 from spa._docs import fill_doc
-from spa.model._broadcast import Floats, as_output, input_fraction, settings_arrays
+from spa.model._broadcast import Floats, as_output
 from spa.model.chattering import pseudo_steady_state
-from spa.model.modulators import get_kind
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 from spa.model.plant import charge, discharge
 
 __all__ = [
@@ -45,7 +43,6 @@ __all__ = [
     "discharge_integral",
     "dsm_mean",
     "dsm_runs",
-    "periodic_mean",
     "train_mean",
 ]
 
@@ -135,7 +132,7 @@ def train_mean(t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | Non
     The orbit holds ``t_off = 10 ms`` at ``P+`` but only ``t_on = 3 ms`` at ``P-``, so its
     mean lies above the mid-point.
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     hi, lo = (np.asarray(a, dtype=np.float64) for a in pseudo_steady_state(th, tl, p))
     h = np.maximum(th - p.t_on, 0.0)
@@ -318,7 +315,7 @@ def dsm_mean(
     >>> bool(abs(dsm_mean(0.5, 0.02) - train_mean(0.02, 0.02)) < 1e-12)  # 1 high, 1 low
     True
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     x = np.clip(checks.finite_array("xi", xi), 0.0, 1.0)
     t = checks.positive_array("period", period)
     xb, tb = np.broadcast_arrays(x, t)
@@ -338,40 +335,3 @@ def dsm_mean(
         idx = idx[np.argsort(-count[idx], kind="stable")]
         out[idx] = _dsm_orbit(table, inverse[idx], tf[idx], p)
     return as_output(out.reshape(shape))
-
-
-@fill_doc
-def periodic_mean(
-    kind: str, xi: npt.ArrayLike, params: ValveParams | None = None, **settings: Any
-) -> Floats:
-    """Exact time mean of the periodic steady state of a modulator at constant ``xi`` (bar).
-
-    Parameters
-    ----------
-    %(kind)s
-    %(xi)s
-    %(params)s
-    %(settings)s
-
-    Returns
-    -------
-    numpy.ndarray or numpy.float64
-        PWM, IPFM, IIPFM: :func:`train_mean` of the steady durations (Appendix A); ΔΣM:
-        :func:`dsm_mean` of the true first-order pattern. This is what the averaged
-        ``P_eq`` of Eq. 5 approximates.
-
-    Raises
-    ------
-    ValueError
-        For an unknown ``kind`` or a bad setting (named), or a non-finite ``xi``.
-
-    Examples
-    --------
-    >>> from spa.model.averaging import equilibrium
-    >>> exact = periodic_mean("pwm", 0.5, f_w=20.0)
-    >>> round(float(exact), 4), round(float(equilibrium("pwm", 0.5, f_w=20.0)), 4)
-    (0.28, 0.2789)
-    """
-    p = checks.valve_params(params)
-    s = settings_arrays(kind, settings)
-    return as_output(get_kind(kind).periodic_mean(input_fraction(xi), s, p))

@@ -14,11 +14,12 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 
 __all__ = [
     "charge",
     "discharge",
+    "edge_indices",
     "replay",
     "run_start_pressures",
     "segment_pressure",
@@ -155,6 +156,18 @@ def discharge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) ->
     return segment_pressure(False, p0, elapsed, params)
 
 
+def edge_indices(valve: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """Indices ``k`` where ``valve[k] != valve[k-1]``: the valve switches at ``t[k]``.
+
+    Examples
+    --------
+    >>> edge_indices(np.array([0, 1, 1, 0, 0, 1])).tolist()
+    [1, 3, 5]
+    """
+    v = np.asarray(valve)
+    return np.flatnonzero(v[1:] != v[:-1]) + 1
+
+
 def _check_command(u: npt.ArrayLike) -> np.ndarray:
     arr = np.asarray(u)
     if arr.ndim != 1:
@@ -216,7 +229,7 @@ def simulate(
     >>> bool(abs(p[10] - 0.837 * (1 - np.exp(-1 / 0.826))) < 1e-12)
     True
     """
-    params = checks.valve_params(params)
+    params = valve_params(params)
     dt = checks.positive("dt", dt, "s")
     p0 = checks.nonnegative("p0", p0, "bar")
     cmd = _check_command(u)

@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from spa import _checks as checks
 from spa._docs import fill_doc
-from spa.model._broadcast import Floats, as_output, settings_arrays
+from spa.model._broadcast import Floats, as_output
 from spa.model.modulators import MODULATOR_ORDER, REGISTRY, Modulator, get_kind
-from spa.model.params import ValveParams
+from spa.model.modulators.core import settings_arrays
+from spa.model.params import ValveParams, valve_params
 
 __all__ = ["THRESHOLD_FORMULAS", "threshold_table", "thresholds"]
 
@@ -95,7 +95,7 @@ def thresholds(
     >>> [round(float(v), 6) for v in thresholds("iipfm", p, t_l=0.02, gain=1.15)]
     [0.0, 1.0]
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     s = settings_arrays(kind, settings)
     dead, sat = get_kind(kind).thresholds(s, p)
     return (
@@ -134,7 +134,7 @@ def threshold_table(
        dead_zone  saturation
     0       0.06         0.8
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     rows = []
     for i, entry in enumerate(selected):
         try:

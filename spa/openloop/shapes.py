@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from spa.status import RunError
+from spa.errors import RunError
 
 __all__ = ["check_input_shape", "input_shape_problem"]
 
@@ -95,11 +95,11 @@ def input_shape_problem(kind: str, u: npt.ArrayLike) -> str | None:
 
 
 def check_input_shape(run: str, kind: str, u: npt.ArrayLike) -> None:
-    """Raise :class:`~spa.status.RunError` naming ``run`` when its input is not of its ``kind``.
+    """Raise :class:`~spa.errors.RunError` naming ``run`` when its input is not of its ``kind``.
 
     Raises
     ------
-    spa.status.RunError
+    spa.pipeline.status.RunError
         A ValueError: ``run 'x' is labelled <kind> but <why>; check its kind in dataset.yaml``.
     """
     problem = input_shape_problem(kind, u)

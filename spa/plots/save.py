@@ -11,10 +11,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Final
 
+from spa.io import PNG_DPI
+
 __all__ = ["MIN_WIDTH_PX", "PNG_DPI", "SVG_HASHSALT", "draw", "save_figure", "vector_path"]
 
-PNG_DPI: Final = 200
-"""Resolution of the PNG, dots per inch (print quality)."""
 MIN_WIDTH_PX: Final = 1000
 """The PNG is at least this wide: a narrow figure gets a higher resolution."""
 SVG_HASHSALT: Final = "spa"

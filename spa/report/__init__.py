@@ -13,7 +13,7 @@ tuning, the validation table and figures, then the staircase, sine and chirp out
 (``results/report/index.html``, and ``results/report.html`` with its links into ``report/``):
 the run's header, the failed datasets, a summary row per dataset and the overview across
 datasets (:mod:`spa.report.overview`, Fig. O1). What each page shows, in which order and
-with which caption, is the registry of outputs (:data:`spa.outputs.STAGES`).
+with which caption, is the registry of outputs (:data:`spa.pipeline.outputs.STAGES`).
 :func:`build_report` builds the whole run as one page (a small run, a notebook).
 
 Modules: :mod:`spa.report.html` (cells, tables, embedded figures, style),

@@ -1,4 +1,5 @@
-"""The report page: its sections and items come from the registry of outputs (spa.outputs)."""
+"""The report page: its sections and items come from the registry of outputs
+(spa.pipeline.outputs)."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ from typing import Any
 import pandas as pd
 import yaml
 
-from spa.outputs import FIGURE, FIGURES, PARAMS, RECOMMENDATION, Output, section_outputs
-from spa.plots.save import PNG_DPI
+from spa.io import PNG_DPI
+from spa.pipeline.outputs import FIGURE, FIGURES, PARAMS, RECOMMENDATION, Output, section_outputs
+from spa.pipeline.status import dataset_failures
 from spa.report.html import (
     STYLE,
     embed_png,
@@ -25,7 +27,6 @@ from spa.report.html import (
 from spa.report.params import fits_note, params_table
 from spa.report.summary import summary_html
 from spa.report.table3 import csv_download, table3_html
-from spa.status import dataset_failures
 
 __all__ = ["build_report", "document", "meta_list", "recommendation_html", "section_items"]
 
@@ -44,7 +45,7 @@ def section_items(section: str, folder: str | Path) -> list[Output]:
     Parameters
     ----------
     section : str
-        ``"analytic"`` or ``"dataset"`` (see :func:`spa.outputs.section_outputs`).
+        ``"analytic"`` or ``"dataset"`` (see :func:`spa.pipeline.outputs.section_outputs`).
     folder : str or Path
         The folder the section's paths are relative to: the results folder for
         ``"analytic"``, ``results/<dataset>`` for ``"dataset"``.
@@ -231,8 +232,9 @@ def build_report(
     Raises
     ------
     FileNotFoundError
-        If a required table or figure (see :data:`spa.outputs.STAGES`: Tables 1-2, Figs. 4-5,
-        and per dataset ``params.yaml``, Fig. 2a-c and ``validation/fit.csv``) is missing.
+        If a required table or figure (see :data:`spa.pipeline.outputs.STAGES`: Tables 1-2,
+        Figs. 4-5, and per dataset ``params.yaml``, Fig. 2a-c and ``validation/fit.csv``) is
+        missing.
         Optional outputs (Table 3, Figs. 6-9, sine and chirp tables) are skipped when absent.
     ValueError
         If ``datasets`` is a string or names a dataset twice.

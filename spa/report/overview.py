@@ -28,6 +28,7 @@ from spa.report.params import PARAM_NAMES
 
 __all__ = [
     "UNDATED",
+    "dataset_session",
     "interval_changes",
     "overview_row",
     "overview_table",
@@ -53,6 +54,24 @@ def rig_label(rig: Mapping[str, Any] | None) -> str:
         if rig.get(key):
             return str(rig[key])
     return "unnamed rig"
+
+
+def dataset_session(raw_dir: str | Path, dataset: str) -> tuple[str | None, str]:
+    """The session's date (``recorded:``) and rig label of ``raw_dir/<dataset>/dataset.yaml``.
+
+    A dataset without ``dataset.yaml`` (simulated) has neither: ``(None, "simulated")``; one
+    whose ``dataset.yaml`` does not parse is ``(None, "unnamed rig")``.
+    """
+    from spa.datasets import DatasetError, load_spec
+
+    folder = Path(raw_dir) / dataset
+    if not (folder / "dataset.yaml").is_file():
+        return None, "simulated"
+    try:
+        spec = load_spec(folder)
+    except DatasetError:
+        return None, "unnamed rig"
+    return spec.recorded, rig_label(spec.rig)
 
 
 def _read_yaml(path: Path) -> dict[str, Any]:

@@ -20,6 +20,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from spa.pipeline.status import dataset_failures
 from spa.report.build import (
     _NOT_DRAWN,
     _PAPER,
@@ -30,7 +31,6 @@ from spa.report.build import (
     meta_list,
 )
 from spa.report.summary import summary_html
-from spa.status import dataset_failures
 
 __all__ = ["INDEX", "build_analytic_page", "build_dataset_page", "build_index", "page_name"]
 

@@ -3,7 +3,7 @@
 Per dataset: the identified valve parameters with their 95 % intervals
 (``identification/params.yaml``), the validation FIT over its runs (``validation/fit.csv``)
 and the recommended modulator (``tuning/recommendation.yaml``); a dataset that failed gets
-the stage that failed and its first errors instead (:func:`spa.status.dataset_failures`).
+the stage that failed and its first errors instead (:func:`spa.pipeline.status.dataset_failures`).
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def summary_html(
     datasets : sequence of str
         The datasets, in report order.
     failures : mapping
-        :func:`spa.status.dataset_failures` of the run.
+        :func:`spa.pipeline.status.dataset_failures` of the run.
     links : mapping of str to str
         Dataset -> where its section or page is (``#<id>`` or ``<dataset>.html``): its name
         links there.

@@ -17,10 +17,12 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._checks import MAX_SWEEP_POINTS
 from spa._docs import fill_doc
 from spa.model.averaging import Floats, equilibrium_pressure, time_fractions
 from spa.model.modulators import MODULATOR_ORDER, MODULATORS, PARAMETER, Modulator, get_kind
-from spa.model.params import ValveParams
+from spa.model.modulators.iipfm import iipfm_optimal_t_l
+from spa.model.params import ValveParams, valve_params
 from spa.openloop.paper import PAPER_SETTING, PAPER_TABLE2
 
 __all__ = [
@@ -119,7 +121,7 @@ def modulator_settings(
     >>> modulator_settings("pwm", 20.0)
     {'f_w': 20.0}
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     v = _value(_kind(kind), value)
     spec = get_kind(kind)
     if gain is not None:
@@ -197,7 +199,7 @@ def constraint(kind: str, params: ValveParams | None = None) -> str:
     >>> constraint("dsm")
     'period > t_off = 10 ms and period > t_on = 3 ms'
     """
-    return get_kind(kind).constraint(checks.valve_params(params))
+    return get_kind(kind).constraint(valve_params(params))
 
 
 @fill_doc
@@ -229,7 +231,7 @@ def feasible(
     >>> feasible("ipfm", [0.002, 0.004]).tolist()
     [False, True]
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     v = _value(_kind(kind), value)
     return np.asarray(get_kind(kind).feasible(v, p))[()]
 
@@ -277,7 +279,7 @@ def linearity_cost(
     >>> round(float(linearity_cost("iipfm", 0.0195)), 2)
     3.63
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     settings, xi, grid = _on_xi_grid(kind, value, p, n_xi, gain)
     shape = np.broadcast_shapes(*(np.shape(x) for x in settings.values()))
     a1, a2 = time_fractions(kind, xi, p, **grid)
@@ -306,7 +308,7 @@ def sweep_grid(start: float, stop: float, step: float) -> npt.NDArray[np.float64
     ------
     ValueError
         Unless ``0 < start <= stop`` and ``step > 0``, all finite, and the grid has at most
-        :data:`spa.config.MAX_SWEEP_POINTS` points.
+        :data:`spa._checks.MAX_SWEEP_POINTS` points.
 
     Examples
     --------
@@ -319,8 +321,6 @@ def sweep_grid(start: float, stop: float, step: float) -> npt.NDArray[np.float64
     if stop < start:
         raise ValueError(f"stop must be >= start, got start={start!r}, stop={stop!r}")
     n = int(np.floor((stop - start) / step + 1e-9)) + 1
-    from spa.config import MAX_SWEEP_POINTS
-
     if n > MAX_SWEEP_POINTS:
         raise ValueError(
             f"sweep from {start!r} to {stop!r} by step {step!r} has {n:,} points; at most "
@@ -375,7 +375,7 @@ def sweep(
     >>> v.tolist(), bool(np.isnan(j[0])), bool(np.isfinite(j[1]))
     ([0.001, 0.003, 0.005], True, False)
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     values = sweep_grid(start, stop, step)
     j = np.asarray((cost or linearity_cost)(kind, values, p, n_xi), dtype=np.float64)
     return values, np.where(feasible(kind, values, p), j, np.nan)
@@ -422,43 +422,6 @@ def optimum(
 
 
 @fill_doc
-def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
-    """Analytic IIPFM pulse separation that best linearises the valve (Eq. 29).
-
-    Parameters
-    ----------
-    %(params)s
-
-    Returns
-    -------
-    float
-        ``t_l*`` in s.
-
-    Raises
-    ------
-    ValueError
-        If ``r = c1*sqrt(k2/2)/tau2 >= 1`` (then no positive ``t_l`` matches the ideal ratio).
-
-    Notes
-    -----
-    Matching the IIPFM fraction ratio ``(t_l - t_off)²/(t_l + t_on)² * (1 - xi)²/xi²`` to the
-    ideal ``c1²*k2/tau2² * (1 - xi)²/xi`` (Eq. 20) with ``(1 - xi)²/xi² ≈ 2*(1 - xi)²/xi``
-    gives ``(t_l - t_off)/(t_l + t_on) = r`` with ``r = c1*sqrt(k2/2)/tau2``, so
-    ``t_l* = (t_off + r*t_on)/(1 - r)``.
-
-    Examples
-    --------
-    >>> round(iipfm_optimal_t_l() * 1e3, 1)  # ms; the paper prints 19 ms
-    19.3
-    """
-    p = checks.valve_params(params)
-    r = p.c1 * np.sqrt(p.k2 / 2.0) / p.tau2
-    if r >= 1.0:
-        raise ValueError(f"c1*sqrt(k2/2)/tau2 = {r:g} must be < 1 for Eq. 29 to have a solution")
-    return float((p.t_off + r * p.t_on) / (1.0 - r))
-
-
-@fill_doc
 def check_sweeps(
     sweeps: Mapping[str, Mapping[str, float]], params: ValveParams | None = None
 ) -> dict[str, Mapping[str, float]]:
@@ -493,7 +456,7 @@ def check_sweeps(
     ...
     ValueError: t_off = 2 s is not shorter than the longest IIPFM t_l of the sweep (0.9995 s): ...
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     unknown = [k for k in sweeps if k not in MODULATORS]
     if unknown:
         known = list(MODULATOR_ORDER)

@@ -3,7 +3,7 @@
 The paper's cost (Eq. 25, :func:`spa.tuning.cost.linearity_cost`) measures the averaged
 equilibrium ``P_eq(xi)`` against the line ``k2*xi``. For a constant input the pulse train is
 periodic and the exact plant settles on a periodic orbit; :func:`exact_cost` puts the orbit's
-exact time mean (:func:`spa.model.periodic.periodic_mean`: Appendix B's ``P+``/``P-`` for
+exact time mean (:func:`spa.model.steady_state.periodic_mean`: Appendix B's ``P+``/``P-`` for
 PWM, IPFM and IIPFM, the true first-order pattern for ΔΣM) in place of ``P_eq``. Where the
 two costs differ, the averaging assumption does not hold for the valve at hand.
 """
@@ -14,11 +14,10 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model._broadcast import Floats
 from spa.model.modulators import get_kind
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 from spa.tuning.cost import _on_xi_grid, deviation_cost
 
 __all__ = ["COST_TIE", "best_first", "exact_cost", "exact_curve", "tied_optimum"]
@@ -65,7 +64,7 @@ def exact_curve(
     ValueError
         As :func:`spa.tuning.cost.linearity_cost`.
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     _, xi, grid = _on_xi_grid(kind, value, p, n_xi, gain)
     mean = get_kind(kind).periodic_mean(xi, grid, p, max_denominator=xi.size - 1)
     return np.asarray(mean, dtype=np.float64)
@@ -111,7 +110,7 @@ def exact_cost(
     >>> round(float(j), 2), round(float(j_exact), 2)
     (3.63, 3.62)
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     curve = exact_curve(kind, value, p, n_xi, gain=gain)
     xi = np.linspace(0.0, 1.0, curve.shape[-1])
     return np.asarray(deviation_cost(curve, xi, p.k2), dtype=np.float64)[()]

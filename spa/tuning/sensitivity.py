@@ -18,7 +18,7 @@ from spa import _checks as checks
 from spa.model.averaging import equilibrium
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
-from spa.model.periodic import periodic_mean
+from spa.model.steady_state import periodic_mean
 from spa.tuning.cost import deviation_cost
 
 __all__ = ["valve_sensitivity"]

@@ -22,7 +22,7 @@ from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model.averaging import equilibrium_pressure, time_constant, time_fractions
 from spa.model.modulators import MODULATOR_ORDER, get_kind
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 from spa.tuning.cost import (
     PAPER_TABLE2,
     SWEPT_PARAMETER,
@@ -77,7 +77,7 @@ def sweep_frame(
         If a kind is missing, a grid is bad, or a delay is longer than a whole sweep
         (:func:`spa.tuning.cost.check_sweeps`).
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     parts = []
     for kind, g in check_sweeps(sweeps, p).items():
         values, cost = sweep(kind, p, g["start"], g["stop"], g["step"], n_xi)
@@ -122,7 +122,7 @@ def optimum_table(
         ``1 + t_on/t_l``, else empty), ``paper_J_min``, ``paper_optimum`` (printed values, for
         reference only), ``analytic_optimum`` (Eq. 29's ``t_l*`` for IIPFM, else empty).
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     rows = []
     for kind, g in check_sweeps(sweeps, p).items():
         value, j_min = optimum(kind, p, g["start"], g["stop"], g["step"], n_xi)
@@ -175,7 +175,7 @@ def equilibrium_frame(
         ``p_target`` (``k2*xi``), ``tau_m`` (Eq. 9; NaN in the dead-zone and past saturation),
         and ``p_exact`` when asked.
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     xi = np.linspace(0.0, 1.0, checks.integer("n_xi", n_xi, minimum=2))
     parts = []
     for kind in MODULATOR_ORDER:
@@ -310,7 +310,7 @@ def tuning_table(
     ValueError
         As :func:`sweep_frame`.
     """
-    p = checks.valve_params(params)
+    p = valve_params(params)
     n = checks.integer("n_xi", n_xi, minimum=2)
     grids = check_sweeps(sweeps, p)
     if data is None:

@@ -1,26 +1,17 @@
-# Everything a dataset's run tables say, in one job per dataset (spa.jobs): the valve
+# Everything a dataset's run tables say, in one job per dataset (spa.pipeline.jobs): the valve
 # identified (paper Section 3.2, Fig. 2); the modulators tuned for it (Section 5: Tables 1-2,
 # Figs. 4-5, the recommended setting); the model replayed on each run (validate_model); the
 # open-loop linearity of Section 6: staircase (Table 3, Figs. 6-7), sine (Fig. 8) and chirp
-# (Fig. 9); last, the dataset's page of the report and its row of the overview (page: it
-# reads the dataset's date and rig from raw/<dataset>/dataset.yaml). Each stage is a second or two of work and a job costs about a second of imports
-# and Snakemake's own bookkeeping, so they share one (benchmarks/README.md, "Growth"); each
+# (Fig. 9); the closed loop; last, the dataset's page of the report and its row of the
+# overview (page: it reads the dataset's date and rig from raw/<dataset>/dataset.yaml). Each
+# stage is a second or two of work and a job costs about a second of imports and Snakemake's
+# own bookkeeping, so they share one (benchmarks/README.md, "Growth"); each
 # stage keeps its own outputs, log, status and script. The price: a change to one stage's
 # settings (tuning:, linearity:) reruns the whole job. A dataset without runs of a kind gets
 # empty tables and a figure saying so, so that every dataset has the same outputs.
-ANALYSE = {
-    stage: stage
-    for stage in [
-        "identify",
-        "tune",
-        "validate_model",
-        "staircase",
-        "sine",
-        "chirp",
-        "closed_loop",
-        "page",
-    ]
-}
+# The stages of the job, in order, from the stage table (spa/pipeline/stages.py: job "analyse"):
+# identify, tune, validate_model, staircase, sine, chirp, closed_loop, page.
+ANALYSE = job_stages("analyse")
 
 
 # Two rules, one per kind of dataset: `analyse` draws the figures, `analyse_tables` (the
@@ -49,11 +40,7 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
         params:
             code=SPA_CODE,
             stages=ANALYSE,
-            cfg={
-                "identify": config["identification"],
-                **{s: config["linearity"][s] for s in ["staircase", "sine", "chirp"]},
-                "closed_loop": config.get("closed_loop", {}),
-            },
+            cfg=stage_settings(config, ANALYSE),
             nominal=config["nominal"],
             seed=config["seed"],
             raw_dir=str(RAW_DIR),

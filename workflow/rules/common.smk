@@ -1,5 +1,5 @@
-# Names the workflow uses, all from spa: the datasets of the run (spa.config), each stage's
-# output and log files (spa.outputs), the digest of spa's code. No logic and no paths here.
+# Names the workflow uses, all from spa: the datasets of the run (spa.pipeline.config), each stage's
+# output and log files (spa.pipeline.outputs), the digest of spa's code. No logic and no paths here.
 from pathlib import Path
 
 from snakemake.exceptions import WorkflowError
@@ -13,29 +13,36 @@ try:
 except ShadowedPackageError as _exc:
     raise WorkflowError(str(_exc)) from None
 
-from spa.config import discover_datasets, figure_datasets, validate_config
+from spa.pipeline.config import discover_datasets, figure_datasets, validate_config
 from spa.datasets.spec import undecodable_datasets
 from spa.io import package_digest
-from spa.jobs import joined_outputs
-from spa.provenance import (
+from spa.pipeline.jobs import joined_outputs
+from spa.pipeline.provenance import (
     dataset_digest,
     missing_outputs,
     output_ledger,
     remove_altered_outputs,
     remove_damaged_run_folders,
 )
-from spa.outputs import all_targets, log_path, stage_outputs, wildcard_choice
-from spa.safety import check_results_dir
-from spa.workflow_report import report_flags
+from spa.pipeline.outputs import (
+    all_targets,
+    job_stages,
+    log_path,
+    stage_outputs,
+    stage_settings,
+    wildcard_choice,
+)
+from spa.pipeline.safety import check_results_dir
+from spa.pipeline.workflow_report import report_flags
 
 validate_config(
     config, Path(workflow.basedir) / "workflow" / "schemas" / "config.schema.yaml"
 )
 
 RESULTS = config.get("results", "results")
-# Captions of the tables and figures in `snakemake --report` (spa.workflow_report).
+# Captions of the tables and figures in `snakemake --report` (spa.pipeline.workflow_report).
 CAPTIONS = Path(workflow.basedir) / "workflow" / "report"
-# Refuse, before anything runs, a results folder that overlaps raw data (spa.safety).
+# Refuse, before anything runs, a results folder that overlaps raw data (spa.pipeline.safety).
 check_results_dir(RESULTS, config["datasets"]["raw_dir"])
 # Passed to every job as `params: code=...`: editing spa/ reruns the jobs (a params change).
 SPA_CODE = package_digest()
@@ -51,8 +58,8 @@ FIGURE_DATASETS = figure_datasets(config, DATASETS)
 
 
 def outputs(stage, figures=True):
-    """A stage's named outputs (spa.outputs.STAGES), folders marked for Snakemake, tables
-    and figures marked for `snakemake --report` with their captions (spa.workflow_report);
+    """A stage's named outputs (spa.pipeline.outputs.STAGES), folders marked for Snakemake, tables
+    and figures marked for `snakemake --report` with their captions (spa.pipeline.workflow_report);
     without its figures when `figures` is False.
     """
     paths = stage_outputs(stage, RESULTS, mark_directory=directory, figures=figures)
@@ -68,11 +75,11 @@ def inputs_from(stage):
 
 
 def logfile(rule):
-    """The log file of a rule (spa.outputs.STAGES)."""
+    """The log file of a rule (spa.pipeline.outputs.STAGES)."""
     return log_path(rule, RESULTS)
 
 
-# Digests of raw files, remembered by stat between runs (spa.provenance).
+# Digests of raw files, remembered by stat between runs (spa.pipeline.provenance).
 DIGEST_CACHE = str(Path(".snakemake") / "spa" / "raw-digests.json")
 
 
@@ -81,7 +88,7 @@ def raw_digest(wildcards):
     return dataset_digest(RAW_DIR / wildcards.dataset, cache=DIGEST_CACHE)
 
 
-# What the last complete run wrote: size, time and sha256 of every output (spa.provenance),
+# What the last complete run wrote: size, time and sha256 of every output (spa.pipeline.provenance),
 # one file per results folder.
 OUTPUT_LEDGER = output_ledger(RESULTS)
 # An output changed since it was written is removed (a run table with its folder), and a

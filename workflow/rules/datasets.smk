@@ -24,10 +24,10 @@ rule simulate_dataset:
 
 # A bench dataset from raw/<name>/, in one job: its manifest (every file's sha256), then its
 # validated run tables. The `digest` parameter is computed when the DAG is built
-# (spa.provenance.dataset_digest, cached by stat), so the job reruns, and everything downstream
+# (spa.pipeline.provenance.dataset_digest, cached by stat), so the job reruns, and everything downstream
 # with it, exactly when the content of raw/<name>/ changed: not when only a modification time
 # moved, and also when a time went back with new content.
-INGEST = {"raw_manifest": "raw_manifest", "runs": "ingest_dataset"}
+INGEST = job_stages("ingest")  # raw_manifest, then runs (script ingest_dataset)
 
 
 rule ingest_dataset:

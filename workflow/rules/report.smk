@@ -47,7 +47,7 @@ rule report:
 
 
 # The last job of reproduce-all: exits non-zero, naming them, when a dataset failed. Their
-# placeholders let every other dataset and the report be built first (spa.status). The
+# placeholders let every other dataset and the report be built first (spa.pipeline.status). The
 # report's inputs are every output of the run, so the report alone is this rule's input:
 # each file is named once in the DAG (with 100 datasets, 1.5 s less to build it).
 rule check:

@@ -2,9 +2,9 @@
 
 from spa.io import get_logger, write_csv
 from spa.model.params import ValveParams
+from spa.pipeline.status import guard_environment
 from spa.plots.analytic import plot_cost_sweeps
 from spa.plots.save import save_figure
-from spa.status import guard_environment
 from spa.tuning import sweep_frame
 
 log = get_logger("analytic.fig4", snakemake.log[0])

@@ -4,9 +4,9 @@ import pandas as pd
 
 from spa.io import get_logger, write_csv
 from spa.model.params import ValveParams
+from spa.pipeline.status import guard_environment
 from spa.plots.analytic import plot_equilibrium
 from spa.plots.save import save_figure
-from spa.status import guard_environment
 from spa.tuning import equilibrium_frame
 
 log = get_logger("analytic.fig5", snakemake.log[0])

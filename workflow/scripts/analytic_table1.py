@@ -3,7 +3,7 @@
 from spa.io import get_logger, write_csv
 from spa.model.averaging import threshold_table
 from spa.model.params import ValveParams
-from spa.status import guard_environment
+from spa.pipeline.status import guard_environment
 
 log = get_logger("analytic.table1", snakemake.log[0])
 guard_environment(log, "analytic table 1")  # a full disk: one line saying so

@@ -2,7 +2,7 @@
 
 from spa.io import get_logger, write_csv
 from spa.model.params import ValveParams
-from spa.status import guard_environment
+from spa.pipeline.status import guard_environment
 from spa.tuning import optimum_table
 
 log = get_logger("analytic.table2", snakemake.log[0])

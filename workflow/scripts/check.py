@@ -1,7 +1,7 @@
 """Fail the run, naming them, when any dataset failed; else write results/status.yaml.
 
-First, every output of the run is recorded (size, time, sha256: spa.provenance), so that the
-next run rebuilds any output changed in between.
+First, every output of the run is recorded (size, time, sha256: spa.pipeline.provenance), so
+that the next run rebuilds any output changed in between.
 """
 
 import sys
@@ -10,9 +10,9 @@ from pathlib import Path
 import yaml
 
 from spa.io import get_logger
-from spa.outputs import all_targets
-from spa.provenance import record_outputs
-from spa.status import dataset_failures, failure_summary, guard_environment
+from spa.pipeline.outputs import all_targets
+from spa.pipeline.provenance import record_outputs
+from spa.pipeline.status import dataset_failures, failure_summary, guard_environment
 
 log = get_logger("check", snakemake.log[0])
 guard_environment(log, "the check")  # a full disk: one line saying so

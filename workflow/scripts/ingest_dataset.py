@@ -2,8 +2,8 @@
 
 from spa.datasets import DatasetError, ingest_dataset
 from spa.io import get_logger
-from spa.provenance import write_run_index
-from spa.status import run_stage
+from spa.pipeline.provenance import write_run_index
+from spa.pipeline.status import run_stage
 
 log = get_logger("ingest_dataset", snakemake.log[0])
 

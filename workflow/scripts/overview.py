@@ -1,11 +1,11 @@
 """The overview across datasets (results/overview.csv) and Fig. O1 (results/overview.png)."""
 
 from spa.io import get_logger, peak_rss_mib, write_csv
+from spa.pipeline.status import guard_environment
 from spa.plots.overview import plot_overview
 from spa.plots.save import draw
 from spa.report.overview import overview_table, read_rows
 from spa.report.params import PARAM_NAMES
-from spa.status import guard_environment
 
 log = get_logger("overview", snakemake.log[0])
 guard_environment(log, "the overview")  # a full disk: one line saying so

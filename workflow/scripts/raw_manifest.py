@@ -1,7 +1,7 @@
 """Write the manifest (every file's sha256) of a bench dataset folder; raw/ is only read."""
 
 from spa.io import get_logger
-from spa.provenance import write_manifest
+from spa.pipeline.provenance import write_manifest
 
 log = get_logger("raw_manifest", snakemake.log[0])
 manifest = write_manifest(

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import spa
 from spa.io import get_logger, peak_rss_mib
+from spa.pipeline.status import guard_environment
 from spa.report.site import build_analytic_page, build_index
-from spa.status import guard_environment
 
 log = get_logger("report", snakemake.log[0])
 guard_environment(log, "the report")  # a full disk: one line saying so

@@ -1,8 +1,8 @@
 """Simulate one configured dataset into canonical run tables."""
 
 from spa.io import get_logger
-from spa.provenance import write_run_index
-from spa.status import run_stage
+from spa.pipeline.provenance import write_run_index
+from spa.pipeline.status import run_stage
 from spa.synthetic import generate_dataset
 
 log = get_logger("simulate_dataset", snakemake.log[0])

@@ -1,15 +1,15 @@
-"""Several stages of one dataset in one job (spa.jobs): ingest.smk, analyse.smk.
+"""Several stages of one dataset in one job (spa.pipeline.jobs): ingest.smk, analyse.smk.
 
 Runs each stage's own script in turn (``params.stages``: stage -> script name), each seeing
 as ``snakemake`` a view of this job that holds its outputs, log and settings alone, and the
-outputs of the stages before it as inputs (spa.jobs.stage_job). First, figures that the job
+outputs of the stages before it as inputs (spa.pipeline.jobs.stage_job). First, figures that the job
 does not draw but an earlier run left are removed (config `figures`).
 """
 
 import runpy
 from pathlib import Path
 
-from spa.jobs import remove_undrawn_figures, stage_job
+from spa.pipeline.jobs import remove_undrawn_figures, stage_job
 
 remove_undrawn_figures(snakemake)
 for stage, script in snakemake.params.stages.items():

@@ -3,9 +3,9 @@
 from pathlib import Path
 
 from spa.io import get_logger, read_params, read_runs, write_csv
+from spa.pipeline.status import run_stage
 from spa.plots.identification import validation_data, validation_figure
 from spa.plots.save import draw
-from spa.status import run_stage
 from spa.validation import validate_run, validate_runs
 
 log = get_logger("validate_model", snakemake.log[0])

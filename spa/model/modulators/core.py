@@ -31,6 +31,7 @@ __all__ = [
     "check_settings",
     "modulate",
     "parse_modulator",
+    "settings_arrays",
 ]
 
 
@@ -356,3 +357,21 @@ def modulate(kind: str, xi: npt.ArrayLike, dt: float, **settings: float) -> npt.
     if x.size == 0:
         return np.zeros(0, dtype=np.int8)
     return get_kind(kind).pulse(x, dt, s)
+
+
+def settings_arrays(kind: str, settings: Mapping[str, Any]) -> dict[str, Any]:
+    """Validate settings like :func:`spa.model.modulators.check_settings`, allowing arrays.
+
+    Scalar settings go through ``check_settings`` unchanged (same messages); array-valued
+    ones must be finite and > 0 everywhere.
+    """
+    scalars: dict[str, Any] = {}
+    arrays: dict[str, npt.NDArray[np.float64]] = {}
+    for name, value in settings.items():
+        if np.ndim(value) == 0:
+            scalars[name] = value
+        else:
+            arrays[name] = checks.positive_array(f"{kind}: setting {name!r}", value)
+    out: dict[str, Any] = check_settings(kind, **scalars, **dict.fromkeys(arrays, 1.0))
+    out.update(arrays)
+    return out

@@ -15,14 +15,15 @@ from typing import Any, ClassVar
 import numpy as np
 import numpy.typing as npt
 
+from spa._docs import fill_doc
 from spa.model._broadcast import safe_div
 from spa.model.modulators import _pulses
 from spa.model.modulators.base import ModulatorKind
 from spa.model.modulators.ipfm import check_threshold, guess_fired
 from spa.model.modulators.trace import Trace
-from spa.model.params import ValveParams
+from spa.model.params import ValveParams, valve_params
 
-__all__ = ["IIPFM"]
+__all__ = ["IIPFM", "iipfm_optimal_t_l"]
 
 
 class IIPFM(ModulatorKind):
@@ -87,9 +88,44 @@ class IIPFM(ModulatorKind):
 
     def analytic_optimum(self, p: ValveParams) -> float:
         """Eq. 29's ``t_l*`` in ms."""
-        from spa.tuning.cost import iipfm_optimal_t_l
-
         return iipfm_optimal_t_l(p) * 1e3
 
     def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
         return guess_fired(self, trace, high=False)
+
+
+@fill_doc
+def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
+    """Analytic IIPFM pulse separation that best linearises the valve (Eq. 29).
+
+    Parameters
+    ----------
+    %(params)s
+
+    Returns
+    -------
+    float
+        ``t_l*`` in s.
+
+    Raises
+    ------
+    ValueError
+        If ``r = c1*sqrt(k2/2)/tau2 >= 1`` (then no positive ``t_l`` matches the ideal ratio).
+
+    Notes
+    -----
+    Matching the IIPFM fraction ratio ``(t_l - t_off)²/(t_l + t_on)² * (1 - xi)²/xi²`` to the
+    ideal ``c1²*k2/tau2² * (1 - xi)²/xi`` (Eq. 20) with ``(1 - xi)²/xi² ≈ 2*(1 - xi)²/xi``
+    gives ``(t_l - t_off)/(t_l + t_on) = r`` with ``r = c1*sqrt(k2/2)/tau2``, so
+    ``t_l* = (t_off + r*t_on)/(1 - r)``.
+
+    Examples
+    --------
+    >>> round(iipfm_optimal_t_l() * 1e3, 1)  # ms; the paper prints 19 ms
+    19.3
+    """
+    p = valve_params(params)
+    r = p.c1 * np.sqrt(p.k2 / 2.0) / p.tau2
+    if r >= 1.0:
+        raise ValueError(f"c1*sqrt(k2/2)/tau2 = {r:g} must be < 1 for Eq. 29 to have a solution")
+    return float((p.t_off + r * p.t_on) / (1.0 - r))

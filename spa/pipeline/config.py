@@ -8,6 +8,8 @@ from typing import Any
 
 import yaml
 
+from spa._checks import MAX_GRID_VALUES, MAX_SWEEP_POINTS
+
 __all__ = [
     "MAX_GRID_VALUES",
     "MAX_RUN_SAMPLES",
@@ -20,10 +22,6 @@ __all__ = [
     "validate_config",
 ]
 
-#: Most points a sweep (``analytic.sweeps.*``, ``tuning.gain_sweep``) may have.
-MAX_SWEEP_POINTS = 100_000
-#: Most values of one cost evaluation, sweep points x ``n_xi`` (x gains): 160 MB per array.
-MAX_GRID_VALUES = 20_000_000
 #: Most samples of one simulated run (an experiment at the controller step): 400 MB per array.
 MAX_RUN_SAMPLES = 50_000_000
 
@@ -351,12 +349,12 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
     ConfigError
         If ``include`` names a folder that is not a dataset, or a name is both simulated and a
         bench dataset.
-    spa.safety.UnsafePathError
+    spa.pipeline.safety.UnsafePathError
         If a dataset is named like an entry of the results folder (``logs``, ``analytic``,
         ``report.html``).
     """
     from spa.datasets import find_datasets
-    from spa.safety import check_dataset_names
+    from spa.pipeline.safety import check_dataset_names
 
     datasets = config["datasets"]
     raw_dir = Path(datasets["raw_dir"])

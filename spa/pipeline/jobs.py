@@ -8,8 +8,8 @@ sine, chirp). The rule's outputs are every stage's outputs, keys joined as ``<st
 script with a view of the job that holds that stage's outputs, log and ``cfg`` alone, and the
 outputs of the stages before it as inputs (:func:`stage_job`), so a stage's script is the same
 whether it runs alone or shared, and each stage still records its own status
-(:mod:`spa.status`). A job that does not draw its stages' figures (config ``figures``) first
-removes those an earlier run left (:func:`remove_undrawn_figures`).
+(:mod:`spa.pipeline.status`). A job that does not draw its stages' figures (config
+``figures``) first removes those an earlier run left (:func:`remove_undrawn_figures`).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def joined_outputs(
     Parameters
     ----------
     stages : iterable of str
-        Stage names (:data:`spa.outputs.STAGES`).
+        Stage names (:data:`spa.pipeline.outputs.STAGES`).
     outputs : callable
         A stage's named outputs (the workflow's ``outputs``).
 
@@ -153,7 +153,7 @@ def remove_undrawn_figures(smk: Any) -> list[str]:
     list of str
         The files and folders removed.
     """
-    from spa.outputs import dataset_folder, figure_paths
+    from spa.pipeline.outputs import dataset_folder, figure_paths
 
     stages = list(smk.params.get("stages") or ())
     if not stages:

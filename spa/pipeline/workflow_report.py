@@ -1,13 +1,13 @@
 """What ``snakemake --report report.zip`` shows: each table and figure of the registry of
-outputs (:data:`spa.outputs.STAGES`) with its category, subcategory and caption file.
+outputs (:data:`spa.pipeline.outputs.STAGES`) with its category, subcategory and caption file.
 
 The category is the stage's (``Stage.category``: Analytic, Identification, Tuning, ...), the
 subcategory the dataset (``{dataset}``, filled in by Snakemake) for a per-dataset stage. The
 caption of an output is ``workflow/report/<stage>-<key>.rst``: its heading and caption in the
 registry, written as reStructuredText by :func:`caption_rst`. The workflow wraps these outputs
-in Snakemake's ``report()`` (``workflow/rules/common.smk``); ``python -m spa.workflow_report
-workflow/report`` rewrites the caption files after a caption changed in the registry, and a
-test checks that they agree.
+in Snakemake's ``report()`` (``workflow/rules/common.smk``);
+``python -m spa.pipeline.workflow_report workflow/report`` rewrites the caption files after a
+caption changed in the registry, and a test checks that they agree.
 
 This module imports nothing heavy: the workflow imports it to parse the Snakefile.
 
@@ -24,7 +24,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from spa.outputs import FIGURE, FIGURES, STAGES, TABLE, Output, Stage, get_stage
+from spa.pipeline.outputs import FIGURE, FIGURES, STAGES, TABLE, Output, Stage, get_stage
 
 __all__ = ["caption_file", "caption_rst", "report_flags", "report_outputs", "write_captions"]
 
@@ -38,7 +38,7 @@ def report_outputs() -> list[tuple[Stage, Output]]:
     Returns
     -------
     list of (Stage, Output)
-        In the order of :data:`spa.outputs.STAGES`; only stages with a category.
+        In the order of :data:`spa.pipeline.outputs.STAGES`; only stages with a category.
     """
     return [
         (stage, out)
@@ -87,7 +87,7 @@ def report_flags(stage_name: str, caption_dir: str | Path) -> dict[str, dict[str
     Parameters
     ----------
     stage_name : str
-        The stage (:func:`spa.outputs.get_stage`).
+        The stage (:func:`spa.pipeline.outputs.get_stage`).
     caption_dir : str or Path
         The folder of the caption files (``workflow/report``).
 

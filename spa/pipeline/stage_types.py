@@ -1,4 +1,4 @@
-"""What a pipeline stage and its outputs are: the vocabulary of :mod:`spa.outputs`.
+"""What a pipeline stage and its outputs are: the vocabulary of :mod:`spa.pipeline.outputs`.
 
 :class:`Output` (a key, a path, a kind, how the report shows it) and :class:`Stage` (a step of
 the pipeline, its outputs and logs), the kinds of output, and the two constructors the
@@ -118,10 +118,20 @@ class Stage:
         False for an intermediate step that only some datasets have (the raw-data manifest
         of bench datasets): ``reproduce-all`` gets it through the stages that read it.
     upstream : tuple of str or None
-        The dataset stages whose outputs it reads (a failure there skips it, spa.status);
+        The dataset stages whose outputs it reads (a failure there skips it, spa.pipeline.status);
         None: every dataset stage before it.
     category : str
-        Its category in ``snakemake --report`` (:mod:`spa.workflow_report`); ``""``: none.
+        Its category in ``snakemake --report`` (:mod:`spa.pipeline.workflow_report`); ``""``: none.
+    job : str or None
+        The shared job that runs it (``"ingest"``, ``"analyse"``: one per dataset,
+        :mod:`spa.pipeline.jobs`), in the table's order; None: a rule of its own.
+    script : str or None
+        Its script in ``workflow/scripts/`` (without ``.py``); None: the stage's name.
+    config : str or None
+        The config section of its settings, dotted (``"linearity.staircase"``): in a shared
+        job, the stage's script gets it as ``params.cfg``; None: none of its own.
+    function : str
+        The ``spa`` function that does its work, dotted (``"spa.stages.staircase.run_staircase"``).
     """
 
     name: str
@@ -132,6 +142,10 @@ class Stage:
     target: bool = True
     upstream: tuple[str, ...] | None = None
     category: str = ""
+    job: str | None = None
+    script: str | None = None
+    config: str | None = None
+    function: str = ""
 
 
 def _with_vectors(outputs: tuple[Output, ...]) -> tuple[Output, ...]:
@@ -157,10 +171,21 @@ def _per_dataset(
     logs: dict[str, str] | None = None,
     upstream: tuple[str, ...] = ("runs", "identify"),
     category: str = "",
+    **declared: str | None,
 ) -> Stage:
     """A per-dataset step, after ``upstream``: by default written by the rule ``name``, which
-    logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file)."""
+    logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file);
+    ``declared``: the :class:`Stage`'s ``job``, ``script``, ``config`` and ``function``."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
-    status = Output("status", f"status/{name}.json", DATA)  # spa.status: worked or failed
+    status = Output("status", f"status/{name}.json", DATA)  # spa.pipeline.status: worked or failed
     outputs = _with_vectors((*outputs, status))
-    return Stage(name, True, outputs, logs, section="dataset", upstream=upstream, category=category)
+    return Stage(
+        name,
+        True,
+        outputs,
+        logs,
+        section="dataset",
+        upstream=upstream,
+        category=category,
+        **declared,  # type: ignore[arg-type]
+    )

@@ -35,6 +35,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from spa.errors import ENVIRONMENT_ERRNOS, RunError
+
 __all__ = [
     "ENVIRONMENT_ERRNOS",
     "STATUS_DIR",
@@ -66,11 +68,6 @@ _EMPTY_PNG = bytes.fromhex(
 # Its SVG copy: an empty 1x1 drawing.
 _EMPTY_SVG = '<svg xmlns="http://www.w3.org/2000/svg" width="1" height="1"/>\n'
 
-
-#: ``errno`` values that say the machine, not the data, stopped a stage.
-ENVIRONMENT_ERRNOS = frozenset(
-    {errno.ENOSPC, errno.EFBIG, errno.EROFS, errno.EDQUOT, errno.ENOMEM, errno.EMFILE}
-)
 
 #: Refused access: the environment's fault when the file is the job's own (or not named).
 _ACCESS_ERRNOS = frozenset({errno.EACCES, errno.EPERM})
@@ -171,10 +168,6 @@ def guard_environment(log: logging.Logger, what: str) -> None:
     sys.excepthook = hook
 
 
-class RunError(ValueError):
-    """An analysis of one run failed; the message names the run and its kind."""
-
-
 @contextmanager
 def naming_run(run: str, kind: str) -> Iterator[None]:
     """Re-raise an error of the analysis of one run with the run named.
@@ -185,7 +178,7 @@ def naming_run(run: str, kind: str) -> Iterator[None]:
     ...     raise ValueError("xi must be strictly increasing")
     Traceback (most recent call last):
     ...
-    spa.status.RunError: run 's1' (staircase): ValueError: xi must be strictly increasing
+    spa.pipeline.status.RunError: run 's1' (staircase): ValueError: xi must be strictly increasing
     """
     try:
         yield
@@ -242,7 +235,7 @@ def write_placeholder(path: str | Path, kind: str, message: str) -> None:
     path : path-like
         The output.
     kind : str
-        Its kind in :mod:`spa.outputs` (``table``, ``data``, ``figure``, ``params``,
+        Its kind in :mod:`spa.pipeline.outputs` (``table``, ``data``, ``figure``, ``params``,
         ``figures``, ``runs``, ...).
     message : str
         Why there is no result; written into tables and parameter files.
@@ -285,7 +278,7 @@ def run_stage(
     smk : snakemake.script.Snakemake
         The job (``snakemake`` in a workflow script): its ``output`` must have a ``status``.
     stage : str
-        The stage's name in :data:`spa.outputs.STAGES`.
+        The stage's name in :data:`spa.pipeline.outputs.STAGES`.
     work : callable
         Does the stage's work and writes every output but ``status``; it may return a list
         of warnings (str), which the status records (``warnings``).
@@ -303,7 +296,7 @@ def run_stage(
         When the work was stopped by the machine (:func:`environment_error`): no placeholder
         and no status are written, and the job exits non-zero with a message saying so.
     """
-    from spa.outputs import STAGES
+    from spa.pipeline.outputs import STAGES
 
     dataset = str(smk.wildcards.dataset)
     status_path = Path(smk.output.status)
@@ -384,7 +377,7 @@ def _profiled(work: Callable[[], Any], stage: str, dataset: str) -> Any:
 
 
 def _fill(smk: Any, stage: str, message: str) -> None:
-    from spa.outputs import get_stage
+    from spa.pipeline.outputs import get_stage
 
     kinds = {o.key: o.kind for o in get_stage(stage).outputs}
     for key, path in smk.output.items():
@@ -403,7 +396,7 @@ def dataset_failures(
         Dataset -> its failed status records (empty datasets are left out); a stage skipped
         because of an earlier one is listed after it.
     """
-    from spa.outputs import STAGES
+    from spa.pipeline.outputs import STAGES
 
     order = [s.name for s in STAGES if s.per_dataset]
     out: dict[str, list[dict[str, Any]]] = {}

@@ -1,33 +1,17 @@
-"""The one registry of what every stage of the pipeline writes, and where.
+"""The stage table: every stage of the pipeline, in order, with what it writes.
 
-Each :class:`Stage` names its outputs (:class:`Output`): a key, a path relative to the results
-folder (``results/``) or to a dataset's folder (``results/<dataset>/``), what kind of file it
-is, and how the HTML report shows it (heading and caption, or not at all). The workflow's rules
-take their ``output:`` from here (:func:`stage_outputs`), the ``reproduce-all`` target and the
-report rule their inputs (:func:`all_targets`), and :mod:`spa.report` its sections, in the
-order of :data:`STAGES`. Logs are named here too (:func:`log_path`).
-
-A new stage is one more :class:`Stage` in :data:`STAGES`, at its place in the pipeline (the
-report shows a section's items in this order), and a rule whose ``output:`` is
-``**outputs("<stage>")``.
+Each :class:`~spa.pipeline.stage_types.Stage` names its outputs (paths relative to
+``results/`` or ``results/<dataset>/``, kind, report heading and caption) and its log files.
+The order is the pipeline's: the rules, ``ANALYSE`` (the stages of a dataset's analysis
+job, ``workflow/rules/analyse.smk``), ``reproduce-all`` and the report all follow it
+(:mod:`spa.pipeline.outputs` reads it). A new stage is one entry here, at its place.
 
 This module imports nothing heavy: the workflow imports it to parse the Snakefile.
-
->>> stage_outputs("sine", "results")["table"]
-'results/{dataset}/sine/linearity.csv'
->>> stage_outputs("sine", "results")["status"]  # every dataset stage: worked or failed
-'results/{dataset}/status/sine.json'
->>> log_path("identify", "results", "sim")
-'results/logs/sim/identify.log'
 """
 
 from __future__ import annotations
 
-import re
-from collections.abc import Callable, Collection, Iterable, Mapping
-from pathlib import Path
-
-from spa.stage_types import (
+from spa.pipeline.stage_types import (
     DATA,
     FIGURE,
     FIGURES,
@@ -36,7 +20,6 @@ from spa.stage_types import (
     RECOMMENDATION,
     RUNS,
     TABLE,
-    VECTOR,
     Output,
     Stage,
     _analytic,
@@ -44,32 +27,8 @@ from spa.stage_types import (
     _with_vectors,
 )
 
-__all__ = [
-    "DATA",
-    "FIGURE",
-    "FIGURES",
-    "PAGE",
-    "PARAMS",
-    "RECOMMENDATION",
-    "RUNS",
-    "STAGES",
-    "TABLE",
-    "VECTOR",
-    "Output",
-    "Stage",
-    "all_targets",
-    "dataset_folder",
-    "figure_paths",
-    "get_stage",
-    "log_path",
-    "section_outputs",
-    "stage_outputs",
-    "wildcard_choice",
-]
+__all__ = ["STAGES"]
 
-
-_DRAWN = (FIGURE, VECTOR, FIGURES)
-"""Kinds of output that are figures (left out for a dataset without figures)."""
 
 STAGES: tuple[Stage, ...] = (
     _analytic(
@@ -126,6 +85,8 @@ STAGES: tuple[Stage, ...] = (
         (Output("manifest", "provenance/raw.json", DATA),),
         {"raw_manifest": "{dataset}/raw_manifest.log"},
         target=False,
+        job="ingest",
+        function="spa.pipeline.provenance.write_manifest",
     ),
     _per_dataset(
         "runs",
@@ -135,6 +96,9 @@ STAGES: tuple[Stage, ...] = (
             "ingest_dataset": "{dataset}/ingest.log",
         },
         upstream=(),
+        job="ingest",
+        script="ingest_dataset",
+        function="spa.datasets.ingest_dataset",
     ),
     _per_dataset(
         "identify",
@@ -173,6 +137,9 @@ STAGES: tuple[Stage, ...] = (
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
         upstream=("runs",),
         category="Identification",
+        job="analyse",
+        config="identification",
+        function="spa.identification.identify_with_config",
     ),
     _per_dataset(
         "tune",
@@ -234,6 +201,9 @@ STAGES: tuple[Stage, ...] = (
         ),
         Output("fig5_csv", "tuning/fig5.csv", DATA),
         category="Tuning",
+        job="analyse",
+        config="tuning",
+        function="spa.tuning.tune",
     ),
     _per_dataset(
         "validate_model",
@@ -253,6 +223,8 @@ STAGES: tuple[Stage, ...] = (
             "Measured against model pressure for the lowest-FIT {name} run.",
         ),
         category="Validation",
+        job="analyse",
+        function="spa.validation.validate_runs",
     ),
     _per_dataset(
         "staircase",
@@ -312,6 +284,9 @@ STAGES: tuple[Stage, ...] = (
         ),
         Output("fig7b_csv", "staircase/fig7b.csv", DATA),
         category="Staircase",
+        job="analyse",
+        config="linearity.staircase",
+        function="spa.stages.staircase.run_staircase",
     ),
     _per_dataset(
         "sine",
@@ -344,6 +319,9 @@ STAGES: tuple[Stage, ...] = (
         ),
         Output("fig8_csv", "sine/fig8.csv", DATA),
         category="Sine",
+        job="analyse",
+        config="linearity.sine",
+        function="spa.stages.sine.run_sine",
     ),
     _per_dataset(
         "chirp",
@@ -380,6 +358,9 @@ STAGES: tuple[Stage, ...] = (
         ),
         Output("fig9_csv", "chirp/fig9.csv", DATA),
         category="Chirp",
+        job="analyse",
+        config="linearity.chirp",
+        function="spa.stages.chirp.run_chirp",
     ),
     # Closed loop (spa.closedloop): PI through the modulator, designed and simulated exactly.
     _per_dataset(
@@ -444,6 +425,9 @@ STAGES: tuple[Stage, ...] = (
         ),
         upstream=("runs", "identify"),
         category="Closed loop",
+        job="analyse",
+        config="closed_loop",
+        function="spa.closedloop.stage.closed_loop",
     ),
     # Its dataset's page of the report and its row of the overview, in the dataset's own job.
     _per_dataset(
@@ -451,6 +435,8 @@ STAGES: tuple[Stage, ...] = (
         Output("page", "report/{dataset}.html", PAGE),
         Output("row", "report/overview.json", DATA),
         upstream=(),
+        job="analyse",
+        function="spa.report.site.build_dataset_page",
     ),
     Stage(
         "overview",
@@ -495,202 +481,7 @@ STAGES: tuple[Stage, ...] = (
         ),
         {"report": "report.log"},
     ),
-    # Last: fails the run, naming them, when any dataset failed (spa.status).
+    # Last: fails the run, naming them, when any dataset failed (spa.pipeline.status).
     Stage("check", False, (Output("status", "status.yaml", DATA),), {"check": "check.log"}),
 )
 """Every stage, in pipeline order; the report shows each section's outputs in this order."""
-
-
-def get_stage(name: str) -> Stage:
-    """The stage called ``name``.
-
-    Raises
-    ------
-    KeyError
-        If there is none; the message lists the stages.
-    """
-    for stage in STAGES:
-        if stage.name == name:
-            return stage
-    raise KeyError(f"no stage {name!r}; the stages are {[s.name for s in STAGES]}")
-
-
-def _root(stage: Stage, results: str | Path, dataset: str) -> Path:
-    return Path(results) / dataset if stage.per_dataset else Path(results)
-
-
-def _output_path(stage: Stage, out: Output, results: str | Path, dataset: str, root: Path) -> Path:
-    """Where an output is: under ``root``; a per-dataset output whose path names
-    ``{dataset}`` (its report page) under the results folder."""
-    if stage.per_dataset and "{dataset}" in out.path:
-        return Path(results) / out.path.replace("{dataset}", dataset)
-    return root / out.path
-
-
-def stage_outputs(
-    name: str,
-    results: str | Path,
-    dataset: str = "{dataset}",
-    mark_directory: Callable[[str], object] | None = None,
-    figures: bool = True,
-) -> dict[str, object]:
-    """The outputs of a stage: key -> path, for a rule's ``output:`` or input.
-
-    Parameters
-    ----------
-    name : str
-        The stage.
-    results : str or Path
-        The results folder.
-    dataset : str, optional
-        The dataset of a per-dataset stage; default the wildcard ``{dataset}``.
-    mark_directory : callable, optional
-        Applied to the path of each folder output (Snakemake's ``directory``).
-    figures : bool, optional
-        False: without the figures (:data:`FIGURE`, :data:`VECTOR`, :data:`FIGURES`), for a
-        dataset whose figures the run does not draw (config ``figures``); their data stay.
-
-    Returns
-    -------
-    dict
-        Output key -> path (as a string, or as ``mark_directory`` returns it), in order.
-    """
-    stage = get_stage(name)
-    root = _root(stage, results, dataset)
-    paths: dict[str, object] = {}
-    for out in stage.outputs:
-        if not figures and out.kind in _DRAWN:
-            continue
-        path = str(_output_path(stage, out, results, dataset, root))
-        paths[out.key] = mark_directory(path) if mark_directory and out.directory else path
-    return paths
-
-
-def log_path(rule: str, results: str | Path, dataset: str = "{dataset}") -> str:
-    """The log file of a rule: ``results/logs/...``, as :data:`STAGES` names it.
-
-    Raises
-    ------
-    KeyError
-        If no stage names a log for ``rule``.
-    """
-    for stage in STAGES:
-        if rule in stage.logs:
-            return str(Path(results) / "logs" / stage.logs[rule].format(dataset=dataset))
-    raise KeyError(f"no stage has a log for rule {rule!r}")
-
-
-def all_targets(
-    results: str | Path,
-    datasets: Iterable[str],
-    exclude: Iterable[str] = (),
-    figures: Collection[str] | None = None,
-) -> list[str]:
-    """Every output of every stage, for every dataset: what ``reproduce-all`` makes.
-
-    Parameters
-    ----------
-    results : str or Path
-        The results folder.
-    datasets : iterable of str
-        The datasets.
-    exclude : iterable of str, optional
-        Stages to leave out (the report rule's inputs are everything but the report).
-    figures : collection of str, optional
-        The datasets whose figures are drawn (config ``figures``); default all of them.
-
-    Returns
-    -------
-    list of str
-        Paths: the stages that are not per dataset first, then each dataset's outputs.
-    """
-    skip = set(exclude)
-    stages = [s for s in STAGES if s.name not in skip and s.target]
-    once = [s for s in stages if not s.per_dataset]
-    each = [s for s in stages if s.per_dataset]
-    paths = [p for s in once for p in stage_outputs(s.name, results).values()]
-    for d in datasets:
-        drawn = figures is None or d in figures
-        for s in each:
-            paths += stage_outputs(s.name, results, d, figures=drawn).values()
-    return [str(p) for p in paths]
-
-
-def dataset_folder(stage: str, paths: Mapping[str, object]) -> Path:
-    """The dataset folder (``results/<dataset>``) that a per-dataset stage's outputs are in.
-
-    Parameters
-    ----------
-    stage : str
-        The stage.
-    paths : mapping
-        Some of its outputs, key -> path, as a job sees them.
-
-    Raises
-    ------
-    ValueError
-        If the stage is not per dataset, or no path ends as the registry says it should.
-
-    Examples
-    --------
-    >>> dataset_folder("sine", {"table": "results/d1/sine/linearity.csv"})
-    PosixPath('results/d1')
-    """
-    stage_ = get_stage(stage)
-    if stage_.per_dataset:
-        for out in stage_.outputs:
-            if "{dataset}" in out.path:
-                continue
-            path = Path(str(paths.get(out.key, "")))
-            if (
-                out.key in paths
-                and path.parts[-len(Path(out.path).parts) :] == Path(out.path).parts
-            ):
-                return Path(*path.parts[: -len(Path(out.path).parts)])
-    raise ValueError(f"{stage}: no output of a per-dataset stage among {dict(paths)}")
-
-
-def figure_paths(stages: Iterable[str], results: str | Path, dataset: str) -> list[str]:
-    """The figures (PNG, SVG, folders of figures) of a dataset's ``stages``: what a job that
-    does not draw them removes, so that no figure of an earlier run outlives its tables.
-
-    Examples
-    --------
-    >>> figure_paths(["sine"], "results", "d1")
-    ['results/d1/sine/fig8.png', 'results/d1/sine/fig8.svg']
-    """
-    paths: list[str] = []
-    for name in stages:
-        kept = stage_outputs(name, results, dataset, figures=False)
-        paths += [str(p) for k, p in stage_outputs(name, results, dataset).items() if k not in kept]
-    return paths
-
-
-def section_outputs(section: str) -> list[Output]:
-    """The outputs of a report section (``"analytic"`` or ``"dataset"``), in report order.
-
-    The section's key item (if any) comes first, then the others in the order of
-    :data:`STAGES`. Paths are relative to the results folder (``"analytic"``) or to the
-    dataset's folder (``"dataset"``).
-
-    Examples
-    --------
-    >>> [o.path for o in section_outputs("analytic") if o.shown]
-    ['analytic/table1.csv', 'analytic/table2.csv', 'analytic/fig4.png', 'analytic/fig5.png']
-    """
-    outs = [o for s in STAGES if s.section == section for o in s.outputs]
-    return [o for o in outs if o.key_item] + [o for o in outs if not o.key_item]
-
-
-def wildcard_choice(names: Iterable[str]) -> str:
-    """A wildcard constraint (regular expression) matching exactly these names, or nothing.
-
-    Examples
-    --------
-    >>> print(wildcard_choice(["sim", "a.b"]))
-    sim|a\\.b
-    >>> wildcard_choice([])
-    '(?!x)x'
-    """
-    names = list(names)
-    return "|".join(re.escape(n) for n in names) if names else "(?!x)x"

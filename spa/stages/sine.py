@@ -1,0 +1,142 @@
+"""The sine stage: every sine run of a dataset against its fitted sine and the linear
+reference (paper Section 6.2, Fig. 8), then the files."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import pandas as pd
+
+from spa.io import write_csv
+from spa.model.params import ValveParams
+from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, sine_reference
+from spa.openloop.reference import REFERENCE
+from spa.openloop.shapes import check_input_shape
+from spa.pipeline.status import naming_run
+from spa.plots.openloop import fig8, thin, write_no_runs
+from spa.plots.save import draw
+
+__all__ = ["SineResult", "run_sine", "write_sine"]
+
+_LOG = logging.getLogger("spa.stages.sine")
+
+
+@dataclass(frozen=True)
+class SineResult:
+    """What the sine stage found (empty tables without sine runs).
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        One row per run (tags, ``settle``, frequency, lag, RMS, ...) and, last, the linear
+        reference's row.
+    curves : pandas.DataFrame
+        Each run's aligned response, thinned for Fig. 8.
+    reference : pandas.DataFrame
+        The linear reference's aligned response, thinned.
+    note : str
+        Fig. 8's note on the frequency (:func:`spa.openloop.frequency_note`).
+    """
+
+    table: pd.DataFrame
+    curves: pd.DataFrame
+    reference: pd.DataFrame
+    note: str
+
+    @property
+    def empty(self) -> bool:
+        """True when the dataset has no sine run."""
+        return self.table.empty
+
+
+def run_sine(
+    runs: Mapping[str, pd.DataFrame],
+    metas: Mapping[str, Mapping[str, Any]],
+    params: ValveParams,
+    cfg: Mapping[str, Any],
+    log: logging.Logger | None = None,
+) -> SineResult:
+    """Analyse every sine run of a dataset and the same input through the linear reference.
+
+    Parameters
+    ----------
+    runs, metas : mapping
+        Run id to canonical run table and to its metadata (:func:`spa.io.read_runs`).
+    params : ValveParams
+        The dataset's identified valve (the linear reference's time constant).
+    cfg : mapping
+        The config's ``linearity.sine`` section: ``settle`` (s, or None: the hold the
+        simulator recorded before the sine) and ``max_lag`` (s, or None: half a period).
+    log : logging.Logger, optional
+        Where each run's summary is logged.
+
+    Returns
+    -------
+    SineResult
+
+    Raises
+    ------
+    spa.errors.RunError
+        Naming the run whose input is not a sine or whose analysis failed.
+    """
+    log = log or _LOG
+    ids = runs_of_kind(metas, "sine")
+    tags = run_tags(metas, ids)
+    rows, curves, settles = [], [], {}
+    for i, rid in enumerate(ids, 1):
+        settle = cfg["settle"]
+        if settle is None:  # the hold before the sine, as recorded by the simulator
+            settle = float((metas[rid].get("experiment") or {}).get("settle", 0.0))
+        settles[rid] = settle
+        check_input_shape(rid, "sine", runs[rid]["u"])
+        with naming_run(rid, "sine"):
+            aligned, summary = sine_analysis(runs[rid], settle=settle, max_lag=cfg["max_lag"])
+        tag = {"run": rid, **tags.loc[rid]}
+        rows.append({**tag, "settle": settle, **summary})
+        curves.append(thin(aligned, 5000).assign(**tag, rms=summary["rms"]))
+        log.info(
+            "[%d/%d] %s: %.3g Hz, lag %.3f s, RMS %.4f",
+            i, len(ids), rid, summary["frequency"], summary["lag"], summary["rms"],
+        )  # fmt: skip
+    if not ids:
+        return SineResult(pd.DataFrame(), pd.DataFrame(), pd.DataFrame(), "")
+    # The same input (the first run's) through the linear first-order reference.
+    aligned, ref = sine_reference(
+        runs[ids[0]], params, [metas[r]["modulator"] for r in ids],
+        settle=settles[ids[0]], max_lag=cfg["max_lag"],
+    )  # fmt: skip
+    rows.append({**ref, "settle": settles[ids[0]]})
+    log.info("linear reference: tau_m %.3f s, RMS %.4f", ref["tau_m"], ref["rms"])
+    reference = thin(aligned, 5000).assign(rms=ref["rms"])
+    return SineResult(pd.DataFrame(rows), pd.concat(curves), reference, frequency_note(ref))
+
+
+def write_sine(
+    result: SineResult, out: Any, dataset: str, log: logging.Logger | None = None
+) -> None:
+    """Write the sine table and Fig. 8 (its data and, where drawn, the figure).
+
+    Parameters
+    ----------
+    result : SineResult
+        :func:`run_sine`'s.
+    out : mapping-like
+        Output key to path (``snakemake.output``, or a dict): ``table``, ``fig8_csv`` and
+        ``fig8`` where it is drawn.
+    dataset : str
+        The dataset's name, for the placeholder figure of a dataset without sine runs.
+    log : logging.Logger, optional
+        Where to say that there is none.
+    """
+    if result.empty:
+        (log or _LOG).info("no sine runs in this dataset: empty table, placeholder figure")
+        tables = [out.get("table"), out.get("fig8_csv")]
+        write_no_runs(f"{dataset}: no sine runs", tables, [out.get("fig8")])
+        return
+    write_csv(result.table, out.get("table"))
+    ref_rows = result.reference.assign(modulator=REFERENCE, setting=REFERENCE)
+    write_csv(pd.concat([result.curves, ref_rows], ignore_index=True), out.get("fig8_csv"))
+    draw(out.get("fig8"), fig8, result.curves, reference=result.reference, note=result.note)
