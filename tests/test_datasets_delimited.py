@@ -14,7 +14,7 @@ import yaml
 import spa.datasets.readers.delimited as delimited
 from spa.datasets import check_dataset, ingest_dataset, load_spec, read_run_meta, read_run_table
 from spa.datasets.options import check_csv
-from spa.datasets.readers import _SOURCES
+from spa.datasets.readers import READERS
 from spa.datasets.readers.sniff import sniff_delimited
 
 CORPUS = Path(__file__).parent / "corpus"
@@ -156,7 +156,7 @@ def test_run_options_override_the_dataset_key_by_key(tmp_path: Path) -> None:
 
 def test_a_tsv_defaults_to_tabs_and_a_csv_to_commas() -> None:
     for suffix, sep in ((".tsv", "\t"), (".csv", ","), (".txt", ","), (".dat", ",")):
-        source = _SOURCES["csv"]
+        source = READERS["csv"]
         assert source.__init__.__code__.co_varnames[:3] == ("self", "path", "options")
         from spa.datasets.options import csv_options
 
@@ -275,7 +275,7 @@ def test_sniffed_options_read_the_file(tmp_path: Path) -> None:
     path = CORPUS / "good" / "european_csv" / "pulse_eu.csv"
     found = sniff_delimited(path)
     assert found == EU_OPTIONS
-    source = _SOURCES["csv"](path, found)
+    source = READERS["csv"](path, found)
     assert source.columns == ["Zeit", "Druck", "Ventil", "Öltemperatur"]
     ((offset, values, _),) = source.chunks(["Zeit", "Druck"])
     assert offset == 0 and values["Zeit"][:3].tolist() == [0.0, 0.001, 0.002]
@@ -286,7 +286,7 @@ def test_a_utf8_bom_is_skipped_whatever_the_options(tmp_path: Path) -> None:
     path = tmp_path / "f.csv"
     path.write_bytes(text)
     for encoding in (None, "utf-8", "utf-8-sig"):
-        source = _SOURCES["csv"](path, {"sep": ";", "encoding": encoding})
+        source = READERS["csv"](path, {"sep": ";", "encoding": encoding})
         assert source.columns == ["t", "p"]
 
 

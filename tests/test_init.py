@@ -238,21 +238,17 @@ def test_run_ids_are_safe_and_unique() -> None:
     assert ids == ["a_b", "sub-A_b", "y", "c", "sub-c", "_", "y-2"]
 
 
-def test_options_pass_only_to_readers_that_take_them(monkeypatch, tmp_path: Path) -> None:
-    seen: dict[str, Any] = {}
+def test_the_detected_options_reach_the_reader(monkeypatch, tmp_path: Path) -> None:
+    seen: list[Any] = []
 
-    class Old:
-        def __init__(self, path: Path) -> None:
-            seen["old"] = path
-
-    class New:
+    class Reader:  # every reader is built as Reader(path, options) (spa.datasets.readers)
         def __init__(self, path: Path, options: dict[str, Any] | None = None) -> None:
-            seen["new"] = options
+            seen.append(options)
 
-    monkeypatch.setattr(dy, "_SOURCES", {"old": Old, "new": New})
-    dy._open(tmp_path, "old", {"sep": ";"})
+    monkeypatch.setattr(dy, "READERS", {"new": Reader})
     dy._open(tmp_path, "new", {"sep": ";"})
-    assert seen == {"old": tmp_path, "new": {"sep": ";"}}
+    dy._open(tmp_path, "new", {})
+    assert seen == [{"sep": ";"}, None]
     assert isinstance(dy._detect_options(tmp_path / "nothing.csv"), dict)
 
 

@@ -13,7 +13,7 @@ metadata key ``b"spa"``.
 The folder follows the stages of that work: ``contract`` (the vocabulary: kinds, columns,
 units), ``problems`` (what is wrong, with suggestions), ``spec`` (``dataset.yaml``),
 ``options`` (``columns:``, ``units:`` and ``csv:``, which a run may override key by key),
-``readers`` (one module per file family behind one dispatcher by file ending, and ``sniff``,
+``readers`` (one module per file family, each a ``Source``, in one table ``READERS``, and ``sniff``,
 which guesses how a delimited file is written, for messages), ``checks``
 (the data of one run, chunk by chunk), ``runtable`` (the canonical Parquet table) and
 ``ingest`` (validate and convert a whole folder).

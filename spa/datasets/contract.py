@@ -89,7 +89,8 @@ RUN_TABLE_FORMAT = "spa.run/1"
 _DIVISORS = {"ms": 1000.0, "mbar": 1000.0, "kPa": 100.0}
 
 
-# File ending -> reader (``spa.datasets.readers._SOURCES``); delimited text is "csv".
+# File ending -> format, whose reader is ``spa.datasets.readers.READERS[format]``; delimited
+# text is "csv".
 _FORMATS = {
     ".csv": "csv",
     ".parquet": "parquet",

@@ -16,7 +16,6 @@ only when that file does not exist (or with ``force``). Data files are only read
 
 from __future__ import annotations
 
-import inspect
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -37,8 +36,8 @@ from spa.datasets.draft import (
     guess_roles,
     guess_time_unit,
 )
-from spa.datasets.readers import _SOURCES
-from spa.datasets.readers.base import _ReadError, _Retry
+from spa.datasets.readers import READERS
+from spa.datasets.readers.base import Source, _ReadError, _Retry
 from spa.datasets.recorded import session_date
 from spa.datasets.yaml_loader import _UniqueKeyLoader
 
@@ -115,30 +114,14 @@ def _detect_options(path: Path) -> dict[str, Any]:
     return {k: v for k, v in found.items() if v is not None and v != defaults.get(k)}
 
 
-def _open(path: Path, fmt: str, options: Mapping[str, Any]) -> Any:
-    """The reader for ``fmt``, given ``options`` when its constructor takes them."""
-    source = _SOURCES[fmt]
-    if options and "options" in inspect.signature(source).parameters:
-        return source(path, options=dict(options))
-    return source(path)
+def _open(path: Path, fmt: str, options: Mapping[str, Any]) -> Source:
+    """The reader for ``fmt`` (:data:`spa.datasets.readers.READERS`), with ``options``."""
+    return READERS[fmt](path, dict(options) if options else None)
 
 
-def _numeric_names(source: Any) -> list[str]:
-    names = [str(c) for c in source.columns]
-    check = getattr(source, "check_types", None)
-    if check is None:
-        return names
-    bad = set()
-    for name in names:
-        if check([name]):
-            bad.add(name)
-    good = [n for n in names if n not in bad]
-    data = getattr(source, "data", None)
-    if isinstance(data, Mapping) and good:  # MATLAB: keep the vectors of the common length
-        sizes = [int(np.asarray(data[n]).size) for n in good]
-        common = max(set(sizes), key=sizes.count)
-        good = [n for n, s in zip(good, sizes, strict=True) if s == common]
-    return good
+def _numeric_names(source: Source) -> list[str]:
+    """The file's columns whose type is numeric (:meth:`Source.check_types` finds no problem)."""
+    return [str(name) for name in source.columns if not source.check_types([str(name)])]
 
 
 def _read_columns(source: Any, names: list[str]) -> dict[str, npt.NDArray[np.float64]]:

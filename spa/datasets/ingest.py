@@ -22,8 +22,8 @@ from spa.datasets.contract import (
     SPEC_FILE,
 )
 from spa.datasets.options import csv_options
-from spa.datasets.problems import DatasetError, Problem, _one_of, _suggest
-from spa.datasets.readers import _SOURCES
+from spa.datasets.problems import DatasetError, Problem
+from spa.datasets.readers import READERS
 from spa.datasets.readers.base import _ReadError, _Retry
 from spa.datasets.readers.sniff import csv_hint
 from spa.datasets.runtable import _meta_bytes, _RunWriter, _sha256
@@ -62,13 +62,6 @@ def _scan_run(
     """Check one run's file; with ``out``, also write its run table there (if clean)."""
     path = parsed.folder / run.file
     fmt = _FORMATS[PurePosixPath(run.file).suffix.lower()]
-    what = {
-        "csv": "column",
-        "parquet": "column",
-        "mat": "MATLAB variable",
-        "lvm": "LabVIEW channel",
-        "tdms": "LabVIEW channel",
-    }[fmt]
     hint = _Hint(path, run.csv if fmt == "csv" else None)
 
     def problem(
@@ -83,18 +76,17 @@ def _scan_run(
     if path.stat().st_size == 0:
         return [problem("file is empty (0 bytes)")], None
     try:
-        source = _SOURCES[fmt](path, run.csv)
+        source = READERS[fmt](path, run.csv)
     except _ReadError as exc:
         return [problem(f"{exc}{hint()}", exc.column, exc.row)], None
 
-    what = getattr(source, "what", what)  # a MATLAB file may hold a dSpace recording
-    resolve = getattr(source, "resolve", None)  # sources with more names than columns
+    what = source.what  # a MATLAB file may hold a dSpace recording
     problems: list[Problem] = []
     present: dict[str, str] = {}
     for canon in CANONICAL_COLUMNS:
         name = run.columns[canon]
         try:
-            found = name in source.columns if resolve is None else resolve(name) is not None
+            found = source.resolve(name) is not None  # more names than columns: MATLAB
         except _ReadError as exc:
             problems.append(problem(str(exc), name))
             continue
@@ -104,14 +96,7 @@ def _scan_run(
             present[canon] = name
             continue
         mapped = "" if name == canon else f" (mapped from {canon!r} under columns:)"
-        describe = getattr(source, "describe", None)
-        holds = (
-            describe(name)
-            if describe is not None
-            else f"; the file has {_one_of(repr(c) for c in source.columns)}"
-            f"{_suggest(name, source.columns)}"
-        )
-        hint_names = f"{holds}; map names under columns: in {SPEC_FILE}"
+        hint_names = f"{source.describe(name)}; map names under columns: in {SPEC_FILE}"
         if canon in REQUIRED_COLUMNS[run.kind]:
             problems.append(
                 problem(
@@ -132,11 +117,9 @@ def _scan_run(
     if any(p.is_error for p in problems):
         return problems, None
     names = list(present.values())
-    check_types = getattr(source, "check_types", None)
-    if check_types is not None:
-        type_errors = check_types(names)
-        if type_errors:
-            return problems + [problem(str(e), e.column, e.row) for e in type_errors], None
+    type_errors = source.check_types(names)
+    if type_errors:
+        return problems + [problem(str(e), e.column, e.row) for e in type_errors], None
 
     meta = None
     if out is not None:
@@ -156,7 +139,7 @@ def _scan_run(
                 "sha256": _sha256(path),
                 "format": fmt,
                 "columns": {  # as found in the file (a dSpace short name resolved)
-                    k: v if resolve is None else resolve(v) for k, v in present.items()
+                    k: source.resolve(v) for k, v in present.items()
                 },
             },
             "units": dict(run.units),
@@ -212,9 +195,9 @@ def _scan_run(
             raise  # a full disk is not the recording's fault
         problems.append(problem(f"cannot read the file: {type(exc).__name__}: {exc}"))
 
-    invalid = getattr(source, "invalid", [])
+    invalid = source.invalid
     sep = {",": "comma", "\t": "tab", " ": "blank", ";": "semicolon"}
-    sep_name = sep.get(getattr(source, "sep", ","), repr(getattr(source, "sep", ",")))
+    sep_name = sep.get(source.sep, repr(source.sep))  # type: ignore[call-overload]
     for line, text, expected, actual in invalid[:_MAX_ROWS_LISTED]:
         more = f" ({len(invalid)} such lines in all)" if len(invalid) > 1 else ""
         problems.append(
@@ -225,9 +208,7 @@ def _scan_run(
             )
         )
     found = check.problems(run.file, run.id) + check.warnings(run.file, run.id, run.kind)
-    line_of = getattr(source, "line_of", None)
-    if line_of is not None:
-        found = [replace(p, line=line_of(p.row)) for p in found]
+    found = [replace(p, line=source.line_of(p.row)) if p.line is None else p for p in found]
     problems += found
     first = next((i for i, p in enumerate(problems) if _reading(p)), None)
     if first is not None and not hint.given:

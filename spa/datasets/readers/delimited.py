@@ -17,7 +17,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from spa.datasets.options import WHITESPACE, csv_options
-from spa.datasets.readers.base import _Chunk, _ReadError, _Retry, _text_to_float
+from spa.datasets.readers.base import Source, _Chunk, _ReadError, _Retry, _text_to_float
 
 _CSV_BLOCK = 16 << 20  # bytes per CSV block read
 _MAX_LINE = 1 << 20  # bytes: a longer line is not a row of a few numbers
@@ -56,7 +56,7 @@ def _squeeze_blanks(block: bytes) -> bytes:
     return out.tobytes().replace(b" \n", b"\n").replace(b" \r", b"\r")
 
 
-class _CsvSource:
+class _CsvSource(Source):
     """Delimited text with one header line, parsed by ``pyarrow.csv`` block by block.
 
     The file is cut at line ends into blocks of about ``_CSV_BLOCK`` bytes, read one at a time

@@ -21,7 +21,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from spa.datasets.problems import _one_of, _suggest
-from spa.datasets.readers.base import _Chunk, _ReadError, _Retry, _text_to_float
+from spa.datasets.readers.base import Source, _Chunk, _ReadError, _Retry, _text_to_float
 
 _MARK = b"***End_of_Header***"
 _BLOCK = 16 << 20  # bytes per block scanned or parsed
@@ -66,7 +66,7 @@ def _header_start(fh: Any, marker: int, floor: int) -> int:
     return offset
 
 
-class _LvmSource:
+class _LvmSource(Source):
     """A LabVIEW ``.lvm`` measurement file with one X column (``X_Columns: One``)."""
 
     what = "LabVIEW channel"

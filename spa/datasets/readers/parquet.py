@@ -13,7 +13,14 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from spa.datasets.contract import _BATCH_ROWS
-from spa.datasets.readers.base import _Chunk, _numeric_type, _ReadError, _text_to_float, _text_type
+from spa.datasets.readers.base import (
+    Source,
+    _Chunk,
+    _numeric_type,
+    _ReadError,
+    _text_to_float,
+    _text_type,
+)
 
 
 def _beyond_float(col: pa.Array) -> bool:
@@ -22,7 +29,7 @@ def _beyond_float(col: pa.Array) -> bool:
     return top is not None and top.is_valid and top.as_py() > 2**53
 
 
-class _ParquetSource:
+class _ParquetSource(Source):
     """A Parquet file, read by record batches."""
 
     def __init__(self, path: Path, options: Mapping[str, Any] | None = None) -> None:

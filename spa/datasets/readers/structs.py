@@ -24,7 +24,7 @@ import numpy.typing as npt
 
 from spa.datasets.contract import _BATCH_ROWS
 from spa.datasets.problems import _suggest
-from spa.datasets.readers.base import _Chunk, _ReadError
+from spa.datasets.readers.base import Source, _Chunk, _ReadError
 
 #: MATLAB classes read as numbers.
 NUMERIC_CLASSES = frozenset(
@@ -66,7 +66,7 @@ def _quoted(names: list[str]) -> str:
     return ", ".join(repr(n) for n in names[:_LISTED]) + more
 
 
-class _StructSource:
+class _StructSource(Source):
     """Resolve names (variables, field paths, dSpace signals) to leaves; check and read them."""
 
     def __init__(self, path: Path, leaves: dict[str, _Leaf], recordings: list[_Recording]):

@@ -17,7 +17,7 @@ import numpy as np
 
 from spa.datasets.contract import _BATCH_ROWS
 from spa.datasets.problems import _suggest
-from spa.datasets.readers.base import _Chunk, _ReadError
+from spa.datasets.readers.base import Source, _Chunk, _ReadError
 
 #: The name under which the waveform time is resolved.
 WAVEFORM_TIME = "waveform time (wf_start_offset + i * wf_increment)"
@@ -25,7 +25,7 @@ WAVEFORM_TIME = "waveform time (wf_start_offset + i * wf_increment)"
 _LISTED = 12
 
 
-class _TdmsSource:
+class _TdmsSource(Source):
     """A TDMS file: channels by ``group/channel`` or unique channel name; waveform time."""
 
     what = "LabVIEW channel"
