@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, fields
 
 from spa._checks import ArgumentTypeError
 
-__all__ = ["ValveParams", "valve_params"]
+__all__ = ["ValveParams"]
 
 
 @dataclass(frozen=True, slots=True)

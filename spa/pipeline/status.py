@@ -178,7 +178,7 @@ def naming_run(run: str, kind: str) -> Iterator[None]:
     ...     raise ValueError("xi must be strictly increasing")
     Traceback (most recent call last):
     ...
-    spa.pipeline.status.RunError: run 's1' (staircase): ValueError: xi must be strictly increasing
+    spa.errors.RunError: run 's1' (staircase): ValueError: xi must be strictly increasing
     """
     try:
         yield
