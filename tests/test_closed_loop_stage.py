@@ -63,9 +63,23 @@ def test_controllers_yaml_round_trips_to_the_designed_pi(result, tmp_path) -> No
 def test_levels_above_the_valve_are_left_out() -> None:
     low = ValveParams(k2=0.5)
     res = closed_loop(low, SELECTED[:1], None, CFG)
-    assert res.controllers["levels"] == [0.1, 0.4]
-    with pytest.raises(ValueError, match="fewer than two levels"):
-        closed_loop(ValveParams(k2=0.3), SELECTED[:1], None, CFG)
+    assert res.controllers["controllers"]["pwm-20Hz"]["levels"] == [0.1, 0.4]
+    # Issue 29: a valve that holds one level gets a named exclusion, not an exception.
+    none = closed_loop(ValveParams(k2=0.3), SELECTED[:1], None, CFG)
+    assert none.table.empty and "setting" not in none.controllers
+    assert "no usable operating range" in none.skipped["pwm-20Hz"]
+    assert "pwm-20Hz: no usable operating range" in none.sentence
+
+
+def test_a_setting_with_a_flat_equilibrium_is_left_out_by_name() -> None:
+    """Issue 29: IIPFM with t_l below the valve's exhaust delay never exhausts during a
+    pulse; its P_eq is flat. The design crashed with a bare IndexError; now the setting is
+    left out with its reason and the others are designed."""
+    slow_exhaust = ValveParams(c1=0.6, k2=2.0, tau2=0.5, t_on=0.005, t_off=0.025)
+    res = closed_loop(slow_exhaust, SELECTED, None, CFG)
+    assert "t_l > t_off" in res.skipped["iipfm-20ms-G1.15"]
+    assert set(res.table.modulator) == {"pwm-20Hz"}
+    assert res.controllers["skipped"] == res.skipped
 
 
 def test_a_setting_that_cannot_reach_the_levels_is_skipped() -> None:
@@ -136,3 +150,33 @@ def test_replay_of_a_closed_loop_recording() -> None:
     assert res.measured["switching_rate"].isna().all()
     with pytest.raises(ValueError, match="'r'"):
         replay_closed_loop(run.drop(columns="r"), mod, ctrl, truth, 1e-3)
+
+
+def test_tau_c_is_lengthened_until_a_loop_meets_the_overshoot_limit() -> None:
+    """Issue 29: when no designed loop meets max_overshoot, tau_c is lengthened until one
+    does (and the sentence says so), or the sentence says plainly that none does; a loop
+    over the limit is never chosen silently."""
+    first = closed_loop(ValveParams(), SELECTED[:1], None, CFG)
+    t0 = first.table
+    stair = t0[(t0.experiment == "staircase") & (t0.metric == "overshoot")]
+    least = float(stair["max"].min())
+    assert least > 0.5
+    limit = 0.5 * least
+    res = closed_loop(ValveParams(), SELECTED[:1], None, {**CFG, "max_overshoot": limit})
+    tried = res.controllers["tau_c_tried"]
+    assert tried[0] == {"tau_c": 0.2, "least_worst_overshoot": least, "met": False}
+    if tried[-1]["met"]:
+        assert res.controllers["tau_c"] == tried[-1]["tau_c"] > 0.2
+        label, name = "pwm-20Hz", res.controllers["controller"]
+        t = res.table
+        over = t[
+            (t.modulator == label)
+            & (t.controller == name)
+            & (t.experiment == "staircase")
+            & (t.metric == "overshoot")
+        ]["max"].iloc[0]
+        assert over <= limit
+        assert f"tau_c was lengthened to {res.controllers['tau_c']:g} s" in res.sentence
+    else:
+        assert "setting" not in res.controllers
+        assert "no designed controller keeps the overshoot within" in res.sentence

@@ -475,19 +475,26 @@ def test_gain_argument_of_the_cost():
         linearity_cost("pwm", 20.0, P, gain=1.1)
 
 
-def test_non_physical_valves_and_intervals_are_refused_by_name() -> None:
-    """t_on = 0 (a ZeroDivisionError once) and a negative lower bound on k2 in a params.yaml
-    (nonsense intervals once) are refused naming the parameter."""
+def test_intervals_touching_a_physical_bound_are_accepted_and_clipped() -> None:
+    """Issue 29: an identification's own output is a valid tuning input. A valve that opens
+    at once (t_on = 0, its interval [0, 0.68 ms]) is tuned, not refused; an interval reaching
+    past a bound (k2's lower end -0.1) is clipped to the domain and the clipping is said."""
     from spa.model.thresholds import thresholds
-    from spa.tuning.stage import TuningError, read_identified
+    from spa.tuning.cost import DEFAULT_SWEEPS
+    from spa.tuning.stage import read_identified
 
     flat = {"c1": 0.5, "k2": 0.8, "tau2": 0.8, "t_on": 0.0, "t_off": 0.01}
-    with pytest.raises(TuningError, match="t_on = 0 s; the tuning needs"):
-        read_identified(flat)
+    assert read_identified(flat).params.t_on == 0.0
     ident = {k: {"value": v, "lo": v * 0.9, "hi": v * 1.1} for k, v in flat.items()}
-    ident["t_on"] = {"value": 0.003, "lo": 0.002, "hi": 0.004}
+    ident["t_on"] = {"value": 1e-6, "lo": 0.0, "hi": 0.00068}
     ident["k2"] = {"value": 0.8, "lo": -0.1, "hi": 1.7}
-    with pytest.raises(TuningError, match=r"k2: the 95 % interval \[-0.1, 1.7\] leaves"):
-        read_identified(ident)
+    valve = read_identified(ident)
+    assert valve.intervals["t_on"] == (0.0, 0.00068) and "t_on" not in valve.clipped
+    assert valve.intervals["k2"] == (pytest.approx(1.7e-3), 1.7)
+    assert "clipped to the domain edge" in valve.clipped["k2"]
+    small = {k: {**g, "step": g["step"] * 20} for k, g in DEFAULT_SWEEPS.items()}
+    result = tune(valve, sweeps=small, n_xi=20)
+    assert result.recommendation["intervals_clipped"] == dict(valve.clipped)
+    assert result.recommendation["recommended"] is not None
     ideal = ValveParams(t_on=0.0, t_off=0.0)  # the formulas' limits, no division by zero
     assert [float(v) for v in thresholds("dsm", ideal, period=0.02)] == [0.0, 1.0]

@@ -37,8 +37,12 @@ __all__ = [
     "design_pi",
     "feedforward",
     "local_models",
+    "operating_levels",
     "simc",
 ]
+
+#: Margin kept from each end of a setting's rising range of ``P_eq``, as a fraction of it.
+LEVEL_MARGIN = 0.02
 
 #: Default closed-loop time constant of SIMC, s. Chosen by measurement
 #: (benchmarks/sweep_tau_c.py, docs/model.md section 8): on the nominal valve it is the
@@ -159,6 +163,62 @@ def local_models(
     period = np.minimum(np.asarray(t_h) + np.asarray(t_l), MAX_PERIOD)
     theta = 0.5 * (params.t_on + params.t_off) + 0.5 * period
     return LocalModels(rr, x, gain, tau, theta)
+
+
+def operating_levels(
+    levels: npt.ArrayLike,
+    modulator: Modulator | dict[str, Any],
+    params: ValveParams | None = None,
+    max_fraction: float = 1.0,
+) -> tuple[list[float], str | None]:
+    """The set-points a setting can hold on a valve, or why it can hold none.
+
+    Parameters
+    ----------
+    levels : array_like
+        Wanted set-points, bar.
+    modulator : Modulator or mapping
+        Modulator setting.
+    params : ValveParams, optional
+        The valve; nominal when omitted.
+    max_fraction : float, default 1
+        Levels at or above ``max_fraction * k2`` are left out too.
+
+    Returns
+    -------
+    kept : list of float
+        The levels strictly inside the rising range of ``P_eq``
+        (:func:`spa.model.usable.rising_range`) less :data:`LEVEL_MARGIN` of it at each end,
+        and below ``max_fraction * k2``, in their order.
+    reason : str or None
+        None when at least two levels are kept; else one sentence naming the setting and
+        what it can reach (:func:`spa.model.usable.unusable_reason` when it reaches nothing).
+
+    Examples
+    --------
+    >>> operating_levels([0.1, 0.5, 0.9], {"type": "pwm", "f_w": 20.0})
+    ([0.1, 0.5], None)
+    """
+    from spa.model.usable import rising_range, unusable_reason
+
+    params = valve_params(params)
+    mod = Modulator.from_mapping(modulator).bind(params)
+    wanted = [float(v) for v in np.atleast_1d(np.asarray(levels, dtype=np.float64))]
+    why = unusable_reason(mod, params)
+    reach = None if why else rising_range(mod, params)
+    if reach is None:
+        return [], why or f"{mod.label}: P_eq does not rise on this valve"
+    lo, hi = reach
+    pad = LEVEL_MARGIN * (hi - lo)
+    top = min(hi - pad, max_fraction * params.k2)
+    kept = [v for v in wanted if lo + pad < v < top]
+    if len(kept) >= 2:
+        return kept, None
+    return kept, (
+        f"{mod.label}: no usable operating range for the closed loop: it holds "
+        f"{lo + pad:.3g}–{top:.3g} bar on this valve, which leaves {len(kept)} of the "
+        f"set-points {wanted} bar (two are needed)"
+    )
 
 
 def simc(

@@ -6,7 +6,7 @@ and measures it with :mod:`spa.closedloop.metrics`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -140,6 +140,39 @@ def run_sine(
         integral0=_settled(modulator, controller, params, float(r[0])),
     )
     return run, sine_metrics(run, sine["frequency"], skip=float(sine.get("skip", 0.0)))
+
+
+def sine_within(sine: Mapping[str, Any], lo: float, hi: float) -> dict[str, Any]:
+    """The sine reference moved and shrunk, if need be, to stay within ``[lo, hi]`` bar.
+
+    Parameters
+    ----------
+    sine : mapping
+        ``offset`` and ``amplitude`` (bar) and the rest of the sine's settings.
+    lo, hi : float
+        The set-points the setting holds (its lowest and highest operating level), bar.
+
+    Returns
+    -------
+    dict
+        ``sine`` unchanged when ``offset ± amplitude`` lies within ``[lo, hi]``; else with
+        the offset moved into the range and the amplitude cut to what fits around it.
+
+    Examples
+    --------
+    >>> sine_within({"offset": 0.4, "amplitude": 0.2}, 0.05, 0.25)
+    {'offset': 0.15, 'amplitude': 0.1}
+    """
+    out = dict(sine)
+    offset, amplitude = float(out["offset"]), float(out["amplitude"])
+    if lo <= offset - amplitude and offset + amplitude <= hi:
+        return out
+    offset = min(max(offset, lo), hi)
+    if not lo < offset < hi:
+        offset = 0.5 * (lo + hi)
+    out["offset"] = round(offset, 12)
+    out["amplitude"] = round(min(amplitude, offset - lo, hi - offset), 12)
+    return out
 
 
 def spread(values: npt.ArrayLike) -> float:

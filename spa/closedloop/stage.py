@@ -20,8 +20,15 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from spa.closedloop.design import DEFAULT_TAU_C, design_pi
-from spa.closedloop.experiments import cycle_period, run_sine, run_staircase, run_steps, spread
+from spa.closedloop.design import DEFAULT_TAU_C, design_pi, operating_levels
+from spa.closedloop.experiments import (
+    cycle_period,
+    run_sine,
+    run_staircase,
+    run_steps,
+    sine_within,
+    spread,
+)
 from spa.closedloop.metrics import STEP_METRICS, cycle_mean
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
@@ -48,6 +55,7 @@ DEFAULTS: dict[str, Any] = {
     "sine": {"offset": 0.4, "amplitude": 0.2, "frequency": 0.5, "duration": 10.0, "skip": 2.0},
     "max_level_fraction": 0.95,
     "figure_decimate": 20,
+    "max_overshoot": 10.0,
 }
 
 
@@ -126,7 +134,7 @@ def _evaluate(
     dt = float(c["dt"])
     run, stair = run_staircase(mod, ctrl, params, levels, float(c["hold"]), dt)
     step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
-    _, sine = run_sine(mod, ctrl, params, dict(c["sine"]), dt)
+    _, sine = run_sine(mod, ctrl, params, sine_within(c["sine"], min(levels), max(levels)), dt)
     base = {"modulator": mod.label, "description": mod.description, "controller": name}
     rows: list[dict[str, Any]] = []
     step_rows = []
@@ -161,6 +169,42 @@ def _evaluate(
     return rows, step_rows, trace
 
 
+def _design_all(
+    mods: list[Modulator],
+    params: ValveParams,
+    c: Mapping[str, Any],
+    tau_c: float,
+) -> tuple[list[dict[str, Any]], list[pd.DataFrame], list[pd.DataFrame], dict[str, Any], dict]:
+    """Design and evaluate every setting at one ``tau_c``; settings that cannot be designed
+    are returned in ``skipped`` with their reason."""
+    rows: list[dict[str, Any]] = []
+    step_rows: list[pd.DataFrame] = []
+    traces: list[pd.DataFrame] = []
+    gains: dict[str, Any] = {}
+    skipped: dict[str, str] = {}
+    for mod in mods:
+        levels, why = operating_levels(c["levels"], mod, params, float(c["max_level_fraction"]))
+        if why is not None:
+            skipped[mod.label] = why
+            continue
+        try:
+            designs = design_pi(mod, params, levels=levels, tau_c=tau_c)
+            done = [_evaluate(mod, name, ctrl, params, levels, c) for name, ctrl in designs.items()]
+        except ValueError as exc:  # no local model, or no closed-loop law for the setting
+            skipped[mod.label] = f"{mod.label}: {exc}" if mod.label not in str(exc) else str(exc)
+            continue
+        gains[mod.label] = {
+            "setting": mod.to_mapping(),
+            "levels": levels,
+            **{name: ctrl.to_mapping() for name, ctrl in designs.items()},
+        }
+        for more_rows, more_steps, trace in done:
+            rows += more_rows
+            step_rows += more_steps
+            traces.append(trace)
+    return rows, step_rows, traces, gains, skipped
+
+
 def closed_loop(
     params: ValveParams,
     selected: Iterable[Mapping[str, Any] | Modulator],
@@ -183,53 +227,82 @@ def closed_loop(
     Returns
     -------
     ClosedLoopResult
+        A setting that cannot work on the valve, or holds fewer than two of the levels
+        (:func:`spa.closedloop.design.operating_levels`), is left out by name with its
+        reason (``skipped``); no valve makes this function raise for that.
+
+    Notes
+    -----
+    The choice (:func:`_choice`) needs a loop within ``max_overshoot`` over the staircase.
+    When no designed loop meets it at ``tau_c``, every setting is designed again with
+    ``tau_c`` lengthened by the factors of :data:`TAU_C_FACTORS` until one does; the tables
+    are then those of the lengthened ``tau_c`` and ``controllers.yaml`` says so. When none
+    does even then, nothing is chosen and the sentence says so plainly.
     """
     c = {**DEFAULTS, **dict(cfg or {})}
     dt, tau_c = float(c["dt"]), float(c["tau_c"])
-    levels = [float(v) for v in c["levels"] if v < c["max_level_fraction"] * params.k2]
-    if len(levels) < 2:
-        raise ValueError(
-            f"closed_loop.levels: fewer than two levels below {c['max_level_fraction']} * k2 = "
-            f"{c['max_level_fraction'] * params.k2:.3f} bar for this valve; got {c['levels']}"
-        )
+    limit = float(c["max_overshoot"])
     mods, rec = _settings(selected, recommendation)
-    rows: list[dict[str, Any]] = []
-    step_rows: list[pd.DataFrame] = []
-    traces: list[pd.DataFrame] = []
-    gains: dict[str, Any] = {}
-    skipped: dict[str, str] = {}
-    for mod in mods:
-        try:
-            designs = design_pi(mod, params, levels=levels, tau_c=tau_c)
-            done = [_evaluate(mod, name, ctrl, params, levels, c) for name, ctrl in designs.items()]
-        except ValueError as exc:  # no local model, or no closed-loop law for the setting
-            skipped[mod.label] = str(exc)
-            continue
-        gains[mod.label] = {
-            "setting": mod.to_mapping(),
-            **{name: ctrl.to_mapping() for name, ctrl in designs.items()},
-        }
-        for more_rows, more_steps, trace in done:
-            rows += more_rows
-            step_rows += more_steps
-            traces.append(trace)
-    table = pd.DataFrame(rows)
+    tried: list[dict[str, Any]] = []
+    for factor in (1.0, *TAU_C_FACTORS):
+        used = tau_c * factor
+        rows, step_rows, traces, gains, skipped = _design_all(mods, params, c, used)
+        table = pd.DataFrame(rows)
+        choice = _choice(table, rec, limit)
+        met = choice is not None and _worst(table, *choice, "overshoot") <= limit
+        tried.append(
+            {
+                "tau_c": used,
+                "least_worst_overshoot": _least_overshoot(table),
+                "met": bool(met),
+            }
+        )
+        if met or not gains:
+            break
+    if not (choice is not None and met) and len(tried) > 1:
+        # Lengthening did not help: report the loops at the requested tau_c.
+        used = tau_c
+        rows, step_rows, traces, gains, skipped = _design_all(mods, params, c, used)
+        table = pd.DataFrame(rows)
+        choice = _choice(table, rec, limit)
     steps = pd.concat(step_rows, ignore_index=True) if step_rows else pd.DataFrame()
-    controllers = {
-        "tau_c": tau_c,
+    controllers: dict[str, Any] = {
+        "tau_c": used,
+        "tau_c_requested": tau_c,
         "dt": dt,
-        "levels": levels,
+        "levels": [float(v) for v in c["levels"]],
+        "max_overshoot": limit,
         "rule": "SIMC: Kp = tau/(K*(tau_c + theta)), Ki = Kp/min(tau, 4*(tau_c + theta))",
         "controllers": gains,
         "skipped": skipped,
     }
-    choice = _choice(table, rec)
-    if choice is not None:
+    if len(tried) > 1:
+        controllers["tau_c_tried"] = tried
+    if choice is not None and _worst(table, *choice, "overshoot") <= limit:
         controllers["setting"] = gains[choice[0]]["setting"]
         controllers["controller"] = choice[1]
-        controllers["sentence"] = closed_loop_sentence(table, gains, *choice)
+        sentence = closed_loop_sentence(table, gains, *choice)
+        if used != tau_c:
+            sentence += (
+                f" No loop kept the overshoot within {limit:.3g} % at tau_c = {tau_c:g} s, so "
+                f"tau_c was lengthened to {used:g} s."
+            )
+        controllers["sentence"] = sentence
+    elif choice is not None:
+        over = _worst(table, *choice, "overshoot")
+        longest = tried[-1]["tau_c"]
+        controllers["sentence"] = (
+            f"Closed loop: no designed controller keeps the overshoot within {limit:.3g} % on "
+            f"this valve, even with tau_c lengthened to {longest:g} s; the least is "
+            f"{over:.0f} % ({choice[0]}, {choice[1]} PI at "
+            f"tau_c = {tau_c:g} s). None is recommended: widen closed_loop.max_overshoot or "
+            "design the loop by hand."
+        )
     else:
-        controllers["sentence"] = "No modulator setting could be designed for this valve."
+        controllers["sentence"] = (
+            "Closed loop: no modulator setting could be designed for this valve"
+            + (f" ({'; '.join(skipped.values())})." if skipped else ".")
+        )
     return ClosedLoopResult(
         table,
         steps,
@@ -239,8 +312,21 @@ def closed_loop(
     )
 
 
-#: Worst-case overshoot (%) over the staircase that a chosen loop may have.
+#: Worst-case overshoot (%) over the staircase that a chosen loop may have (default of the
+#: config's ``closed_loop.max_overshoot``).
 MAX_OVERSHOOT = 10.0
+
+#: Factors by which ``tau_c`` is lengthened, in turn, when no loop meets ``max_overshoot``.
+TAU_C_FACTORS = (2.0, 4.0, 8.0)
+
+
+def _least_overshoot(table: pd.DataFrame) -> float | None:
+    if table.empty:
+        return None
+    sel = table[(table.experiment == "staircase") & (table.metric == "overshoot")]
+    values = sel["max"].to_numpy(np.float64)
+    values = values[np.isfinite(values)]
+    return float(values.min()) if values.size else None
 
 
 def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> float:
@@ -253,9 +339,12 @@ def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> flo
     return float(sel["max"].iloc[0]) if len(sel) else math.nan
 
 
-def _choice(table: pd.DataFrame, rec: Modulator | None) -> tuple[str, str] | None:
+def _choice(
+    table: pd.DataFrame, rec: Modulator | None, limit: float = 10.0
+) -> tuple[str, str] | None:
     """The setting and controller to use: over every designed setting and controller, the
-    smallest worst-case rise time among those overshooting at most 10 % over the staircase,
+    smallest worst-case rise time among those overshooting at most ``limit`` % over the
+    staircase,
     else the smallest worst-case overshoot; ties go to the tuning's recommended setting, then
     to the order of the table.
 
@@ -273,8 +362,8 @@ def _choice(table: pd.DataFrame, rec: Modulator | None) -> tuple[str, str] | Non
             over = _worst(table, label, name, "overshoot")
             if not (math.isfinite(rise) and math.isfinite(over)):
                 continue
-            key = rise if over <= MAX_OVERSHOOT else over
-            scores.append((over > MAX_OVERSHOOT, key, label != recommended, order, label, name))
+            key = rise if over <= limit else over
+            scores.append((over > limit, key, label != recommended, order, label, name))
     if not scores:
         return None
     best = min(scores)

@@ -24,6 +24,7 @@ from spa.synthetic.sensor import Sensor, sensor_record
 __all__ = [
     "RunSpec",
     "closed_loop_runs",
+    "dataset_experiments",
     "dataset_runs",
     "generate_dataset",
     "identification_runs",
@@ -271,7 +272,9 @@ def modulated_runs(
 
 
 def dataset_runs(
-    cfg: Mapping[str, Any], experiments: Mapping[str, Mapping[str, Any]]
+    cfg: Mapping[str, Any],
+    experiments: Mapping[str, Mapping[str, Any]],
+    skipped: dict[str, str] | None = None,
 ) -> list[RunSpec]:
     """Every run of a simulated dataset: the identification experiments, then per modulator.
 
@@ -281,7 +284,11 @@ def dataset_runs(
         One entry of the config's ``simulated:`` (``params``, ``controller_dt``, ``sensor``,
         ``modulators``).
     experiments : mapping
-        The config's ``experiments:`` (``identification``, ``staircase``, ``sine``, ``chirp``).
+        The config's ``experiments:`` (``identification``, ``staircase``, ``sine``, ``chirp``,
+        ``closed_loop``), with the dataset's own ``experiments:`` merged over it
+        (:func:`dataset_experiments`).
+    skipped : dict, optional
+        Filled with ``run -> reason`` for the closed-loop runs left out.
     """
     params = ValveParams(**cfg["params"])
     dt = float(cfg["controller_dt"])
@@ -290,11 +297,16 @@ def dataset_runs(
     modulated = {k: v for k, v in experiments.items() if k in ("staircase", "sine", "chirp")}
     runs += modulated_runs(cfg["modulators"], dt, modulated)
     if experiments.get("closed_loop"):
-        runs += closed_loop_runs(params, dt, experiments["closed_loop"])
+        runs += closed_loop_runs(params, dt, experiments["closed_loop"], skipped)
     return runs
 
 
-def closed_loop_runs(params: ValveParams, dt: float, cfg: Mapping[str, Any]) -> list[RunSpec]:
+def closed_loop_runs(
+    params: ValveParams,
+    dt: float,
+    cfg: Mapping[str, Any],
+    skipped: dict[str, str] | None = None,
+) -> list[RunSpec]:
     """Closed-loop runs: a set-point staircase tracked by a PI through each modulator.
 
     Parameters
@@ -307,21 +319,29 @@ def closed_loop_runs(params: ValveParams, dt: float, cfg: Mapping[str, Any]) -> 
         Controller step, s.
     cfg : mapping
         ``levels`` (bar), ``hold`` (s per level), ``modulators`` (settings), ``tau_c`` (s).
+    skipped : dict, optional
+        Filled with ``label -> reason`` for the settings left out.
 
     Returns
     -------
     list of RunSpec
         Run ids ``closed_loop_<setting label>``; the staircase up then down, from rest at
-        0 bar.
+        0 bar, over the levels the setting can hold on this valve
+        (:func:`spa.closedloop.design.operating_levels`). A setting that holds fewer than
+        two of them is left out (named in ``skipped``), as a lab would not run it.
     """
-    from spa.closedloop.design import design_pi
+    from spa.closedloop.design import design_pi, operating_levels
     from spa.closedloop.experiments import staircase_reference
 
-    levels = [float(v) for v in cfg["levels"]]
-    reference = staircase_reference(levels, float(cfg["hold"]), dt)
     runs = []
     for setting in cfg["modulators"]:
         mod = Modulator.from_mapping(setting)
+        levels, why = operating_levels(cfg["levels"], mod, params)
+        if why is not None:
+            if skipped is not None:
+                skipped[mod.label] = why
+            continue
+        reference = staircase_reference(levels, float(cfg["hold"]), dt)
         pi = design_pi(mod, params, levels=levels, tau_c=float(cfg.get("tau_c", 0.2)))
         controller = {**pi["fixed"].to_mapping(), "dt": dt}
         runs.append(
@@ -335,6 +355,38 @@ def closed_loop_runs(params: ValveParams, dt: float, cfg: Mapping[str, Any]) -> 
             )
         )
     return runs
+
+
+def dataset_experiments(
+    cfg: Mapping[str, Any], experiments: Mapping[str, Mapping[str, Any]]
+) -> dict[str, Any]:
+    """The experiments of one simulated dataset: its own ``experiments:`` over the config's.
+
+    Parameters
+    ----------
+    cfg : mapping
+        One entry of the config's ``simulated:``; its optional ``experiments`` mapping
+        (e.g. a longer ``identification: {charge_time: 15}`` for a slow valve) is merged
+        key by key into each experiment of ``experiments``.
+    experiments : mapping
+        The config's ``experiments:``.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> dataset_experiments({"experiments": {"staircase": {"hold": 20.0}}},
+    ...                     {"staircase": {"step": 0.1, "hold": 5.0}})
+    {'staircase': {'step': 0.1, 'hold': 20.0}}
+    """
+    out = {k: dict(v) if isinstance(v, Mapping) else v for k, v in experiments.items()}
+    for key, value in dict(cfg.get("experiments") or {}).items():
+        base = out.get(key)
+        merge = isinstance(base, dict) and isinstance(value, Mapping)
+        out[key] = {**base, **value} if merge else value
+    return out
 
 
 def generate_dataset(
@@ -374,7 +426,11 @@ def generate_dataset(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    specs = list(dataset_runs(cfg, experiments))
+    skipped: dict[str, str] = {}
+    specs = list(dataset_runs(cfg, dataset_experiments(cfg, experiments), skipped))
+    for why in skipped.values():
+        if progress is not None:
+            progress(f"{name}: closed-loop run left out: {why}")
     for spec in progress_bar(specs, f"simulating {name}"):
         table = simulate_run(spec, params, dt, sensor, run_seed(seed, name, spec.id))
         meta = {

@@ -29,6 +29,9 @@ __all__ = ["INTERVAL_METHOD", "PARAMETERS", "corners", "propagate", "read_interv
 #: The identified parameters, in ``params.yaml`` order.
 PARAMETERS: tuple[str, ...] = ("c1", "k2", "tau2", "t_on", "t_off")
 
+#: The delays: their domain includes 0 (a valve may switch at once).
+DELAYS: tuple[str, ...] = ("t_on", "t_off")
+
 #: How the intervals of the tuning tables are obtained.
 INTERVAL_METHOD = "corners"
 
@@ -36,7 +39,9 @@ INTERVAL_METHOD = "corners"
 _FLOOR = 1e-12
 
 
-def read_intervals(mapping: Mapping[str, Any]) -> dict[str, tuple[float, float]]:
+def read_intervals(
+    mapping: Mapping[str, Any], clipped: dict[str, str] | None = None
+) -> dict[str, tuple[float, float]]:
     """The 95 % intervals of a ``params.yaml`` (:meth:`IdentificationResult.to_dict`).
 
     Parameters
@@ -44,22 +49,32 @@ def read_intervals(mapping: Mapping[str, Any]) -> dict[str, tuple[float, float]]
     mapping : mapping
         ``{"c1": {"value": ..., "lo": ..., "hi": ...}, ...}``; flat entries (a number) and
         entries whose ``lo`` or ``hi`` is null (a fallback value) have no interval.
+    clipped : dict, optional
+        Filled with ``name -> what was done`` for every interval clipped to the domain.
 
     Returns
     -------
     dict
-        ``name -> (lo, hi)`` for the parameters that have an interval.
+        ``name -> (lo, hi)`` for the parameters that have an interval. A lower bound below
+        the parameter's physical domain (a delay's interval reaching below 0, or a rate's at
+        or below 0) is clipped to the domain's edge (0 for a delay, ``hi * 1e-3`` for the
+        others): such an interval is a valid identification result, touching a bound; the
+        corners of the box (:func:`corners`) then start at the bound.
 
     Raises
     ------
     ValueError
-        If an interval is not finite, has ``lo > hi`` or a lower bound outside the
-        parameter's domain (``<= 0``; ``< 0`` for ``t_off``); the message names the parameter.
+        If an interval is not finite or has ``lo > hi``; the message names the parameter.
 
     Examples
     --------
     >>> read_intervals({"c1": {"value": 0.5, "lo": 0.49, "hi": 0.51}, "k2": 0.8})
     {'c1': (0.49, 0.51)}
+    >>> notes = {}
+    >>> read_intervals({"t_on": {"value": 1e-6, "lo": -0.0002, "hi": 0.00068}}, notes)
+    {'t_on': (0.0, 0.00068)}
+    >>> notes["t_on"]
+    'lower end -0.0002 clipped to the domain edge 0'
     """
     out: dict[str, tuple[float, float]] = {}
     for name in PARAMETERS:
@@ -72,12 +87,12 @@ def read_intervals(mapping: Mapping[str, Any]) -> dict[str, tuple[float, float]]
             raise ValueError(
                 f"{name}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]"
             )
-        if lo < 0 or (lo == 0 and name != "t_off"):
-            allowed = ">= 0" if name == "t_off" else "> 0"
-            raise ValueError(
-                f"{name}: the 95 % interval [{lo}, {hi}] leaves the physical domain: its lower "
-                f"bound must be {allowed}"
-            )
+        edge = 0.0 if name in DELAYS else (hi * 1e-3 if hi > 0 else _FLOOR)
+        if lo < edge or (lo <= 0 and name not in DELAYS):
+            if clipped is not None:
+                clipped[name] = f"lower end {lo:g} clipped to the domain edge {edge:g}"
+            lo = edge
+            hi = max(hi, edge)
         out[name] = (lo, hi)
     return out
 

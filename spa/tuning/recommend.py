@@ -32,6 +32,7 @@ from spa.model.modulators import MODULATOR_ORDER, Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 from spa.model.thresholds import thresholds
+from spa.model.usable import usable
 from spa.openloop import staircase_analysis
 from spa.synthetic import staircase_input
 from spa.tuning.cost import _on_xi_grid, feasible, linearity_cost, modulator_settings, sweep_grid
@@ -54,6 +55,7 @@ CONSTRAINTS: tuple[str, ...] = (
     "max_switching_rate",
     "max_chattering",
     "min_pulse_width",
+    "max_time_constant",
 )
 
 #: Units of the numbers in a recommendation.
@@ -65,6 +67,7 @@ UNITS: Mapping[str, str] = {
     "chattering": "bar",
     "switching_rate": "valve command edges per second",
     "min_pulse": "s",
+    "tau_max": "s",
     "tau_m": "s",
     "fit": "%",
     "mse": "bar^2",
@@ -96,6 +99,15 @@ class TuningOptions:
         Shortest pulse the controller can produce, s. A setting needs every pulse that moves
         the pressure (high longer than ``t_on``, low longer than ``t_off``; ΔΣM: its clock
         period) to be at least this long.
+    max_time_constant : float or None
+        Slowest response allowed, as a multiple of the valve's own ``tau2``: a setting whose
+        equivalent time constant (Eq. 9) exceeds ``max_time_constant * tau2`` at some ``xi``
+        is left out (response speed; 3 by default). None: no limit.
+    max_fit_shortfall : float or None
+        Percentage points: the recommendation never goes to a setting whose predicted
+        staircase FIT is more than this below the best predicted FIT among the candidates
+        of every kind (10 by default); such a setting is passed over, and says why.
+        None: FIT does not decide.
     ranges : mapping
         ``kind -> (lo, hi)``: the settings a user accepts, in the sweep's unit (Hz for PWM,
         s otherwise); kinds not listed keep their whole sweep.
@@ -105,6 +117,8 @@ class TuningOptions:
     staircase : mapping
         ``step``, ``hold`` (s) and ``dt`` (controller step, s) of the staircase simulated
         for the predicted ``fit``, ``mse``, ``max_dev``, ``mad`` (the paper's: 0.1, 5 s).
+        A valve slower than the paper's gets holds of at least ``5 * tau2``
+        (:func:`staircase_hold`), so that a level can settle.
 
     Examples
     --------
@@ -116,6 +130,8 @@ class TuningOptions:
     max_switching_rate: float | None = 100.0
     max_chattering: float | None = 0.05
     min_pulse_width: float | None = 0.001
+    max_time_constant: float | None = 3.0
+    max_fit_shortfall: float | None = 10.0
     ranges: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     gain_sweep: Mapping[str, float] | None = None
     staircase: Mapping[str, float] = field(
@@ -136,6 +152,15 @@ class TuningOptions:
         object.__setattr__(
             self, "min_pulse_width", _limit("min_pulse_width", self.min_pulse_width, "s")
         )
+        object.__setattr__(
+            self, "max_time_constant", _limit("max_time_constant", self.max_time_constant, "tau2")
+        )
+        if self.max_fit_shortfall is not None:
+            object.__setattr__(
+                self,
+                "max_fit_shortfall",
+                checks.nonnegative("tuning.max_fit_shortfall", self.max_fit_shortfall, "%"),
+            )
         ranges = {}
         for kind, pair in dict(self.ranges).items():
             if kind not in MODULATOR_ORDER:
@@ -176,6 +201,8 @@ class TuningOptions:
             "max_switching_rate": self.max_switching_rate,
             "max_chattering": self.max_chattering,
             "min_pulse_width": self.min_pulse_width,
+            "max_time_constant": self.max_time_constant,
+            "max_fit_shortfall": self.max_fit_shortfall,
             "ranges": {k: list(v) for k, v in self.ranges.items()},
             "gain_sweep": None if self.gain_sweep is None else dict(self.gain_sweep),
             "staircase": dict(self.staircase),
@@ -202,9 +229,11 @@ def setting_metrics(
         Arrays of the shape of ``value``: ``switching_rate`` (largest ``2/(t_h + t_l)`` over
         the grid of ``xi``, edges/s), ``chattering`` (largest ``P+ - P-`` of Appendix B, bar)
         and ``min_pulse`` (shortest pulse that moves the pressure, s; ΔΣM: the clock period;
-        ``inf`` when nothing pulses). Where the command is constant there is no pulse train:
-        rate and chattering 0. Durations are those of
-        :func:`spa.model.averaging.pulse_times`, as in :func:`spa.openloop.predicted_levels`.
+        ``inf`` when nothing pulses) and ``tau_max`` (largest equivalent time constant of
+        Eq. 9 over the ``xi`` where it is defined, s; NaN where it is defined nowhere). Where
+        the command is constant there is no pulse train: rate and chattering 0. Durations
+        are those of :func:`spa.model.averaging.pulse_times`, as in
+        :func:`spa.openloop.predicted_levels`.
 
     Examples
     --------
@@ -225,10 +254,16 @@ def setting_metrics(
         np.where(pulsing & (tl > params.t_off * (1 + 1e-9)), tl, np.inf),
     ).min(axis=-1)
     moving = get_kind(kind).min_pulse(moving, grid)
+    with np.errstate(all="ignore"):
+        tau = np.asarray(
+            time_constant(*time_fractions(kind, xi, params, **grid), params), dtype=np.float64
+        )
+    tau = np.where(np.isfinite(tau), tau, -np.inf).max(axis=-1)
     return {
         "switching_rate": np.where(pulsing, 2.0 / (th + tl), 0.0).max(axis=-1),
         "chattering": np.where(pulsing, hi - lo, 0.0).max(axis=-1),
         "min_pulse": moving,
+        "tau_max": np.where(np.isfinite(tau), tau, np.nan),
     }
 
 
@@ -262,7 +297,8 @@ def candidate_frame(
         (NaN for PWM, ΔΣM), ``J``, ``J_exact``, ``switching_rate``, ``chattering``,
         ``min_pulse`` (:func:`setting_metrics`), one boolean column per entry of
         :data:`CONSTRAINTS` (True: the candidate meets it) and ``feasible`` (all of them).
-        Settings outside Section 5's constraints (:func:`spa.tuning.cost.feasible`) are left
+        Settings outside Section 5's constraints (:func:`spa.tuning.cost.feasible`) or with
+        no input range that moves the pressure (:func:`spa.model.usable.usable`) are left
         out.
     """
     opts = options or TuningOptions()
@@ -270,6 +306,7 @@ def candidate_frame(
     for kind, g in progress(grids.items(), "sweeps", total=len(grids), unit="modulator"):
         values = sweep_grid(g["start"], g["stop"], g["step"])
         keep = np.asarray(feasible(kind, values, params), dtype=bool)
+        keep &= usable(kind, values, params)
         values = values[keep]
         sets: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None]] = [
             (values, None)
@@ -309,6 +346,11 @@ def candidate_frame(
         "max_switching_rate": ("switching_rate", opts.max_switching_rate, 1),
         "max_chattering": ("chattering", opts.max_chattering, 1),
         "min_pulse_width": ("min_pulse", opts.min_pulse_width, -1),
+        "max_time_constant": (
+            "tau_max",
+            None if opts.max_time_constant is None else opts.max_time_constant * params.tau2,
+            1,
+        ),
     }
     for name, (column, limit, sign) in limits.items():
         if limit is None:
@@ -333,16 +375,33 @@ def _excluded_by(rows: pd.DataFrame) -> list[str]:
     return []
 
 
+def staircase_hold(options: TuningOptions, params: ValveParams) -> float:
+    """Hold of each level of the predicted staircase: the option's, at least ``5 * tau2``.
+
+    Examples
+    --------
+    >>> staircase_hold(TuningOptions(), ValveParams(tau2=2.5))
+    12.5
+    >>> staircase_hold(TuningOptions(), ValveParams())
+    5.0
+    """
+    return max(float(options.staircase["hold"]), 5.0 * params.tau2)
+
+
 def _staircase(mod: Modulator, params: ValveParams, options: TuningOptions, **analysis: Any):
     """Fit, MSE, max_dev and MAD of a noise-free simulated staircase (Table 3's metrics)."""
-    step, hold, dt = (options.staircase[k] for k in ("step", "hold", "dt"))
+    step, dt = (options.staircase[k] for k in ("step", "dt"))
+    hold = staircase_hold(options, params)
     levels = math.floor(1.0 / step + 1e-9) + 1
     t = np.arange(round(levels * hold / dt)) * dt
     xi = staircase_input(t, step, hold)
     u = mod.bind(params).modulate(xi, dt)
     run = pd.DataFrame({"t": t, "p": simulate(u, dt, params), "valve": u, "u": xi})
     _, _, summary = staircase_analysis(run, mod.to_mapping(), params, **analysis)
-    return {k: float(summary[k]) for k in ("fit", "mse", "max_dev", "mad")}
+    out = {k: float(summary[k]) for k in ("fit", "mse", "max_dev", "mad")}
+    if hold != float(options.staircase["hold"]):
+        out["staircase_hold"] = hold
+    return out
 
 
 def predict(
@@ -373,7 +432,8 @@ def predict(
         ``dead_zone``, ``saturation`` (Table 1), ``chattering``, ``switching_rate``,
         ``min_pulse`` (:func:`setting_metrics`), ``tau_m`` (``{min, max}`` of Eq. 9 over the
         ``xi`` where it is defined, s), and ``fit``, ``mse``, ``max_dev``, ``mad`` of the paper's
-        staircase simulated with the exact plant, noise-free, analysed like a measured one.
+        staircase simulated with the exact plant, noise-free, analysed like a measured one
+        (with ``staircase_hold``, s, where :func:`staircase_hold` lengthened its levels).
     """
     opts = options or TuningOptions()
     settings = dict(mod.settings)
@@ -397,18 +457,45 @@ def predict(
     }
 
 
+def _edge(row: pd.Series, candidates: pd.DataFrame) -> dict[str, Any] | None:
+    """Whether a setting sits at an edge of its kind's feasible range, and what bounds it.
+
+    The neighbours of ``row`` are the candidates of its kind with the same gain rule, in
+    the order of the swept value. At an edge the next value beyond either is not a candidate
+    at all (the end of the grid, or of the settings that work on the valve) or breaks the
+    constraints it names.
+    """
+    same = candidates[candidates["modulator"] == row["modulator"]]
+    same = same[same["gain"].isna()] if np.isnan(row["gain"]) else same[same["gain"] == row["gain"]]
+    same = same.sort_values("value", kind="stable")
+    values = same["value"].to_numpy()
+    ok = same["feasible"].to_numpy()
+    i = int(np.searchsorted(values, row["value"]))
+    for step, side in ((-1, "lowest"), (1, "highest")):
+        j = i + step
+        if 0 <= j < len(values) and ok[j]:
+            continue
+        if j < 0 or j >= len(values):
+            bound = ["end of the sweep or of the settings that work on this valve"]
+        else:
+            bound = [c for c in CONSTRAINTS if not bool(same[c].iloc[j])]
+        return {"side": side, "bounded_by": bound}
+    return None
+
+
 def _entry(
     row: pd.Series,
     params: ValveParams,
     n_xi: int,
     options: TuningOptions,
     linearity: Mapping[str, float] | None,
+    candidates: pd.DataFrame | None = None,
 ) -> dict[str, Any]:
     gain = None if np.isnan(row["gain"]) else float(row["gain"])
     mod = Modulator(
         row["modulator"], modulator_settings(row["modulator"], row["value"], params, gain)
     ).bind(params)
-    return {
+    entry = {
         "modulator": mod.kind,
         "label": mod.label,
         "description": mod.description,
@@ -417,6 +504,33 @@ def _entry(
         "J_exact": float(row["J_exact"]),
         "predicted": predict(mod, params, n_xi, options, linearity),
     }
+    edge = None if candidates is None else _edge(row, candidates)
+    entry["at_feasible_edge"] = edge
+    return entry
+
+
+def _pass_over(entries: list[dict[str, Any]], shortfall: float | None) -> list[dict[str, Any]]:
+    """Entries (best score first), those far below the best predicted FIT passed over.
+
+    The first entry whose predicted staircase FIT is within ``shortfall`` percentage points
+    of the best predicted FIT of the entries comes first; the entries of better score before
+    it get ``passed_over`` (why) and follow it; the order is otherwise kept.
+    """
+    if shortfall is None or not entries:
+        return entries
+    fits = [e["predicted"]["fit"] for e in entries]
+    finite = [f for f in fits if math.isfinite(f)]
+    if not finite:
+        return entries
+    best = max(finite)
+    leader = entries[fits.index(best)]["label"]
+    first = next(i for i, f in enumerate(fits) if math.isfinite(f) and f >= best - shortfall)
+    for entry, fit in zip(entries[:first], fits[:first], strict=True):
+        entry["passed_over"] = (
+            f"predicted staircase FIT {fit:.1f} % is more than {shortfall:g} points "
+            f"below {leader}'s {best:.1f} % (tuning.max_fit_shortfall)"
+        )
+    return [entries[first], *entries[:first], *entries[first + 1 :]]
 
 
 def recommend(
@@ -448,15 +562,26 @@ def recommend(
         candidates it excludes), ``n_candidates``, ``n_feasible``, ``recommended`` (None
         when nothing is feasible; else ``modulator``, ``label``, ``description``,
         ``setting`` in the form of a ``dataset.yaml`` modulator, ``J``, ``J_exact``,
-        ``predicted``), ``runners_up`` (the best feasible setting of every other modulator,
-        best first, or the constraints that exclude all of its settings), ``excluded_by``
-        (the constraints that together exclude every setting; empty when one is feasible)
-        and ``units``.
+        ``predicted``, ``at_feasible_edge``), ``runners_up`` (the best feasible setting of
+        every other modulator, or the constraints that exclude all of its settings),
+        ``excluded_by`` (the constraints that together exclude every setting; empty when one
+        is feasible) and ``units``.
+
+    Notes
+    -----
+    The rule: among the settings meeting every constraint (:data:`CONSTRAINTS`, response
+    speed included), each modulator's best by ``score`` (ties within
+    :data:`spa.tuning.exact.COST_TIE` go to the other cost); of these, the best by ``score``
+    whose predicted staircase FIT is within ``max_fit_shortfall`` points of the best
+    predicted FIT. Better-scored ones further below are passed over (``passed_over`` says
+    why) and follow it among the runners-up. ``at_feasible_edge`` flags a setting that is
+    the lowest or highest of its kind's feasible settings, with what bounds it there.
     """
     opts = options or TuningOptions()
     feasible_rows = candidates[candidates["feasible"]]
     best = best_first(feasible_rows, opts.score).drop_duplicates("modulator")
-    entries = [_entry(row, params, n_xi, opts, linearity) for _, row in best.iterrows()]
+    entries = [_entry(row, params, n_xi, opts, linearity, candidates) for _, row in best.iterrows()]
+    entries = _pass_over(entries, opts.max_fit_shortfall)
     runners_up: list[dict[str, Any]] = entries[1:]
     for kind in MODULATOR_ORDER:
         rows = candidates[candidates["modulator"] == kind]
@@ -516,6 +641,32 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
         f"{score} = {j:.2f} bar ({other_name} = {other:.2f}), dead-zone up to "
         f"xi = {pred['dead_zone']:.2f}, saturation from xi = {pred['saturation']:.2f}, "
         f"at most {pred['switching_rate']:.0f} valve switchings/s and "
-        f"{pred['chattering'] * 1e3:.1f} mbar chattering; a simulated staircase fits its "
-        f"line to FIT = {pred['fit']:.1f} %."
+        f"{pred['chattering'] * 1e3:.1f} mbar chattering, time constant up to "
+        f"{_fmt_tau(pred)}; a simulated staircase fits its line to FIT = {pred['fit']:.1f} %."
+        + _edge_note(best)
+        + _passed_note(rec)
     )
+
+
+def _fmt_tau(pred: Mapping[str, Any]) -> str:
+    tau = (pred.get("tau_m") or {}).get("max")
+    return "n/a" if tau is None else f"{tau:.2f} s"
+
+
+def _edge_note(best: Mapping[str, Any]) -> str:
+    edge = best.get("at_feasible_edge")
+    if not edge:
+        return ""
+    bound = ", ".join(edge.get("bounded_by") or [])
+    return (
+        f" It is the {edge['side']} feasible setting of its kind (bounded by {bound}): "
+        "a valve a little different from the identified one may leave it outside."
+    )
+
+
+def _passed_note(rec: Mapping[str, Any]) -> str:
+    passed = [r for r in rec.get("runners_up") or [] if r.get("passed_over")]
+    if not passed:
+        return ""
+    said = "; ".join(f"{r['label']}: {r['passed_over']}" for r in passed)
+    return f" Passed over despite a better score: {said}."

@@ -24,6 +24,7 @@ from spa import _checks as checks
 from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import threshold_table
+from spa.model.usable import unusable_reason
 from spa.openloop.paper import paper_case
 from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
 from spa.tuning.intervals import PARAMETERS, read_intervals
@@ -64,12 +65,16 @@ class Identified:
         ``name -> reason`` for parameters that took a nominal value instead of a fit.
     source : str
         Where they came from (a file name, or ``"arguments"``).
+    clipped : dict
+        ``name -> note`` for intervals clipped to the parameter's domain
+        (:func:`spa.tuning.intervals.read_intervals`).
     """
 
     params: ValveParams
     intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     fallback: Mapping[str, str] = field(default_factory=dict)
     source: str = "arguments"
+    clipped: Mapping[str, str] = field(default_factory=dict)
 
 
 def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
@@ -91,7 +96,9 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     TuningError
         If the file is missing or unreadable (the identification did not run or failed), it
         records an error, or a parameter is missing or outside the model's domain; the
-        message names the file and the parameter.
+        message names the file and the parameter. An interval reaching past a physical
+        bound is not an error: it is clipped to the domain and the note kept in
+        ``clipped``.
 
     Examples
     --------
@@ -126,18 +133,14 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
                 "valve gets no tuning"
             )
         values[name] = value
+    clipped: dict[str, str] = {}
     try:
         params = ValveParams(**values)
-        intervals = read_intervals(source)
+        intervals = read_intervals(source, clipped)
     except ValueError as exc:
         raise TuningError(f"{where}: {exc}") from None
-    if params.t_on <= 0:
-        raise TuningError(
-            f"{where}: t_on = {params.t_on:g} s; the tuning needs the valve's measured opening "
-            "delay, t_on > 0 (its dead-zones and pulse limits are built on it)"
-        )
     fallback = source.get("fallback") or {}
-    return Identified(params, intervals, dict(fallback), where)
+    return Identified(params, intervals, dict(fallback), where, clipped)
 
 
 @dataclass(frozen=True)
@@ -151,7 +154,8 @@ class TuningResult:
     table1 : pandas.DataFrame
         Dead-zone and saturation (Table 1) at the selected settings (``case`` = ``paper``
         for the paper's, ``selected`` for others), at each modulator's optimum (``optimum``)
-        and at the recommendation.
+        and at the recommendation; ``unusable`` says why a setting cannot work on this
+        valve (:func:`spa.model.usable.unusable_reason`), empty where it can.
     sweeps : pandas.DataFrame
         Fig. 4's data: :func:`spa.tuning.tables.sweep_frame` with ``J`` and ``J_exact``.
     table2 : pandas.DataFrame
@@ -194,6 +198,7 @@ def _table1(
     table = threshold_table([m for _, m in cases], params)
     table.insert(0, "case", [c for c, _ in cases])
     table.insert(2, "label", [m.label for _, m in cases])
+    table["unusable"] = [unusable_reason(m, params) or "" for _, m in cases]
     return table
 
 
@@ -206,7 +211,7 @@ def tune(
     selected: Iterable[Mapping[str, Any] | Modulator] | None = None,
     linearity: Mapping[str, float] | None = None,
 ) -> TuningResult:
-    """Tune the four modulators for one valve and recommend a setting (paper Section 5).
+    """Tune every registered modulator kind for one valve and recommend a setting (paper Section 5).
 
     Parameters
     ----------
@@ -277,6 +282,7 @@ def tune(
         "params": p.as_dict(),
         "intervals": {k: list(v) for k, v in ident.intervals.items()},
         "fallback": dict(ident.fallback),
+        **({"intervals_clipped": dict(ident.clipped)} if ident.clipped else {}),
         "n_xi": n,
         **rec,
     }

@@ -20,8 +20,8 @@ def main() -> None:
     recommendation = yaml.safe_load(rec_path.read_text()) if rec_path.is_file() else None
     cfg = snakemake.params.cfg
     result = closed_loop(valve.params, snakemake.params.selected, recommendation, cfg)
-    for label, why in result.skipped.items():
-        log.warning("%s: %s left out: %s", dataset, label, why)
+    for why in result.skipped.values():
+        log.warning("%s: left out: %s", dataset, why)
     runs, metas = read_runs(snakemake.input.runs)
     recorded = recorded_runs(runs, metas, valve.params)
     write_closed_loop(result, recorded, snakemake.output)

@@ -22,6 +22,10 @@ def main() -> None:
         log.warning(
             "%s: %s is the nominal value (identification fallback: %s)", dataset, name, reason
         )
+    for name, note in result.identified.clipped.items():
+        log.warning("%s: %s interval: %s", dataset, name, note)
+    for why in filter(None, result.table1["unusable"]):
+        log.warning("%s: left out: %s", dataset, why)
     write_tuning(result, snakemake.output, dataset)
     log.info("%s: %s", dataset, result.sentence)
 
