@@ -338,7 +338,8 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
     Returns
     -------
     simulated : list of str
-        The names under ``simulated``, sorted.
+        The names under ``simulated``, sorted, minus those of ``exclude`` (so that a
+        configuration merged over another can drop a simulated dataset).
     raw : list of str
         The folders of ``raw_dir`` holding a ``dataset.yaml`` (hidden folders, starting with
         ``.``, are skipped), sorted; only those of ``include`` when it is not empty (in its
@@ -368,7 +369,7 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
             f"with a dataset.yaml (found: {found})"
         )
     raw = [d for d in wanted or found if d not in exclude]
-    simulated = sorted(config["simulated"])
+    simulated = sorted(d for d in config["simulated"] if d not in exclude)
     check_dataset_names([*simulated, *raw])
     clash = sorted(set(raw) & set(simulated))
     if clash:
