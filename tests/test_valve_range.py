@@ -119,7 +119,7 @@ def test_closed_loop_designs_or_names_every_setting(valve: ValveParams) -> None:
     assert set(res.controllers["controllers"]) | set(res.skipped) == labels
     for label, why in res.skipped.items():
         assert why.startswith(label)
-    for label, entry in res.controllers["controllers"].items():
+    for entry in res.controllers["controllers"].values():
         mod = Modulator.from_mapping(entry["setting"])
         assert operating_levels(CLOSED["levels"], mod, valve, 0.95) == (entry["levels"], None)
     if "setting" in res.controllers:
