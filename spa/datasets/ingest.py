@@ -85,6 +85,10 @@ def _scan_run(
     present: dict[str, str] = {}
     for canon in CANONICAL_COLUMNS:
         name = run.columns[canon]
+        if name is None:  # left out under columns: (null)
+            if canon in REQUIRED_COLUMNS[run.kind]:
+                problems.append(problem(_left_out(run.kind, canon)))
+            continue
         try:
             found = source.resolve(name) is not None  # more names than columns: MATLAB
         except _ReadError as exc:
@@ -218,6 +222,20 @@ def _scan_run(
             out.unlink(missing_ok=True)
         return problems, None
     return problems, check.summary(run)
+
+
+def _left_out(kind: str, canon: str) -> str:
+    """The error for a column a run's kind needs that ``columns:`` leaves out (null)."""
+    message = (
+        f"columns: leaves out {canon} (null), but a {kind} run needs {_QUANTITY[canon]} "
+        f"({canon}); name its column"
+    )
+    if canon == "u":  # a log of the valve command alone
+        message += (
+            "; a log of the 0/1 valve command alone serves as a pulse run (kind: pulse), "
+            "which identifies the delays"
+        )
+    return message
 
 
 def _scan_dataset(
