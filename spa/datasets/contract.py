@@ -76,6 +76,11 @@ P_MAX_BAR = 20.0
 #: ``datasets.plausible_supply_bar``): outside it, a unit is likely declared wrong.
 PLAUSIBLE_SUPPLY_BAR = (0.05, 20.0)
 
+#: The supply pressures soft actuators are run at, bar gauge (the product's stated range of
+#: ``k2``): inside the plausible range, a reading of the supply in another unit much nearer
+#: its middle (by ratio) is taken for the unit meant (:func:`spa.datasets.checks.likelier_unit`).
+TYPICAL_SUPPLY_BAR = (0.2, 6.0)
+
 
 #: Parquet key-value metadata key holding the run's description as JSON.
 META_KEY = b"spa"

@@ -266,8 +266,9 @@ def _supply_problems(
     supply: tuple[float, float] | None,
     found: list[Problem],
 ) -> list[Problem]:
-    """A warning when the charge runs' highest pressure is no plausible supply pressure
-    (unless its run already has a warning about its pressure, from the data checks)."""
+    """A warning when the charge runs' highest pressure, their plateau, is no plausible
+    supply pressure, or is much likelier in another unit (:func:`supply_warning`; unless its
+    run already has a warning about its pressure, from the data checks)."""
     charges = [s for s in summaries if s.kind == "charge"]
     if not charges:
         return []
@@ -275,11 +276,11 @@ def _supply_problems(
     if any(p.run == top.run and not p.is_error and "pressure" in p.message for p in found):
         return []
     run = parsed.runs[[r.id for r in parsed.runs].index(top.run)]
-    what = f"the charge runs' highest pressure (run {top.run!r})"
+    what = f"the charge runs' plateau (highest pressure, run {top.run!r})"
     message = supply_warning(top.p_max, what, run.pressure_unit, supply)
     if message is None:
         return []
-    return [Problem(top.file, top.run, None, None, message, level="warning")]
+    return [Problem(top.file, top.run, run.columns["p"], None, message, level="warning")]
 
 
 @fill_doc

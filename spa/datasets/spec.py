@@ -251,7 +251,8 @@ def _parse_spec(folder: Path) -> _Parsed:
         if key not in doc:
             parsed.error(f"missing required key {key!r}")
 
-    _top_value(parsed, doc, "name", lambda name: _name_problem(name, folder.name))
+    here = Path(os.path.abspath(folder)).name  # "spa validate ." names the folder too
+    _top_value(parsed, doc, "name", lambda name: _name_problem(name, here))
     _top_value(parsed, doc, "description", _description_problem, str.strip)
     _top_value(parsed, doc, "origin", _origin_problem)
     _top_value(parsed, doc, "rig", _rig_problem, _plain)
