@@ -24,8 +24,8 @@ from spa.datasets.draft import (
     guess_time_unit,
 )
 from spa.datasets.yaml_loader import _UniqueKeyLoader
-from spa.model.params import ValveParams
 from spa.model.modulators import get_kind
+from spa.model.params import ValveParams
 from spa.synthetic.example import EXAMPLE_PARAMS
 from spa.synthetic.runs import identification_runs, modulated_runs, simulate_run
 from spa.synthetic.sensor import Sensor
@@ -511,7 +511,9 @@ def test_a_session_mixing_valve_only_logs_and_modulated_runs(tmp_path: Path, cap
     ``time,u,valve,pressure`` (u the input fraction): per-run columns, each valid."""
     folder = tmp_path / "mixed"
     _bench_session(folder)
-    (spec,) = modulated_runs([{"type": "pwm", "f_w": 20.0}], DT, {"staircase": EXPERIMENTS["staircase"]})
+    (spec,) = modulated_runs(
+        [{"type": "pwm", "f_w": 20.0}], DT, {"staircase": EXPERIMENTS["staircase"]}
+    )
     run = simulate_run(spec, LAB_VALVE, DT, SENSOR, np.random.default_rng(5))
     run[["t", "u", "valve", "p"]].set_axis(["time", "u", "valve", "pressure"], axis=1).to_csv(
         folder / "stair.csv", index=False
