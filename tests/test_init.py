@@ -589,3 +589,5 @@ def test_a_recording_in_kpa_is_not_taken_for_psi(tmp_path: Path, capsys) -> None
     k2_psi = 75.0 * PSI  # what identification returns from the psi reading
     assert "logged in kPa but declared psi?" in k2_warning(k2_psi, metas)
     assert k2_warning(0.75, {"charge": {"kind": "charge", "units": {"pressure": "kPa"}}}) is None
+    simulated = {"charge": {"kind": "charge", "origin": "synthetic"}}  # in bar, known
+    assert k2_warning(5.9, simulated) is None and "psi" in k2_warning(5.9, {"c": {"kind": "x"}})

@@ -450,6 +450,7 @@ def supply_warning(
     what: str,
     declared: str = "bar",
     bounds: tuple[float, float] | None = None,
+    likelier: bool = True,
 ) -> str | None:
     """A warning when a supply pressure is implausible, naming the likely unit mistake.
 
@@ -465,6 +466,9 @@ def supply_warning(
     bounds : (float, float), optional
         Plausible range in bar; default :data:`PLAUSIBLE_SUPPLY_BAR` (config
         ``datasets.plausible_supply_bar``).
+    likelier : bool
+        Also warn, inside ``bounds``, when another unit is much likelier
+        (:func:`likelier_unit`); False for simulated data, whose unit is known.
 
     Returns
     -------
@@ -491,10 +495,10 @@ def supply_warning(
     if not math.isfinite(value):
         return None
     if lo <= value <= hi:
-        likelier = likelier_unit(value / factor, declared) if factor and value > 0 else None
-        if likelier is None:
+        other = likelier_unit(value / factor, declared) if likelier and factor else None
+        if other is None:
             return None
-        unit, bar = likelier
+        unit, bar = other
         shown = "" if declared == "bar" else f" ({value / factor:.4g} {declared})"
         return (
             f"{what} = {value:.3g} bar{shown} is unusual for a soft actuator's supply "
@@ -530,7 +534,9 @@ def k2_warning(
     k2 : float
         The identified supply pressure, bar.
     metas : mapping
-        Run id -> run table metadata (:func:`spa.io.read_runs`): ``kind`` and ``units``.
+        Run id -> run table metadata (:func:`spa.io.read_runs`): ``kind``, ``units`` and
+        ``origin`` (a simulated dataset, every run ``synthetic``, is only checked against
+        ``bounds``: its unit is known).
     bounds : (float, float), optional
         As :func:`supply_warning`.
 
@@ -547,4 +553,5 @@ def k2_warning(
         if m.get("kind") == "charge"
     ]
     declared = next((u for u in [*charge, *units] if u), "bar")
-    return supply_warning(float(k2), "k2", str(declared), bounds)
+    measured = any(m.get("origin") != "synthetic" for m in metas.values())
+    return supply_warning(float(k2), "k2", str(declared), bounds, likelier=measured)
