@@ -146,3 +146,25 @@ def test_supply_warning_inside_the_plausible_range_names_the_likelier_unit() -> 
     assert supply_warning(0.6, "k2", "kPa") is None
     assert supply_warning(3.0, "k2", "bar") is None  # 3 bar, or 0.21 bar in psi: no call
     assert "outside the plausible" in supply_warning(0.0106, "k2", "kPa")  # unchanged
+
+
+def test_a_unit_named_in_the_column_is_believed(tmp_path: Path) -> None:
+    """80 in a column named ``p_psi`` declared psi is a 5.5 bar supply as stated: no warning;
+    the same values in a column named ``pressure`` are warned about as likely kPa."""
+    from spa.datasets.draft import guess_pressure_unit
+
+    t = np.arange(1000) * 1e-3
+    for name, warned in (("p_psi", False), ("pressure", True)):
+        folder = tmp_path / name / "d"
+        folder.mkdir(parents=True)
+        frame = pd.DataFrame({"t": t, "valve": 1, name: 80 * (1 - np.exp(-t / 0.05))})
+        frame.to_csv(folder / "r.csv", index=False)
+        spec = {"name": "d", **HEAD, "units": {"pressure": "psi"}, "columns": {"p": name}}
+        spec["runs"] = [{"id": "r", "kind": "charge", "file": "r.csv"}]
+        (folder / "dataset.yaml").write_text(yaml.safe_dump(spec))
+        messages = _messages(folder)
+        assert len(messages) == warned and all("likely" not in m for m in messages)
+        assert all("pressure logged in kPa but declared psi?" in m for m in messages)
+        guess = guess_pressure_unit(frame[name], name)
+        assert guess.value == ("kPa" if warned else "psi"), guess.reason
+    assert guess_pressure_unit([0.0, 1e5], "P_kPa").value is None  # 1000 bar: name ignored

@@ -536,7 +536,8 @@ def k2_warning(
     metas : mapping
         Run id -> run table metadata (:func:`spa.io.read_runs`): ``kind``, ``units`` and
         ``origin`` (a simulated dataset, every run ``synthetic``, is only checked against
-        ``bounds``: its unit is known).
+        ``bounds``: its unit is known; so is a pressure column whose name states the unit
+        declared, ``source.columns.p``).
     bounds : (float, float), optional
         As :func:`supply_warning`.
 
@@ -553,5 +554,13 @@ def k2_warning(
         if m.get("kind") == "charge"
     ]
     declared = next((u for u in [*charge, *units] if u), "bar")
-    measured = any(m.get("origin") != "synthetic" for m in metas.values())
-    return supply_warning(float(k2), "k2", str(declared), bounds, likelier=measured)
+    from spa.datasets.contract import unit_in_name
+
+    unsure = [
+        m
+        for m in metas.values()
+        if m.get("origin") != "synthetic"
+        and unit_in_name(dict(dict(m.get("source") or {}).get("columns") or {}).get("p"))
+        != dict(m.get("units") or {}).get("pressure", "bar")
+    ]
+    return supply_warning(float(k2), "k2", str(declared), bounds, likelier=bool(unsure))

@@ -176,6 +176,25 @@ _MAX_ROWS_LISTED = 5
 # --------------------------------------------------------------------------- units
 
 
+_UNIT_TOKEN = re.compile(r"[A-Za-z]+")
+
+
+def unit_in_name(name: str | None) -> str | None:
+    """The pressure unit a column's name states, as a separate word (``P_act_kPa``,
+    ``pressure [psi]``, ``p_bar``), or None.
+
+    Examples
+    --------
+    >>> [unit_in_name(n) for n in ("P_act_kPa", "Druck [mbar]", "pressure", "barometer")]
+    ['kPa', 'mbar', None, None]
+    """
+    if not name:
+        return None
+    units = {u.lower(): u for u in PRESSURE_UNITS}
+    found = {units[w.lower()] for w in _UNIT_TOKEN.findall(name) if w.lower() in units}
+    return found.pop() if len(found) == 1 else None
+
+
 def _to_seconds(t: npt.NDArray[np.float64], unit: str) -> npt.NDArray[np.float64]:
     return t / _DIVISORS[unit] if unit in _DIVISORS else t * TIME_UNITS[unit]
 

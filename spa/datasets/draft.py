@@ -15,12 +15,13 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
   largest variance is the pressure. Names break ties (``time``, ``valve``, ``xi``, ...).
 * **time unit**: a bench samples at 100 Hz to 100 kHz, so a median step in
   [1e-6, 1e-2] is in s, in (1e-2, 10] in ms; outside, undecided.
-* **pressure unit**: the largest magnitude (99.9th percentile, robust to a spike) is the
-  supply, typically 0.2-6 bar: of the units putting it there, the first of bar, psi, kPa,
-  mbar unless another is more than twice nearer 1.1 bar by ratio (80 is 0.8 bar in kPa, not
-  5.5 bar in psi); when none does, bar up to 6, psi up to 90, kPa up to 600 and mbar up to
-  6000; above, undecided. Ranges overlap (40 is 2.8 bar in psi or 0.4 bar in kPa): the
-  reason names every fitting unit.
+* **pressure unit**: a unit written as a word in the column's name (``P_kPa``) when it
+  puts the supply within 0.05-20 bar; else the largest magnitude (99.9th percentile, robust
+  to a spike) is the supply, typically 0.2-6 bar: of the units putting it there, the first
+  of bar, psi, kPa, mbar unless another is more than twice nearer 1.1 bar by ratio (80 is
+  0.8 bar in kPa, not 5.5 bar in psi); when none does, bar up to 6, psi up to 90, kPa up
+  to 600 and mbar up to 6000; above, undecided. Ranges overlap (40 is 2.8 bar in psi or
+  0.4 bar in kPa): the reason names every fitting unit.
 * **kind**: a set-point column ``r`` gives a closed-loop run (``closed_loop``; its PI's gains
   are not in the data, so the draft asks for them); else an input ``u`` that moves gives a
   modulated run, by the shape of ``u``: piecewise
@@ -252,7 +253,7 @@ def guess_time_unit(t: npt.ArrayLike) -> Guess:
     )
 
 
-def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
+def guess_pressure_unit(p: npt.ArrayLike, name: str | None = None) -> Guess:
     """Guess the pressure unit from the supply pressure the readings reach.
 
     Parameters
@@ -260,6 +261,10 @@ def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
     p : array_like
         Pressure readings in the file's unit (NaN ignored); pooled over the files of a
         session, whose highest reading is the supply (a charge run's plateau).
+    name : str, optional
+        The column's name: a unit written in it as a word (``P_act_kPa``) is taken when it
+        puts the supply within the plausible range (``datasets.plausible_supply_bar``'s
+        default, 0.05-20 bar).
 
     Returns
     -------
@@ -268,7 +273,8 @@ def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
 
     Notes
     -----
-    The supply is taken as the 99.9th percentile of ``|p|`` (robust to a spike). Of the
+    The supply is taken as the 99.9th percentile of ``|p|`` (robust to a spike). Unless the
+    name states the unit, of the
     units that put it within a soft actuator's typical supply, 0.2-6 bar
     (:data:`~spa.datasets.contract.TYPICAL_SUPPLY_BAR`), the first of bar, psi, kPa, mbar is
     taken unless another reading is more than twice nearer the middle of that range, 1.1
@@ -283,7 +289,12 @@ def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
     ['bar', 'psi', 'kPa', 'kPa', 'mbar', None]
     """
     from spa.datasets.checks import likelier_unit, typical_readings
-    from spa.datasets.contract import TYPICAL_SUPPLY_BAR
+    from spa.datasets.contract import (
+        PLAUSIBLE_SUPPLY_BAR,
+        PRESSURE_UNITS,
+        TYPICAL_SUPPLY_BAR,
+        unit_in_name,
+    )
 
     lo, hi = TYPICAL_SUPPLY_BAR
     p = np.asarray(p, dtype=np.float64).ravel()
@@ -291,6 +302,11 @@ def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
     if p.size == 0:
         return Guess(None, "no pressure readings")
     top = float(np.percentile(np.abs(p), 99.9, method="higher"))
+    named = unit_in_name(name)
+    if named is not None:
+        bar = top * PRESSURE_UNITS[named]
+        if PLAUSIBLE_SUPPLY_BAR[0] <= bar <= PLAUSIBLE_SUPPLY_BAR[1]:
+            return Guess(named, f"named {name!r}; |p| up to {top:.4g}, the supply: {bar:.3g} bar")
     fits = typical_readings(top)
     if fits:
         unit = next(u for u in fits if likelier_unit(top, u) is None)

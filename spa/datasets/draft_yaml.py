@@ -212,7 +212,8 @@ def _pooled_units(drafts: list[FileDraft]) -> dict[str, Guess]:
         t = guess_time_unit(np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]))
     else:
         t = Guess(None, "no time column found")
-    p = guess_pressure_unit(np.concatenate(pressures)) if pressures else Guess(None, "no p")
+    name = next((d.roles["p"].value for d in drafts if d.roles["p"].decided), None)
+    p = guess_pressure_unit(np.concatenate(pressures), name) if pressures else Guess(None, "no p")
     many = f" (over {len(drafts)} files)" if len(drafts) > 1 else ""
     return {
         "time": Guess(t.value, t.reason + (many if t.decided else "")),

@@ -20,6 +20,7 @@ from spa.datasets.contract import (
     REQUIRED_COLUMNS,
     RUN_TABLE_FORMAT,
     SPEC_FILE,
+    unit_in_name,
 )
 from spa.datasets.options import csv_options
 from spa.datasets.problems import DatasetError, Problem
@@ -267,8 +268,9 @@ def _supply_problems(
     found: list[Problem],
 ) -> list[Problem]:
     """A warning when the charge runs' highest pressure, their plateau, is no plausible
-    supply pressure, or is much likelier in another unit (:func:`supply_warning`; unless its
-    run already has a warning about its pressure, from the data checks)."""
+    supply pressure, or is much likelier in another unit than the one declared (unless the
+    column's name states that unit: :func:`supply_warning`; and unless its run already has
+    a warning about its pressure, from the data checks)."""
     charges = [s for s in summaries if s.kind == "charge"]
     if not charges:
         return []
@@ -277,7 +279,8 @@ def _supply_problems(
         return []
     run = parsed.runs[[r.id for r in parsed.runs].index(top.run)]
     what = f"the charge runs' plateau (highest pressure, run {top.run!r})"
-    message = supply_warning(top.p_max, what, run.pressure_unit, supply)
+    named = unit_in_name(run.columns["p"]) == run.pressure_unit  # "P_kPa" declared kPa
+    message = supply_warning(top.p_max, what, run.pressure_unit, supply, likelier=not named)
     if message is None:
         return []
     return [Problem(top.file, top.run, run.columns["p"], None, message, level="warning")]
