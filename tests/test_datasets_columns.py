@@ -168,3 +168,11 @@ def test_a_unit_named_in_the_column_is_believed(tmp_path: Path) -> None:
         guess = guess_pressure_unit(frame[name], name)
         assert guess.value == ("kPa" if warned else "psi"), guess.reason
     assert guess_pressure_unit([0.0, 1e5], "P_kPa").value is None  # 1000 bar: name ignored
+
+
+def test_validate_dot_names_the_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``spa validate .`` inside the dataset folder compares ``name`` with the folder's own
+    name (it used to compare it with '')."""
+    folder = _dataset(tmp_path, {"columns": {"t": "time", "p": "pressure", "valve": "u"}})
+    monkeypatch.chdir(folder)
+    assert _messages(Path(".")) == []
