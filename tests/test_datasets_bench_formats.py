@@ -305,7 +305,12 @@ def test_dspace_time_is_named_when_there_are_several_x_entries(tmp_path: Path) -
     text = _problems(folder, [_run("r", "r.mat", "charge")])
     assert "missing signal 't': a charge run needs time (t)" in text
     assert "the dSpace signals 'Time', 'Time2', 'Platform/Model Root/p'" in text
+    # p_act is in psi (up to 20): declared bar, a 19 bar supply is warned about as likely psi
     _spec(folder, [_run("r", "r.mat", "charge")], columns={"t": "Time2", "p": "p"})
+    (warning,) = validate_dataset(folder)
+    assert warning.level == "warning" and warning.message.endswith("{pressure: psi} if so)")
+    units = {"pressure": "psi"}
+    _spec(folder, [_run("r", "r.mat", "charge")], columns={"t": "Time2", "p": "p"}, units=units)
     assert validate_dataset(folder) == []
 
 

@@ -76,6 +76,11 @@ P_MAX_BAR = 20.0
 #: ``datasets.plausible_supply_bar``): outside it, a unit is likely declared wrong.
 PLAUSIBLE_SUPPLY_BAR = (0.05, 20.0)
 
+#: The supply pressures soft actuators are run at, bar gauge (the product's stated range of
+#: ``k2``): inside the plausible range, a reading of the supply in another unit much nearer
+#: its middle (by ratio) is taken for the unit meant (:func:`spa.datasets.checks.likelier_unit`).
+TYPICAL_SUPPLY_BAR = (0.2, 6.0)
+
 
 #: Parquet key-value metadata key holding the run's description as JSON.
 META_KEY = b"spa"
@@ -169,6 +174,25 @@ _MAX_ROWS_LISTED = 5
 
 
 # --------------------------------------------------------------------------- units
+
+
+_UNIT_TOKEN = re.compile(r"[A-Za-z]+")
+
+
+def unit_in_name(name: str | None) -> str | None:
+    """The pressure unit a column's name states, as a separate word (``P_act_kPa``,
+    ``pressure [psi]``, ``p_bar``), or None.
+
+    Examples
+    --------
+    >>> [unit_in_name(n) for n in ("P_act_kPa", "Druck [mbar]", "pressure", "barometer")]
+    ['kPa', 'mbar', None, None]
+    """
+    if not name:
+        return None
+    units = {u.lower(): u for u in PRESSURE_UNITS}
+    found = {units[w.lower()] for w in _UNIT_TOKEN.findall(name) if w.lower() in units}
+    return found.pop() if len(found) == 1 else None
 
 
 def _to_seconds(t: npt.NDArray[np.float64], unit: str) -> npt.NDArray[np.float64]:

@@ -15,9 +15,13 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
   largest variance is the pressure. Names break ties (``time``, ``valve``, ``xi``, ...).
 * **time unit**: a bench samples at 100 Hz to 100 kHz, so a median step in
   [1e-6, 1e-2] is in s, in (1e-2, 10] in ms; outside, undecided.
-* **pressure unit**: a soft actuator runs at 0 to about 4 bar, so the largest magnitude
-  (99.9th percentile, robust to a spike) is in bar up to 6, psi up to 90, kPa up to 600 and
-  mbar up to 6000; above, undecided. Ranges overlap: 0.5 bar read in kPa (50) looks like psi.
+* **pressure unit**: a unit written as a word in the column's name (``P_kPa``) when it
+  puts the supply within 0.05-20 bar; else the largest magnitude (99.9th percentile, robust
+  to a spike) is the supply, typically 0.2-6 bar: of the units putting it there, the first
+  of bar, psi, kPa, mbar unless another is more than twice nearer 1.1 bar by ratio (80 is
+  0.8 bar in kPa, not 5.5 bar in psi); when none does, bar up to 6, psi up to 90, kPa up
+  to 600 and mbar up to 6000; above, undecided. Ranges overlap (40 is 2.8 bar in psi or
+  0.4 bar in kPa): the reason names every fitting unit.
 * **kind**: a set-point column ``r`` gives a closed-loop run (``closed_loop``; its PI's gains
   are not in the data, so the draft asks for them); else an input ``u`` that moves gives a
   modulated run, by the shape of ``u``: piecewise
@@ -249,30 +253,77 @@ def guess_time_unit(t: npt.ArrayLike) -> Guess:
     )
 
 
-def guess_pressure_unit(p: npt.ArrayLike) -> Guess:
-    """Guess the pressure unit from the largest magnitude of the readings.
+def guess_pressure_unit(p: npt.ArrayLike, name: str | None = None) -> Guess:
+    """Guess the pressure unit from the supply pressure the readings reach.
 
     Parameters
     ----------
     p : array_like
-        Pressure readings in the file's unit (NaN ignored).
+        Pressure readings in the file's unit (NaN ignored); pooled over the files of a
+        session, whose highest reading is the supply (a charge run's plateau).
+    name : str, optional
+        The column's name: a unit written in it as a word (``P_act_kPa``) is taken when it
+        puts the supply within the plausible range (``datasets.plausible_supply_bar``'s
+        default, 0.05-20 bar).
 
     Returns
     -------
     Guess
-        The first unit of :data:`PRESSURE_LIMITS` whose limit is not exceeded by the 99.9th
-        percentile of ``|p|``, else None.
+        The unit, else None.
+
+    Notes
+    -----
+    The supply is taken as the 99.9th percentile of ``|p|`` (robust to a spike). Unless the
+    name states the unit, of the
+    units that put it within a soft actuator's typical supply, 0.2-6 bar
+    (:data:`~spa.datasets.contract.TYPICAL_SUPPLY_BAR`), the first of bar, psi, kPa, mbar is
+    taken unless another reading is more than twice nearer the middle of that range, 1.1
+    bar, by ratio (:func:`~spa.datasets.checks.likelier_unit`, the rule ``spa validate``
+    warns by): 80 is kPa (0.8 bar), not psi (5.5 bar). When several units fit, the reason
+    names them all. When none does, the first unit of :data:`PRESSURE_LIMITS` whose limit
+    holds the supply.
 
     Examples
     --------
-    >>> [guess_pressure_unit([0, x]).value for x in (2.5, 40, 250, 2500, 1e5)]
-    ['bar', 'psi', 'kPa', 'mbar', None]
+    >>> [guess_pressure_unit([0, x]).value for x in (2.5, 40, 80, 250, 2500, 1e5)]
+    ['bar', 'psi', 'kPa', 'kPa', 'mbar', None]
     """
+    from spa.datasets.checks import likelier_unit, typical_readings
+    from spa.datasets.contract import (
+        PLAUSIBLE_SUPPLY_BAR,
+        PRESSURE_UNITS,
+        TYPICAL_SUPPLY_BAR,
+        unit_in_name,
+    )
+
+    lo, hi = TYPICAL_SUPPLY_BAR
     p = np.asarray(p, dtype=np.float64).ravel()
     p = p[np.isfinite(p)]
     if p.size == 0:
         return Guess(None, "no pressure readings")
     top = float(np.percentile(np.abs(p), 99.9, method="higher"))
+    named = unit_in_name(name)
+    if named is not None:
+        bar = top * PRESSURE_UNITS[named]
+        if PLAUSIBLE_SUPPLY_BAR[0] <= bar <= PLAUSIBLE_SUPPLY_BAR[1]:
+            return Guess(named, f"named {name!r}; |p| up to {top:.4g}, the supply: {bar:.3g} bar")
+    fits = typical_readings(top)
+    if fits:
+        unit = next(u for u in fits if likelier_unit(top, u) is None)
+        first = next(iter(fits))
+        reason = f"|p| up to {top:.4g}, the supply (a charge run's plateau): "
+        reason += f"{fits[unit]:.3g} bar in {unit}"
+        others = [f"{bar:.3g} bar in {u}" for u, bar in fits.items() if u != unit]
+        if not others:
+            return Guess(unit, reason + f" (a typical supply is {lo:g}-{hi:g} bar)")
+        reason += f", or {', or '.join(others)}: all typical ({lo:g}-{hi:g} bar)"
+        if unit == first:
+            return Guess(unit, reason + ", check")
+        return Guess(
+            unit,
+            f"{reason}; {unit}, as a supply is most often near 1 bar and {fits[first]:.3g} "
+            f"bar is more than twice as far from it (likely {unit} read as {first})",
+        )
     for unit, limit in PRESSURE_LIMITS:
         if top <= limit:
             return Guess(unit, f"|p| up to {top:.4g}: within {limit:g} {unit} (0 to ~4 bar)")

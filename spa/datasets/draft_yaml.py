@@ -17,6 +17,7 @@ only when that file does not exist (or with ``force``). Data files are only read
 from __future__ import annotations
 
 import re
+import textwrap
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
@@ -211,7 +212,8 @@ def _pooled_units(drafts: list[FileDraft]) -> dict[str, Guess]:
         t = guess_time_unit(np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]))
     else:
         t = Guess(None, "no time column found")
-    p = guess_pressure_unit(np.concatenate(pressures)) if pressures else Guess(None, "no p")
+    name = next((d.roles["p"].value for d in drafts if d.roles["p"].decided), None)
+    p = guess_pressure_unit(np.concatenate(pressures), name) if pressures else Guess(None, "no p")
     many = f" (over {len(drafts)} files)" if len(drafts) > 1 else ""
     return {
         "time": Guess(t.value, t.reason + (many if t.decided else "")),
@@ -306,14 +308,35 @@ def _shared(drafts: list[FileDraft], pick: Any) -> tuple[bool, Any]:
     return same, values[0] if values else None
 
 
+#: Why an input fraction ``u`` is left out when the only command column is the 0/1 valve:
+#: written above ``u: null``.
+_NO_U = (
+    "No input fraction is recorded: these runs serve as charge, discharge or pulse runs "
+    "(identification), which need none. A staircase, sine or chirp run needs u; spa does "
+    "not derive it from the valve as the duty of each pulse period, which would lose the "
+    "timing within the period (u known once per period, up to a period late, and IPFM, "
+    "IIPFM and delta-sigma periods vary with u): record u to use such runs."
+)
+
+
 def _columns_block(indent: str, roles: Mapping[str, Guess]) -> list[str]:
+    """The ``columns:`` lines: each role named other than by its canonical name, and
+    ``null`` for an optional role whose canonical name is a column taken by another role
+    (a ``time,u,pressure`` log whose ``u`` is the 0/1 valve command)."""
     lines = []
+    taken = {g.value: role for role, g in roles.items() if g.decided}
     for role in _ROLES:
         g = roles[role]
         if g.decided and g.value != role:
             lines.append(_line(indent + "  ", role, g))
         elif not g.decided and role in ("t", "p"):
             lines.append(_line(indent + "  ", role, g))
+        elif not g.decided and taken.get(role, role) != role:
+            if role == "u" and taken[role] == "valve":
+                wrap = textwrap.wrap(_NO_U, 92 - len(indent), break_on_hyphens=False)
+                lines += [f"{indent}  # {text}" for text in wrap]
+            why = f"the file column {role!r} is the {taken[role]} column: no {role} column"
+            lines.append(f"{indent}  {role}: null{_comment(why)}")
     return [f"{indent}columns:", *lines] if lines else []
 
 

@@ -20,6 +20,7 @@ from spa.datasets.contract import (
     REQUIRED_COLUMNS,
     RUN_TABLE_FORMAT,
     SPEC_FILE,
+    unit_in_name,
 )
 from spa.datasets.options import csv_options
 from spa.datasets.problems import DatasetError, Problem
@@ -85,6 +86,10 @@ def _scan_run(
     present: dict[str, str] = {}
     for canon in CANONICAL_COLUMNS:
         name = run.columns[canon]
+        if name is None:  # left out under columns: (null)
+            if canon in REQUIRED_COLUMNS[run.kind]:
+                problems.append(problem(_left_out(run.kind, canon)))
+            continue
         try:
             found = source.resolve(name) is not None  # more names than columns: MATLAB
         except _ReadError as exc:
@@ -220,6 +225,20 @@ def _scan_run(
     return problems, check.summary(run)
 
 
+def _left_out(kind: str, canon: str) -> str:
+    """The error for a column a run's kind needs that ``columns:`` leaves out (null)."""
+    message = (
+        f"columns: leaves out {canon} (null), but a {kind} run needs {_QUANTITY[canon]} "
+        f"({canon}); name its column"
+    )
+    if canon == "u":  # a log of the valve command alone
+        message += (
+            "; a log of the 0/1 valve command alone serves as a pulse run (kind: pulse), "
+            "which identifies the delays"
+        )
+    return message
+
+
 def _scan_dataset(
     folder: Path, out_dir: Path | None, supply: tuple[float, float] | None = None
 ) -> tuple[_Parsed, list[Problem], list[RunSummary], dict[str, Path]]:
@@ -248,8 +267,10 @@ def _supply_problems(
     supply: tuple[float, float] | None,
     found: list[Problem],
 ) -> list[Problem]:
-    """A warning when the charge runs' highest pressure is no plausible supply pressure
-    (unless its run already has a warning about its pressure, from the data checks)."""
+    """A warning when the charge runs' highest pressure, their plateau, is no plausible
+    supply pressure, or is much likelier in another unit than the one declared (unless the
+    column's name states that unit: :func:`supply_warning`; and unless its run already has
+    a warning about its pressure, from the data checks)."""
     charges = [s for s in summaries if s.kind == "charge"]
     if not charges:
         return []
@@ -257,11 +278,12 @@ def _supply_problems(
     if any(p.run == top.run and not p.is_error and "pressure" in p.message for p in found):
         return []
     run = parsed.runs[[r.id for r in parsed.runs].index(top.run)]
-    what = f"the charge runs' highest pressure (run {top.run!r})"
-    message = supply_warning(top.p_max, what, run.pressure_unit, supply)
+    what = f"the charge runs' plateau (highest pressure, run {top.run!r})"
+    named = unit_in_name(run.columns["p"]) == run.pressure_unit  # "P_kPa" declared kPa
+    message = supply_warning(top.p_max, what, run.pressure_unit, supply, likelier=not named)
     if message is None:
         return []
-    return [Problem(top.file, top.run, None, None, message, level="warning")]
+    return [Problem(top.file, top.run, run.columns["p"], None, message, level="warning")]
 
 
 @fill_doc

@@ -12,7 +12,13 @@ import codecs
 from collections.abc import Mapping
 from typing import Any
 
-from spa.datasets.contract import _UNIT_KEYS, CANONICAL_COLUMNS, PRESSURE_UNITS, TIME_UNITS
+from spa.datasets.contract import (
+    _QUANTITY,
+    _UNIT_KEYS,
+    CANONICAL_COLUMNS,
+    PRESSURE_UNITS,
+    TIME_UNITS,
+)
 from spa.datasets.problems import _is_one_of, _one_of, _suggest, _unknown_key
 
 #: Keys of ``csv:``, and the values each takes.
@@ -167,13 +173,37 @@ def check_units(value: Any, base: Mapping[str, str], where: str) -> tuple[dict[s
     return merged, found
 
 
-def check_columns(value: Any, base: Mapping[str, str], where: str) -> tuple[dict[str, str], Found]:
+#: Canonical columns a ``columns:`` mapping may leave out with ``null`` (``t`` and ``p`` are
+#: read for every run).
+OPTIONAL_COLUMNS: tuple[str, ...] = tuple(c for c in CANONICAL_COLUMNS if c not in ("t", "p"))
+
+
+def check_columns(
+    value: Any, base: Mapping[str, str | None], where: str
+) -> tuple[dict[str, str | None], Found]:
     """Check a ``columns:`` mapping (canonical name to the name in the files) and merge it
     over ``base``; then check no file column serves two canonical ones.
 
     ``where`` is ``columns`` or ``runs[i].columns``; returns as for :func:`check_csv`.
+
+    Notes
+    -----
+    ``null`` for an optional canonical column (``valve``, ``u``, ``r``) leaves it out: the
+    files have no such column (merged value None). A canonical name standing for itself
+    (not mapped, or mapped to its own name by ``base``) gives way to a name of this mapping
+    that claims the same file column: ``{valve: u}`` on a ``time,u,pressure`` log, whose
+    only command column is the 0/1 valve, leaves ``u`` out. Two names of one mapping (or of
+    ``base``) given the same file column are a problem.
+
+    Examples
+    --------
+    >>> base = {c: c for c in CANONICAL_COLUMNS}
+    >>> check_columns({"valve": "u"}, base, "columns")[0]["u"] is None
+    True
+    >>> check_columns({"valve": "x", "u": "x"}, base, "columns")[1][0][1][:31]
+    "file column 'x' is used for sev"
     """
-    merged = dict(base)
+    merged: dict[str, str | None] = dict(base)
     if value is None:
         return merged, []
     if not isinstance(value, Mapping):
@@ -185,6 +215,7 @@ def check_columns(value: Any, base: Mapping[str, str], where: str) -> tuple[dict
             )
         ]
     found: Found = []
+    given: set[str] = set()
     for key, name in value.items():
         if key not in CANONICAL_COLUMNS:
             found.append(
@@ -192,6 +223,16 @@ def check_columns(value: Any, base: Mapping[str, str], where: str) -> tuple[dict
                     f"{where}.{key}",
                     f"unknown canonical column {key!r}{_suggest(key, CANONICAL_COLUMNS)}; "
                     f"allowed: {_one_of(CANONICAL_COLUMNS)}",
+                )
+            )
+        elif name is None and key in OPTIONAL_COLUMNS:
+            merged[key] = None
+        elif name is None:
+            found.append(
+                (
+                    f"{where}.{key}",
+                    f"{key!r} cannot be left out (null): every run needs its "
+                    f"{_QUANTITY[key]}; name its column",
                 )
             )
         elif not isinstance(name, str) or not name:
@@ -203,14 +244,23 @@ def check_columns(value: Any, base: Mapping[str, str], where: str) -> tuple[dict
             )
         else:
             merged[key] = name
-    names = list(merged.values())
-    for dup in sorted({n for n in names if names.count(n) > 1}):
+            given.add(key)
+    for dup in sorted({n for n in merged.values() if n is not None}):
         which = [c for c, n in merged.items() if n == dup]
+        if len(which) < 2:
+            continue
+        # a name standing for itself gives way to one this mapping gives the same column
+        yielding = [c for c in which if c == dup and c not in given and c in OPTIONAL_COLUMNS]
+        if yielding and len(which) - len(yielding) == 1:
+            merged[yielding[0]] = None
+            continue
+        optional = [c for c in which if c in OPTIONAL_COLUMNS]
+        leave = f"; or leave one out, e.g. {{{optional[-1]}: null}}" if optional else ""
         found.append(
             (
                 where,
                 f"file column {dup!r} is used for several canonical columns {which} (a "
-                "canonical name not mapped under columns: stands for itself)",
+                f"canonical name not mapped under columns: stands for itself{leave})",
             )
         )
     return merged, found

@@ -65,7 +65,7 @@ class RunEntry:
         Free text.
     columns : dict
         Column name in the run's file for each canonical name: the dataset's ``columns:``
-        overridden key by key by the run's.
+        overridden key by key by the run's; None for a column left out (``null``).
     units : dict
         ``{"time": unit, "pressure": unit}`` of the run's file: the dataset's ``units:``
         overridden key by key by the run's.
@@ -84,7 +84,9 @@ class RunEntry:
     file: str
     modulator: dict[str, Any] | None = None
     notes: str | None = None
-    columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
+    columns: dict[str, str | None] = field(
+        default_factory=lambda: {c: c for c in CANONICAL_COLUMNS}
+    )
     units: dict[str, str] = field(default_factory=lambda: {"time": "s", "pressure": "bar"})
     csv: dict[str, Any] = field(default_factory=dict)
     controller: dict[str, Any] | None = None
@@ -115,8 +117,8 @@ class DatasetSpec:
     time_unit, pressure_unit : str
         Units of the files (keys of :data:`TIME_UNITS` and :data:`PRESSURE_UNITS`).
     columns : dict
-        Column name in the files for each canonical name in :data:`CANONICAL_COLUMNS` (a run
-        may override it: see :attr:`RunEntry.columns`).
+        Column name in the files for each canonical name in :data:`CANONICAL_COLUMNS`, None
+        for one left out (a run may override it: see :attr:`RunEntry.columns`).
     csv : dict
         The dataset's ``csv:`` options, as written (runs hold the resolved ones).
     runs : tuple of RunEntry
@@ -132,7 +134,7 @@ class DatasetSpec:
     rig: dict[str, Any]
     time_unit: str
     pressure_unit: str
-    columns: dict[str, str]
+    columns: dict[str, str | None]
     runs: tuple[RunEntry, ...]
     csv: dict[str, Any] = field(default_factory=dict)
     recorded: str | None = None
@@ -167,7 +169,9 @@ class _Parsed:
     rig: dict[str, Any] = field(default_factory=dict)
     time_unit: str = "s"
     pressure_unit: str = "bar"
-    columns: dict[str, str] = field(default_factory=lambda: {c: c for c in CANONICAL_COLUMNS})
+    columns: dict[str, str | None] = field(
+        default_factory=lambda: {c: c for c in CANONICAL_COLUMNS}
+    )
     csv: dict[str, Any] = field(default_factory=dict)
     runs: list[RunEntry] = field(default_factory=list)
     recorded: str | None = None
@@ -247,7 +251,8 @@ def _parse_spec(folder: Path) -> _Parsed:
         if key not in doc:
             parsed.error(f"missing required key {key!r}")
 
-    _top_value(parsed, doc, "name", lambda name: _name_problem(name, folder.name))
+    here = Path(os.path.abspath(folder)).name  # "spa validate ." names the folder too
+    _top_value(parsed, doc, "name", lambda name: _name_problem(name, here))
     _top_value(parsed, doc, "description", _description_problem, str.strip)
     _top_value(parsed, doc, "origin", _origin_problem)
     _top_value(parsed, doc, "rig", _rig_problem, _plain)

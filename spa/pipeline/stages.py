@@ -371,10 +371,12 @@ STAGES: tuple[Stage, ...] = (
             RECOMMENDATION,
             "Closed loop: the PI to use",
             "The modulator setting and PI controller with the smallest worst-case rise time "
-            "over the set-point staircase among those overshooting at most 10 %, for this "
-            "dataset's identified valve (SIMC on the averaged model's local gain, time "
-            "constant and dead time); closed_loop/controllers.yaml holds the gains of every "
-            "setting: fixed, gain-scheduled, and gain-scheduled with feed-forward.",
+            "over the set-point staircase among those overshooting at most "
+            "closed_loop.max_overshoot (10 %; tau_c lengthened until one does, else none is "
+            "chosen), for this dataset's identified valve (SIMC on the averaged model's local "
+            "gain, time constant and dead time); closed_loop/controllers.yaml holds the gains "
+            "of every setting (fixed, gain-scheduled, and gain-scheduled with feed-forward) "
+            "and the settings left out on this valve, each with its reason.",
             required=False,
         ),
         Output(

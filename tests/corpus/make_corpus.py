@@ -569,6 +569,11 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
         lambda d: _case(d, runs=[STAIR], df=F),
         ["missing column 'u': a staircase run needs input fraction u (u)"],
     ),
+    "staircase_u_left_out": (
+        lambda d: _case(d, runs=[STAIR], df=F, columns={"u": None}),
+        ["[run 'stair1']: columns: leaves out u (null), but a staircase run needs input "
+         "fraction u (u)", "kind: pulse"],
+    ),
     "non_numeric": (
         lambda d: _case(d, df=_with(F, "p", 5, "abc")),
         ["[run 'charge1', column 'p', row 5 (line 6)]: non-numeric value; expected a number"],
