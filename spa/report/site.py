@@ -10,7 +10,8 @@ the list of pages. ``results/report.html`` is the same index with its links into
 ``report/``. Each page follows the rules of :mod:`spa.report`: offline, no script, its figures
 embedded, captions, the same bytes for the same inputs. The index embeds one figure (Fig. O1)
 and reads a few small files per dataset: its size and its job's memory hardly grow with the
-number of datasets.
+number of datasets. The report job removes the pages of datasets no longer in the run
+(:func:`remove_stale_pages`): a stale page is not served as current.
 """
 
 from __future__ import annotations
