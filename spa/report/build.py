@@ -169,11 +169,21 @@ def _section(
     """
     parts: list[str] = []
     toc: list[tuple[str, str]] = []
-    owners = _owners(section)
+    owners, states = _owners(section), states or {}
+    order = {st.name: i for i, st in enumerate(STAGES)}
+
+    def owner(item: Output) -> str:
+        return owners.get(item.path) or owners.get(str(Path(item.path).parent), "")
+
+    def place(item: Output) -> tuple[bool, int]:
+        # the key item (Table 3) first when its stage worked; else in its stage's place
+        first = item.key_item and not failed_here(states.get(owner(item)))
+        return not first, order.get(owner(item), -1)
+
     noted: set[str] = set()
-    for item in section_items(section, folder):
-        stage = owners.get(item.path) or owners.get(str(Path(item.path).parent), "")
-        status = (states or {}).get(stage)
+    for item in sorted(section_items(section, folder), key=place):
+        stage = owner(item)
+        status = states.get(stage)
         if failed_here(status):
             if stage not in noted:
                 noted.add(stage)
@@ -211,16 +221,22 @@ def dataset_body(
     """
     folder = results / name
     failures = dataset_failures(results, [name])
-    body, toc = _section(folder, "dataset", anchor, taken, drawn, dataset_statuses(results, name))
-    body += _mentions(folder, name) + ("" if drawn else _NOT_DRAWN)
+    states = dataset_statuses(results, name)
+    body, toc = _section(folder, "dataset", anchor, taken, drawn, states)
+    body += _mentions(folder, name, states) + ("" if drawn else _NOT_DRAWN)
     if name in failures:
         body = failure_box(failures, pages=False) + body
     return body, toc, name in failures
 
 
-def _mentions(folder: Path, name: str) -> str:
-    """A note naming the long tables of a dataset that the report does not reproduce."""
+def _mentions(
+    folder: Path, name: str, states: Mapping[str, Mapping[str, Any] | None] | None = None
+) -> str:
+    """A note naming the long tables of a dataset that the report does not reproduce (not
+    those of a stage that failed: placeholders)."""
+    owners, states = _owners("dataset"), states or {}
     present = [o.path for o in section_outputs("dataset") if o.mention]
+    present = [p for p in present if not failed_here(states.get(owners.get(p, "")))]
     present = [p for p in present if (folder / p).is_file()]
     if not present:
         return ""

@@ -99,7 +99,7 @@ def _advice(name: str, first: Mapping[str, Any]) -> str:
         )
     return (
         "The data is not known to be at fault: the stage failed on data the earlier stages "
-        f"accepted. Its log, in logs/{e(name)}/, has the details."
+        "accepted (its log has the details)."
     )
 
 
