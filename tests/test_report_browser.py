@@ -235,3 +235,39 @@ def test_small_config_site_in_the_browser(browser, request):
         assert stats["table3"], "no Table 3 shown"
     stats, console = open_report(browser, small_run / "report" / "analytic.html")
     check_site_page(stats, console, 2, 2)
+
+
+def test_a_dataset_with_a_failed_stage_in_the_browser(browser, fake_results, tmp_path):
+    """The closed-loop stage of ``sim`` crashed: its page still shows every other figure and
+    table, the stage named in their place (its contents entry resolves), and the index's
+    row, parameters kept and the failure named, fits the window."""
+    import shutil
+
+    from test_site import _run_dataset_stages
+
+    from spa.io import write_csv
+    from spa.plots.overview import plot_overview
+    from spa.plots.save import save_figure
+    from spa.report.overview import overview_row, overview_table
+    from spa.report.site import build_dataset_page, build_index
+
+    root = tmp_path / "results"
+    shutil.copytree(fake_results.root, root)
+    _run_dataset_stages(root, "sim", "closed_loop", IndexError("index 0 is out of bounds"))
+    failed = {"sim": "closed_loop"}
+    rows = [overview_row(root / n, n, None, "r", failed.get(n)) for n in fake_results.datasets]
+    write_csv(overview_table(rows), root / "overview.csv")
+    save_figure(plot_overview(overview_table(rows)), root / "overview.png")
+    meta = {"seed": 1, "spa version": spa.__version__}
+    page, index = tmp_path / "sim.html", tmp_path / "index.html"
+    page.write_text(build_dataset_page(root, "sim", meta), encoding="utf-8")
+    index.write_text(build_index(root, fake_results.datasets, meta), encoding="utf-8")
+    figures, tables = expected_counts_of(fake_results.root, "sim")
+    stats, console = open_report(browser, page)
+    # closed_loop: Figs. 10-11, its metrics and recorded-runs tables are not shown
+    check_site_page(stats, console, figures - 2, tables - 2)
+    assert stats["table3"], "no Table 3 shown"
+    stats, console = open_report(browser, index)
+    check_site_page(stats, console, 1, 2)  # Fig. O1; the summary and the overview table
+    ((width, room, rows),) = stats["summary"]
+    assert rows == 1 + len(fake_results.datasets) and width <= room

@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import shutil
 from datetime import date, timedelta
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from spa.report.overview import (
 from spa.report.site import build_analytic_page, build_dataset_page, build_index, page_name
 
 META = {"seed": 20251128, "spa version": spa.__version__}
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +86,7 @@ def test_failed_datasets_come_first_on_the_index(fake_results, site, tmp_path):
     assert index.index('<section id="failed">') < index.index('<section id="summary">')
     assert "Dataset sim (failed)" in index
     page = build_dataset_page(root, "sim", META)
-    assert "<img " not in page and "no &lt;charge&gt;" in page
+    assert "Fig. 2a" not in page and "no &lt;charge&gt;" in page
 
 
 def test_analytic_page(fake_results, site):
@@ -153,3 +155,262 @@ def test_drift_figure_flags_the_valve_change_at_the_right_session(tmp_path):
     rings = [line for line in ax.get_lines() if line.get_label() == "changed"]
     assert len(rings) == 1 and rings[0].get_xdata().tolist() == [21.0]  # days since the first
     assert "days since the first session (2025-03-01)" in ax.get_xlabel()
+
+
+# --- A failed stage hides nothing ----------------------------------------------------------
+
+
+def _run_dataset_stages(root, dataset: str, failing: str, error: Exception) -> None:
+    """Every stage of ``dataset`` as a run goes through them (spa.pipeline.status.run_stage),
+    its outputs already on disk: ``failing`` raises ``error``; the others do nothing, or are
+    skipped (placeholders) when they read the failed one."""
+    import logging
+    from types import SimpleNamespace
+
+    from spa.pipeline.jobs import Names
+    from spa.pipeline.outputs import STAGES, stage_outputs
+    from spa.pipeline.status import run_stage
+
+    def work(stage: str) -> None:
+        if stage == failing:
+            raise error
+
+    for stage in STAGES:
+        if not stage.per_dataset or stage.name in ("raw_manifest", "page"):
+            continue
+        job = SimpleNamespace(
+            output=Names(stage_outputs(stage.name, root, dataset)),
+            wildcards=Names({"dataset": dataset}),
+        )
+        run_stage(job, stage.name, lambda s=stage.name: work(s), logging.getLogger("test_site"))
+
+
+@pytest.fixture
+def broken_closed_loop(site, tmp_path):
+    """The results with the closed-loop stage of ``sim`` crashed by a bug (issue 29's bare
+    IndexError in the PI design) on data that the earlier stages accepted."""
+    root = tmp_path / "results"
+    shutil.copytree(site, root)
+    crash = IndexError("index 0 is out of bounds for axis 0 with size 0")
+    _run_dataset_stages(root, "sim", "closed_loop", crash)
+    return root
+
+
+def test_a_failed_stage_leaves_every_other_result_on_the_page(fake_results, broken_closed_loop):
+    import base64
+
+    from spa.pipeline.status import _EMPTY_PNG
+
+    page = build_dataset_page(broken_closed_loop, "sim", META)
+    # every figure of the stages that worked, none of the failed stage's (placeholders)
+    own = [p for p in fake_results.pngs if p.relative_to(fake_results.root).parts[0] == "sim"]
+    made = [p for p in own if p.parent.name != "closed_loop"]
+    assert page.count("<img ") == len(made) == len(own) - 2
+    assert base64.b64encode(_EMPTY_PNG).decode() not in page
+    for title in ("Identified valve parameters", "Table 3: static linearity", "Fig. 2a"):
+        assert title in page
+    assert "Recommended modulator for this valve" in page and "Closed loop: the PI" not in page
+    # the failed stage named with its one-line message, in its outputs' place
+    note = (
+        "Stage <code>closed_loop</code> (Closed loop) failed: <code>IndexError: index 0 is "
+        "out of bounds for axis 0 with size 0</code>"
+    )
+    assert page.count(note) == 1
+    assert page.index("Fig. 9: bicoherence") < page.index(note)
+    assert "Dataset sim (failed)" in page
+
+
+def test_fix_the_data_only_when_the_data_is_at_fault(broken_closed_loop, site, tmp_path):
+    from spa.identification import IdentificationError
+
+    page = build_dataset_page(broken_closed_loop, "sim", META)
+    assert "fix it" not in page.lower() and "spa validate" not in page
+    assert "The data is not known to be at fault" in page
+    index = build_index(broken_closed_loop, ["sim", "a<b&c"], META)
+    failed = index[index.index('<section id="failed">') : index.index('<section id="summary">')]
+    assert "fix it" not in failed.lower() and "not known to be at fault" in failed
+
+    root = tmp_path / "bad_data"
+    shutil.copytree(site, root)
+    _run_dataset_stages(
+        root, "sim", "identify", IdentificationError("discharge run 'd1': 80 samples")
+    )
+    page = build_dataset_page(root, "sim", META)
+    assert "The data is at fault: fix it" in page and "spa validate raw/sim" in page
+    assert "discharge run &#x27;d1&#x27;: 80 samples" in page
+
+
+def test_stages_skipped_for_a_failed_one_say_so_in_one_line(site, tmp_path):
+    from spa.identification import IdentificationError
+
+    root = tmp_path / "results"
+    shutil.copytree(site, root)
+    _run_dataset_stages(root, "sim", "identify", IdentificationError("no charge run"))
+    page = build_dataset_page(root, "sim", META)
+    assert "<img " not in page  # every stage after identification read its result
+    skipped = ["tune", "validate_model", "staircase", "sine", "chirp", "closed_loop"]
+    for stage in skipped:
+        line = f"Stage <code>{stage}</code> ("
+        assert page.count(line) == 1, stage
+        at = page.index(line)
+        assert page[at : page.index("</p>", at)].endswith(
+            "not run: stage <code>identify</code> failed."
+        )
+    assert page.count('class="note stage-skipped"') == len(skipped)
+    assert "Stage <code>identify</code> (Identification) failed: <code>IdentificationError: " in (
+        page
+    )
+
+
+def test_the_index_row_keeps_the_parameters_and_names_the_failed_stage(broken_closed_loop):
+    index = build_index(broken_closed_loop, ["sim", "a<b&c"], META)
+    summary = index[index.index('<section id="summary">') : index.index('<section id="overview">')]
+    row = re.search(r'<tr class="failed"><th scope="row"><a href="sim.html">.*?</tr>', summary)[0]
+    assert "0.5337<br><small>[0.5223, 0.5437]</small>" in row  # c1 with its interval
+    assert "median 54.73 %, lowest 12 %" in row  # the validation FIT
+    assert "IIPFM, t_l = 19.5 ms, G = 1.154 (J = 3.61 bar)" in row  # the recommendation
+    assert "FAILED at stage <code>closed_loop</code>" in row and "IndexError" in row
+    # the overview's row keeps them too
+    over = overview_row(broken_closed_loop / "sim", "sim", None, "r", failed="closed_loop")
+    assert over["status"] == "failed: closed_loop"
+    assert over["c1"] == pytest.approx(0.533 * 1.0012345) and over["fit_median"] > 50
+    assert over["recommended"].startswith("IIPFM")
+
+
+def test_a_failed_identification_leaves_the_row_without_parameters(site, tmp_path):
+    from spa.identification import IdentificationError
+
+    root = tmp_path / "results"
+    shutil.copytree(site, root)
+    _run_dataset_stages(root, "sim", "identify", IdentificationError("no charge run"))
+    summary = build_index(root, ["sim"], META)
+    row = re.search(r'<tr class="failed">.*?</tr>', summary)[0]
+    assert "<br><small>" not in row and "FAILED at stage <code>identify</code>" in row
+    over = overview_row(root / "sim", "sim", None, "r", failed="identify")
+    assert np.isnan(over["c1"]) and not over["recommended"]
+
+
+def _config_error() -> Exception:
+    from spa.pipeline.config import ConfigError
+
+    return ConfigError("closed_loop.tau_c: expected a positive number")
+
+
+def _tuning_error() -> Exception:
+    from spa.tuning.stage import TuningError
+
+    return TuningError("t_on: the 95 % interval [0.0, 0.00068] leaves the physical domain")
+
+
+def _identification_error() -> Exception:
+    from spa.identification import IdentificationError
+
+    return IdentificationError("discharge run 'd1' has only 80 samples")
+
+
+def _wrapped(error: Exception) -> Exception:
+    from spa.pipeline.status import naming_run
+
+    try:
+        with naming_run("s1", "staircase"):
+            raise error
+    except Exception as exc:  # the RunError naming the run
+        return exc
+    raise AssertionError("naming_run raised nothing")
+
+
+def _dataset_error() -> Exception:
+    from spa.datasets import DatasetError
+
+    return DatasetError("raw/d", [])
+
+
+@pytest.mark.parametrize(
+    ("make", "fault"),
+    [
+        (_identification_error, "data"),
+        (_dataset_error, "data"),
+        (lambda: _wrapped(ValueError("u goes down")), "stage"),  # a bare ValueError: not spa's
+        (lambda: _wrapped(_identification_error()), "data"),
+        (lambda: IndexError("index 0 is out of bounds"), "stage"),
+        (_tuning_error, "stage"),
+        (_config_error, "stage"),
+    ],
+)
+def test_whose_fault_a_failure_is_follows_the_error_class(make, fault, tmp_path):
+    """The rule of spa.pipeline.status.data_fault, recorded by run_stage in the status."""
+    from spa.errors import RunError
+    from spa.pipeline.status import data_fault, dataset_failures, failure_summary, read_status
+
+    error = make()
+    assert data_fault(error) is (fault == "data")
+    _run_dataset_stages(tmp_path, "d1", "sine", error)
+    status = read_status(tmp_path / "d1" / "status" / "sine.json")
+    assert status["ok"] is False and status["fault"] == fault
+    assert "fault" not in read_status(tmp_path / "d1" / "status" / "identify.json")
+    text = failure_summary(dataset_failures(tmp_path, ["d1"]))
+    assert ("(the data: fix it)" in text) is (fault == "data")
+    if isinstance(error, RunError):
+        assert "run 's1' (staircase)" in status["errors"][0]
+
+
+# --- Pages of datasets no longer in raw/ ---------------------------------------------------
+
+
+def _script(name: str, job) -> None:
+    """Run ``workflow/scripts/<name>.py`` as its rule would, ``job`` as ``snakemake``."""
+    import runpy
+
+    script = ROOT / "workflow" / "scripts" / f"{name}.py"
+    runpy.run_path(str(script), init_globals={"snakemake": job}, run_name="__main__")
+
+
+def test_a_dataset_removed_from_the_run_loses_its_page(fake_results, site, tmp_path):
+    """The overview and report jobs run with two datasets, then with one: the other's page is
+    removed, the index no longer lists it, the remaining page is unchanged, and nothing else
+    is touched (its results folder, a file of the user's in report/)."""
+    from types import SimpleNamespace
+
+    from spa.pipeline.jobs import Names
+    from spa.pipeline.outputs import stage_outputs
+
+    root = tmp_path / "results"
+    shutil.copytree(site, root)
+    report = root / "report"
+    rows = {}
+    for name in fake_results.datasets:  # each dataset's own job: its page and overview row
+        (report / page_name(name)).parent.mkdir(exist_ok=True)
+        (report / page_name(name)).write_text(build_dataset_page(root, name, META))
+        rows[name] = stage_outputs("page", root, name)["row"]
+        write_row(rows[name], overview_row(root / name, name, None, "bench"))
+    (report / "notes.html").write_text("<title>my notes</title>")
+
+    def run(datasets: list[str]) -> str:
+        log = [str(tmp_path / "report.log")]
+        inputs = Names({"rows": [rows[n] for n in datasets]})
+        _script(
+            "overview",
+            SimpleNamespace(input=inputs, output=Names(stage_outputs("overview", root)), log=log),
+        )
+        params = Names({"datasets": datasets, "seed": META["seed"]})
+        _script(
+            "report",
+            SimpleNamespace(output=Names(stage_outputs("report", root)), log=log, params=params),
+        )
+        return (report / "index.html").read_text()
+
+    both = run(fake_results.datasets)
+    assert 'href="a&lt;b&amp;c.html"' in both and (report / "a<b&c.html").is_file()
+    kept = (report / "sim.html").read_bytes()
+    index = run(["sim"])
+    assert not (report / "a<b&c.html").exists()
+    assert "a&lt;b&amp;c" not in index and "a<b&c" not in index
+    assert (report / "sim.html").read_bytes() == kept and 'href="sim.html"' in index
+    assert (report / "notes.html").is_file() and (report / "analytic.html").is_file()
+    assert (root / "a<b&c" / "identification" / "params.yaml").is_file()
+    assert (
+        "a<b&c.html: its dataset is no longer in the run" in (tmp_path / "report.log").read_text()
+    )
+    from spa.report.site import remove_stale_pages
+
+    assert remove_stale_pages(report, ["sim"]) == []  # nothing more to remove

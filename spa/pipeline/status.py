@@ -11,7 +11,9 @@ datasets with their first errors (:func:`dataset_failures`), and the final ``che
 ``reproduce-all`` exits non-zero naming them (:func:`failure_summary`).
 
 A status file is ``{"stage", "dataset", "ok", "errors": [...], "upstream"}``; ``upstream`` names
-the earlier stage that failed when this one was skipped for it.
+the earlier stage that failed when this one was skipped for it. A stage that failed itself also
+records whose fault it was, ``"fault": "data"`` or ``"stage"`` (:func:`data_fault`): the report
+tells the user to fix the data only for the first.
 
 An error of the machine rather than of the data (a full disk or quota, a file too large for
 ``ulimit -f``, a read-only or forbidden results folder, memory exhausted:
@@ -38,12 +40,15 @@ from typing import Any
 from spa.errors import ENVIRONMENT_ERRNOS, RunError
 
 __all__ = [
+    "DATA_ERRORS",
     "ENVIRONMENT_ERRNOS",
     "STATUS_DIR",
     "EnvironmentFailure",
     "RunError",
     "anticipated",
+    "data_fault",
     "dataset_failures",
+    "dataset_statuses",
     "environment_error",
     "failure_summary",
     "guard_environment",
@@ -135,6 +140,44 @@ def anticipated(exc: BaseException) -> bool:
     return isinstance(exc, ValueError) and type(exc).__module__.startswith("spa.")
 
 
+#: spa's error classes that say the recordings are at fault (:func:`data_fault`).
+DATA_ERRORS = frozenset({"DatasetError", "RunError", "IdentificationError"})
+
+
+def data_fault(exc: BaseException) -> bool:
+    """Whether a stage's failure is the data's: the user must fix the dataset.
+
+    The rule is the error's class. The data is at fault when spa raised one of
+    :data:`DATA_ERRORS` (or a subclass) about it: ``DatasetError`` (the dataset breaks the
+    contract of raw/README.md: what ``spa validate`` and the ingest refuse), ``RunError`` (a
+    run is not what its kind says) and ``IdentificationError`` (the recordings cannot
+    identify the valve: a missing run, too few samples, a valve that never opens). A
+    ``RunError`` that only wraps another library's error (:func:`naming_run` around an
+    ``IndexError`` from numpy) is not: nothing says the data is wrong. Every other error is
+    the stage's: a ``TuningError`` or a design that cannot use the identification's own
+    output, a ``ConfigError`` (the config, not the data), a bug. Then the data passed
+    validation, and the report says the stage failed on it rather than "fix the data".
+
+    Examples
+    --------
+    >>> data_fault(RunError("run 's1' (staircase): u goes down"))
+    True
+    >>> data_fault(IndexError("index 0 is out of bounds for axis 0 with size 0"))
+    False
+    >>> try:
+    ...     with naming_run("s1", "staircase"):
+    ...         [][0]
+    ... except RunError as exc:
+    ...     data_fault(exc)
+    False
+    """
+    own = [c for c in type(exc).__mro__ if c.__module__.startswith("spa.")]
+    if not any(c.__name__ in DATA_ERRORS for c in own):
+        return False
+    cause = exc.__cause__
+    return not (isinstance(exc, RunError) and cause is not None and not anticipated(cause))
+
+
 def _environment_message(what: str, cause: str) -> str:
     return (
         f"spa: {what} was stopped by its environment, not by its data: {cause}. Nothing was "
@@ -195,9 +238,11 @@ def write_status(
     errors: Iterable[str] = (),
     upstream: str | None = None,
     warnings: Iterable[str] = (),
+    fault: str | None = None,
 ) -> dict[str, Any]:
     """Write a stage's status file; ``errors`` empty means it worked (``warnings``, such as
-    an implausible supply pressure, are recorded when there are any)."""
+    an implausible supply pressure, are recorded when there are any; ``fault``, ``"data"``
+    or ``"stage"``, whose fault a failure is: :func:`data_fault`)."""
     errs = [str(e) for e in errors][:_MAX_ERRORS]
     status: dict[str, Any] = {
         "stage": stage,
@@ -206,6 +251,8 @@ def write_status(
         "errors": errs,
         "upstream": upstream,
     }
+    if errs and fault is not None:
+        status["fault"] = fault
     notes = [str(w) for w in warnings if isinstance(w, str)][:_MAX_ERRORS]
     if notes:
         status["warnings"] = notes
@@ -331,7 +378,8 @@ def run_stage(
         else:  # a bug: where it happened
             log.error("%s: stage %s failed:\n%s", dataset, stage, traceback.format_exc())
         _fill(smk, stage, errors[0])
-        write_status(status_path, stage, dataset, errors)
+        fault = "data" if data_fault(exc) else "stage"
+        write_status(status_path, stage, dataset, errors, fault=fault)
         return False
     write_status(status_path, stage, dataset, warnings=notes or ())
     return True
@@ -412,12 +460,29 @@ def dataset_failures(
     return out
 
 
+def dataset_statuses(results: str | Path, dataset: str) -> dict[str, dict[str, Any] | None]:
+    """Every dataset stage's status record (None: the stage did not run), in stage order.
+
+    Examples
+    --------
+    >>> dataset_statuses("nowhere", "d1")["identify"] is None
+    True
+    """
+    from spa.pipeline.outputs import STAGES
+
+    folder = Path(results) / dataset / STATUS_DIR
+    return {s.name: read_status(folder / f"{s.name}.json") for s in STAGES if s.per_dataset}
+
+
 def failure_summary(failures: Mapping[str, list[dict[str, Any]]]) -> str:
-    """One paragraph per failed dataset: the stage that failed and its first errors."""
+    """One paragraph per failed dataset: the stage that failed, whose fault (the data's or
+    the stage's, :func:`data_fault`) and its first errors."""
     lines = []
     for name, records in failures.items():
         first = next((r for r in records if not r.get("upstream")), records[0])
-        lines.append(f"dataset {name}: stage {first['stage']} failed")
+        fault = first.get("fault")
+        whose = {"data": " (the data: fix it)", "stage": " (the stage, not the data)"}
+        lines.append(f"dataset {name}: stage {first['stage']} failed{whose.get(fault, '')}")
         lines += [f"  {e}" for e in first.get("errors", [])[:5]]
         skipped = [r["stage"] for r in records if r.get("upstream")]
         if skipped:

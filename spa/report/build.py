@@ -13,8 +13,17 @@ import pandas as pd
 import yaml
 
 from spa.io import PNG_DPI
-from spa.pipeline.outputs import FIGURE, FIGURES, PARAMS, RECOMMENDATION, Output, section_outputs
-from spa.pipeline.status import dataset_failures
+from spa.pipeline.outputs import (
+    FIGURE,
+    FIGURES,
+    PARAMS,
+    RECOMMENDATION,
+    STAGES,
+    Output,
+    section_outputs,
+)
+from spa.pipeline.status import dataset_failures, dataset_statuses
+from spa.report.failure import failed_here, failure_box, stage_note
 from spa.report.html import (
     STYLE,
     embed_png,
@@ -28,7 +37,14 @@ from spa.report.params import fits_note, params_table
 from spa.report.summary import summary_html
 from spa.report.table3 import csv_download, table3_html
 
-__all__ = ["build_report", "document", "meta_list", "recommendation_html", "section_items"]
+__all__ = [
+    "build_report",
+    "dataset_body",
+    "document",
+    "meta_list",
+    "recommendation_html",
+    "section_items",
+]
 
 _PAPER = (
     "Serrano-Balbontín et al., Open-Loop Characterisation of Soft Actuator Pressure Regulated "
@@ -131,14 +147,51 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
     )
 
 
+def _owners(section: str) -> dict[str, str]:
+    """Output path -> the stage that writes it, for a section's outputs."""
+    return {o.path: st.name for st in STAGES if st.section == section for o in st.outputs}
+
+
 def _section(
-    folder: Path, section: str, prefix: str, taken: set[str], drawn: bool = True
+    folder: Path,
+    section: str,
+    prefix: str,
+    taken: set[str],
+    drawn: bool = True,
+    states: Mapping[str, Mapping[str, Any] | None] | None = None,
 ) -> tuple[str, list[tuple[str, str]]]:
     """The HTML of one section's items that exist and its table-of-contents entries; without
-    its figures when not ``drawn``."""
+    its figures when not ``drawn``.
+
+    ``states`` (stage -> its status record, :func:`spa.pipeline.status.dataset_statuses`):
+    the outputs of a stage that failed or was skipped are placeholders, not shown; one line
+    naming the stage and its message stands in their place (:func:`spa.report.failure.stage_note`).
+    """
     parts: list[str] = []
     toc: list[tuple[str, str]] = []
-    for item in section_items(section, folder):
+    owners, states = _owners(section), states or {}
+    order = {st.name: i for i, st in enumerate(STAGES)}
+
+    def owner(item: Output) -> str:
+        return owners.get(item.path) or owners.get(str(Path(item.path).parent), "")
+
+    def place(item: Output) -> tuple[bool, int]:
+        # the key item (Table 3) first when its stage worked; else in its stage's place
+        first = item.key_item and not failed_here(states.get(owner(item)))
+        return not first, order.get(owner(item), -1)
+
+    noted: set[str] = set()
+    for item in sorted(section_items(section, folder), key=place):
+        stage = owner(item)
+        status = states.get(stage)
+        if failed_here(status):
+            if stage not in noted:
+                noted.add(stage)
+                anchor = unique_anchor(f"{prefix}-stage-{stage}", taken)
+                parts.append(stage_note(stage, status or {}, anchor))
+                what = "not run" if (status or {}).get("upstream") else "failed"
+                toc.append((anchor, f"Stage {stage}: {what}"))
+            continue
         if not drawn and item.kind == FIGURE:
             continue
         path = folder / item.path
@@ -155,9 +208,35 @@ def _section(
     return "".join(parts), toc
 
 
-def _mentions(folder: Path, name: str) -> str:
-    """A note naming the long tables of a dataset that the report does not reproduce."""
+def dataset_body(
+    results: Path, name: str, anchor: str, taken: set[str], drawn: bool = True
+) -> tuple[str, list[tuple[str, str]], bool]:
+    """A dataset's section: every output its stages made, the failed and skipped stages
+    named in their place, and a box naming the failure first when one failed.
+
+    Returns
+    -------
+    tuple
+        The HTML, its table-of-contents entries, and whether a stage failed.
+    """
+    folder = results / name
+    failures = dataset_failures(results, [name])
+    states = dataset_statuses(results, name)
+    body, toc = _section(folder, "dataset", anchor, taken, drawn, states)
+    body += _mentions(folder, name, states) + ("" if drawn else _NOT_DRAWN)
+    if name in failures:
+        body = failure_box(failures, pages=False) + body
+    return body, toc, name in failures
+
+
+def _mentions(
+    folder: Path, name: str, states: Mapping[str, Mapping[str, Any] | None] | None = None
+) -> str:
+    """A note naming the long tables of a dataset that the report does not reproduce (not
+    those of a stage that failed: placeholders)."""
+    owners, states = _owners("dataset"), states or {}
     present = [o.path for o in section_outputs("dataset") if o.mention]
+    present = [p for p in present if not failed_here(states.get(owners.get(p, "")))]
     present = [p for p in present if (folder / p).is_file()]
     if not present:
         return ""
@@ -173,28 +252,6 @@ _NOT_DRAWN = (
     "the data of each are beside it as CSV, and <code>--config figures=all</code> or a list "
     "naming this dataset draws them.</p>\n"
 )
-
-
-def _failures_html(failures: Mapping[str, list[dict[str, Any]]]) -> str:
-    """A framed list of failed datasets: the stage that failed and its first errors."""
-    e = html.escape
-    items = []
-    for name, records in failures.items():
-        first = next((r for r in records if not r.get("upstream")), records[0])
-        errors = "".join(f"<li><code>{e(str(x))}</code></li>" for x in first["errors"][:5])
-        skipped = [r["stage"] for r in records if r.get("upstream")]
-        note = f" Not run because of it: {e(', '.join(skipped))}." if skipped else ""
-        items.append(
-            f"<li><strong>{e(name)}</strong>: stage <code>{e(str(first['stage']))}</code> "
-            f"failed; its log is logs/{e(name)}/.{note}<ul>{errors}</ul></li>"
-        )
-    return (
-        '<div class="key" style="border-color:#a33;background:#fdf3f3">\n'
-        "<p>These datasets produced no results; the other datasets are complete. Fix the "
-        "data (check a bench dataset with <code>spa validate raw/&lt;name&gt;</code>) and "
-        "run <code>snakemake reproduce-all</code> again.</p>\n"
-        f"<ul>{''.join(items)}</ul>\n</div>\n"
-    )
 
 
 def build_report(
@@ -252,21 +309,15 @@ def build_report(
     summary = summary_html(results, datasets, failures, {n: f"#{a}" for n, a in anchors.items()})
     sections.append(("summary", "Summary", summary, [("summary-table", "Summary per dataset")]))
     if failures:
-        sections.append(("failed", "Failed datasets", _failures_html(failures), []))
+        sections.append(("failed", "Failed datasets", failure_box(failures), []))
         taken.add("failed")
     body, toc = _section(results, "analytic", "analytic", taken)
     sections.append(("analytic", "Analytic (averaged model)", body, toc))
     for name in datasets:
-        folder = results / name
         anchor = anchors[name]
-        if name in failures:
-            body = _failures_html({name: failures[name]})
-            sections.append((anchor, f"Dataset {name} (failed)", body, []))
-            continue
         drawn = figures is None or name in figures
-        body, toc = _section(folder, "dataset", anchor, taken, drawn)
-        body += _mentions(folder, name) + ("" if drawn else _NOT_DRAWN)
-        sections.append((anchor, f"Dataset {name}", body, toc))
+        body, toc, failed = dataset_body(results, name, anchor, taken, drawn)
+        sections.append((anchor, f"Dataset {name}" + (" (failed)" if failed else ""), body, toc))
 
     header = f"<p>Tables and figures of one run reproducing {html.escape(_PAPER)}</p>\n"
     header += meta_list({**meta, "datasets": ", ".join(datasets)})

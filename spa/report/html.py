@@ -66,7 +66,9 @@ tbody tr:nth-child(even){background:#fafbfc}
 th.paper{background:#f6ead2}td.paper{background:#fdf6e8;font-style:italic}
 .scroll{overflow-x:auto}
 .key{border:2px solid #345;background:#f7fafc;padding:.2em 1em .6em;margin:1em 0}
-p.note{font-size:.9em;color:#444}
+p.note{font-size:.9em;color:#444}div.failed{color:#a33}
+p.stage-failed{color:#a33;border-left:3px solid #a33;padding-left:.5em}
+p.stage-skipped{border-left:3px solid #ccd;padding-left:.5em}
 table.t3{font-size:.82em}table.t3 th{text-align:center}table.t3 td{padding:.2em .35em}
 table.t3 td.text{min-width:0}
 table.summary td small{color:#555}table.summary td{white-space:nowrap}

@@ -81,6 +81,19 @@ def _read_yaml(path: Path) -> dict[str, Any]:
     return doc if isinstance(doc, dict) else {}
 
 
+def _lost_stages(folder: Path) -> set[str]:
+    """The stages of a dataset folder whose status says they failed or were skipped: their
+    outputs are placeholders."""
+    from spa.pipeline.status import STATUS_DIR, read_status
+
+    lost = set()
+    for path in sorted((folder / STATUS_DIR).glob("*.json")):
+        status = read_status(path)
+        if status is not None and not status.get("ok", False):
+            lost.add(path.stem)
+    return lost
+
+
 def overview_row(
     folder: str | Path,
     name: str,
@@ -102,7 +115,10 @@ def overview_row(
     rig : str
         Its rig's short name (:func:`rig_label`).
     failed : str or None
-        The stage that failed, if one did: its numbers are left empty.
+        The stage that failed, if one did (the status). The numbers of each stage that
+        worked are kept: the parameters when identification worked, whatever failed after
+        it; a stage that failed or was skipped (its status file, ``<folder>/status``) leaves
+        its numbers empty.
 
     Returns
     -------
@@ -118,7 +134,8 @@ def overview_row(
         "rig": rig,
         "status": f"failed: {failed}" if failed else "ok",
     }
-    params = {} if failed else _read_yaml(folder / "identification" / "params.yaml")
+    lost = _lost_stages(folder) if failed else set()
+    params = {} if "identify" in lost else _read_yaml(folder / "identification" / "params.yaml")
     for p in PARAM_NAMES:
         entry = params.get(p) if isinstance(params.get(p), Mapping) else {}
         for suffix, key in (("", "value"), ("_lo", "lo"), ("_hi", "hi")):
@@ -126,13 +143,13 @@ def overview_row(
             row[p + suffix] = float(value) if isinstance(value, int | float) else float("nan")
     fit_path = folder / "validation" / "fit.csv"
     fit = pd.Series(dtype=float)
-    if not failed and fit_path.is_file():
+    if "validate_model" not in lost and fit_path.is_file():
         table = pd.read_csv(fit_path)
         if "fit_percent" in table:
             fit = pd.to_numeric(table["fit_percent"], errors="coerce").dropna()
     row["fit_median"] = float(fit.median()) if len(fit) else float("nan")
     row["fit_min"] = float(fit.min()) if len(fit) else float("nan")
-    rec = {} if failed else _read_yaml(folder / "tuning" / "recommendation.yaml")
+    rec = {} if "tune" in lost else _read_yaml(folder / "tuning" / "recommendation.yaml")
     best = rec.get("recommended") if isinstance(rec.get("recommended"), Mapping) else {}
     row["recommended"] = str(best.get("description") or best.get("label") or "")
     for key in ("J", "J_exact"):

@@ -10,7 +10,8 @@ the list of pages. ``results/report.html`` is the same index with its links into
 ``report/``. Each page follows the rules of :mod:`spa.report`: offline, no script, its figures
 embedded, captions, the same bytes for the same inputs. The index embeds one figure (Fig. O1)
 and reads a few small files per dataset: its size and its job's memory hardly grow with the
-number of datasets.
+number of datasets. The report job removes the pages of datasets no longer in the run
+(:func:`remove_stale_pages`): a stale page is not served as current.
 """
 
 from __future__ import annotations
@@ -21,18 +22,18 @@ from pathlib import Path
 from typing import Any
 
 from spa.pipeline.status import dataset_failures
-from spa.report.build import (
-    _NOT_DRAWN,
-    _PAPER,
-    _failures_html,
-    _mentions,
-    _section,
-    document,
-    meta_list,
-)
+from spa.report.build import _PAPER, _section, dataset_body, document, meta_list
+from spa.report.failure import failure_box
 from spa.report.summary import summary_html
 
-__all__ = ["INDEX", "build_analytic_page", "build_dataset_page", "build_index", "page_name"]
+__all__ = [
+    "INDEX",
+    "build_analytic_page",
+    "build_dataset_page",
+    "build_index",
+    "page_name",
+    "remove_stale_pages",
+]
 
 INDEX = "index.html"
 """The index page's file name in ``results/report/``."""
@@ -56,6 +57,46 @@ def page_name(dataset: str) -> str:
     return f"{dataset}.html"
 
 
+_PAGE_MARK = "<title>spa: dataset "
+"""What the head of every dataset's page holds (:func:`build_dataset_page`'s title)."""
+
+
+def remove_stale_pages(report_dir: str | Path, datasets: Sequence[str]) -> list[Path]:
+    """Remove the pages of datasets that are no longer in the run (no longer in raw/).
+
+    A stale page would be served as current beside the index that no longer lists it, so it
+    goes. Only files directly in ``report_dir`` (``results/report/``) named ``<name>.html``
+    whose head is a dataset's page of this report (its ``<title>spa: dataset ...``) are
+    removed; the index, the analytic page, the run's datasets' pages and any other file stay.
+    The dataset's results folder (``results/<name>/``) is left alone, and nothing outside
+    ``report_dir`` is touched (raw/ never).
+
+    Parameters
+    ----------
+    report_dir : str or Path
+        The report's folder, ``results/report``.
+    datasets : sequence of str
+        The run's datasets: their pages are kept.
+
+    Returns
+    -------
+    list of Path
+        The removed pages, sorted.
+    """
+    folder = Path(report_dir)
+    keep = {INDEX, _ANALYTIC, *(f"{name}.html" for name in datasets)}
+    removed = []
+    for path in sorted(folder.glob("*.html")) if folder.is_dir() else []:
+        if path.name in keep or path.is_symlink() or not path.is_file():
+            continue
+        with path.open("rb") as handle:
+            head = handle.read(16384).decode("utf-8", errors="replace")
+        if _PAGE_MARK in head:
+            path.unlink()
+            removed.append(path)
+    return removed
+
+
 def _back(prefix: str = "") -> str:
     return (
         f'<p class="note"><a href="{prefix}{INDEX}">Index of the run</a> · '
@@ -66,7 +107,9 @@ def _back(prefix: str = "") -> str:
 def build_dataset_page(
     results_dir: str | Path, dataset: str, meta: Mapping[str, Any], drawn: bool = True
 ) -> str:
-    """One dataset's page: every table and figure of its folder, or why it failed.
+    """One dataset's page: every table and figure its stages made; a stage that failed is
+    named with its one-line message, first in a box and in its outputs' place
+    (:func:`spa.report.build.dataset_body`).
 
     Parameters
     ----------
@@ -88,19 +131,13 @@ def build_dataset_page(
     Raises
     ------
     FileNotFoundError
-        If a required output of a dataset that did not fail is missing.
+        If a required output of a stage that did not fail is missing.
     """
-    results = Path(results_dir)
-    failures = dataset_failures(results, [dataset])
     anchor = "dataset"
-    if dataset in failures:
-        body, toc = _failures_html(failures), []
-        heading = f"Dataset {dataset} (failed)"
-    else:
-        folder = results / dataset
-        body, toc = _section(folder, "dataset", anchor, {"contents", anchor}, drawn)
-        body += _mentions(folder, dataset) + ("" if drawn else _NOT_DRAWN)
-        heading = f"Dataset {dataset}"
+    body, toc, failed = dataset_body(
+        Path(results_dir), dataset, anchor, {"contents", anchor}, drawn
+    )
+    heading = f"Dataset {dataset}" + (" (failed)" if failed else "")
     header = _back() + meta_list({**meta, "dataset": dataset})
     return document(f"spa: dataset {dataset}", header, [(anchor, heading, body, toc)])
 
@@ -163,7 +200,7 @@ def build_index(
     sections: list[tuple[str, str, str, list[tuple[str, str]]]] = []
     e = html.escape
     if failures:
-        sections.append(("failed", "Failed datasets", _failures_html(failures), []))
+        sections.append(("failed", "Failed datasets", failure_box(failures), []))
     summary = summary_html(results, datasets, failures, links)
     sections.append(("summary", "Summary", summary, [("summary-table", "Summary per dataset")]))
     taken = {"contents", "failed", "summary", "summary-table", "overview", "pages"}

@@ -2,8 +2,9 @@
 
 Per dataset: the identified valve parameters with their 95 % intervals
 (``identification/params.yaml``), the validation FIT over its runs (``validation/fit.csv``)
-and the recommended modulator (``tuning/recommendation.yaml``); a dataset that failed gets
-the stage that failed and its first errors instead (:func:`spa.pipeline.status.dataset_failures`).
+and the recommended modulator (``tuning/recommendation.yaml``), each when its stage worked; a
+dataset with a failed stage (:func:`spa.pipeline.status.dataset_failures`) also gets the
+stage that failed and its first errors.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from typing import Any
 import pandas as pd
 
 from spa.io import read_yaml
+from spa.pipeline.status import dataset_statuses
+from spa.report.failure import failed_here, first_failure, one_line
 from spa.report.html import format_value
 from spa.report.params import PARAM_NAMES
 
@@ -29,7 +32,8 @@ SUMMARY_CAPTION = (
     "Per dataset: each identified valve parameter, its 95 % interval below it; the validation "
     "FIT (every run re-simulated with those parameters): median over the runs and the lowest, "
     "with its run; the modulator setting the tuning recommends for this valve and its "
-    "linearity cost J. A dataset that failed shows the stage that failed and its first errors."
+    "linearity cost J. A dataset with a failed stage shows what its other stages made, the "
+    "stage that failed and its first errors."
 )
 """The summary table's caption."""
 
@@ -80,28 +84,60 @@ def _recommendation(path: Path) -> str:
     return str(rec.get("failed") or rec.get("sentence") or "no recommendation")
 
 
-def _dataset_row(folder: Path, name: str, link: str) -> str:
+def _stage_failed(status: Mapping[str, Any] | None) -> str:
+    """``" (stage tune failed)"``, ``" (stage identify failed)"`` for a skipped one, or ``""``."""
+    if status is None or not failed_here(status):
+        return ""
+    return f" (stage {status.get('upstream') or status.get('stage')} failed)"
+
+
+def _failed_note(name: str, records: list[dict[str, Any]]) -> str:
+    """``FAILED at stage <code>x</code> (log: ...)`` and its first errors, one line each."""
     e = html.escape
+    first = first_failure(records)
+    errors = "".join(f"<li><code>{e(one_line(x))}</code></li>" for x in first["errors"][:3])
+    return (
+        f"FAILED at stage <code>{e(str(first['stage']))}</code> (log: logs/{e(name)}/)"
+        f"<ul>{errors}</ul>"
+    )
+
+
+def _dataset_row(
+    results: Path, name: str, link: str, records: list[dict[str, Any]] | None = None
+) -> str:
+    """A dataset's row: what each stage that worked made, and the stage that failed.
+
+    The parameters are shown when identification worked, whatever failed after it; the
+    validation FIT and the recommendation when their stages worked; a dataset with a failed
+    stage has ``FAILED at stage ...`` in its last cell (in place of everything, when it was
+    not identified).
+    """
+    e = html.escape
+    folder = results / name
+    states = dataset_statuses(results, name)
+    head = f'<th scope="row"><a href="{e(link)}">{e(name)}</a></th>'
+    if records and failed_here(states.get("identify")):
+        width = len(PARAM_NAMES) + 2
+        note = _failed_note(name, records)
+        return f'<tr class="failed">{head}<td class="text" colspan="{width}">{note}</td></tr>\n'
     params = read_yaml(folder / "identification" / "params.yaml")
-    cells = [f'<th scope="row"><a href="{e(link)}">{e(name)}</a></th>']
+    cells = [head]
     cells += [f'<td class="num">{param_cell(params[n], n)}</td>' for n in PARAM_NAMES]
     fit_path = folder / "validation" / "fit.csv"
-    fit = fit_summary(pd.read_csv(fit_path)) if fit_path.is_file() else "not validated"
+    if failed_here(states.get("validate_model")) or not fit_path.is_file():
+        fit = "not validated" + _stage_failed(states.get("validate_model"))
+    else:
+        fit = fit_summary(pd.read_csv(fit_path))
     cells.append(f'<td class="text">{e(fit)}</td>')
-    rec = _recommendation(folder / "tuning" / "recommendation.yaml")
-    cells.append(f'<td class="text">{e(rec)}</td>')
-    return f"<tr>{''.join(cells)}</tr>\n"
-
-
-def _failed_row(name: str, records: list[dict[str, Any]], link: str) -> str:
-    e = html.escape
-    first = next((r for r in records if not r.get("upstream")), records[0])
-    errors = "".join(f"<li><code>{e(str(x))}</code></li>" for x in first["errors"][:3])
-    return (
-        f'<tr class="failed"><th scope="row"><a href="{e(link)}">{e(name)}</a></th>'
-        f'<td class="text" colspan="{len(PARAM_NAMES) + 2}">FAILED at stage '
-        f"<code>{e(str(first['stage']))}</code> (log: logs/{e(name)}/)<ul>{errors}</ul></td></tr>\n"
-    )
+    if failed_here(states.get("tune")):
+        rec = e("not tuned" + _stage_failed(states.get("tune")))
+    else:
+        rec = e(_recommendation(folder / "tuning" / "recommendation.yaml"))
+    if records:
+        rec += f'<div class="failed">{_failed_note(name, records)}</div>'
+    cells.append(f'<td class="text">{rec}</td>')
+    kind = ' class="failed"' if records else ""
+    return f"<tr{kind}>{''.join(cells)}</tr>\n"
 
 
 def summary_html(
@@ -133,12 +169,7 @@ def summary_html(
     head = "".join(
         f"<th>{n} ({_SCALE[n][1] if n in _SCALE else _UNITS[n]})</th>" for n in PARAM_NAMES
     )
-    rows = []
-    for name in datasets:
-        if name in failures:
-            rows.append(_failed_row(name, failures[name], links[name]))
-            continue
-        rows.append(_dataset_row(Path(results) / name, name, links[name]))
+    rows = [_dataset_row(Path(results), n, links[n], failures.get(n)) for n in datasets]
     return (
         '<figure id="summary-table">\n<h3>Summary per dataset</h3>\n<div class="scroll">'
         f'<table class="summary">\n<thead><tr><th>dataset</th>{head}<th>validation FIT</th>'
