@@ -169,3 +169,14 @@ def test_a_valve_that_opens_at_once_is_tuned(t_on: float) -> None:
     result = tune(ident, sweeps=COARSE, n_xi=20)
     assert result.recommendation["recommended"] is not None
     assert np.isfinite(result.table2["J_min_lo"]).all()
+
+
+def test_the_page_names_what_was_left_out_on_the_valve() -> None:
+    """Issue 29 item 1: a setting left out is named with its reason on the page too."""
+    from spa.report.build import recommendation_html
+
+    valve = ValveParams(c1=0.6, k2=2.0, tau2=0.5, t_on=0.005, t_off=0.025)
+    res = closed_loop(valve, SETTINGS[:3], None, CLOSED)
+    page = recommendation_html(res.controllers)
+    assert "Left out or adjusted on this valve" in page
+    assert "iipfm-20ms-G1.15: unusable on this valve: it needs t_l &gt; t_off" in page

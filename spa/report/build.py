@@ -96,7 +96,8 @@ def section_items(section: str, folder: str | Path) -> list[Output]:
 def recommendation_html(rec: Any) -> str:
     """The recommendation as HTML: its sentence, then the recommended setting as the
     ``dataset.yaml`` block of a run that uses it (``recommended.setting`` of
-    ``tuning/recommendation.yaml``).
+    ``tuning/recommendation.yaml``), then what was left out on the valve (``skipped`` of
+    ``closed_loop/controllers.yaml``) or clipped (``intervals_clipped``), each with its reason.
 
     Examples
     --------
@@ -114,6 +115,15 @@ def recommendation_html(rec: Any) -> str:
     if isinstance(setting, Mapping) and setting:
         block = yaml.safe_dump({"modulator": dict(setting)}, sort_keys=False).rstrip()
         body += f"<pre>{html.escape(block)}</pre>"
+    notes = [*dict(rec.get("skipped") or {}).values()]
+    notes += [
+        f"{k}'s 95 % interval: {v}" for k, v in dict(rec.get("intervals_clipped") or {}).items()
+    ]
+    if notes:
+        items = "".join(f"<li>{html.escape(str(n))}</li>" for n in notes)
+        body += (
+            f'<p class="note">Left out or adjusted on this valve:</p><ul class="note">{items}</ul>'
+        )
     return body
 
 
