@@ -361,28 +361,35 @@ def fit_discharge(
         "no discharge run: c1 needs experiment 2 (valve closed from the supply pressure "
         "down to 0 bar)",
     )
-    if np.any(x <= 0) or np.any(y >= 0):
+    # A short run needs a short window, whose derivative is noisy: near the tail a few points
+    # may show dP/dt >= 0. They stay in the c1 fit (unbiased); only the log-log start of the
+    # free power law needs P > 0 and dP/dt < 0.
+    exhausting = (x > 0) & (y < 0)
+    if exhausting.mean() < 0.8 or np.median(y) >= 0:
         raise IdentificationError(
-            f"discharge runs {[s.rid for s in segs]}: the used points must have P > 0 and "
-            "dP/dt < 0; the pressure is not exhausting"
+            f"discharge runs {[s.rid for s in segs]}: only {100 * exhausting.mean():.0f} % of "
+            "the used points have P > 0 and dP/dt < 0 (need 80 %); the pressure is not "
+            "exhausting"
         )
-    if x.max() < 2.0 * x.min():
+    if x.max() < 2.0 * max(x.min(), 0.0) or x.max() <= 0:
         raise IdentificationError(
             f"discharge runs {[s.rid for s in segs]}: the used pressure only spans "
             f"{x.min():.3g}-{x.max():.3g} bar; the power law needs the pressure to fall at least "
             "by half (run the discharge longer)"
         )
     c1 = float(_c1_stat(x, y)[0])
-    r2 = _r2(y, -np.sqrt(x) / c1)
+    r2 = _r2(y, -np.sqrt(np.maximum(x, 0.0)) / c1)
     # Free power law, started from the log-log line.
-    b0, la0 = np.polyfit(np.log(x), np.log(-y), 1)
+    xe, ye = x[exhausting], y[exhausting]
+    b0, la0 = np.polyfit(np.log(xe), np.log(-ye), 1)
+    xp, yp = x[x > 0], y[x > 0]
     try:
         (a, b), _ = curve_fit(
-            lambda xx, aa, bb: -aa * xx**bb, x, y, p0=(math.exp(la0), b0), maxfev=2000
+            lambda xx, aa, bb: -aa * xx**bb, xp, yp, p0=(math.exp(la0), b0), maxfev=2000
         )
     except RuntimeError:  # pragma: no cover - the log-log start is already close
         a, b = math.exp(la0), b0
-    r2_power = _r2(y, -a * x**b)
+    r2_power = _r2(yp, -a * xp**b)
     for s in segs:
         tau = s.t - s.t[0]
         root = np.sqrt(np.maximum(s.p, 0.0)) + tau / (2.0 * c1)
