@@ -30,7 +30,10 @@ DOCDICT: dict[str, str] = {
     "dataset_folder": "folder : str or path-like\n    The dataset folder, ``raw/<name>``.",
     "derivative_fit": """\
 window : float, default 0.1
-    Savitzky–Golay window in s for the smoothed pressure and its derivative.
+    Savitzky–Golay window in s for the smoothed pressure and its derivative. A run whose fit
+    span is shorter than about three windows gets the largest odd window of about a third of
+    its span instead (at least ``polyorder + 2`` samples); the fit's ``window`` and method
+    say so.
 polyorder : int, default 3
     Savitzky–Golay polynomial order.
 skip : float, default 0.03

@@ -39,6 +39,7 @@ def identify(
     supply_fraction: float = 0.9,
     max_delay: float = 0.05,
     min_edges: int = 3,
+    guard: float = 0.03,
     n_boot: int = 200,
     seed: int = 0,
     fallback: ValveParams | None = None,
@@ -58,6 +59,9 @@ def identify(
         Largest ``t_on``/``t_off`` searched, s.
     min_edges : int, optional
         Responding rising/falling edges needed for ``t_on``/``t_off``.
+    guard : float, optional
+        Time after every command edge of the pulse runs left out of the delay fit, s
+        (sensor ringing; see :func:`fit_delays`).
     n_boot : int, optional
         Bootstrap replicates.
     seed : int, optional
@@ -93,6 +97,7 @@ def identify(
         "supply_fraction": float(supply_fraction),
         "max_delay": float(max_delay),
         "min_edges": int(min_edges),
+        "guard": float(guard),
         "n_boot": int(n_boot),
         "seed": int(seed),
     }
@@ -134,7 +139,7 @@ def identify(
     start = ValveParams(c1.value, k2.value, tau2.value)  # t_on, t_off: found by grid search
     dfit, (t_on, t_off) = attempt(
         fit_delays, ("t_on", "t_off"), pulse or {}, start,
-        prior_sd=prior_sd, max_delay=max_delay, min_edges=min_edges,
+        prior_sd=prior_sd, max_delay=max_delay, min_edges=min_edges, guard=guard,
     )  # fmt: skip
     return IdentificationResult(
         c1=c1,

@@ -169,6 +169,9 @@ class _Segment:
     points: pd.DataFrame  # all points after the edge, for the figure
     ref: FloatArray = field(default_factory=lambda: np.empty(0))  # reference curve (bootstrap)
     resid: FloatArray = field(default_factory=lambda: np.empty(0))  # p - ref
+    shortened: bool = False  # w is shorter than the configured window (a short run)
+    tf: FloatArray = field(default_factory=lambda: np.empty(0))  # fit span (no trims): times
+    pf: FloatArray = field(default_factory=lambda: np.empty(0))  # ... and measured pressure
 
 
 def _select_edge(valve: np.ndarray | None, rising: bool, rid: str, kind: str) -> tuple[int, int]:
@@ -213,7 +216,7 @@ def _segment(
     """
     t, p, valve = _arrays(table, rid)
     tg, pg, vg, dt = _uniform(t, p, valve)
-    w = _window_samples(window, polyorder, dt, None)
+    w = w_asked = _window_samples(window, polyorder, dt, None)
     w_min = polyorder + 2 + (polyorder + 1) % 2  # the smallest odd window > polyorder + 1
     if tg.size < w_min:
         raise IdentificationError(
@@ -229,6 +232,7 @@ def _segment(
             onset_fraction, tail_fraction,
         )  # fmt: skip
         if seg is not None:
+            seg.shortened = w < w_asked
             if w < w_first:
                 _LOG.info(
                     "%s run %r: Savitzky-Golay window shortened from %d to %d samples (%.3g s), "
@@ -292,7 +296,8 @@ def _segment_at(
         below = np.flatnonzero(ps[k_onset : k_end + 1] < tail_fraction * p_a)
         if below.size:
             t_last = min(t_last, tg[k_onset + int(below[0])] - 0.5 * dt)
-    span = int(np.sum((tg >= t_first - 1e-9 * dt) & (tg <= t_last + 1e-9 * dt)))
+    in_span = (tg >= t_first - 1e-9 * dt) & (tg <= t_last + 1e-9 * dt)
+    span = int(np.sum(in_span))
     t_start, t_stop = t_first + half * dt, t_last - half * dt
     used_all = (tg >= t_start - 1e-9 * dt) & (tg <= t_stop + 1e-9 * dt)
     idx = np.flatnonzero(used_all)
@@ -320,6 +325,8 @@ def _segment_at(
         dt=dt,
         used=used_all[region],
         points=points,
+        tf=tg[in_span],
+        pf=pg[in_span],
     )
     return seg, span
 
