@@ -55,7 +55,9 @@ def one_valve(params: ValveParams, index: int, config: dict, seed: int) -> dict:
     dt = float(cfg["controller_dt"])
     sensor = Sensor.from_mapping(cfg["sensor"])
     specs = identification_runs(params, dt, **identification_experiment_for(params))
-    runs = {s.id: simulate_run(s, params, dt, sensor, run_seed(seed, f"v{index}", s.id)) for s in specs}
+    runs = {
+        s.id: simulate_run(s, params, dt, sensor, run_seed(seed, f"v{index}", s.id)) for s in specs
+    }
     kinds = {s.id: s.kind for s in specs}
     row: dict = {"valve": index, **{f"true_{k}": getattr(params, k) for k in NAMES}}
     start = time.perf_counter()
@@ -63,7 +65,7 @@ def one_valve(params: ValveParams, index: int, config: dict, seed: int) -> dict:
         res = identify_with_config(runs, kinds, config, seed=seed)
     except IdentificationError as err:
         row["error"] = f"IdentificationError: {err}"
-    except Exception as err:  # noqa: BLE001 - the benchmark reports every failure
+    except Exception as err:  # the benchmark reports every failure
         row["error"] = f"{type(err).__name__}: {err}"
     else:
         row["error"] = ""
@@ -114,7 +116,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for i, params in enumerate(draw_valves(args.n, args.seed)):
         rows.append(one_valve(params, i, config, args.seed))
-        print(f"valve {i}: {rows[-1]['error'] or 'ok'} ({rows[-1]['seconds']:.1f} s)", file=sys.stderr)
+        print(
+            f"valve {i}: {rows[-1]['error'] or 'ok'} ({rows[-1]['seconds']:.1f} s)", file=sys.stderr
+        )
     table = pd.DataFrame(rows)
     if args.csv:
         Path(args.csv).parent.mkdir(parents=True, exist_ok=True)

@@ -43,9 +43,10 @@ onset_fraction : float, default 0.02
     The response has started once the smoothed pressure has covered this fraction of the
     total rise.
 n_boot : int, default 200
-    Bootstrap replicates for the 95 % intervals.
+    Not used (the intervals come from the fit covariance); checked (>= 20) and kept so that
+    configurations written for the earlier bootstrap stay valid.
 seed : int, default 0
-    Seed of the :class:`numpy.random.Generator` of the bootstrap.""",
+    Not used (the fits are deterministic); kept likewise.""",
 }
 
 _SLOT = re.compile(r"^([ \t]*)%\((\w+)\)s[ \t]*$", re.M)

@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from spa import ValveParams
-from spa.identification import IdentificationError, fit_discharge, identify_runs
+from spa.identification import IdentificationError, fit_charge, fit_discharge, identify_runs
 from spa.synthetic import Ringing, Sensor, identification_experiment_for, identification_runs
 from spa.synthetic.runs import run_seed, simulate_run
 
@@ -33,8 +33,9 @@ RANGE = {
 }
 
 
-def _runs(params: ValveParams, seed: int, sensor: Sensor = SENSOR):
+def _runs(params: ValveParams, seed: int, sensor: Sensor = SENSOR, only: tuple = ()):
     specs = identification_runs(params, DT, **identification_experiment_for(params))
+    specs = [s for s in specs if not only or s.id in only]
     runs = {s.id: simulate_run(s, params, DT, sensor, run_seed(seed, "range", s.id)) for s in specs}
     return runs, {s.id: s.kind for s in specs}
 
@@ -66,7 +67,7 @@ def test_small_fast_valve_discharge_gives_c1():
     """Empty in 0.13 s: the derivative window shrinks to the run instead of refusing it."""
     truth = SMALL_FAST
     assert 2 * truth.c1 * math.sqrt(truth.k2) < 0.14  # the time to empty, Eq. A1
-    runs, kinds = _runs(truth, seed=3)
+    runs, _kinds = _runs(truth, seed=3)
     fit = fit_discharge({"discharge": runs["discharge"]}, n_boot=100, seed=3)
     assert fit.c1.contains(truth.c1), fit.c1
     assert fit.window < 0.1  # shortened from the configured 0.1 s ...
@@ -75,14 +76,22 @@ def test_small_fast_valve_discharge_gives_c1():
     assert fit.c1.hi - fit.c1.lo < 0.2 * truth.c1  # still a measurement
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_corner_valve_empties_in_90_ms_and_is_identified(seed):
-    """c1 = 0.1, k2 = 0.2: about 90 samples from the supply to 0 bar."""
+def test_corner_valve_empties_in_90_ms_and_is_identified():
+    """c1 = 0.1, k2 = 0.2, tau2 = 0.05: about 90 samples from the supply to 0 bar and a rise
+    over in 0.25 s. Over 40 noise realisations every run is identified and the 95 %
+    intervals cover the truth about 95 % of the time (at least 34 of 40: below that has a
+    chance of about 1 % for a true 95 % interval)."""
     truth = CORNER
-    res = _identify(truth, seed)
-    assert res.discharge is not None and res.discharge.window < 0.05
-    missed = _covers(res, truth, ("c1", "k2", "tau2"))
-    assert not missed, missed
+    hits = {"c1": 0, "k2": 0, "tau2": 0}
+    for seed in range(40):
+        runs, _kinds = _runs(truth, seed, only=("charge", "discharge"))
+        dis = fit_discharge({"discharge": runs["discharge"]})
+        charge = fit_charge({"charge": runs["charge"]})
+        assert dis.window < 0.05 and dis.n_points >= 20
+        for name, est in (("c1", dis.c1), ("k2", charge.k2), ("tau2", charge.tau2)):
+            assert est.lo < est.value < est.hi
+            hits[name] += est.contains(getattr(truth, name))
+    assert min(hits.values()) >= 34, hits
 
 
 def test_discharge_too_short_for_any_window_is_a_named_error():

@@ -209,7 +209,7 @@ def fit_delays(
         over ``[0, max_delay]``.
     prior_sd : mapping, optional
         Standard deviations of ``c1``, ``k2``, ``tau2`` (same units); by default 20 % of each
-        value (a weak tie). :func:`identify` passes the bootstrap standard errors.
+        value (a weak tie). :func:`identify` passes the standard errors of experiments 1–2.
     max_delay : float, optional
         Largest delay searched, s.
     min_edges : int, optional
@@ -323,9 +323,7 @@ def fit_delays(
 
     def residuals(x: FloatArray) -> FloatArray:
         prm = ValveParams(*x[:5])
-        parts = [
-            (r.model(prm, x[5 + i] ** 2) - r.p) * r.keep / r.sigma for i, r in enumerate(pr)
-        ]
+        parts = [(r.model(prm, x[5 + i] ** 2) - r.p) * r.keep / r.sigma for i, r in enumerate(pr)]
         parts.append((x[:3] - mean) / sd)
         return np.concatenate(parts)
 

@@ -62,11 +62,10 @@ def identify(
     guard : float, optional
         Time after every command edge of the pulse runs left out of the delay fit, s
         (sensor ringing; see :func:`fit_delays`).
-    n_boot : int, optional
-        Bootstrap replicates.
-    seed : int, optional
-        Seed of the bootstrap's :class:`numpy.random.Generator`; the result is deterministic
-        for a given seed.
+    n_boot, seed : int, optional
+        Not used: every interval now comes from a fit covariance and the result is
+        deterministic; kept (and recorded in ``settings``) so that configurations written
+        for the earlier bootstrap stay valid.
     fallback : ValveParams, optional
         Nominal parameters. Without it any experiment that cannot support its fit raises
         :class:`IdentificationError`. With it, the parameters of that experiment take the
@@ -85,7 +84,7 @@ def identify(
     Notes
     -----
     ``t_on``/``t_off`` come last: their fit re-fits ``c1``, ``k2``, ``tau2`` as nuisance
-    parameters tied to the experiment 1–2 values by their bootstrap standard errors (20 %
+    parameters tied to the experiment 1–2 values by their standard errors (20 %
     for a fallback value).
     """
     settings: dict[str, Any] = {
@@ -206,7 +205,8 @@ def identify_with_config(
         ``use_fallback`` and the keyword arguments of :func:`identify`), ``nominal`` (the
         fallback's values) and ``seed``; :func:`identify`'s defaults where absent.
     seed : int, optional
-        The bootstrap's seed; default the configuration's ``seed``, else 0.
+        Recorded in ``settings`` (not used by the fits); default the configuration's
+        ``seed``, else 0.
 
     Returns
     -------

@@ -150,7 +150,7 @@ def pressure_rate(table: pd.DataFrame, window: float, polyorder: int) -> pd.Data
 
 
 # --------------------------------------------------------------------------------------------
-# Experiments 1 and 2: derivative fits with a residual block bootstrap
+# Experiments 1 and 2: the span of the fits, and the derivative for the line and the figure
 # --------------------------------------------------------------------------------------------
 
 
@@ -159,7 +159,7 @@ class _Segment:
     """The usable part of one charge/discharge run on its uniform grid."""
 
     rid: str
-    t: FloatArray  # grid times of the bootstrap region
+    t: FloatArray  # grid times of the derivative region
     ps: FloatArray  # smoothed pressure over the region
     d: FloatArray  # derivative over the region
     p: FloatArray  # measured pressure over the region
@@ -167,8 +167,6 @@ class _Segment:
     dt: float  # grid step, s
     used: npt.NDArray[np.bool_]  # points of the region that enter the fit
     points: pd.DataFrame  # all points after the edge, for the figure
-    ref: FloatArray = field(default_factory=lambda: np.empty(0))  # reference curve (bootstrap)
-    resid: FloatArray = field(default_factory=lambda: np.empty(0))  # p - ref
     shortened: bool = False  # w is shorter than the configured window (a short run)
     tf: FloatArray = field(default_factory=lambda: np.empty(0))  # fit span (no trims): times
     pf: FloatArray = field(default_factory=lambda: np.empty(0))  # ... and measured pressure
