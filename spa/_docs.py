@@ -30,7 +30,10 @@ DOCDICT: dict[str, str] = {
     "dataset_folder": "folder : str or path-like\n    The dataset folder, ``raw/<name>``.",
     "derivative_fit": """\
 window : float, default 0.1
-    Savitzky–Golay window in s for the smoothed pressure and its derivative.
+    Savitzky–Golay window in s for the smoothed pressure and its derivative. A run whose fit
+    span is shorter than about three windows gets the largest odd window of about a third of
+    its span instead (at least ``polyorder + 2`` samples); the fit's ``window`` and method
+    say so.
 polyorder : int, default 3
     Savitzky–Golay polynomial order.
 skip : float, default 0.03
@@ -40,9 +43,10 @@ onset_fraction : float, default 0.02
     The response has started once the smoothed pressure has covered this fraction of the
     total rise.
 n_boot : int, default 200
-    Bootstrap replicates for the 95 % intervals.
+    Not used (the intervals come from the fit covariance); checked (>= 20) and kept so that
+    configurations written for the earlier bootstrap stay valid.
 seed : int, default 0
-    Seed of the :class:`numpy.random.Generator` of the bootstrap.""",
+    Not used (the fits are deterministic); kept likewise.""",
 }
 
 _SLOT = re.compile(r"^([ \t]*)%\((\w+)\)s[ \t]*$", re.M)

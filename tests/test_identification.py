@@ -211,8 +211,9 @@ def test_to_dict_is_params_yaml_content(case):
         assert set(back[name]) >= {"value", "lo", "hi", "unit", "runs", "method", "fallback"}
         assert back[name]["fallback"] is None
     assert back["k2"]["unit"] == "bar" and back["t_on"]["unit"] == "s"
-    assert set(back["fits"]["charge"]) == {"slope", "intercept", "r2", "n_points"}
-    assert set(back["fits"]["discharge"]) == {"a", "b", "r2_power", "r2", "n_points"}
+    assert set(back["fits"]["charge"]) == {"slope", "intercept", "r2", "n_points", "window"}
+    assert set(back["fits"]["discharge"]) == {"a", "b", "r2_power", "r2", "n_points", "window"}
+    assert back["fits"]["discharge"]["window"] == pytest.approx(0.101)  # not shortened
     assert back["fallback"] == {}
     assert back["settings"]["seed"] == 5
     assert load_params(back) == res.to_valve_params()

@@ -3,11 +3,11 @@
 docs/model.md section 1 and the paper's Fig. 2:
 
 * experiment 1, **charge** (valve open from 0 bar until the supply pressure): ``k2`` and
-  ``tau2`` from the straight line ``dP/dt = (k2 - P)/tau2`` fitted to ``dP/dt`` against ``P``
-  (:func:`fit_charge`);
+  ``tau2`` of ``dP/dt = (k2 - P)/tau2``: the paper's straight line in ``dP/dt`` against ``P``,
+  refined by fitting its exact solution to the pressure (:func:`fit_charge`);
 * experiment 2, **discharge** (valve closed from the supply pressure down to 0 bar): the power
-  law ``dP/dt = -a*P**b`` and ``c1`` from the same fit with ``b = 1/2``
-  (``dP/dt = -sqrt(P)/c1``, :func:`fit_discharge`);
+  law ``dP/dt = -a*P**b`` and ``c1`` of ``dP/dt = -sqrt(P)/c1`` (``b = 1/2``), fitted as its
+  exact solution ``sqrt(P) = sqrt(P0) - t/(2*c1)`` to the pressure (:func:`fit_discharge`);
 * experiment 3, **pulse** (a pulse train with several low-state durations): ``t_on`` and
   ``t_off`` from a least-squares fit of the exact model over the whole run, plus the delay of
   every single edge for the spread (:func:`fit_delays`).

@@ -39,6 +39,7 @@ def identify(
     supply_fraction: float = 0.9,
     max_delay: float = 0.05,
     min_edges: int = 3,
+    guard: float = 0.03,
     n_boot: int = 200,
     seed: int = 0,
     fallback: ValveParams | None = None,
@@ -58,11 +59,13 @@ def identify(
         Largest ``t_on``/``t_off`` searched, s.
     min_edges : int, optional
         Responding rising/falling edges needed for ``t_on``/``t_off``.
-    n_boot : int, optional
-        Bootstrap replicates.
-    seed : int, optional
-        Seed of the bootstrap's :class:`numpy.random.Generator`; the result is deterministic
-        for a given seed.
+    guard : float, optional
+        Time after every command edge of the pulse runs left out of the delay fit, s
+        (sensor ringing; see :func:`fit_delays`).
+    n_boot, seed : int, optional
+        Not used: every interval now comes from a fit covariance and the result is
+        deterministic; kept (and recorded in ``settings``) so that configurations written
+        for the earlier bootstrap stay valid.
     fallback : ValveParams, optional
         Nominal parameters. Without it any experiment that cannot support its fit raises
         :class:`IdentificationError`. With it, the parameters of that experiment take the
@@ -81,7 +84,7 @@ def identify(
     Notes
     -----
     ``t_on``/``t_off`` come last: their fit re-fits ``c1``, ``k2``, ``tau2`` as nuisance
-    parameters tied to the experiment 1–2 values by their bootstrap standard errors (20 %
+    parameters tied to the experiment 1–2 values by their standard errors (20 %
     for a fallback value).
     """
     settings: dict[str, Any] = {
@@ -93,6 +96,7 @@ def identify(
         "supply_fraction": float(supply_fraction),
         "max_delay": float(max_delay),
         "min_edges": int(min_edges),
+        "guard": float(guard),
         "n_boot": int(n_boot),
         "seed": int(seed),
     }
@@ -134,7 +138,7 @@ def identify(
     start = ValveParams(c1.value, k2.value, tau2.value)  # t_on, t_off: found by grid search
     dfit, (t_on, t_off) = attempt(
         fit_delays, ("t_on", "t_off"), pulse or {}, start,
-        prior_sd=prior_sd, max_delay=max_delay, min_edges=min_edges,
+        prior_sd=prior_sd, max_delay=max_delay, min_edges=min_edges, guard=guard,
     )  # fmt: skip
     return IdentificationResult(
         c1=c1,
@@ -201,7 +205,8 @@ def identify_with_config(
         ``use_fallback`` and the keyword arguments of :func:`identify`), ``nominal`` (the
         fallback's values) and ``seed``; :func:`identify`'s defaults where absent.
     seed : int, optional
-        The bootstrap's seed; default the configuration's ``seed``, else 0.
+        Recorded in ``settings`` (not used by the fits); default the configuration's
+        ``seed``, else 0.
 
     Returns
     -------

@@ -3,6 +3,7 @@ charge or discharge run it is fitted on."""
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -16,6 +17,8 @@ from spa.identification.results import FloatArray, IdentificationError, Runs
 from spa.model.plant import edge_indices
 
 __all__ = ["pressure_rate"]
+
+_LOG = logging.getLogger("spa.identification")
 
 # --------------------------------------------------------------------------------------------
 # Run tables and derivatives
@@ -147,7 +150,7 @@ def pressure_rate(table: pd.DataFrame, window: float, polyorder: int) -> pd.Data
 
 
 # --------------------------------------------------------------------------------------------
-# Experiments 1 and 2: derivative fits with a residual block bootstrap
+# Experiments 1 and 2: the span of the fits, and the derivative for the line and the figure
 # --------------------------------------------------------------------------------------------
 
 
@@ -156,7 +159,7 @@ class _Segment:
     """The usable part of one charge/discharge run on its uniform grid."""
 
     rid: str
-    t: FloatArray  # grid times of the bootstrap region
+    t: FloatArray  # grid times of the derivative region
     ps: FloatArray  # smoothed pressure over the region
     d: FloatArray  # derivative over the region
     p: FloatArray  # measured pressure over the region
@@ -164,8 +167,9 @@ class _Segment:
     dt: float  # grid step, s
     used: npt.NDArray[np.bool_]  # points of the region that enter the fit
     points: pd.DataFrame  # all points after the edge, for the figure
-    ref: FloatArray = field(default_factory=lambda: np.empty(0))  # reference curve (bootstrap)
-    resid: FloatArray = field(default_factory=lambda: np.empty(0))  # p - ref
+    shortened: bool = False  # w is shorter than the configured window (a short run)
+    tf: FloatArray = field(default_factory=lambda: np.empty(0))  # fit span (no trims): times
+    pf: FloatArray = field(default_factory=lambda: np.empty(0))  # ... and measured pressure
 
 
 def _select_edge(valve: np.ndarray | None, rising: bool, rid: str, kind: str) -> tuple[int, int]:
@@ -198,14 +202,73 @@ def _segment(
     onset_fraction: float,
     tail_fraction: float,
 ) -> _Segment:
-    """Locate the response after the valve edge and compute smoothed pressure and rate."""
+    """Locate the response after the valve edge and compute smoothed pressure and rate.
+
+    The Savitzky–Golay window is ``window`` unless the run's fit span is too short for it:
+    a point enters the fit only when its whole window lies inside the response, and the fit
+    needs at least ``max(2*w, 20)`` such points, i.e. a span of about ``3*w``. A shorter span
+    (a small actuator that empties in 0.1 s) gets the largest odd window ``w`` that meets this
+    (about a third of the span), never fewer than ``polyorder + 2`` samples; the window used
+    is :attr:`_Segment.w` and is logged. Below that the run is refused with
+    :class:`IdentificationError`.
+    """
     t, p, valve = _arrays(table, rid)
     tg, pg, vg, dt = _uniform(t, p, valve)
-    w = _window_samples(window, polyorder, dt, tg.size)
-    half = w // 2
+    w = w_asked = _window_samples(window, polyorder, dt, None)
+    w_min = polyorder + 2 + (polyorder + 1) % 2  # the smallest odd window > polyorder + 1
+    if tg.size < w_min:
+        raise IdentificationError(
+            f"{kind} run {rid!r} has {tg.size} samples; the derivative needs {w_min}"
+        )
     rising = kind == "charge"
     k_edge, k_end = _select_edge(vg, rising, rid, kind)
     k_end = tg.size - 1 if k_end < 0 else k_end
+    w_first = w = min(w, tg.size if tg.size % 2 else tg.size - 1)
+    for _ in range(8):
+        seg, span = _segment_at(
+            rid, kind, tg, pg, dt, w, polyorder, k_edge, k_end, rising, skip,
+            onset_fraction, tail_fraction,
+        )  # fmt: skip
+        if seg is not None:
+            seg.shortened = w < w_asked
+            if w < w_first:
+                _LOG.info(
+                    "%s run %r: Savitzky-Golay window shortened from %d to %d samples (%.3g s), "
+                    "a third of the %d-sample fit span",
+                    kind, rid, w_first, w, w * dt, span,
+                )  # fmt: skip
+            return seg
+        # The largest odd window with span >= 3 w and at least 20 points after the trims.
+        fits = max(2 * math.floor((min(span / 3.0, span - 19.0) - 1.0) / 2.0) + 1, w_min)
+        if fits >= w or (w == w_min):
+            break
+        w = fits
+    need = max(3 * w_min, 20 + w_min)
+    raise IdentificationError(
+        f"{kind} run {rid!r}: only {span} samples between the response start and "
+        f"{'the end of the run' if rising else 'the near-zero tail'}; need at least {need} "
+        f"(a derivative window of {w_min} samples at polyorder {polyorder}); lengthen the run"
+    )
+
+
+def _segment_at(
+    rid: str,
+    kind: str,
+    tg: FloatArray,
+    pg: FloatArray,
+    dt: float,
+    w: int,
+    polyorder: int,
+    k_edge: int,
+    k_end: int,
+    rising: bool,
+    skip: float,
+    onset_fraction: float,
+    tail_fraction: float,
+) -> tuple[_Segment | None, int]:
+    """:func:`_segment` at a window of ``w`` samples: the segment (None when too few points
+    fit) and the number of samples in the fit span before the half-window trims."""
+    half = w // 2
     ps = _savgol(pg, w, polyorder, dt)
     d = _savgol(pg, w, polyorder, dt, deriv=1)
     # Level at the edge (mean of the half window before it, or the first samples) and at the
@@ -225,20 +288,19 @@ def _segment(
     moved = (ps[k_edge:] - p_a) if rising else (p_a - ps[k_edge:])
     crossed = np.flatnonzero(moved >= onset_fraction * change)
     k_onset = k_edge + (int(crossed[0]) if crossed.size else 0)
-    t_start = max(tg[k_edge] + skip, tg[k_onset]) + half * dt
-    t_stop = tg[k_end] - half * dt
+    t_first = max(tg[k_edge] + skip, tg[k_onset])
+    t_last = tg[k_end]
     if not rising:
         below = np.flatnonzero(ps[k_onset : k_end + 1] < tail_fraction * p_a)
         if below.size:
-            t_stop = min(t_stop, tg[k_onset + int(below[0])] - 0.5 * dt)
+            t_last = min(t_last, tg[k_onset + int(below[0])] - 0.5 * dt)
+    in_span = (tg >= t_first - 1e-9 * dt) & (tg <= t_last + 1e-9 * dt)
+    span = int(np.sum(in_span))
+    t_start, t_stop = t_first + half * dt, t_last - half * dt
     used_all = (tg >= t_start - 1e-9 * dt) & (tg <= t_stop + 1e-9 * dt)
     idx = np.flatnonzero(used_all)
     if idx.size < max(2 * w, 20):
-        raise IdentificationError(
-            f"{kind} run {rid!r}: only {idx.size} samples between the response start and "
-            f"{'the end of the run' if rising else 'the near-zero tail'}; need at least "
-            f"{max(2 * w, 20)} (lengthen the run or shorten the window)"
-        )
+        return None, span
     lo = max(int(idx[0]) - half, 0)
     hi = min(int(idx[-1]) + half, tg.size - 1)
     region = slice(lo, hi + 1)
@@ -251,7 +313,7 @@ def _segment(
             "used": used_all[k_edge : k_end + 1],
         }
     )
-    return _Segment(
+    seg = _Segment(
         rid=rid,
         t=tg[region],
         ps=ps[region],
@@ -261,7 +323,10 @@ def _segment(
         dt=dt,
         used=used_all[region],
         points=points,
+        tf=tg[in_span],
+        pf=pg[in_span],
     )
+    return seg, span
 
 
 def _line(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -136,6 +136,9 @@ class ChargeFit(_RateFit):
         Coefficient of determination of the line.
     n_points : int
         Points used in the fit.
+    window : float
+        Savitzky–Golay window used, s (the shortest over the runs): the configured one, or
+        about a third of a run's fit span when that is shorter (see :func:`fit_charge`).
     points : pandas.DataFrame
         ``run``, ``t``, ``p`` (smoothed, bar), ``dpdt`` (bar/s), ``used`` (bool): every grid
         point of every run after the valve opened, for Fig. 2a.
@@ -147,6 +150,7 @@ class ChargeFit(_RateFit):
     intercept: float
     r2: float
     n_points: int
+    window: float
     points: pd.DataFrame = field(repr=False)
 
 
@@ -166,6 +170,8 @@ class DischargeFit(_RateFit):
         R² of the ``b = 0.5`` fit that gives ``c1``.
     n_points : int
         Points used in the fits.
+    window : float
+        Savitzky–Golay window used, s (the shortest over the runs; see :func:`fit_discharge`).
     points : pandas.DataFrame
         ``run``, ``t``, ``p``, ``dpdt``, ``used``, for Fig. 2b.
     """
@@ -176,6 +182,7 @@ class DischargeFit(_RateFit):
     r2_power: float
     r2: float
     n_points: int
+    window: float
     points: pd.DataFrame = field(repr=False)
 
 

@@ -27,6 +27,7 @@ __all__ = [
     "dataset_experiments",
     "dataset_runs",
     "generate_dataset",
+    "identification_experiment_for",
     "identification_runs",
     "modulated_runs",
     "run_seed",
@@ -192,6 +193,60 @@ def identification_runs(
             notes=f"low durations {list(low_times)} s, high {high_time} s, x{repeats}",
         ),
     ]
+
+
+def identification_experiment_for(params: ValveParams) -> dict[str, Any]:
+    """Identification experiment durations scaled to a valve, as a bench user would choose.
+
+    A pure helper for simulating valves unlike the paper's: the returned mapping is the
+    keyword arguments of :func:`identification_runs` (the config's ``experiments:
+    identification`` section).
+
+    Parameters
+    ----------
+    params : ValveParams
+        The valve (its rough size is what a user knows before identifying it).
+
+    Returns
+    -------
+    dict
+        ``charge_time`` (s): ``t_on`` plus 6 ``tau2`` (the pressure is within 0.25 % of the
+        supply), at least 0.5 s; ``discharge_time`` (s): ``t_off`` plus 1.5 times the time to
+        empty from the supply, ``2*c1*sqrt(k2)`` (Eq. A1), at least 0.3 s; ``low_times``
+        (s): the paper's lows 5–200 ms, plus ``2*t_off + 10 ms`` and ``4*t_off + 20 ms`` so
+        that at least two lows per pattern are longer than the closing delay;
+        ``high_time`` (s): 300 ms, or ``5*t_on + 50 ms`` if longer; ``repeats``: 3. Every
+        duration is rounded up to 10 ms.
+
+    Notes
+    -----
+    Lows shorter than ``t_off`` are kept on purpose: the exhaust never starts (the dead-zone)
+    and the delay fit must handle such edges. The durations only depend on the valve, so a
+    simulated dataset stays deterministic.
+
+    Examples
+    --------
+    >>> d = identification_experiment_for(ValveParams(c1=0.12, k2=0.3, tau2=0.06,
+    ...                                               t_on=0.0008, t_off=0.0015))
+    >>> d["charge_time"], d["discharge_time"], d["high_time"]
+    (0.5, 0.3, 0.3)
+    >>> identification_experiment_for(ValveParams())["charge_time"]
+    4.96
+    """
+
+    def up(x: float) -> float:
+        return math.ceil(round(x / 0.01, 6)) * 0.01
+
+    empty = 2.0 * params.c1 * math.sqrt(params.k2)
+    paper_lows = (0.005, 0.010, 0.015, 0.020, 0.050, 0.100, 0.200)
+    extra = (up(2 * params.t_off + 0.01), up(4 * params.t_off + 0.02))
+    return {
+        "charge_time": round(up(max(params.t_on + 6.0 * params.tau2, 0.5)), 6),
+        "discharge_time": round(up(max(params.t_off + 1.5 * empty, 0.3)), 6),
+        "low_times": sorted({round(v, 6) for v in (*paper_lows, *extra)}),
+        "high_time": round(up(max(0.3, 5.0 * params.t_on + 0.05)), 6),
+        "repeats": 3,
+    }
 
 
 def modulated_runs(
