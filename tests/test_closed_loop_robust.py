@@ -136,9 +136,9 @@ def test_sensor_noise_is_what_the_controller_reads():
 
 def test_recovery_time_cases():
     t = np.arange(5) * 0.1
-    assert recovery_time(t, [0.5] * 5, 0.5, 0.0) == 0.0
-    assert math.isnan(recovery_time(t, [0.5, 0.4, 0.45, 0.47, 0.48], 0.5, 0.0))
-    assert recovery_time(t, [0.5, 0.4, 0.45, 0.495, 0.5], 0.5, 0.0) == pytest.approx(0.2)
+    assert recovery_time(t, [0.0] * 5, 0.01, 0.0) == 0.0
+    assert math.isnan(recovery_time(t, [0.0, 0.1, 0.05, 0.03, 0.02], 0.01, 0.0))
+    assert recovery_time(t, [0.0, -0.1, 0.05, 0.005, 0.0], 0.01, 0.0) == pytest.approx(0.2)
 
 
 def test_supply_drop_dips_and_recovers():

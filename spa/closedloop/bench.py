@@ -276,7 +276,7 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
     return (
         f"{text}. After a {DROP * 100:.0f} % supply drop at {num('drop_level'):.2f} bar the "
         f"pressure dips {num('dip') * 1e3:.0f} mbar and {back}; sensor noise of "
-        f"{num('noise') * 1e3:.1f} mbar adds {num('added_ripple_rms') * 1e3:.1f} mbar RMS "
+        f"{num('noise') * 1e3:.1f} mbar adds {num('added_ripple_rms') * 1e3:.2f} mbar RMS "
         "ripple. The C header is closed_loop/controller.h."
     )
 

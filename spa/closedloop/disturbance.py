@@ -2,12 +2,14 @@
 
 * **Supply drop** (:func:`supply_drop`): the set-point staircase, with ``k2`` falling by a
   fraction (10 %) in the middle of the hold of the middle rising level and staying there
-  (:func:`spa.closedloop.loop.closed_loop_arrays`'s ``k2_change``). Measured on the
-  cycle-mean pressure (:func:`spa.closedloop.metrics.cycle_mean`): the *recovery time*, from
-  the drop to the last time the cycle-mean lies outside ``r ± 2 % r`` before the level ends
-  (0 when it never leaves; NaN when it is still outside at the end of the level), the *dip*
-  (largest shortfall below ``r`` after the drop, bar) and the steady-state error over the
-  level's last quarter.
+  (:func:`spa.closedloop.loop.closed_loop_arrays`'s ``k2_change``), against the same run
+  without the drop. Measured on the cycle-mean pressure
+  (:func:`spa.closedloop.metrics.cycle_mean`), by its deviation from the undisturbed run's
+  (so that what the loop was still doing before the drop does not count): the *recovery
+  time*, from the drop to the last time the deviation exceeds 2 % of ``r`` before the level
+  ends (0 when it never does; NaN when it still does at the end of the level), the *dip*
+  (the largest deviation downwards, bar) and the steady-state error over the level's last
+  quarter.
 * **Sensor noise** (:func:`noise_ripple`): the same staircase with Gaussian noise of standard
   deviation ``sigma`` added to the pressure the controller reads (seeded: deterministic);
   the *added ripple* is the increase of the actuator pressure's RMS and peak-to-peak ripple
@@ -40,34 +42,32 @@ BAND = 0.02
 
 
 def recovery_time(
-    t: npt.ArrayLike, p_mean: npt.ArrayLike, r: float, t_drop: float, band: float = BAND
+    t: npt.ArrayLike, deviation: npt.ArrayLike, tolerance: float, t_drop: float
 ) -> float:
-    """Time from ``t_drop`` to the last sample outside ``r ± band*r``, s.
+    """Time from ``t_drop`` to the last sample whose ``|deviation|`` exceeds ``tolerance``, s.
 
     Parameters
     ----------
-    t, p_mean : array_like
-        Times (s) and cycle-mean pressure (bar) from the drop to the end of the level.
-    r : float
-        The set-point, bar.
+    t, deviation : array_like
+        Times (s) and the cycle-mean pressure's deviation from the undisturbed run's (bar),
+        from the drop to the end of the level.
+    tolerance : float
+        The band's half-width, bar (:data:`BAND` times the set-point).
     t_drop : float
         When the disturbance struck, s.
-    band : float, optional
-        Half-width of the band, fraction of ``r``.
 
     Returns
     -------
     float
-        0 when the pressure never leaves the band, NaN when it is outside at the last sample.
+        0 when the deviation never leaves the band, NaN when it is outside at the last sample.
 
     Examples
     --------
-    >>> recovery_time([1.0, 1.1, 1.2, 1.3], [0.5, 0.45, 0.495, 0.5], 0.5, 1.0)
+    >>> recovery_time([1.0, 1.1, 1.2, 1.3], [0.0, 0.05, 0.005, 0.0], 0.01, 1.0)
     0.10000000000000009
     """
     tt = np.asarray(t, dtype=np.float64)
-    pm = np.asarray(p_mean, dtype=np.float64)
-    outside = np.abs(pm - r) > band * abs(r)
+    outside = np.abs(np.asarray(deviation, dtype=np.float64)) > tolerance
     if not outside.any():
         return 0.0
     if outside[-1]:
@@ -98,7 +98,8 @@ def supply_drop(
     -------
     dict
         ``drop_level`` (the set-point during the drop, bar), ``recovery_time`` (s),
-        ``dip`` (bar) and ``steady_state_error`` after the drop (bar), as the module says.
+        ``dip`` (bar) and ``steady_state_error`` after the drop (bar), as the module says;
+        the cycle-mean window is the modulator's period at the middle level.
     """
     if not 0.0 < drop < 1.0:
         raise ValueError(f"drop must be a fraction in (0, 1), got {drop}")
@@ -107,26 +108,29 @@ def supply_drop(
     mid = (len(levels) - 1) // 2
     k_drop = mid * n_hold + n_hold // 2
     level = float(levels[mid])
-    p, _, _ = closed_loop_arrays(
-        r,
-        dt,
-        modulator,
-        controller,
-        params,
-        float(levels[0]),
-        integral0=_settled(modulator, controller, params, float(levels[0])),
-        k2_change=(k_drop, params.k2 * (1.0 - drop)),
-    )
-    period = cycle_period(modulator, params, float(np.median(levels)), dt)
-    pm = cycle_mean(p, max(round(period / dt), 1))
+    runs = [
+        closed_loop_arrays(
+            r,
+            dt,
+            modulator,
+            controller,
+            params,
+            float(levels[0]),
+            integral0=_settled(modulator, controller, params, float(levels[0])),
+            k2_change=change,
+        )[0]
+        for change in (None, (k_drop, params.k2 * (1.0 - drop)))
+    ]
+    window = max(round(cycle_period(modulator, params, float(np.median(levels)), dt) / dt), 1)
     stop = (mid + 1) * n_hold
+    base, p = (cycle_mean(x, window)[k_drop:stop] for x in runs)
+    deviation = base - p
+    tail = runs[1][stop - max((stop - k_drop) // 4, 1) : stop]
     t = np.arange(k_drop, stop) * dt
-    after = pm[k_drop:stop]
-    tail = p[stop - max((stop - k_drop) // 4, 1) : stop]
     return {
         "drop_level": level,
-        "recovery_time": recovery_time(t, after, level, k_drop * dt),
-        "dip": float(max(level - after.min(), 0.0)),
+        "recovery_time": recovery_time(t, deviation, BAND * level, k_drop * dt),
+        "dip": float(max(deviation.max(), 0.0)),
         "steady_state_error": float(level - tail.mean()),
     }
 

@@ -429,9 +429,10 @@ STAGES: tuple[Stage, ...] = (
             TABLE,
             "Closed loop: over the 95 % box and under bench disturbances",
             "One row per setting, with the chosen kind of PI: a 10 % drop of the supply "
-            "pressure k2 in the middle of the staircase's middle level (the set-point there, "
-            "the time until the cycle-mean pressure is back within 2 % of it, NaN: not before "
-            "the level ends; the dip and the steady-state error after it, bar) and the "
+            "pressure k2 in the middle of the staircase's middle level (the set-point there; "
+            "the time until the cycle-mean pressure is back within 2 % of it from the same "
+            "run without the drop, NaN: not before the level ends; the dip and the "
+            "steady-state error after it, bar) and the "
             "sensor's noise (the pulse fit's RMS) read by the controller (the actuator's "
             "added ripple, median over the steps, bar). The chosen setting's row also holds "
             "the worst case over the staircase with the plant at every corner of the "
