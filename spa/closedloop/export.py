@@ -7,8 +7,8 @@ step ``dt`` as a constant, the gain schedule and feed-forward as tables, one sta
 The PI law is docs/model.md section 8 with the operations of
 :func:`spa.closedloop.loop.simulate_closed_loop` in the same order; the modulator's per-step
 law is the ``C_STEP`` text of its kernel module (:mod:`spa.model.modulators.kernels`), so
-nothing here names a kind. Every constant is written with 17 significant digits (it reads
-back as the same double), so a compiler that keeps IEEE double and does not contract
+nothing here names a kind. Every constant is written as the shortest decimal that reads back
+as the same double, so a compiler that keeps IEEE double and does not contract
 ``a*b + c`` into a fused multiply-add (ISO C mode, ``-std=c99``, or ``-ffp-contract=off``)
 gives the simulation's commands and ``xi`` (tests/test_export.py).
 :func:`arduino_sketch` shows where the sensor read and the valve write go.
@@ -145,7 +145,8 @@ void loop() {
 
 
 def c_double(x: float) -> str:
-    """A C double literal that reads back as exactly ``x`` (17 significant digits).
+    """A C double literal that reads back as exactly ``x``: Python's shortest round-trip
+    decimal (``repr``), which a correctly rounding C compiler reads as the same double.
 
     Raises
     ------
@@ -154,16 +155,13 @@ def c_double(x: float) -> str:
 
     Examples
     --------
-    >>> c_double(0.1), c_double(2.0), c_double(1e-9)
-    ('0.10000000000000001', '2.0000000000000000', '1.0000000000000001e-09')
+    >>> c_double(0.1), c_double(20.0), c_double(1e-9)
+    ('0.1', '20.0', '1e-09')
     """
     v = float(x)
     if not math.isfinite(v):
         raise ValueError(f"c_double: {v} has no C literal")
-    text = f"{v:.17g}"
-    if not any(c in text for c in ".e"):
-        text = f"{v:.16f}"
-    return text
+    return repr(v)
 
 
 def _array(name: str, values: Sequence[float] | np.ndarray) -> str:
