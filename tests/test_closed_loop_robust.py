@@ -9,7 +9,7 @@ import pytest
 
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import design_pi
-from spa.closedloop.disturbance import noise_ripple, recovery_time, supply_drop
+from spa.closedloop.disturbance import disturbances, noise_ripple, recovery_time, supply_drop
 from spa.closedloop.experiments import run_staircase, staircase_reference
 from spa.closedloop.loop import closed_loop_arrays
 from spa.closedloop.robust import (
@@ -163,3 +163,6 @@ def test_noise_adds_ripple_deterministically():
     assert a == b and a["noise"] == 0.005
     big = noise_ripple(PWM, ctrl, P, LEVELS, 1.5, DT, 0.05, seed=3)
     assert big["added_ripple_rms"] > 0.0 and big["added_ripple_pp"] > 0.0
+    # together, sharing the undisturbed run: the same numbers
+    both = disturbances(PWM, ctrl, P, LEVELS, 1.5, DT, 0.005, seed=3)
+    assert both == {**supply_drop(PWM, ctrl, P, LEVELS, 1.5, DT), **a}

@@ -25,7 +25,7 @@ from typing import Any
 import pandas as pd
 
 from spa.closedloop.controller import PIController
-from spa.closedloop.disturbance import DROP, noise_ripple, supply_drop
+from spa.closedloop.disturbance import DROP, disturbances
 from spa.closedloop.export import arduino_sketch, controller_header
 from spa.closedloop.robust import robust_design
 from spa.closedloop.stage import DEFAULTS, MAX_OVERSHOOT, ClosedLoopResult
@@ -169,19 +169,15 @@ def bench_outputs(
     for mod_label, designs in ctl["controllers"].items():
         mod = Modulator.from_mapping(designs["setting"])
         ctrl = PIController.from_mapping(designs[name])
-        drop = supply_drop(mod, ctrl, params, levels, hold, dt, DROP)
-        ripple = noise_ripple(mod, ctrl, params, levels, hold, dt, noise, NOISE_SEED)
+        d = disturbances(mod, ctrl, params, levels, hold, dt, noise, seed=NOISE_SEED)
+        d["steady_state_error_after_drop"] = d.pop("steady_state_error")
         rows.append(
             {
                 "modulator": mod_label,
                 "description": mod.description,
                 "controller": name,
                 "chosen": mod_label == label,
-                "drop_level": drop["drop_level"],
-                "recovery_time": drop["recovery_time"],
-                "dip": drop["dip"],
-                "steady_state_error_after_drop": drop["steady_state_error"],
-                **ripple,
+                **d,
             }
         )
     mod = Modulator.from_mapping(ctl["controllers"][label]["setting"])

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -32,7 +33,7 @@ from spa.closedloop.metrics import cycle_mean, step_rows
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
-__all__ = ["BAND", "DROP", "noise_ripple", "recovery_time", "supply_drop"]
+__all__ = ["BAND", "DROP", "disturbances", "noise_ripple", "recovery_time", "supply_drop"]
 
 #: The supply's drop, fraction of ``k2``.
 DROP = 0.10
@@ -75,6 +76,72 @@ def recovery_time(
     return float(tt[np.flatnonzero(outside)[-1]] - t_drop)
 
 
+class _Setup:
+    """The staircase, its start (settled at the first level) and cycle-mean window, once."""
+
+    def __init__(
+        self,
+        modulator: Modulator,
+        controller: PIController,
+        params: ValveParams,
+        levels: Sequence[float],
+        hold: float,
+        dt: float,
+    ) -> None:
+        self.args = (modulator, controller, params)
+        self.levels = [float(v) for v in levels]
+        self.dt = dt
+        self.n_hold = round(hold / dt)
+        self.r = staircase_reference(self.levels, hold, dt)
+        self.t = np.arange(self.r.size) * dt
+        self.i0 = _settled(modulator, controller, params, self.levels[0])
+        self.period = cycle_period(modulator, params, float(np.median(self.levels)), dt)
+
+    def run(self, **disturbance: Any) -> tuple[np.ndarray, np.ndarray]:
+        """``(p, valve)`` of the staircase, with ``k2_change`` or ``sensor_noise``."""
+        p, _, u = closed_loop_arrays(
+            self.r, self.dt, *self.args, self.levels[0], integral0=self.i0, **disturbance
+        )
+        return p, u
+
+
+def _drop_metrics(setup: _Setup, clean: np.ndarray, drop: float) -> dict[str, float]:
+    if not 0.0 < drop < 1.0:
+        raise ValueError(f"drop must be a fraction in (0, 1), got {drop}")
+    mid = (len(setup.levels) - 1) // 2
+    k_drop = mid * setup.n_hold + setup.n_hold // 2
+    level = setup.levels[mid]
+    params = setup.args[2]
+    p, _ = setup.run(k2_change=(k_drop, params.k2 * (1.0 - drop)))
+    window = max(round(setup.period / setup.dt), 1)
+    stop = (mid + 1) * setup.n_hold
+    deviation = cycle_mean(clean, window)[k_drop:stop] - cycle_mean(p, window)[k_drop:stop]
+    tail = p[stop - max((stop - k_drop) // 4, 1) : stop]
+    return {
+        "drop_level": level,
+        "recovery_time": recovery_time(
+            setup.t[k_drop:stop], deviation, BAND * level, k_drop * setup.dt
+        ),
+        "dip": float(max(deviation.max(), 0.0)),
+        "steady_state_error": float(level - tail.mean()),
+    }
+
+
+def _ripple(setup: _Setup, p: np.ndarray, u: np.ndarray) -> np.ndarray:
+    rows = step_rows(setup.t, setup.r, p, u, setup.period, r_initial=setup.levels[0])
+    return np.array([[row["ripple_rms"], row["ripple_pp"]] for row in rows], dtype=np.float64)
+
+
+def _noise_metrics(
+    setup: _Setup, clean: tuple[np.ndarray, np.ndarray], sigma: float, seed: int
+) -> dict[str, float]:
+    sigma = checks.nonnegative("sigma", sigma, "bar")
+    noise = np.random.default_rng(seed).normal(0.0, sigma, setup.r.size)
+    noisy = setup.run(sensor_noise=noise) if sigma > 0 else clean
+    added = np.median(_ripple(setup, *noisy) - _ripple(setup, *clean), axis=0)
+    return {"noise": sigma, "added_ripple_rms": float(added[0]), "added_ripple_pp": float(added[1])}
+
+
 def supply_drop(
     modulator: Modulator,
     controller: PIController,
@@ -101,38 +168,8 @@ def supply_drop(
         ``dip`` (bar) and ``steady_state_error`` after the drop (bar), as the module says;
         the cycle-mean window is the modulator's period at the middle level.
     """
-    if not 0.0 < drop < 1.0:
-        raise ValueError(f"drop must be a fraction in (0, 1), got {drop}")
-    r = staircase_reference(levels, hold, dt)
-    n_hold = round(hold / dt)
-    mid = (len(levels) - 1) // 2
-    k_drop = mid * n_hold + n_hold // 2
-    level = float(levels[mid])
-    runs = [
-        closed_loop_arrays(
-            r,
-            dt,
-            modulator,
-            controller,
-            params,
-            float(levels[0]),
-            integral0=_settled(modulator, controller, params, float(levels[0])),
-            k2_change=change,
-        )[0]
-        for change in (None, (k_drop, params.k2 * (1.0 - drop)))
-    ]
-    window = max(round(cycle_period(modulator, params, float(np.median(levels)), dt) / dt), 1)
-    stop = (mid + 1) * n_hold
-    base, p = (cycle_mean(x, window)[k_drop:stop] for x in runs)
-    deviation = base - p
-    tail = runs[1][stop - max((stop - k_drop) // 4, 1) : stop]
-    t = np.arange(k_drop, stop) * dt
-    return {
-        "drop_level": level,
-        "recovery_time": recovery_time(t, deviation, BAND * level, k_drop * dt),
-        "dip": float(max(deviation.max(), 0.0)),
-        "steady_state_error": float(level - tail.mean()),
-    }
+    setup = _Setup(modulator, controller, params, levels, hold, dt)
+    return _drop_metrics(setup, setup.run()[0], drop)
 
 
 def noise_ripple(
@@ -170,30 +207,29 @@ def noise_ripple(
     >>> noise_ripple(mod, c, ValveParams(), [0.2, 0.4], 1.0, 1e-3, 0.0)["added_ripple_rms"]
     0.0
     """
-    sigma = checks.nonnegative("sigma", sigma, "bar")
-    r = staircase_reference(levels, hold, dt)
-    t = np.arange(r.size) * dt
-    period = cycle_period(modulator, params, float(np.median(levels)), dt)
-    noise = np.random.default_rng(seed).normal(0.0, sigma, r.size) if sigma > 0 else None
-    ripple = []
-    for extra in (None, noise):
-        p, _, u = closed_loop_arrays(
-            r,
-            dt,
-            modulator,
-            controller,
-            params,
-            float(levels[0]),
-            integral0=_settled(modulator, controller, params, float(levels[0])),
-            sensor_noise=extra,
-        )
-        rows = step_rows(t, r, p, u, period, r_initial=float(levels[0]))
-        ripple.append(
-            np.array([[row["ripple_rms"], row["ripple_pp"]] for row in rows], dtype=np.float64)
-        )
-    added = np.median(ripple[1] - ripple[0], axis=0)
-    return {
-        "noise": sigma,
-        "added_ripple_rms": float(added[0]),
-        "added_ripple_pp": float(added[1]),
-    }
+    setup = _Setup(modulator, controller, params, levels, hold, dt)
+    return _noise_metrics(setup, setup.run(), sigma, seed)
+
+
+def disturbances(
+    modulator: Modulator,
+    controller: PIController,
+    params: ValveParams,
+    levels: Sequence[float],
+    hold: float,
+    dt: float,
+    sigma: float,
+    *,
+    seed: int = 0,
+    drop: float = DROP,
+) -> dict[str, float]:
+    """:func:`supply_drop` and :func:`noise_ripple` together, sharing the undisturbed run.
+
+    Returns
+    -------
+    dict
+        Both functions' keys; the same values as calling each.
+    """
+    setup = _Setup(modulator, controller, params, levels, hold, dt)
+    clean = setup.run()
+    return {**_drop_metrics(setup, clean[0], drop), **_noise_metrics(setup, clean, sigma, seed)}

@@ -5,7 +5,7 @@ plant it meets may be any valve of the box. :func:`box_worst_case` runs the set-
 staircase with the plant at the estimate and at every corner of the box
 (:func:`spa.tuning.intervals.corners`: ``2**k`` valves for ``k`` parameters with an
 interval) and keeps the worst value of each metric: the largest rise time, overshoot,
-``|steady-state error|`` and ripple over the steps and the valves. :func:`robust_tau_c`
+``|steady-state error|`` and ripple over the steps and the valves. :func:`lengthen_tau_c`
 lengthens SIMC's closed-loop time constant by a factor (1.5) while the worst-case overshoot
 exceeds the limit (:data:`spa.closedloop.stage.MAX_OVERSHOOT`, 10 %), up to a bound; the
 first ``tau_c`` that holds is the robust one, and none may hold (docs/model.md section 8).
@@ -22,7 +22,9 @@ import numpy as np
 from spa import _checks as checks
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import design_pi
-from spa.closedloop.experiments import run_staircase
+from spa.closedloop.experiments import _settled, cycle_period, staircase_reference
+from spa.closedloop.loop import closed_loop_arrays
+from spa.closedloop.metrics import step_rows
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.tuning.intervals import corners
@@ -114,11 +116,28 @@ def box_worst_case(
     -------
     worst : dict
         :func:`worst_of_steps` over the estimate and every corner.
+
+    Notes
+    -----
+    Every valve's run starts settled at the first level on that valve (pressure and
+    integrator at its averaged equilibrium, as
+    :func:`spa.closedloop.experiments.run_staircase`), so that the steps, not the start, are
+    measured; every run is measured with the estimate's cycle-mean window (the modulator's
+    period at the middle level): one measurement for all valves, computed once.
     n_corners : int
         Corners evaluated (0 without intervals: the estimate alone).
     """
     valves = [params, *corners(params, intervals)]
-    frames = [run_staircase(modulator, controller, v, levels, hold, dt)[1] for v in valves]
+    r = staircase_reference(levels, hold, dt)
+    t = np.arange(r.size) * dt
+    r0 = float(levels[0])
+    period = cycle_period(modulator, params, float(np.median(levels)), dt)
+    frames = []
+    for valve in valves:
+        i0 = _settled(modulator, controller, valve, r0)
+        p, _, u = closed_loop_arrays(r, dt, modulator, controller, valve, r0, integral0=i0)
+        rows = step_rows(t, r, p, u, period, r_initial=r0)
+        frames.append({m: [row[m] for row in rows] for m in WORST_METRICS})
     return worst_of_steps(frames), len(valves) - 1
 
 
