@@ -13,7 +13,7 @@
 * **Sensor noise** (:func:`noise_ripple`): the same staircase with Gaussian noise of standard
   deviation ``sigma`` added to the pressure the controller reads (seeded: deterministic);
   the *added ripple* is the increase of the actuator pressure's RMS and peak-to-peak ripple
-  over each step's last quarter, median over the steps (bar).
+  over each level's last quarter, median over the levels of the staircase (bar).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from spa import _checks as checks
 from spa.closedloop.controller import PIController
 from spa.closedloop.experiments import _settled, cycle_period, staircase_reference
 from spa.closedloop.loop import closed_loop_arrays
-from spa.closedloop.metrics import cycle_mean, step_rows
+from spa.closedloop.metrics import cycle_mean, ripple, steps
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -127,9 +127,11 @@ def _drop_metrics(setup: _Setup, clean: np.ndarray, drop: float) -> dict[str, fl
     }
 
 
-def _ripple(setup: _Setup, p: np.ndarray, u: np.ndarray) -> np.ndarray:
-    rows = step_rows(setup.t, setup.r, p, u, setup.period, r_initial=setup.levels[0])
-    return np.array([[row["ripple_rms"], row["ripple_pp"]] for row in rows], dtype=np.float64)
+def _ripple(setup: _Setup, p: np.ndarray) -> np.ndarray:
+    """``(rms, pp)`` ripple over each level's last quarter."""
+    return np.array(
+        [ripple(p, a, b)[::-1] for a, b in steps(setup.r) if b - a >= 4], dtype=np.float64
+    )
 
 
 def _noise_metrics(
@@ -138,7 +140,7 @@ def _noise_metrics(
     sigma = checks.nonnegative("sigma", sigma, "bar")
     noise = np.random.default_rng(seed).normal(0.0, sigma, setup.r.size)
     noisy = setup.run(sensor_noise=noise) if sigma > 0 else clean
-    added = np.median(_ripple(setup, *noisy) - _ripple(setup, *clean), axis=0)
+    added = np.median(_ripple(setup, noisy[0]) - _ripple(setup, clean[0]), axis=0)
     return {"noise": sigma, "added_ripple_rms": float(added[0]), "added_ripple_pp": float(added[1])}
 
 
@@ -197,7 +199,7 @@ def noise_ripple(
     -------
     dict
         ``noise`` (sigma), ``added_ripple_rms`` and ``added_ripple_pp``: the median over the
-        steps of the noisy run's ripple minus the noise-free run's (bar).
+        levels of the noisy run's ripple minus the noise-free run's (bar).
 
     Examples
     --------
