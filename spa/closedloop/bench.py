@@ -264,11 +264,12 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
     else:
         text += f"; no longer τ_c tried keeps it within {MAX_OVERSHOOT:.0f} %"
     rec = num("recovery_time")
-    back = (
-        "is not back within 2 % before the level ends"
-        if math.isnan(rec)
-        else f"is back within 2 % after {rec:.2f} s"
-    )
+    if math.isnan(rec):
+        back = "is not back within 2 % before the level ends"
+    elif rec == 0.0:
+        back = "stays within 2 % of the undisturbed run"
+    else:
+        back = f"is back within 2 % after {rec:.2f} s"
     return (
         f"{text}. After a {DROP * 100:.0f} % supply drop at {num('drop_level'):.2f} bar the "
         f"pressure dips {num('dip') * 1e3:.0f} mbar and {back}; sensor noise of "
