@@ -226,14 +226,31 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+#: A command name longer than this does not widen the name column: its help follows it after
+#: two spaces on the same line (``export-controller``).
+_LONG_NAME = 12
+
+
 class _Formatter(argparse.HelpFormatter):
-    """argparse's formatter, counting the commands' own indent (so ``design-pi`` fits)."""
+    """argparse's formatter, counting the commands' own indent (so ``design-pi`` fits) and
+    keeping the column of the short names when one name is long."""
 
     def add_argument(self, action: argparse.Action) -> None:
+        before = self._action_max_length
         super().add_argument(action)
         if isinstance(action, argparse._SubParsersAction):
-            width = max(len(name) for name in action.choices) + self._current_indent + 4
-            self._action_max_length = max(self._action_max_length, width)
+            short = [len(name) for name in action.choices if len(name) <= _LONG_NAME]
+            width = max(short, default=0) + self._current_indent + 4
+            self._action_max_length = max(before, width)
+
+    def _format_action(self, action: argparse.Action) -> str:
+        header = self._format_action_invocation(action)
+        position = min(self._action_max_length + 2, self._max_help_position)
+        if action.help and len(header) > position - self._current_indent - 2:
+            line = f"{' ' * self._current_indent}{header}  {self._expand_help(action)}"
+            if len(line) <= self._width:
+                return line + "\n"
+        return super()._format_action(action)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -346,7 +363,7 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_design_pi)
     p = sub.add_parser(
         "export-controller",
-        help="write a designed PI + modulator as a C99 header and an Arduino sketch",
+        help="C99 header and Arduino sketch of a designed PI",
         description="Design the PIs for the valve of PARAMS.yaml and one modulator setting "
         "(as design-pi) and write one of them, with the modulator's per-step law, as "
         "OUT/controller.h (dependency-free C99: init and step(r, p) -> valve, xi, the step "
