@@ -1,12 +1,13 @@
 # Two entry points for a fresh machine with only Python 3.11:
 #   make reproduce   set up .venv from the lock file, then run `snakemake reproduce-all`
-#   make test        set up .venv from the lock file and Chromium (apt-get), lint, run the tests
+#   make test        set up .venv from the lock file, Chromium and a C compiler (apt-get), lint,
+#                    run the tests
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup reproduce test lint browser lock clean
+.PHONY: setup reproduce test lint browser ccompiler lock clean
 
 $(STAMP): pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -32,7 +33,16 @@ browser:
 		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null; \
 	fi
 
-test: lint browser
+# A C compiler, for the tests that compile the exported controller header
+# (tests/test_export.py); installed with apt-get only when `cc` is missing.
+ccompiler:
+	@if ! command -v cc >/dev/null; then \
+		sudo=""; [ "$$(id -u)" -eq 0 ] || sudo="sudo"; \
+		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc libc6-dev >/dev/null; \
+	fi
+
+test: lint browser ccompiler
 	$(BIN)/pytest
 
 # Regenerate the lock file from pyproject.toml (needs network access to the registry).

@@ -1,5 +1,5 @@
 """Command line: ``spa validate``, ``spa ingest``, ``spa init``, ``spa example``,
-``spa identify``, ``spa tune`` and ``spa design-pi``; ``spa --version``.
+``spa identify``, ``spa tune``, ``spa design-pi`` and ``spa export-controller``; ``spa --version``.
 
 Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error
 (see ``spa --help``).
@@ -202,14 +202,55 @@ def _design_pi(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
+    from spa.closedloop.describe import parse_modulator_spec
+    from spa.closedloop.export import export_designed
+    from spa.tuning.stage import read_identified
+
+    try:
+        mod = parse_modulator_spec(args.modulator)
+        levels = [float(v) for v in args.levels.split(",")] if args.levels else None
+        header, sketch = export_designed(
+            args.out,
+            read_identified(str(args.params)).params,
+            mod,
+            controller=args.controller,
+            tau_c=args.tau_c,
+            levels=levels,
+            dt=args.dt,
+        )
+    except (ValueError, OSError) as exc:
+        print(f"error: {exc}", file=out)
+        return 1
+    print(f"wrote {header} and {sketch}", file=out)
+    return 0
+
+
+#: A command name longer than this does not widen the name column: its help follows it after
+#: two spaces on the same line (``export-controller``).
+_LONG_NAME = 12
+
+
 class _Formatter(argparse.HelpFormatter):
-    """argparse's formatter, counting the commands' own indent (so ``design-pi`` fits)."""
+    """argparse's formatter, counting the commands' own indent (so ``design-pi`` fits) and
+    keeping the column of the short names when one name is long."""
 
     def add_argument(self, action: argparse.Action) -> None:
+        before = self._action_max_length
         super().add_argument(action)
         if isinstance(action, argparse._SubParsersAction):
-            width = max(len(name) for name in action.choices) + self._current_indent + 4
-            self._action_max_length = max(self._action_max_length, width)
+            short = [len(name) for name in action.choices if len(name) <= _LONG_NAME]
+            width = max(short, default=0) + self._current_indent + 4
+            self._action_max_length = max(before, width)
+
+    def _format_action(self, action: argparse.Action) -> str:
+        header = self._format_action_invocation(action)
+        position = min(self._action_max_length + 2, self._max_help_position)
+        if action.help and len(header) > position - self._current_indent - 2:
+            line = f"{' ' * self._current_indent}{header}  {self._expand_help(action)}"
+            if len(line) <= self._width:
+                return line + "\n"
+        return super()._format_action(action)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -320,6 +361,32 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--levels", metavar="R1,R2,...", help="set-points, bar (default 0.05-0.75)")
     p.add_argument("--json", action="store_true", help="print JSON for scripts")
     p.set_defaults(func=_design_pi)
+    p = sub.add_parser(
+        "export-controller",
+        help="C99 header and Arduino sketch of a designed PI",
+        description="Design the PIs for the valve of PARAMS.yaml and one modulator setting "
+        "(as design-pi) and write one of them, with the modulator's per-step law, as "
+        "OUT/controller.h (dependency-free C99: init and step(r, p) -> valve, xi, the step "
+        "as a constant) and OUT/controller.ino (where the sensor read and valve write go).",
+    )
+    p.add_argument("params", metavar="PARAMS.yaml", help="identified parameters")
+    p.add_argument(
+        "--modulator",
+        required=True,
+        metavar="KIND:NAME=VALUE,...",
+        help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20",
+    )
+    p.add_argument(
+        "--controller",
+        choices=["fixed", "scheduled", "scheduled_ff"],
+        default="scheduled_ff",
+        help="which design (default scheduled_ff: gain-scheduled with feed-forward)",
+    )
+    p.add_argument("--tau-c", type=float, default=0.2, help="closed-loop time constant, s")
+    p.add_argument("--levels", metavar="R1,R2,...", help="set-points, bar (default 0.05-0.75)")
+    p.add_argument("--dt", type=float, default=0.001, help="controller step, s")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.set_defaults(func=_export_controller)
     return parser
 
 

@@ -160,6 +160,7 @@ def fake_results(tmp_path_factory):
         )
         csv(cl / "table.csv", pd.DataFrame({"modulator": ["iipfm-20ms"], "max": [0.75]}))
         csv(cl / "runs.csv", pd.DataFrame({"run": ["closed_loop_pwm"], "fit": [96.9]}))
+        csv(cl / "robust.csv", pd.DataFrame({"modulator": ["iipfm-20ms"], "dip": [0.009]}))
         for name in ("fig10", "fig11"):
             png(cl / f"{name}.png")
     return SimpleNamespace(

@@ -139,6 +139,7 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
             "tuning/table1.csv",
             "closed_loop/table.csv",
             "closed_loop/runs.csv",
+            "closed_loop/robust.csv",
         ):
             tables += [results / d / name] if (results / d / name).is_file() else []
     return datasets, len(figures), len(tables)

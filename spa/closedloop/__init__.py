@@ -7,7 +7,12 @@
 * :mod:`spa.closedloop.reference` – the same loop in plain Python from the open-loop
   functions (tests);
 * :mod:`spa.closedloop.design` – local models from the averaged analysis and SIMC tuning;
-* :mod:`spa.closedloop.metrics` – step and sine tracking metrics (docs/model.md section 8).
+* :mod:`spa.closedloop.metrics` – step and sine tracking metrics (docs/model.md section 8);
+* :mod:`spa.closedloop.export` – the controller as a C99 header and an Arduino sketch;
+  :mod:`spa.closedloop.stepper` – :class:`ControllerStepper`, the same law in Python;
+* :mod:`spa.closedloop.robust` – the worst case over the identification's box, robust
+  ``tau_c``; :mod:`spa.closedloop.disturbance` – supply drop and sensor noise;
+  :mod:`spa.closedloop.bench` – what the ``closed_loop`` stage writes of them.
 """
 
 from __future__ import annotations
@@ -15,6 +20,8 @@ from __future__ import annotations
 from spa._lazy import lazy_exports
 
 _EXPORTS: dict[str, str] = {
+    "ControllerStepper": "spa.closedloop.stepper",
+    "controller_header": "spa.closedloop.export",
     "PIController": "spa.closedloop.controller",
     "simulate_closed_loop": "spa.closedloop.loop",
 }

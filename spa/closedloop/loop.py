@@ -56,9 +56,28 @@ def _run_end(on: bool, p_start: float, active: float, c1: float, k2: float, tau2
 
 @njit(cache=True)
 def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
-    r, dt, p0, i0, plant, grid, kp, ki, ff_r, ff_xi, kind, cfg, st, p_out, xi_out, u_out
+    r,
+    dt,
+    p0,
+    i0,
+    plant,
+    grid,
+    kp,
+    ki,
+    ff_r,
+    ff_xi,
+    kind,
+    cfg,
+    st,
+    p_out,
+    xi_out,
+    u_out,
+    k2_at,
+    k2_new,
+    noise,
 ):
     c1, k2, tau2, t_on, t_off = plant[0], plant[1], plant[2], plant[3], plant[4]
+    noisy = noise.size > 0
     integ = i0
     level = 0
     start = 0
@@ -74,6 +93,13 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
             p = segment_pressure_scalar(
                 level == 1, p_start, k * dt - (start * dt + hold), c1, k2, tau2
             )
+        if k == k2_at:
+            # The supply changes at t_k: the run in progress restarts from p_k (the closed
+            # forms compose), with what is left of its hold.
+            hold = max(start * dt + hold - k * dt, 0.0)
+            p_start = p
+            start = k
+            k2 = k2_new
         # The controller: gains and feed-forward at the set-point, conditional integration.
         rk = r[k]
         if rk != r_prev:
@@ -81,7 +107,7 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
             g_ki = _interp(rk, grid, ki)
             g_ff = _interp(rk, ff_r, ff_xi)
             r_prev = rk
-        e = rk - p
+        e = rk - (p + noise[k]) if noisy else rk - p
         v = g_kp * e + integ + g_ff
         xi = min(max(v, 0.0), 1.0)
         if not ((v > 1.0 and e > 0.0) or (v < 0.0 and e < 0.0)):
@@ -110,10 +136,15 @@ def closed_loop_arrays(
     *,
     integral0: float = 0.0,
     compiled: bool = True,
+    k2_change: tuple[int, float] | None = None,
+    sensor_noise: npt.ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The closed loop's ``(p, xi, valve)`` arrays (see :func:`simulate_closed_loop`).
 
-    ``integral0`` as :func:`simulate_closed_loop`.
+    ``integral0`` as :func:`simulate_closed_loop`. Disturbances a bench has:
+    ``k2_change = (k, k2)`` sets the supply pressure to ``k2`` from ``t_k`` on (``k >= 1``;
+    the run in progress restarts from ``p_k``); ``sensor_noise`` (shape ``(n,)``, bar) is
+    added to the pressure the controller reads (``p`` stays the actuator's).
 
     ``compiled=False`` runs the same loop as plain Python (slow; for the tests).
     """
@@ -137,8 +168,19 @@ def closed_loop_arrays(
     args = (r, dt, p0, float(integral0), plant, *controller.arrays())
     state = np.array(kernel.INITIAL, dtype=np.float64)
     cfg = kernel.configure(settings, dt)
+    k2_at, k2_new = -1, params.k2
+    if k2_change is not None:
+        k2_at = int(k2_change[0])
+        k2_new = checks.positive("k2_change supply", k2_change[1], "bar")
+        if not 1 <= k2_at < n:
+            raise ValueError(f"k2_change: step {k2_at} outside 1..{n - 1}")
+    noise = np.empty(0)
+    if sensor_noise is not None:
+        noise = checks.finite_array("sensor_noise", sensor_noise, ndim=1)
+        if noise.size != n:
+            raise ValueError(f"sensor_noise: {noise.size} samples for a reference of {n}")
     run = _loop if compiled else _loop.py_func
-    run(*args, kernels.code(mod.kind), cfg, state, p, xi, u)
+    run(*args, kernels.code(mod.kind), cfg, state, p, xi, u, k2_at, k2_new, noise)
     return p, xi, u
 
 

@@ -30,6 +30,7 @@ from spa import _checks as checks
 __all__ = [
     "STEP_METRICS",
     "cycle_mean",
+    "ripple",
     "sine_metrics",
     "step_metrics",
     "step_rows",
@@ -181,6 +182,18 @@ def sine_metrics(run: pd.DataFrame, frequency: float, skip: float = 0.0) -> dict
     }
 
 
+def ripple(p: np.ndarray, start: int, stop: int) -> tuple[float, float]:
+    """Peak-to-peak and RMS ripple of ``p`` over the last quarter of ``[start, stop)``, bar.
+
+    Examples
+    --------
+    >>> ripple(np.array([0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0]), 0, 8)
+    (1.0, 0.5)
+    """
+    tail = p[start + 3 * (stop - start) // 4 : stop]
+    return float(tail.max() - tail.min()), float(np.sqrt(np.mean((tail - tail.mean()) ** 2)))
+
+
 def step_rows(
     t: np.ndarray,
     r: np.ndarray,
@@ -215,6 +228,7 @@ def step_rows(
         else:
             settle = (out[-1] + 1) * dt
         tail = p[a + 3 * (b - a) // 4 : b]
+        pp, rms = ripple(p, a, b)
         e = r1 - p[a:b]
         tt = t[a:b] - t[a]
         rows.append(
@@ -226,8 +240,8 @@ def step_rows(
                 "overshoot": over,
                 "settling_time": settle,
                 "steady_state_error": float(r1 - tail.mean()),
-                "ripple_pp": float(tail.max() - tail.min()),
-                "ripple_rms": float(np.sqrt(np.mean((tail - tail.mean()) ** 2))),
+                "ripple_pp": pp,
+                "ripple_rms": rms,
                 "iae": float(np.sum(np.abs(e)) * dt),
                 "itae": float(np.sum(tt * np.abs(e)) * dt),
                 "switching_rate": float(edges[a + 1 : b].sum() / ((b - a) * dt)),

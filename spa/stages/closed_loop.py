@@ -3,10 +3,12 @@ recorded runs against their replay (docs/model.md section 8)."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from spa.closedloop.bench import BenchOutputs
 from spa.closedloop.stage import ClosedLoopResult, write_controllers
 from spa.io import write_csv
 from spa.plots.closedloop import fig10, fig11
@@ -15,7 +17,12 @@ from spa.plots.save import draw
 __all__ = ["write_closed_loop"]
 
 
-def write_closed_loop(result: ClosedLoopResult, recorded: pd.DataFrame, out: Any) -> None:
+def write_closed_loop(
+    result: ClosedLoopResult,
+    recorded: pd.DataFrame,
+    out: Any,
+    bench: BenchOutputs | None = None,
+) -> None:
     """Write :func:`spa.closedloop.stage.closed_loop`'s outputs and the recorded runs' table.
 
     Parameters
@@ -26,7 +33,11 @@ def write_closed_loop(result: ClosedLoopResult, recorded: pd.DataFrame, out: Any
         :func:`spa.closedloop.stage.recorded_runs`: each closed_loop run against its replay.
     out : mapping-like
         Output key to path (``snakemake.output``, or a dict): ``table``, ``controllers``,
-        ``fig10_csv``, ``fig11_csv``, ``recorded`` and ``fig10``, ``fig11`` where drawn.
+        ``fig10_csv``, ``fig11_csv``, ``recorded`` and ``fig10``, ``fig11`` where drawn;
+        with ``bench``, also ``robust``, ``header`` and ``sketch``.
+    bench : BenchOutputs, optional
+        :func:`spa.closedloop.bench.bench_outputs` (already applied to ``result`` with
+        :func:`spa.closedloop.bench.apply_bench`).
     """
     write_csv(result.table, out.get("table"))
     write_controllers(result, out.get("controllers"))
@@ -35,3 +46,7 @@ def write_closed_loop(result: ClosedLoopResult, recorded: pd.DataFrame, out: Any
     write_csv(result.steps, out.get("fig11_csv"))
     draw(out.get("fig11"), fig11, result.steps)
     write_csv(recorded, out.get("recorded"))
+    if bench is not None:
+        write_csv(bench.robust, out.get("robust"))
+        Path(out.get("header")).write_text(bench.header, encoding="utf-8")
+        Path(out.get("sketch")).write_text(bench.sketch, encoding="utf-8")

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import yaml
 
+from spa.closedloop.bench import apply_bench, bench_outputs, sensor_noise
 from spa.closedloop.stage import closed_loop, recorded_runs
 from spa.io import get_logger, read_runs
 from spa.pipeline.status import run_stage
@@ -22,9 +23,12 @@ def main() -> None:
     result = closed_loop(valve.params, snakemake.params.selected, recommendation, cfg)
     for why in result.skipped.values():
         log.warning("%s: left out: %s", dataset, why)
+    noise = sensor_noise(yaml.safe_load(Path(snakemake.input.params).read_text()))
+    bench = bench_outputs(result, valve.params, valve.intervals, cfg, noise)
+    apply_bench(result, bench)
     runs, metas = read_runs(snakemake.input.runs)
     recorded = recorded_runs(runs, metas, valve.params)
-    write_closed_loop(result, recorded, snakemake.output)
+    write_closed_loop(result, recorded, snakemake.output, bench)
     for row in recorded.itertuples():
         log.info("%s: closed-loop run %s replayed: FIT %.1f %%", dataset, row.run, row.fit)
     log.info("%s: %s", dataset, result.sentence)

@@ -7,7 +7,11 @@ Each module defines
   settings (:func:`spa.model.modulators.check_settings`) and the step;
 * ``step(k, xi, cfg, state) -> int``: a numba-compiled state machine that returns the valve
   command ``u[k]`` over ``[k*dt, (k+1)*dt)`` for the input fraction ``xi`` at ``t_k`` and
-  updates ``state`` in place.
+  updates ``state`` in place;
+* ``C_STEP``: the same law in C99, ``static int ${p}_mod_step(long long k, double xi, const
+  double *cfg, double *st)`` with the same operations in the same order (a
+  :class:`string.Template` whose ``${p}`` is a name prefix and ``${eps}`` the event tolerance;
+  :mod:`spa.closedloop.export` writes it into a controller's header).
 
 Fed the same input sequence, each kernel gives :func:`spa.model.modulators.modulate`'s
 output sample for sample (tests/test_closed_loop.py). Adding a kind is one module here, its

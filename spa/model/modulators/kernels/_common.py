@@ -32,3 +32,18 @@ def integrate_and_fire(  # pragma: no cover
         st[2] = k + width
     st[0] += x
     return 1 if k < st[2] else 0
+
+
+#: :func:`integrate_and_fire` in C99 (:mod:`spa.closedloop.export` fills ``${p}``, the name
+#: prefix, and ``${eps}``, :data:`EPS`): the same operations in the same order.
+C_INTEGRATE_AND_FIRE = """
+static int ${p}_fire(long long k, double x, double threshold_steps, double width, double *st)
+{
+    while (st[0] >= (st[1] - ${eps}) * threshold_steps) {
+        st[1] += 1.0;
+        st[2] = (double)k + width;
+    }
+    st[0] += x;
+    return (double)k < st[2] ? 1 : 0;
+}
+"""

@@ -43,3 +43,29 @@ def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: 
         st[0] = m
         st[1] = nxt
     return int(st[4])
+
+
+#: :func:`step` in C99: ``int ${p}_mod_step(k, xi, cfg, st)`` (see :mod:`.pwm`).
+C_STEP = """
+static int ${p}_mod_step(long long k, double xi, const double *cfg, double *st)
+{
+    const double period = cfg[0];
+    const double dt = cfg[1];
+    if ((double)k >= st[1]) {
+        double ones, m, nxt;
+        st[2] += xi;
+        ones = floor(st[2] + 0.5 + ${eps});
+        st[4] = ones - st[3];
+        st[3] = ones;
+        m = st[0] + 1.0;
+        nxt = ceil(m * period / dt - ${eps});
+        while (nxt <= (double)k) {
+            m += 1.0;
+            nxt = ceil(m * period / dt - ${eps});
+        }
+        st[0] = m;
+        st[1] = nxt;
+    }
+    return (int)st[4];
+}
+"""

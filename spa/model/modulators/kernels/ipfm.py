@@ -10,7 +10,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from spa.model.modulators.kernels._common import integrate_and_fire, pulse_steps
+from spa.model.modulators.kernels._common import (
+    C_INTEGRATE_AND_FIRE,
+    integrate_and_fire,
+    pulse_steps,
+)
 
 #: State: [integral up to t_k in steps, next threshold index, end of the pulse].
 INITIAL = (0.0, 1.0, 0.0)
@@ -27,3 +31,15 @@ def configure(settings: dict[str, float], dt: float) -> np.ndarray:
 def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: no cover
     """Command ``u[k]``; ``xi`` (sampled at step ``k``) enters the integral after it."""
     return integrate_and_fire(k, xi, cfg[0], cfg[1], st)
+
+
+#: :func:`step` in C99: ``int ${p}_mod_step(k, xi, cfg, st)`` (see :mod:`.pwm`).
+C_STEP = (
+    C_INTEGRATE_AND_FIRE
+    + """
+static int ${p}_mod_step(long long k, double xi, const double *cfg, double *st)
+{
+    return ${p}_fire(k, xi, cfg[0], cfg[1], st);
+}
+"""
+)

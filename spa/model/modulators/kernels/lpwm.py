@@ -49,3 +49,38 @@ def duty(xi: float, cfg: np.ndarray) -> float:  # pragma: no cover
 def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: no cover
     """Command ``u[k]``: PWM on the duty of ``xi`` (only used at period starts)."""
     return pwm.step(k, duty(xi, cfg), cfg, st)
+
+
+#: :func:`duty` and :func:`step` in C99: ``int ${p}_mod_step(k, xi, cfg, st)`` (see
+#: :mod:`.pwm`); the valve constants are ``cfg[3:8]``.
+C_STEP = (
+    pwm.C_PWM
+    + """
+static double ${p}_duty(double xi, const double *cfg)
+{
+    double f, c1, k2, tau2, t_on, t_off, root, a, b, d;
+    if (xi <= 0.0) {
+        return 0.0;
+    }
+    if (xi >= 1.0) {
+        return 1.0;
+    }
+    f = cfg[2];
+    c1 = cfg[3];
+    k2 = cfg[4];
+    tau2 = cfg[5];
+    t_on = cfg[6];
+    t_off = cfg[7];
+    root = sqrt(k2 * xi);
+    a = root * tau2;
+    b = (k2 - root * root) * c1;
+    d = (a * (1.0 - t_off * f) + b * (t_on * f)) / (a + b);
+    return d < 0.0 ? 0.0 : (d > 1.0 ? 1.0 : d);
+}
+
+static int ${p}_mod_step(long long k, double xi, const double *cfg, double *st)
+{
+    return ${p}_pwm(k, ${p}_duty(xi, cfg), cfg, st);
+}
+"""
+)

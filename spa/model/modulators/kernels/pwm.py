@@ -39,3 +39,39 @@ def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: 
         st[0] = j
         st[1] = nxt
     return 1 if k < st[2] else 0
+
+
+#: :func:`step` in C99 as ``${p}_pwm`` (and ``${p}_mod_step``), the same operations in the
+#: same order (:mod:`spa.closedloop.export` fills ``${p}`` and ``${eps}``).
+C_PWM = """
+static int ${p}_pwm(long long k, double xi, const double *cfg, double *st)
+{
+    const double period = cfg[0];
+    const double dt = cfg[1];
+    if ((double)k >= st[1]) {
+        const double t_start = st[0] * period;
+        double j, nxt;
+        st[2] = ceil((t_start + xi * period) / dt - ${eps});
+        j = st[0] + 1.0;
+        nxt = ceil(j * period / dt - ${eps});
+        while (nxt <= (double)k) {
+            j += 1.0;
+            nxt = ceil(j * period / dt - ${eps});
+        }
+        st[0] = j;
+        st[1] = nxt;
+    }
+    return (double)k < st[2] ? 1 : 0;
+}
+"""
+
+#: The kind's per-step law in C99: ``int ${p}_mod_step(k, xi, cfg, st)``.
+C_STEP = (
+    C_PWM
+    + """
+static int ${p}_mod_step(long long k, double xi, const double *cfg, double *st)
+{
+    return ${p}_pwm(k, xi, cfg, st);
+}
+"""
+)

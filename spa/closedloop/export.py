@@ -1,0 +1,363 @@
+"""The designed controller as portable code: a dependency-free C99 header and a sketch.
+
+:func:`controller_header` writes one controller (a :class:`~spa.closedloop.PIController`,
+fixed, scheduled or with feed-forward) and one modulator setting as a single C99 header: the
+step ``dt`` as a constant, the gain schedule and feed-forward as tables, one state struct,
+``<prefix>_init`` and ``<prefix>_step(state, r, p)`` returning the valve command and ``xi``.
+The PI law is docs/model.md section 8 with the operations of
+:func:`spa.closedloop.loop.simulate_closed_loop` in the same order; the modulator's per-step
+law is the ``C_STEP`` text of its kernel module (:mod:`spa.model.modulators.kernels`), so
+nothing here names a kind. Every constant is written as the shortest decimal that reads back
+as the same double, so a compiler that keeps IEEE double and does not contract
+``a*b + c`` into a fused multiply-add (ISO C mode, ``-std=c99``, or ``-ffp-contract=off``)
+gives the simulation's commands and ``xi`` (tests/test_export.py).
+:func:`arduino_sketch` shows where the sensor read and the valve write go.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from string import Template
+from typing import Any
+
+import numpy as np
+
+from spa import _checks as checks
+from spa.closedloop.controller import PIController
+from spa.model.modulators import Modulator, check_settings
+from spa.model.modulators.kernels import KERNELS
+from spa.model.modulators.kernels._common import EPS
+
+__all__ = [
+    "arduino_sketch",
+    "c_double",
+    "controller_header",
+    "export_designed",
+    "write_controller",
+]
+
+_PREFIX = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+_PI = """
+static double ${p}_interp(double x, const double *xp, const double *fp, int n)
+{
+    int lo, hi, mid;
+    if (n == 1 || x <= xp[0]) {
+        return fp[0];
+    }
+    if (x >= xp[n - 1]) {
+        return fp[n - 1];
+    }
+    lo = 0;
+    hi = n - 1;
+    while (hi - lo > 1) {
+        mid = (lo + hi) / 2;
+        if (xp[mid] <= x) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return fp[lo] + (x - xp[lo]) * (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo]);
+}
+
+/* Start (or restart) the controller: step 0, integrator at integral0 (input fraction),
+ * the modulator at its initial state. */
+static void ${p}_init(${p}_state *s, double integral0)
+{
+    int i;
+    s->k = 0;
+    s->integral = integral0;
+    s->r_prev = 0.0;
+    s->kp = 0.0;
+    s->ki = 0.0;
+    s->ff = 0.0;
+    for (i = 0; i < ${P}_N_STATE; ++i) {
+        s->mod[i] = ${p}_initial[i];
+    }
+}
+
+/* One controller step at t_k = k*${P}_DT: r the set-point and p the measured pressure at
+ * t_k (bar). Returns the valve command to apply at once and hold until the next step
+ * (1 = charge, 0 = exhaust) and xi, the PI's output (the input fraction). */
+static ${p}_output ${p}_step(${p}_state *s, double r, double p)
+{
+    ${p}_output out;
+    double e, v;
+    if (s->k == 0 || r != s->r_prev) {
+        s->kp = ${p}_interp(r, ${p}_grid, ${p}_kp, ${P}_N_GRID);
+        s->ki = ${p}_interp(r, ${p}_grid, ${p}_ki, ${P}_N_GRID);
+        s->ff = ${p}_interp(r, ${p}_ff_r, ${p}_ff_xi, ${P}_N_FF);
+        s->r_prev = r;
+    }
+    e = r - p;
+    v = s->kp * e + s->integral + s->ff;
+    out.xi = v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v);
+    if (!((v > 1.0 && e > 0.0) || (v < 0.0 && e < 0.0))) {
+        s->integral += s->ki * ${P}_DT * e;
+    }
+    out.valve = ${p}_mod_step(s->k, out.xi, ${p}_cfg, s->mod);
+    s->k += 1;
+    return out;
+}
+"""
+
+_SKETCH = """// Arduino-style sketch for ${header} (spa export-controller): the PI and the modulator
+// run every ${P}_DT s; fill in the two TODOs. It needs an IEEE double (a 32-bit ARM board
+// such as a Teensy or a Due: on 8-bit AVR boards double is a 32-bit float).
+#include "${header}"
+
+const int VALVE_PIN = 8;  // TODO: the pin that drives the valve (HIGH = charge)
+const unsigned long STEP_US = (unsigned long)(${P}_DT * 1e6 + 0.5);
+
+${p}_state state;
+unsigned long next_us;
+
+double read_pressure_bar() {
+  // TODO: the pressure sensor, in bar (the unit and zero the valve was identified in)
+  return 0.0;
+}
+
+double setpoint_bar() {
+  return 0.4;  // TODO: the set-point, bar
+}
+
+void setup() {
+  pinMode(VALVE_PIN, OUTPUT);
+  digitalWrite(VALVE_PIN, LOW);
+  ${p}_init(&state, 0.0);  // from rest: integrator at 0
+  next_us = micros();
+}
+
+void loop() {
+  if ((long)(micros() - next_us) < 0) {
+    return;  // wait for the next step: the law assumes a fixed step of ${P}_DT s
+  }
+  next_us += STEP_US;
+  double p = read_pressure_bar();  // read first ...
+  ${p}_output out = ${p}_step(&state, setpoint_bar(), p);
+  digitalWrite(VALVE_PIN, out.valve ? HIGH : LOW);  // ... then write at once
+}
+"""
+
+
+def c_double(x: float) -> str:
+    """A C double literal that reads back as exactly ``x``: Python's shortest round-trip
+    decimal (``repr``), which a correctly rounding C compiler reads as the same double.
+
+    Raises
+    ------
+    ValueError
+        For a non-finite value.
+
+    Examples
+    --------
+    >>> c_double(0.1), c_double(20.0), c_double(1e-9)
+    ('0.1', '20.0', '1e-09')
+    """
+    v = float(x)
+    if not math.isfinite(v):
+        raise ValueError(f"c_double: {v} has no C literal")
+    return repr(v)
+
+
+def _array(name: str, values: Sequence[float] | np.ndarray) -> str:
+    items = ", ".join(c_double(v) for v in np.asarray(values, dtype=np.float64))
+    return f"static const double {name}[{len(values)}] = {{{items}}};"
+
+
+def controller_header(
+    modulator: Modulator | dict[str, Any],
+    controller: PIController,
+    dt: float,
+    *,
+    prefix: str = "spa_ctrl",
+    note: str = "",
+) -> str:
+    """The C99 header of one controller and modulator setting.
+
+    Parameters
+    ----------
+    modulator : Modulator or mapping
+        The setting, e.g. ``{"type": "iipfm", "t_l": 0.02, "gain": 1.15}``.
+    controller : PIController
+        Fixed, scheduled or with feed-forward.
+    dt : float
+        The controller step, s (the modulator's clock too).
+    prefix : str, optional
+        Prefix of every name the header defines (a C identifier); the macros use it in
+        upper case. Two headers with different prefixes can share a program.
+    note : str, optional
+        A line for the header's comment (e.g. where the design came from).
+
+    Returns
+    -------
+    str
+        The header: ``<prefix>_state``, ``<prefix>_output`` (``valve``, ``xi``),
+        ``<prefix>_init(&state, integral0)``, ``<prefix>_step(&state, r, p)`` and the
+        macro ``<PREFIX>_DT``; only ``<math.h>`` is included.
+
+    Raises
+    ------
+    ValueError
+        For a bad prefix, step, controller, or a setting that does not fit the step.
+
+    Examples
+    --------
+    >>> h = controller_header({"type": "pwm", "f_w": 20.0}, PIController(1.0, 2.0), 1e-3)
+    >>> "spa_ctrl_step(spa_ctrl_state *s, double r, double p)" in h
+    True
+    """
+    if not isinstance(prefix, str) or not _PREFIX.fullmatch(prefix):
+        raise ValueError(f"prefix must be a C identifier, got {prefix!r}")
+    if not isinstance(controller, PIController):
+        raise ValueError(f"controller must be a PIController, got {controller!r}")
+    dt = checks.positive("dt", dt, "s")
+    mod = Modulator.from_mapping(modulator)
+    if mod.kind not in KERNELS:
+        raise ValueError(f"no per-step law for modulator kind {mod.kind!r}")
+    settings = dict(mod.settings)
+    check_settings(mod.kind, dt, **settings)
+    kernel = KERNELS[mod.kind]
+    cfg = kernel.configure(settings, dt)
+    grid, kp, ki, ff_r, ff_xi = controller.arrays()
+    up = prefix.upper()
+    subs = {"p": prefix, "P": up, "eps": c_double(EPS)}
+    kind = "gain-scheduled" if controller.scheduled else "fixed"
+    ff = " with feed-forward" if controller.feedforward is not None else ""
+    lines = [
+        f"/* {up}: {kind} PI{ff} -> {mod.description} ({mod.label}), step {dt:g} s.",
+        " * Generated by spa (spa export-controller); the law of docs/model.md section 8,",
+        " * checked against spa.simulate_closed_loop to the bit (tests/test_export.py).",
+        " * Compile as ISO C (-std=c99) or with -ffp-contract=off, IEEE double.",
+        f" * Setting: {mod.to_mapping()}",
+        f" * Controller: {controller.to_mapping()}",
+    ]
+    if note:
+        lines.append(f" * {note}")
+    lines.append(" */")
+    body = [
+        "\n".join(lines),
+        f"#ifndef {up}_H\n#define {up}_H\n\n#include <math.h>\n",
+        f"#define {up}_DT {c_double(dt)} /* controller step, s */",
+        f"#define {up}_N_GRID {grid.size}",
+        f"#define {up}_N_FF {ff_r.size}",
+        f"#define {up}_N_STATE {len(kernel.INITIAL)}\n",
+        "/* Gains (1/bar, 1/(bar*s)) at the set-points of the grid (bar), the feed-forward",
+        " * input fraction at its set-points: linear in the set-point, held outside. */",
+        _array(f"{prefix}_grid", grid),
+        _array(f"{prefix}_kp", kp),
+        _array(f"{prefix}_ki", ki),
+        _array(f"{prefix}_ff_r", ff_r),
+        _array(f"{prefix}_ff_xi", ff_xi),
+        "/* The modulator's constants and initial state. */",
+        _array(f"{prefix}_cfg", cfg),
+        _array(f"{prefix}_initial", kernel.INITIAL) + "\n",
+        "typedef struct {\n    long long k; /* steps since init */\n"
+        "    double integral; /* the PI's integrator, input fraction */\n"
+        "    double r_prev, kp, ki, ff; /* gains at the last set-point */\n"
+        f"    double mod[{up}_N_STATE]; /* the modulator's state */\n}} {prefix}_state;\n",
+        "typedef struct {\n    int valve; /* 1: charge, 0: exhaust, over the coming step */\n"
+        f"    double xi; /* the PI's output, input fraction */\n}} {prefix}_output;",
+        Template(kernel.C_STEP).substitute(subs).rstrip(),
+        Template(_PI).substitute(subs).rstrip(),
+        f"\n#endif /* {up}_H */\n",
+    ]
+    return "\n".join(body)
+
+
+def arduino_sketch(header: str = "controller.h", prefix: str = "spa_ctrl") -> str:
+    """A minimal Arduino-style sketch around the header ``header`` (file name).
+
+    Examples
+    --------
+    >>> "spa_ctrl_step(&state, setpoint_bar(), p)" in arduino_sketch()
+    True
+    """
+    if not _PREFIX.fullmatch(prefix):
+        raise ValueError(f"prefix must be a C identifier, got {prefix!r}")
+    return Template(_SKETCH).substitute(header=header, p=prefix, P=prefix.upper())
+
+
+def write_controller(
+    folder: str | Path,
+    modulator: Modulator | dict[str, Any],
+    controller: PIController,
+    dt: float,
+    *,
+    name: str = "controller",
+    prefix: str = "spa_ctrl",
+    note: str = "",
+) -> tuple[Path, Path]:
+    """Write ``<name>.h`` (:func:`controller_header`) and ``<name>.ino`` into ``folder``.
+
+    Returns
+    -------
+    header, sketch : pathlib.Path
+        The two files written (``folder`` is created if needed).
+    """
+    text = controller_header(modulator, controller, dt, prefix=prefix, note=note)
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    header, sketch = out / f"{name}.h", out / f"{name}.ino"
+    header.write_text(text, encoding="utf-8")
+    sketch.write_text(arduino_sketch(header.name, prefix), encoding="utf-8")
+    return header, sketch
+
+
+def export_designed(
+    folder: str | Path,
+    params: Any,
+    modulator: Modulator | dict[str, Any],
+    *,
+    controller: str = "scheduled_ff",
+    tau_c: float | None = None,
+    levels: Sequence[float] | None = None,
+    dt: float = 0.001,
+    note: str = "",
+) -> tuple[Path, Path]:
+    """Design the PIs for a valve and a setting (as the ``closed_loop`` stage does) and write
+    the header and sketch of one of them (``spa export-controller``).
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        Where ``controller.h`` and ``controller.ino`` go.
+    params : ValveParams
+        The identified valve.
+    modulator : Modulator or mapping
+        The setting.
+    controller : {"fixed", "scheduled", "scheduled_ff"}
+        Which of :func:`spa.closedloop.design.design_pi`'s controllers.
+    tau_c, levels, dt : optional
+        SIMC's closed-loop time constant (s), the schedule's set-points (bar) and the step
+        (s); the ``closed_loop`` stage's defaults (levels below 0.95*k2) when omitted.
+    note : str, optional
+        A line for the header's comment.
+
+    Returns
+    -------
+    header, sketch : pathlib.Path
+
+    Raises
+    ------
+    ValueError
+        For an unknown controller name, fewer than two levels, or a design that fails.
+    """
+    from spa.closedloop.design import design_pi
+    from spa.closedloop.stage import CONTROLLERS, DEFAULTS
+
+    if controller not in CONTROLLERS:
+        raise ValueError(f"controller must be one of {list(CONTROLLERS)}, got {controller!r}")
+    tau = float(DEFAULTS["tau_c"] if tau_c is None else tau_c)
+    if levels is None:
+        cap = float(DEFAULTS["max_level_fraction"]) * params.k2
+        levels = [float(v) for v in DEFAULTS["levels"] if v < cap]
+    if len(levels) < 2:
+        raise ValueError(f"levels: need at least two set-points, got {list(levels)}")
+    designs = design_pi(modulator, params, levels=levels, tau_c=tau)
+    text = note or f"SIMC, tau_c = {tau:g} s, schedule over {list(levels)} bar."
+    return write_controller(folder, modulator, designs[controller], dt, note=text)

@@ -1,0 +1,126 @@
+"""The closed_loop stage's bench outputs: robust.csv, the header, controllers.yaml's sentence."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from spa.closedloop.bench import (
+    NOISE_FALLBACK,
+    ROBUST_COLUMNS,
+    apply_bench,
+    bench_outputs,
+    sensor_noise,
+)
+from spa.closedloop.controller import PIController
+from spa.closedloop.export import controller_header
+from spa.closedloop.stage import ClosedLoopResult, closed_loop
+from spa.model.modulators import Modulator
+from spa.model.params import ValveParams
+from spa.stages.closed_loop import write_closed_loop
+
+SELECTED = [{"type": "pwm", "f_w": 20.0}, {"type": "iipfm", "t_l": 0.02, "gain": 1.15}]
+CFG = {
+    "levels": [0.1, 0.4, 0.7],
+    "hold": 1.5,
+    "step_hold": 1.0,
+    "sine": {"offset": 0.4, "amplitude": 0.1, "frequency": 0.5, "duration": 4.0, "skip": 1.0},
+}
+BOX = {"k2": (0.82, 0.85), "tau2": (0.8, 0.85), "c1": (0.52, 0.55)}
+
+
+@pytest.fixture(scope="module")
+def staged():
+    result = closed_loop(ValveParams(), SELECTED, None, CFG)
+    return result, bench_outputs(result, ValveParams(), BOX, CFG, 0.004)
+
+
+def test_robust_table_has_a_row_per_setting_and_the_box_on_the_chosen(staged):
+    result, bench = staged
+    t = bench.robust
+    assert list(t.columns) == list(ROBUST_COLUMNS)
+    assert set(t.modulator) == set(result.controllers["controllers"])
+    assert (t.controller == result.controllers["controller"]).all()
+    assert t.chosen.sum() == 1
+    chosen = t[t.chosen].iloc[0]
+    assert chosen.n_corners == 8 and chosen.tau_c == result.controllers["tau_c"]
+    assert (t.noise == 0.004).all() and (t.drop_level == 0.4).all()
+    assert t[~t.chosen][["n_corners", "worst_overshoot"]].isna().all().all()
+    # the box holds the estimate, so its worst case is at least the nominal table's
+    stair = result.table[
+        (result.table.experiment == "staircase")
+        & (result.table.modulator == chosen.modulator)
+        & (result.table.controller == chosen.controller)
+    ].set_index("metric")["max"]
+    assert chosen.worst_overshoot >= stair["overshoot"]
+    assert chosen.worst_rise_time >= stair["rise_time"]
+    if chosen.worst_overshoot <= 10.0:
+        assert chosen.tau_c_robust == chosen.tau_c
+
+
+def test_header_is_the_chosen_controller(staged):
+    result, bench = staged
+    ctl = result.controllers
+    mod = Modulator.from_mapping(ctl["setting"])
+    ctrl = PIController.from_mapping(ctl["controllers"][mod.label][ctl["controller"]])
+    expected = controller_header(mod, ctrl, ctl["dt"])
+    assert bench.header[bench.header.index("#ifndef") :] == expected[expected.index("#ifndef") :]
+    assert '#include "controller.h"' in bench.sketch
+
+
+def test_written_files_and_sentence(staged, tmp_path):
+    result, bench = staged
+    result = ClosedLoopResult(
+        result.table, result.steps, result.traces, dict(result.controllers), result.skipped
+    )
+    before = result.sentence
+    apply_bench(result, bench)
+    out = {
+        k: str(tmp_path / v)
+        for k, v in {
+            "table": "table.csv",
+            "controllers": "controllers.yaml",
+            "fig10_csv": "fig10.csv",
+            "fig11_csv": "fig11.csv",
+            "recorded": "runs.csv",
+            "robust": "robust.csv",
+            "header": "controller.h",
+            "sketch": "controller.ino",
+        }.items()
+    }
+    write_closed_loop(result, pd.DataFrame(), out, bench)
+    data = yaml.safe_load((tmp_path / "controllers.yaml").read_text())
+    assert data["sentence"].startswith(before) and "95 % box (8 corners)" in data["sentence"]
+    assert data["bench"]["n_corners"] == 8
+    assert (tmp_path / "controller.h").read_text() == bench.header
+    robust = pd.read_csv(tmp_path / "robust.csv")
+    assert len(robust) == len(bench.robust)
+    if shutil.which("cc"):
+        res = subprocess.run(
+            ["cc", "-std=c99", "-fsyntax-only", "-Wall", "-Werror", "-Wno-unused-function",
+             "-x", "c", str(tmp_path / "controller.h")],
+            capture_output=True, text=True, check=False,
+        )  # fmt: skip
+        assert res.returncode == 0, res.stderr
+
+
+def test_nothing_designed_gives_an_error_header():
+    empty = ClosedLoopResult(pd.DataFrame(), pd.DataFrame(), pd.DataFrame(), {"sentence": "x"})
+    bench = bench_outputs(empty, ValveParams(), BOX, CFG)
+    assert bench.robust.empty and list(bench.robust.columns) == list(ROBUST_COLUMNS)
+    assert bench.header.startswith("#error") and bench.summary == {}
+    apply_bench(empty, bench)
+    assert empty.controllers == {"sentence": "x"}
+
+
+def test_sensor_noise_reads_the_pulse_fit():
+    assert sensor_noise({"fits": {"pulse": {"rmse": 0.007}}}) == 0.007
+    for bad in (None, {}, {"fits": {}}, {"fits": {"pulse": {"rmse": float("nan")}}}):
+        assert sensor_noise(bad) == NOISE_FALLBACK
+    assert math.isfinite(NOISE_FALLBACK) and np.isclose(NOISE_FALLBACK, 0.005)
