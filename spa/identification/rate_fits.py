@@ -10,9 +10,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
-from scipy.signal import fftconvolve, savgol_coeffs
 
 from spa._docs import fill_doc
+from spa._signal import fftconvolve, savgol_coeffs
 from spa.identification.rates import _as_runs, _line, _r2, _Segment, _segment
 from spa.identification.results import (
     UNITS,
@@ -67,8 +67,8 @@ def _bootstrap(
     # are plain 'valid' convolutions (FFT), without savgol_filter's edge fits.
     kernels = [
         (
-            savgol_coeffs(s.w, polyorder, deriv=0, delta=s.dt, use="conv")[None, :],
-            savgol_coeffs(s.w, polyorder, deriv=1, delta=s.dt, use="conv")[None, :],
+            savgol_coeffs(s.w, polyorder, deriv=0, delta=s.dt)[None, :],
+            savgol_coeffs(s.w, polyorder, deriv=1, delta=s.dt)[None, :],
         )
         for s in segments
     ]
