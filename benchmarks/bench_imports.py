@@ -4,12 +4,17 @@ Run from the repository root:
 
     .venv/bin/python benchmarks/bench_imports.py            # median of 5 fresh interpreters
     .venv/bin/python benchmarks/bench_imports.py --repeat 9
+    .venv/bin/python benchmarks/bench_imports.py --importtime   # spa.stages.* by -X importtime
 
 For every script in ``workflow/scripts/``, the script's top-level ``import`` and ``from ...
 import`` statements (found with :mod:`ast`, nothing else of the script runs) are executed in a
 fresh interpreter, together with the ``snakemake.script`` module Snakemake's script directive
 loads first; the wall and CPU time of that interpreter, minus those of an empty one, are the
 script's import cost. The table goes to stdout as Markdown.
+
+``--importtime`` instead imports each module of ``spa.stages`` alone under ``python -X
+importtime`` and prints, per module, its cumulative import time and that of the heavy
+packages it pulled in (median over ``--repeat`` interpreters; ``-`` when not imported).
 """
 
 from __future__ import annotations
@@ -53,10 +58,44 @@ def cost(code: str, repeat: int) -> tuple[float, float]:
     return statistics.median(walls), statistics.median(cpus)
 
 
+HEAVY = ("pandas", "scipy.optimize", "scipy.signal", "scipy.stats", "numba", "matplotlib")
+
+
+def importtime(module: str, repeat: int) -> dict[str, float]:
+    """Median cumulative import time (s) of ``module`` and of each of :data:`HEAVY` it
+    imports, from ``python -X importtime -c "import module"``."""
+    runs: dict[str, list[float]] = {}
+    for _ in range(repeat):
+        done = subprocess.run(
+            [sys.executable, "-X", "importtime", "-c", f"import {module}"],
+            cwd=ROOT, check=True, capture_output=True, text=True,
+        )  # fmt: skip
+        for line in done.stderr.splitlines():
+            parts = line.split("|")
+            if len(parts) == 3 and parts[2].strip() in (module, *HEAVY):
+                runs.setdefault(parts[2].strip(), []).append(int(parts[1]) / 1e6)
+    return {name: statistics.median(values) for name, values in runs.items()}
+
+
+def stage_importtimes(repeat: int) -> None:
+    """The ``--importtime`` table."""
+    print(f"| module | import (s) | {' | '.join(HEAVY)} |")
+    print(f"|---|---:|{'---:|' * len(HEAVY)}")
+    for path in sorted((ROOT / "spa" / "stages").glob("[!_]*.py")):
+        module = f"spa.stages.{path.stem}"
+        times = importtime(module, repeat)
+        heavy = " | ".join(f"{times[h]:.2f}" if h in times else "-" for h in HEAVY)
+        print(f"| {module} | {times.get(module, float('nan')):.2f} | {heavy} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--importtime", action="store_true", help="spa.stages.* alone")
     args = parser.parse_args()
+    if args.importtime:
+        stage_importtimes(args.repeat)
+        return
     empty_wall, empty_cpu = cost("pass", args.repeat)
     print(f"empty interpreter: {empty_wall:.3f} s wall, {empty_cpu:.3f} s CPU (subtracted)\n")
     print("| script | imports, wall (s) | imports, CPU (s) | heavy modules loaded |")
