@@ -4,18 +4,24 @@ Run from the repository root:
 
     .venv/bin/python benchmarks/bench_imports.py            # median of 5 fresh interpreters
     .venv/bin/python benchmarks/bench_imports.py --repeat 9
+    .venv/bin/python benchmarks/bench_imports.py --importtime [--old /tmp/perf/old]
 
 For every script in ``workflow/scripts/``, the script's top-level ``import`` and ``from ...
 import`` statements (found with :mod:`ast`, nothing else of the script runs) are executed in a
 fresh interpreter, together with the ``snakemake.script`` module Snakemake's script directive
 loads first; the wall and CPU time of that interpreter, minus those of an empty one, are the
 script's import cost. The table goes to stdout as Markdown.
+
+``--importtime`` instead imports each module of ``spa.stages`` alone under ``python -X
+importtime`` and prints, per module, its cumulative import time and that of the heavy
+packages it pulled in (median over ``--repeat`` interpreters; ``-`` when not imported).
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
+import os
 import resource
 import statistics
 import subprocess
@@ -53,10 +59,48 @@ def cost(code: str, repeat: int) -> tuple[float, float]:
     return statistics.median(walls), statistics.median(cpus)
 
 
+HEAVY = ("pandas", "scipy.optimize", "scipy.signal", "scipy.stats", "numba", "matplotlib")
+
+
+def importtime(module: str, repeat: int, tree: Path = ROOT) -> dict[str, float]:
+    """Median cumulative import time (s) of ``module`` (from the checkout ``tree``) and of
+    each of :data:`HEAVY` it imports, from ``python -X importtime -c "import module"``."""
+    runs: dict[str, list[float]] = {}
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    for _ in range(repeat):
+        done = subprocess.run(
+            [sys.executable, "-X", "importtime", "-c", f"import {module}"],
+            cwd=tree, env=env, check=True, capture_output=True, text=True,
+        )  # fmt: skip
+        for line in done.stderr.splitlines():
+            parts = line.split("|")
+            if len(parts) == 3 and parts[2].strip() in (module, *HEAVY):
+                runs.setdefault(parts[2].strip(), []).append(int(parts[1]) / 1e6)
+    return {name: statistics.median(values) for name, values in runs.items()}
+
+
+def stage_importtimes(repeat: int, trees: dict[str, Path]) -> None:
+    """The ``--importtime`` table: each module in each tree, alternately."""
+    print(f"| module | tree | import (s) | {' | '.join(HEAVY)} |")
+    print(f"|---|---|---:|{'---:|' * len(HEAVY)}")
+    for path in sorted((ROOT / "spa" / "stages").glob("[!_]*.py")):
+        module = f"spa.stages.{path.stem}"
+        for name, tree in trees.items():
+            times = importtime(module, repeat, tree)
+            heavy = " | ".join(f"{times[h]:.2f}" if h in times else "-" for h in HEAVY)
+            print(f"| {module} | {name} | {times.get(module, float('nan')):.2f} | {heavy} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--importtime", action="store_true", help="spa.stages.* alone")
+    parser.add_argument("--old", type=Path, help="with --importtime: another checkout too")
     args = parser.parse_args()
+    if args.importtime:
+        trees = {"this": ROOT} | ({"old": args.old.resolve()} if args.old else {})
+        stage_importtimes(args.repeat, trees)
+        return
     empty_wall, empty_cpu = cost("pass", args.repeat)
     print(f"empty interpreter: {empty_wall:.3f} s wall, {empty_cpu:.3f} s CPU (subtracted)\n")
     print("| script | imports, wall (s) | imports, CPU (s) | heavy modules loaded |")

@@ -134,7 +134,7 @@ def _covariance_se(
     (Bartlett weights, as the delay fit); the quantile is Student's t with ``N - p`` degrees
     of freedom (a run of a few dozen samples).
     """
-    from scipy.stats import t as student
+    from scipy.special import stdtrit  # Student's t quantile, without importing scipy.stats
 
     from spa.identification.delays import _hac_factor
 
@@ -144,7 +144,7 @@ def _covariance_se(
     dof = max(r.size - jac.shape[1], 1)
     var = float(np.dot(r, r)) / dof * infl
     cov = var * np.linalg.pinv(jac.T @ jac)
-    return np.sqrt(np.maximum(np.diag(cov), 0.0)), float(student.ppf(0.975, dof))
+    return np.sqrt(np.maximum(np.diag(cov), 0.0)), float(stdtrit(dof, 0.975))
 
 
 def _sqrt_law_interval(segments: Sequence[_Segment], c1: float) -> tuple[float, float]:

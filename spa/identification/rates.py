@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy.signal import savgol_filter
 
+from spa._signal import savgol_filter
 from spa.identification.results import FloatArray, IdentificationError, Runs
 from spa.model.plant import edge_indices
 
@@ -102,7 +102,7 @@ def _window_samples(window: float, polyorder: int, dt: float, n: int | None = No
 def _savgol(
     p: npt.ArrayLike, w: int, polyorder: int, dt: float, deriv: int = 0
 ) -> npt.NDArray[np.float64]:
-    return savgol_filter(p, w, polyorder, deriv=deriv, delta=dt, axis=-1, mode="interp")
+    return savgol_filter(p, w, polyorder, deriv=deriv, delta=dt)
 
 
 def pressure_rate(table: pd.DataFrame, window: float, polyorder: int) -> pd.DataFrame:

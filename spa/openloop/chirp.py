@@ -27,9 +27,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy import signal
 
-from spa import _checks
+from spa import _checks, _signal
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.openloop._arrays import run_columns, uniform_step
@@ -109,7 +108,7 @@ def chirp_bicoherence(
     n_dc = _checks.integer("dc_bins", dc_bins, minimum=0)
     x = np.asarray(p, dtype=np.float64)
     if q > 1:
-        x = signal.decimate(x, q, ftype="fir", zero_phase=True)
+        x = _signal.decimate(x, q)
     fs = 1.0 / (_checks.positive("dt", dt, "s") * q)
     f, bic = bicoherence(x, fs, nfft=nfft, overlap=overlap, normalisation=normalisation)
     fmin = n_dc * fs / nfft

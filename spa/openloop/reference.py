@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy.signal import lfilter
 
 from spa import _checks
+from spa._signal import first_order_filter
 from spa.model.averaging import time_constant, time_fractions
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
@@ -87,8 +87,7 @@ def first_order_response(
     a = float(np.exp(-uniform_step(tt, "first_order_response") / tc))
     # y[k] = a*y[k-1] + (1 - a)*gain*xi[k-1]: the input enters one sample later.
     drive = np.concatenate(([0.0], (1.0 - a) * k * x[:-1]))
-    y, _ = lfilter([1.0], [1.0, -a], drive, zi=[y_start])
-    return y
+    return first_order_filter(drive, a, y_start)
 
 
 def reference_time_constant(

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from scipy.signal import correlate, correlation_lags
 
+from spa._signal import correlate, correlation_lags
 from spa.openloop._arrays import _array, _nonnegative, _time
 
 __all__ = ["compensate_lag", "sine_linearity"]
@@ -85,8 +85,8 @@ def compensate_lag(
     if np.ptp(pp) == 0.0:
         raise ValueError("p is constant: no lag can be measured")
     n = tt.size
-    corr = correlate(pp - pp.mean(), x - x.mean(), mode="full", method="fft")
-    lags = correlation_lags(n, n, mode="full")  # corr[i] = sum_k p[k + lags[i]]*x[k]
+    corr = correlate(pp - pp.mean(), x - x.mean())
+    lags = correlation_lags(n, n)  # corr[i] = sum_k p[k + lags[i]]*x[k]
     allowed = np.ones(lags.size, dtype=bool)
     if causal:
         allowed &= lags >= 0

@@ -23,6 +23,7 @@ import math
 import os
 import struct
 import zlib
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +35,9 @@ MAX_SAMPLES = 10**8
 
 _MI_COMPRESSED = 15
 _MI_MATRIX = 14
+_COMPLEX = 0x0800  # array flags: complex, logical (MAT-file format, "Array Flags")
+_LOGICAL = 0x0200
+_HEAD = 4096  # expanded bytes that hold a variable's header
 _CHUNK = 1 << 16
 _OUT = 1 << 20
 
@@ -59,11 +63,26 @@ def _refuse(what: str, detail: str = "") -> _ReadError:
     )
 
 
-def check_v5(path: Path) -> None:
+def check_v5(path: Path, names: Collection[str] | None = None) -> list[tuple[str, list[int], str]]:
     """Refuse a v5 MAT file whose variables declare or expand to too many values.
 
     Each top-level variable's header (class, dimensions, name) is read, expanding only its
     first bytes when it is compressed; ``scipy.io.whosmat`` would expand it whole.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    names : collection of str, optional
+        The variables whose compressed data are expanded (as a stream, counted and
+        discarded) to bound what loading them allocates; None: every variable. The declared
+        dimensions of every variable are checked either way.
+
+    Returns
+    -------
+    list of (str, list of int, str)
+        Name, dimensions and class of each top-level variable, in file order (``logical``
+        and ``complex`` for numeric arrays so flagged); empty for a file that is not v5.
 
     Raises
     ------
@@ -72,7 +91,8 @@ def check_v5(path: Path) -> None:
     """
     limit = max_samples()
     most = 8 * limit + _OUT
-    for name, dims, kind, packed, expanded in _v5_variables(path, most):
+    found = _v5_variables(path, most, names)
+    for name, dims, kind, packed, expanded in found:
         count = math.prod(dims)
         if count > limit:
             shape = "x".join(str(n) for n in dims)
@@ -83,6 +103,7 @@ def check_v5(path: Path) -> None:
                 f"than {most:,} bytes",
                 "(a file can declare far more than it holds)",
             )
+    return [(name, dims, kind) for name, dims, kind, _, _ in found]
 
 
 _CLASSES = {1: "cell", 2: "struct", 3: "object", 4: "char", 5: "sparse", 6: "double"}
@@ -106,15 +127,24 @@ def _matrix_header(buf: bytes, order: str) -> tuple[str, list[int], str]:
         raw_dims, pos = _subelement(buf, pos, order)
         name, _ = _subelement(buf, pos, order)
         dims = list(struct.unpack(f"{order}{len(raw_dims) // 4}i", raw_dims))
-        kind = _CLASSES.get(struct.unpack_from(order + "I", flags)[0] & 0xFF, "unknown")
+        word = struct.unpack_from(order + "I", flags)[0]
+        kind = _CLASSES.get(word & 0xFF, "unknown")
+        if word & _COMPLEX:
+            kind = "complex"
+        elif word & _LOGICAL:
+            kind = "logical"
     except struct.error:
         return "?", [], "unknown"  # damaged: loadmat says so
     return name.rstrip(b"\0").decode("latin-1"), [max(d, 0) for d in dims], kind
 
 
-def _v5_variables(path: Path, limit: int) -> list[tuple[str, list[int], str, int, int | None]]:
+def _v5_variables(
+    path: Path, limit: int, names: Collection[str] | None = None
+) -> list[tuple[str, list[int], str, int, int | None]]:
     """(name, dims, class, compressed size, expanded size or None above ``limit``) of each
-    top-level variable of a v5 file; nothing is kept of the expanded data."""
+    top-level variable of a v5 file; nothing is kept of the expanded data. Only the
+    variables in ``names`` (None: all) are expanded whole; of the others, their header
+    (the expanded size is then given as 0)."""
     out: list[tuple[str, list[int], str, int, int | None]] = []
     with path.open("rb") as fh:
         header = fh.read(128)
@@ -127,8 +157,12 @@ def _v5_variables(path: Path, limit: int) -> list[tuple[str, list[int], str, int
             start = fh.tell()
             if mdtype == _MI_COMPRESSED:
                 head = bytearray()
-                expanded = _expanded(fh, nbytes, limit, head)
-                out.append((*_matrix_header(bytes(head), order), nbytes, expanded))
+                expanded = _expanded(fh, nbytes, limit, head, whole=names is None)
+                header = _matrix_header(bytes(head), order)
+                if names is not None and header[0] in names:
+                    fh.seek(start)
+                    expanded = _expanded(fh, nbytes, limit, bytearray())
+                out.append((*header, nbytes, expanded))
                 fh.seek(start + nbytes)
             elif mdtype == _MI_MATRIX:
                 head = struct.pack(order + "II", mdtype, nbytes) + fh.read(min(nbytes, 4096))
@@ -139,9 +173,10 @@ def _v5_variables(path: Path, limit: int) -> list[tuple[str, list[int], str, int
     return out
 
 
-def _expanded(fh: Any, nbytes: int, limit: int, head: bytearray) -> int | None:
+def _expanded(fh: Any, nbytes: int, limit: int, head: bytearray, whole: bool = True) -> int | None:
     """Bytes that ``nbytes`` of zlib data at ``fh`` expand to, or None once above ``limit``;
-    the first 4 kB expanded are put in ``head``."""
+    the first 4 kB expanded are put in ``head``. With ``whole`` False, only those 4 kB are
+    expanded (and 0 returned)."""
     inflate = zlib.decompressobj()
     total, left = 0, nbytes
     try:
@@ -151,9 +186,11 @@ def _expanded(fh: Any, nbytes: int, limit: int, head: bytearray) -> int | None:
                 break
             left -= len(data)
             while data:
-                chunk = inflate.decompress(data, _OUT)
-                if len(head) < 4096:
-                    head += chunk[: 4096 - len(head)]
+                chunk = inflate.decompress(data, _OUT if whole else _HEAD)
+                if len(head) < _HEAD:
+                    head += chunk[: _HEAD - len(head)]
+                if not whole and (len(head) >= _HEAD or inflate.eof):
+                    return 0
                 total += len(chunk)
                 if total > limit:
                     return None

@@ -1,4 +1,5 @@
-"""MATLAB ``.mat`` files: v4/v5/v7 through ``scipy.io.loadmat`` (loaded whole), v7.3 (HDF5)
+"""MATLAB ``.mat`` files: v4/v5/v7 through ``scipy.io.loadmat`` (each numeric variable loaded
+when it is read, so those ``dataset.yaml`` does not name never are), v7.3 (HDF5)
 through ``h5py`` (read in blocks, see ``matlab_hdf5``); variables, struct fields and dSpace
 recordings are named as described in ``structs``."""
 
@@ -12,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa.datasets.readers.base import _ReadError
-from spa.datasets.readers.structs import _Leaf, _Recording, _StructSource
+from spa.datasets.readers.structs import NUMERIC_CLASSES, _Leaf, _Recording, _StructSource
 
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
@@ -101,24 +102,59 @@ def _v5_walk(name: str, value: Any, leaves: dict[str, _Leaf], recs: list[_Record
             _v5_walk(f"{name}.{sub}", record[sub], leaves, recs)
 
 
-def _v5_tree(path: Path) -> tuple[dict[str, _Leaf], list[_Recording]]:
+def _loadmat(path: Path, names: list[str] | None) -> dict[str, Any]:
+    """``scipy.io.loadmat`` of the variables ``names`` (None: all), its failures as
+    :class:`_ReadError`."""
     import scipy.io
 
-    from spa.datasets.readers.mat_bounds import check_v5
-
-    check_v5(path)  # before anything is expanded
     try:
-        data = scipy.io.loadmat(path, squeeze_me=False, mat_dtype=False)
+        return scipy.io.loadmat(path, squeeze_me=False, mat_dtype=False, variable_names=names)
     except Exception as exc:  # scipy raises several types for a damaged file
         raise _ReadError(
             f"unreadable MATLAB file (truncated, damaged or not a .mat file?): "
             f"{type(exc).__name__}: {exc}"
         ) from exc
+
+
+def _v5_lazy(path: Path, name: str) -> Any:
+    """A reader of rows of the numeric variable ``name``, loaded (alone) at its first read."""
+    loaded: list[npt.NDArray[Any]] = []
+
+    def read(a: int, b: int) -> npt.NDArray[np.float64]:
+        if not loaded:
+            from spa.datasets.readers.mat_bounds import check_v5
+
+            check_v5(path, names=[name])  # its expanded size, before it is loaded
+            loaded.append(np.asarray(_loadmat(path, [name])[name]).ravel())
+        return np.asarray(loaded[0][a:b], dtype=np.float64)
+
+    return read
+
+
+def _v5_tree(path: Path) -> tuple[dict[str, _Leaf], list[_Recording]]:
+    """The leaves and recordings of a v4/v5 file. A numeric top-level variable is described
+    by its header alone and loaded only when its rows are read (a file may hold variables
+    that ``dataset.yaml`` never names, of any size); structs, cells and text are loaded."""
+    from spa.datasets.readers.mat_bounds import check_v5
+
+    headers = check_v5(path, names=())  # every header, before anything is expanded
+    if not headers or any(kind == "unknown" for _, _, kind in headers):
+        check_v5(path)  # v4, or damaged: load it whole and let scipy say what is wrong
+        data = _loadmat(path, None)
+        headers = [(name, [], "") for name in data if not name.startswith("__")]
+        lazy: set[str] = set()
+    else:
+        lazy = {name for name, _, kind in headers if kind in NUMERIC_CLASSES}
+        eager = [name for name, _, _ in headers if name not in lazy]
+        check_v5(path, names=eager)
+        data = _loadmat(path, eager) if eager else {}
     leaves: dict[str, _Leaf] = {}
     recs: list[_Recording] = []
-    for name, value in data.items():
-        if not name.startswith("__"):
-            _v5_walk(name, value, leaves, recs)
+    for name, dims, kind in headers:
+        if name in lazy:
+            leaves[name] = _Leaf(kind, tuple(dims), _v5_lazy(path, name))
+        elif name in data:
+            _v5_walk(name, data[name], leaves, recs)
     return leaves, recs
 
 

@@ -1,0 +1,41 @@
+"""spa.plots.save: the PNG's pixels are a plain savefig's; the SVG keeps the PNG's layout."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from spa.plots.save import PNG_DPI, save_figure
+from spa.plots.style import new_figure
+
+
+def _figure():
+    fig = new_figure(figsize=(7.0, 4.0), layout="constrained")
+    axes = fig.subplots(1, 2)
+    t = np.linspace(0.0, 10.0, 3000)
+    for i, ax in enumerate(axes):
+        ax.plot(t, np.sin(t * (i + 1)), label="a rather long label")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("pressure (bar)")
+        ax.legend()
+    return fig
+
+
+def test_png_pixels_are_those_of_a_plain_savefig(tmp_path: Path) -> None:
+    save_figure(_figure(), tmp_path / "a.png")
+    _figure().savefig(tmp_path / "b.png", dpi=PNG_DPI)
+    ours, plain = (np.asarray(Image.open(tmp_path / f)) for f in ("a.png", "b.png"))
+    assert ours.shape == plain.shape and np.array_equal(ours, plain)
+
+
+def test_the_svg_keeps_the_layout_the_png_computed(tmp_path: Path) -> None:
+    fig = _figure()
+    save_figure(fig, tmp_path / "a.png")
+    plain = _figure()
+    plain.savefig(tmp_path / "b.png", dpi=PNG_DPI)  # constrained layout at the PNG's dpi
+    for ax, ref in zip(fig.axes, plain.axes, strict=True):
+        assert np.array_equal(ax.get_position().bounds, ref.get_position().bounds)
+    svg = (tmp_path / "a.svg").read_text()
+    assert svg.count('<g id="axes_') == 2 and "<dc:date>" not in svg
