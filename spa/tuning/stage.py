@@ -21,6 +21,7 @@ import pandas as pd
 import yaml
 
 from spa import _checks as checks
+from spa.io import dump_yaml
 from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import threshold_table
@@ -380,6 +381,6 @@ def format_result(result: TuningResult, as_json: bool = False) -> str:
     interval = result.table2["interval_method"].iloc[0]
     return (
         f"Table 2 for {result.identified.source} (intervals: {interval})\n{table}\n\n"
-        f"recommendation:\n{yaml.safe_dump(rec, sort_keys=False, allow_unicode=True)}\n"
+        f"recommendation:\n{dump_yaml(rec, sort_keys=False, allow_unicode=True)}\n"
         f"{result.sentence}\n"
     )

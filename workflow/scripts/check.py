@@ -7,9 +7,7 @@ that the next run rebuilds any output changed in between.
 import sys
 from pathlib import Path
 
-import yaml
-
-from spa.io import get_logger
+from spa.io import dump_yaml, get_logger
 from spa.pipeline.outputs import all_targets
 from spa.pipeline.provenance import record_outputs
 from spa.pipeline.status import dataset_failures, failure_summary, guard_environment
@@ -26,5 +24,5 @@ if failures:
     log.error("%d of %d datasets failed:\n%s", len(failures), len(snakemake.params.datasets), text)
     print(f"spa: {len(failures)} dataset(s) failed (see the report):\n{text}", file=sys.stderr)
     sys.exit(1)
-out.write_text(yaml.safe_dump({"datasets": list(snakemake.params.datasets), "failed": []}))
+out.write_text(dump_yaml({"datasets": list(snakemake.params.datasets), "failed": []}))
 log.info("all %d datasets complete", len(snakemake.params.datasets))
