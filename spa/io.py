@@ -28,14 +28,20 @@ __all__ = [
 PNG_DPI = 200
 
 
-def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:
-    """Return a logger writing to ``log_path`` (and stderr), for progress of a workflow script."""
+def get_logger(
+    name: str, log_path: str | Path | None = None, console: int = logging.WARNING
+) -> logging.Logger:
+    """Return a logger for a workflow script: everything to ``log_path``, and to stderr the
+    messages of level ``console`` and above (warnings and errors; every message when there
+    is no log file), so that the pipeline's console shows progress and problems, not each
+    job's account of itself."""
     logger = logging.getLogger(f"spa.{name}")
     logger.setLevel(logging.INFO)
     logger.handlers.clear()
     fmt = logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s")
     handlers: list[logging.Handler] = [logging.StreamHandler()]
     if log_path is not None:
+        handlers[0].setLevel(console)
         Path(log_path).parent.mkdir(parents=True, exist_ok=True)
         handlers.append(logging.FileHandler(log_path, mode="w"))
     for h in handlers:

@@ -4,6 +4,7 @@ First, every output of the run is recorded (size, time, sha256: spa.pipeline.pro
 that the next run rebuilds any output changed in between.
 """
 
+import logging
 import sys
 from pathlib import Path
 
@@ -12,7 +13,7 @@ from spa.pipeline.outputs import all_targets
 from spa.pipeline.provenance import record_outputs
 from spa.pipeline.status import dataset_failures, failure_summary, guard_environment
 
-log = get_logger("check", snakemake.log[0])
+log = get_logger("check", snakemake.log[0], console=logging.INFO)  # the run's summary
 guard_environment(log, "the check")  # a full disk: one line saying so
 out = Path(snakemake.output.status)
 datasets, figures = snakemake.params.datasets, snakemake.params.figures
