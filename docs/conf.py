@@ -48,9 +48,6 @@ numpydoc_xref_param_type = False
 # Markdown pages (the README's guide, docs/model.md, benchmarks/README.md) through MyST.
 myst_enable_extensions = ["dollarmath", "amsmath"]
 myst_heading_anchors = 3
-# Links from the Markdown pages to repository files that are not pages of this site (config/,
-# raw/README.md, workflow/ ...) stay links to those files and are not site cross-references.
-suppress_warnings = ["myst.xref_missing"]
 
 html_theme = "alabaster"
 html_title = f"spa {release}"
