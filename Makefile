@@ -1,13 +1,15 @@
 # Two entry points for a fresh machine with only Python 3.11:
 #   make reproduce   set up .venv from the lock file, then run `snakemake reproduce-all`
 #   make test        set up .venv from the lock file, Chromium and a C compiler (apt-get), lint,
-#                    run the tests
+#                    run the tests (tests/test_docs_site.py builds the documentation site with
+#                    warnings as errors)
+#   make docs        build the documentation site offline into docs/_build/html
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup reproduce test lint browser ccompiler lock clean
+.PHONY: setup reproduce test lint browser ccompiler lock clean docs
 
 $(STAMP): pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -45,12 +47,18 @@ ccompiler:
 test: lint browser ccompiler
 	$(BIN)/pytest
 
+# The documentation site (Sphinx, numpydoc, MyST): the guide, the model, the benchmarks and
+# the API reference generated from the docstrings; warnings are errors.
+docs: $(STAMP)
+	$(BIN)/sphinx-build -b html -W --keep-going -j auto -q docs docs/_build/html
+	@echo "docs/_build/html/index.html"
+
 # Regenerate the lock file from pyproject.toml (needs network access to the registry).
 lock:
 	rm -rf .lockenv && $(PYTHON) -m venv .lockenv
-	.lockenv/bin/python -m pip install --quiet -e '.[test]' snakemake-executor-plugin-slurm snakemake-executor-plugin-cluster-generic
+	.lockenv/bin/python -m pip install --quiet -e '.[test,docs]' snakemake-executor-plugin-slurm snakemake-executor-plugin-cluster-generic
 	.lockenv/bin/python -m pip freeze --exclude-editable | grep -v '^spa' > requirements.lock
 	rm -rf .lockenv
 
 clean:
-	rm -rf results .snakemake
+	rm -rf results .snakemake docs/_build docs/api

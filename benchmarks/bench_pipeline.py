@@ -75,7 +75,7 @@ def bench(config: list[str], tmp: Path, label: str) -> None:
     fields[1] = f"{float(fields[1]) + 0.5:g}"  # one pressure sample, +0.5 kPa
     lines[10] = ",".join(fields)
     csv.write_text("".join(lines))
-    _, dry = snakemake(*common, "--dry-run")
+    _, dry = snakemake(*common, "--dry-run", "--quiet", "host")  # list the jobs (profile: quiet)
     jobs = planned_jobs(dry)
     gathering = ("report", "reproduce_all")
     others = [j for j in jobs if j[1] != "example2" and j[0] not in gathering]

@@ -11,9 +11,16 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 __all__ = ["main"]
+
+#: ``spa design-pi --tau-c``'s default, s: :data:`spa.closedloop.design.DEFAULT_TAU_C` (a test
+#: checks they agree; the parser does not import the closed-loop package).
+TAU_C = 0.2
+
+_NUMBERS = dict(enumerate(["no", "one", "two", "three", "four", "five", "six", "seven", "eight",
+                           "nine", "ten"]))  # fmt: skip
 
 
 def _validate(args: argparse.Namespace, out: TextIO) -> int:
@@ -181,7 +188,7 @@ def _tune(args: argparse.Namespace, out: TextIO) -> int:
     except (ValueError, OSError, yaml.YAMLError) as exc:
         print(f"error: {exc}", file=out)
         return 1
-    print(format_result(result, as_json=args.json), file=out)
+    print(format_result(result, as_json=args.json, as_yaml=args.yaml), file=out, end="")
     return 0
 
 
@@ -232,8 +239,16 @@ _LONG_NAME = 12
 
 
 class _Formatter(argparse.HelpFormatter):
-    """argparse's formatter, counting the commands' own indent (so ``design-pi`` fits) and
-    keeping the column of the short names when one name is long."""
+    """argparse's formatter, counting the commands' own indent (so ``design-pi`` fits),
+    keeping the column of the short names when one name is long, and adding
+    ``(default: X)`` to an option's help where it has a value and does not say it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        shown = action.default not in (None, False, argparse.SUPPRESS)
+        if shown and action.option_strings and "default" not in text:
+            text += " (default: %(default)s)"
+        return text
 
     def add_argument(self, action: argparse.Action) -> None:
         before = self._action_max_length
@@ -254,6 +269,10 @@ class _Formatter(argparse.HelpFormatter):
 
 
 def _parser() -> argparse.ArgumentParser:
+    from spa.model.modulators import get_kind, kinds
+
+    names = [get_kind(k).name for k in kinds()]
+    count = _NUMBERS.get(len(names), str(len(names)))
     parser = argparse.ArgumentParser(
         prog="spa",
         formatter_class=_Formatter,
@@ -263,6 +282,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"spa {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    add = sub.add_parser
+
+    def add_parser(name: str, **kwargs: Any) -> argparse.ArgumentParser:
+        return add(name, formatter_class=_Formatter, **kwargs)
+
+    sub.add_parser = add_parser  # type: ignore[method-assign]
     p = sub.add_parser(
         "validate",
         help="check dataset folders against the contract (raw/README.md)",
@@ -297,7 +322,7 @@ def _parser() -> argparse.ArgumentParser:
         "and kPa with renamed columns, a MATLAB .mat run, a Parquet run) into FOLDER.",
     )
     p.add_argument("folder", metavar="FOLDER", help="destination, e.g. raw/example")
-    p.add_argument("--seed", type=int, default=2025, help="noise seed (default 2025)")
+    p.add_argument("--seed", type=int, default=2025, help="noise seed")
     p.set_defaults(func=_example)
     p = sub.add_parser(
         "identify",
@@ -312,18 +337,22 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--config",
         metavar="CONFIG.yaml",
-        help="take identification:, nominal: and seed: from this configuration",
+        help="take identification:, nominal: and seed: from this configuration (default: "
+        "none, the built-in defaults)",
     )
     p.add_argument("--seed", type=int, help="bootstrap seed (default: the config's, else 0)")
     p.add_argument("--json", action="store_true", help="print params.yaml's content as JSON")
     p.set_defaults(func=_identify)
     p = sub.add_parser(
         "tune",
-        help="tune the four modulators for a valve and recommend a setting",
-        description="Sweep each modulator's parameter for the valve of PARAMS.yaml (an "
-        "identification's params.yaml, whose 95 % intervals are propagated) or of the five "
-        "parameters given; print Table 2 and the recommended setting. Exit 1 for a valve "
-        "that cannot be tuned.",
+        help=f"tune the {count} modulators for a valve, recommend a setting",
+        description=f"Sweep the parameter of each of the {count} modulators ("
+        f"{', '.join(names)}) for the valve of PARAMS.yaml (an identification's "
+        "params.yaml, whose 95 % intervals are propagated) or of the five parameters given; "
+        "print Table 2 in brief (each modulator's optimum, its costs and chattering, and "
+        "whether it lies at an end of its sweep) and the recommended setting; --yaml or "
+        "--json print all of Table 2 and the recommendation. Exit 1 for a valve that cannot "
+        "be tuned.",
     )
     p.add_argument("params", nargs="?", metavar="PARAMS.yaml", help="identified parameters")
     for name, unit in (
@@ -333,14 +362,25 @@ def _parser() -> argparse.ArgumentParser:
         ("t-on", "s"),
         ("t-off", "s"),
     ):
-        p.add_argument(f"--{name}", type=float, help=f"{name} in {unit}")
+        p.add_argument(
+            f"--{name}", type=float, help=f"{name} in {unit} (no default: all five or PARAMS.yaml)"
+        )
     p.add_argument(
         "--config",
         metavar="CONFIG.yaml",
-        help="take sweeps, n_xi and the tuning: section from this configuration",
+        help="take sweeps, n_xi and the tuning: section from this configuration (default: "
+        "none, the paper's grids)",
     )
-    p.add_argument("--score", choices=["J", "J_exact"], help="cost minimised (default: J)")
-    p.add_argument("--json", action="store_true", help="print JSON for scripts")
+    p.add_argument(
+        "--score",
+        choices=["J", "J_exact"],
+        help="cost minimised (default: the config's tuning.score, else J)",
+    )
+    what = p.add_mutually_exclusive_group()
+    what.add_argument(
+        "--yaml", action="store_true", help="print all of Table 2 and the recommendation as YAML"
+    )
+    what.add_argument("--json", action="store_true", help="the same as JSON, for scripts")
     p.set_defaults(func=_tune)
     p = sub.add_parser(
         "design-pi",
@@ -357,7 +397,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="KIND:NAME=VALUE,...",
         help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20",
     )
-    p.add_argument("--tau-c", type=float, default=0.2, help="closed-loop time constant, s")
+    p.add_argument("--tau-c", type=float, default=TAU_C, help="closed-loop time constant, s")
     p.add_argument("--levels", metavar="R1,R2,...", help="set-points, bar (default 0.05-0.75)")
     p.add_argument("--json", action="store_true", help="print JSON for scripts")
     p.set_defaults(func=_design_pi)

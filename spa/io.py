@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -13,6 +13,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "PNG_DPI",
+    "dump_yaml",
     "get_logger",
     "package_digest",
     "peak_rss_mib",
@@ -27,14 +28,20 @@ __all__ = [
 PNG_DPI = 200
 
 
-def get_logger(name: str, log_path: str | Path | None = None) -> logging.Logger:
-    """Return a logger writing to ``log_path`` (and stderr), for progress of a workflow script."""
+def get_logger(
+    name: str, log_path: str | Path | None = None, console: int = logging.WARNING
+) -> logging.Logger:
+    """Return a logger for a workflow script: everything to ``log_path``, and to stderr the
+    messages of level ``console`` and above (warnings and errors; every message when there
+    is no log file), so that the pipeline's console shows progress and problems, not each
+    job's account of itself."""
     logger = logging.getLogger(f"spa.{name}")
     logger.setLevel(logging.INFO)
     logger.handlers.clear()
     fmt = logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s")
     handlers: list[logging.Handler] = [logging.StreamHandler()]
     if log_path is not None:
+        handlers[0].setLevel(console)
         Path(log_path).parent.mkdir(parents=True, exist_ok=True)
         handlers.append(logging.FileHandler(log_path, mode="w"))
     for h in handlers:
@@ -67,6 +74,48 @@ def read_yaml(path: str | Path) -> Any:
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     with open(path, encoding="utf-8") as fh:
         return yaml.load(fh, Loader=loader)
+
+
+def dump_yaml(data: Any, stream: IO[str] | None = None, **options: Any) -> str | None:
+    """``yaml.safe_dump`` for files people read and copy: never anchors or aliases.
+
+    PyYAML writes a mapping or list met twice as ``&id001`` once and ``*id001`` after; a
+    person copying one block (a controller's ``setting:`` into ``dataset.yaml``) gets an
+    alias that means nothing there. Here every occurrence is written out in full; the output
+    is otherwise that of ``yaml.safe_dump(data, stream, **options)``.
+
+    Parameters
+    ----------
+    data : object
+        Plain data (mappings, lists, str, int, float, bool, None).
+    stream : file, optional
+        Where to write; the text is returned when omitted.
+    **options
+        ``yaml.safe_dump``'s options (``sort_keys``, ``allow_unicode``, ``width``, ...).
+
+    Returns
+    -------
+    str or None
+        The YAML text when ``stream`` is None.
+
+    Examples
+    --------
+    >>> shared = {"type": "pwm", "f_w": 20}
+    >>> print(dump_yaml({"a": shared, "b": shared}, sort_keys=False), end="")
+    a:
+      type: pwm
+      f_w: 20
+    b:
+      type: pwm
+      f_w: 20
+    """
+    import yaml
+
+    class _NoAliasDumper(yaml.SafeDumper):
+        def ignore_aliases(self, data: Any) -> bool:
+            return True
+
+    return yaml.dump(data, stream, Dumper=_NoAliasDumper, **options)
 
 
 def peak_rss_mib() -> float:

@@ -215,4 +215,6 @@ def small_run(tmp_path_factory, isolated_config):
         timeout=900,
     )
     assert res.returncode == 0, res.stderr[-3000:]
+    # what the console showed, for the test of the profile's quiet console (test_workflow)
+    out.with_name(f"{out.name}.console.txt").write_text(res.stdout + res.stderr)
     return out

@@ -197,3 +197,112 @@ def test_simulating_a_dataset_shows_a_bar_and_still_calls_back(tmp_path, monkeyp
     paths = generate_dataset("mini", cfg, experiments, 1, tmp_path / "runs", progress=lines.append)
     assert len(paths) == len(lines) >= 1
     assert "simulating mini:" in term.getvalue()
+
+
+# ---- help texts and `spa tune`'s brief answer ---------------------------------------------
+
+
+def _subparsers():
+    return _parser()._subparsers._group_actions[0].choices
+
+
+def test_help_counts_and_names_the_registered_modulators():
+    from toy_modulator import Toy
+
+    from spa.model.modulators import REGISTRY, get_kind, kinds, register
+
+    def texts() -> tuple[str, str]:
+        return _parser().format_help(), _subparsers()["tune"].format_help()
+
+    top, tune = texts()
+    assert len(kinds()) == 5 and "tune the five modulators" in top
+    assert "four" not in top + tune
+    for kind in kinds():
+        assert get_kind(kind).name in " ".join(tune.split())
+    register(Toy)
+    try:
+        top, tune = texts()
+        assert "tune the six modulators" in top and "Toy" in tune
+    finally:
+        del REGISTRY["toy"]
+
+
+def test_every_option_shows_its_default():
+    from spa.cli import TAU_C
+    from spa.closedloop.design import DEFAULT_TAU_C
+
+    for name, sub in _subparsers().items():
+        formatter = sub._get_formatter()
+        for action in sub._actions:
+            if not action.option_strings or action.nargs == 0 or action.required:
+                continue  # positionals, flags and required options have no default
+            text = formatter._expand_help(action)
+            assert "default" in text, f"spa {name} {action.option_strings[0]}: {text!r}"
+    assert TAU_C == DEFAULT_TAU_C
+    tau = " ".join(_subparsers()["design-pi"].format_help().split())
+    assert f"--tau-c TAU_C closed-loop time constant, s (default: {DEFAULT_TAU_C:g})" in tau
+    example = " ".join(_subparsers()["example"].format_help().split())
+    assert "noise seed (default: 2025)" in example
+
+
+VALVE = ["--c1", "0.5", "--k2", "0.8", "--tau2", "0.8", "--t-on", "0.003", "--t-off", "0.01"]
+
+
+@pytest.fixture(scope="module")
+def tune_config(tmp_path_factory) -> Path:
+    """Coarse grids; PWM's stops at 15 Hz, below its optimum, which so sits at the grid edge."""
+    import yaml
+
+    from spa.tuning import DEFAULT_SWEEPS
+
+    sweeps = {k: {**g, "step": g["step"] * 5} for k, g in DEFAULT_SWEEPS.items()}
+    sweeps["pwm"] = {"start": 5.0, "stop": 15.0, "step": 1.0}
+    path = tmp_path_factory.mktemp("tune") / "config.yaml"
+    path.write_text(yaml.safe_dump({"analytic": {"sweeps": sweeps, "n_xi": 40}}))
+    return path
+
+
+def test_tune_answers_in_a_few_lines_with_the_grid_edge_flags(tune_config, capsys):
+    from spa.model.modulators import kinds
+
+    assert main(["tune", *VALVE, "--config", str(tune_config), "--json"]) == 0
+    table2 = {r["modulator"]: r for r in json.loads(capsys.readouterr().out)["table2"]}
+    assert main(["tune", *VALVE, "--config", str(tune_config)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) <= len(kinds()) + 7, "\n".join(lines)
+    header = lines[1].split()
+    assert header == ["modulator", "optimum", "J", "J_exact", "chattering", "at_grid_edge"]
+    rows = {line.split()[0]: line.split() for line in lines[2 : 2 + len(kinds())]}
+    assert set(rows) == set(kinds())
+    assert table2["pwm"]["optimum_at_grid_edge"] and rows["pwm"][1] == "pwm-15Hz"
+    for kind, row in rows.items():
+        flags = [
+            c.removesuffix("_at_grid_edge") for c in table2[kind] if c.endswith("_at_grid_edge")
+        ]
+        shown = [f for f in flags if table2[kind][f"{f}_at_grid_edge"]]
+        assert row[-1] == (", ".join(shown) or "-").split()[-1], (kind, row)
+        assert float(row[2]) == pytest.approx(table2[kind]["J_min"], rel=1e-3)
+        assert 0.0 <= float(row[4]) < 0.8  # chattering, bar: below k2
+    assert any(line.startswith("at_grid_edge:") for line in lines)
+    assert lines[-2].startswith("Use ")
+
+
+def test_tune_yaml_is_the_full_data(tune_config, capsys):
+    import yaml
+
+    from spa.tuning import tune_with_config
+    from spa.tuning.stage import _plain
+
+    assert main(["tune", *VALVE, "--config", str(tune_config), "--yaml"]) == 0
+    text = capsys.readouterr().out
+    assert main(["tune", *VALVE, "--config", str(tune_config), "--json"]) == 0
+    as_json = json.loads(capsys.readouterr().out)
+    data = yaml.safe_load(text)
+    assert data == as_json
+    given = dict(zip(("c1", "k2", "tau2", "t_on", "t_off"), map(float, VALVE[1::2]), strict=True))
+    result = tune_with_config(given, yaml.safe_load(tune_config.read_text()))
+    assert data["recommendation"] == _plain(result.recommendation)
+    assert len(data["table2"]) == len(result.table2)
+    assert set(data["table2"][0]) == set(result.table2.columns)
+    assert "*id" not in text and "&id" not in text
+    assert main(["tune", *VALVE, "--yaml", "--json"]) == 2  # one or the other

@@ -24,8 +24,10 @@ SNAKEMAKE = [sys.executable, "-m", "snakemake"]
 
 
 def run(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    # `--quiet host`: list every job with its resources, which the workflow's own profile
+    # (profiles/default, applied after --profile) leaves out of the console
     return subprocess.run(
-        [*SNAKEMAKE, *args],
+        [*SNAKEMAKE, *args, "--quiet", "host"],
         cwd=ROOT,
         capture_output=True,
         text=True,

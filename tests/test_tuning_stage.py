@@ -236,7 +236,8 @@ def test_cli_tunes_a_params_file(tmp_path, capsys):
     assert main(["tune", str(identified_yaml(tmp_path)), "--config", str(config)]) == 0
     out = capsys.readouterr().out
     assert "Table 2 for" in out and "(intervals: corners)" in out
-    assert "Use IIPFM" in out and "recommended:" in out
+    assert "Use IIPFM" in out and "J 95 %" in out  # intervals shown in the brief table
+    assert "recommended:" not in out  # the full recommendation only with --yaml / --json
 
 
 def test_cli_tunes_given_parameters_as_json(tmp_path, capsys):

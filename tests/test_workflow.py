@@ -17,6 +17,11 @@ def run(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True, timeout=900)
 
 
+#: The profile keeps the console to progress and the summary (`quiet: [host, rules]`); a dry
+#: run that should list each job with its files says so.
+LIST_JOBS = ("--quiet", "host")
+
+
 # `small_run` (tests/conftest.py): the small config run once per session, shared with
 # the report tests.
 
@@ -141,6 +146,32 @@ def test_lint_finds_nothing_but_the_explained_conda_advice(isolated_config):
     assert findings == {"* Specify a conda environment or container for each rule.:"}, findings
 
 
+def test_the_console_shows_progress_and_the_summary_not_file_lists(small_run):
+    """profiles/default: a run prints its plan, one progress line per job and the summary
+    (332 lines before, mostly each job's input and output files; 84 after)."""
+    text = small_run.with_name(f"{small_run.name}.console.txt").read_text()
+    lines = text.splitlines()
+    jobs = int(re.search(r"^total +(\d+)$", text, flags=re.M).group(1))
+    assert len(lines) <= 30 + 6 * jobs, text[-3000:]
+    assert max(map(len, lines)) < 200, "a line lists files"
+    assert not any(line.lstrip().startswith(("input:", "output:", "reason:")) for line in lines)
+    assert f"{jobs} of {jobs} steps (100%) done" in text
+    assert "all 2 datasets complete" in text  # the summary
+
+
+def test_a_failing_job_still_says_why(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("analytic:\n  selected:\n    - {type: pwm, f_w: 1.0e-300}\n")
+    out = tmp_path / "results"
+    res = run(f"{out}/analytic/table1.csv", "--configfile", "config/small.yaml", str(bad),
+              "--config", f"results={out}")  # fmt: skip
+    assert res.returncode != 0
+    text = res.stdout + res.stderr
+    assert "selected[0]: pwm: setting 'f_w' = 1e-300 is outside the range" in text
+    assert "analytic.smk" in text and "Exiting because a job execution failed" in text
+    assert len(text.splitlines()) < 60
+
+
 def test_typo_in_config_names_the_key(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("analytic:\n  n_xy: 3\n")
@@ -213,6 +244,7 @@ def test_hidden_and_spec_less_folders_of_raw_are_not_datasets(tmp_path):
     res = run(
         "reproduce-all",
         "-n",
+        *LIST_JOBS,
         "--configfile",
         "config/small.yaml",
         "--config",
@@ -290,7 +322,7 @@ def test_staleness_follows_content_not_modification_times(tmp_path):
     assert run(*args).returncode == 0
 
     def planned() -> set[str]:
-        res = run(*args, "-n")
+        res = run(*args, "-n", *LIST_JOBS)
         assert res.returncode == 0, res.stderr[-2000:]
         return set(re.findall(r"^rule (\w+):", res.stdout, flags=re.M))
 
@@ -356,7 +388,7 @@ def test_figures_setting_draws_for_the_named_datasets_only(small_run, isolated_c
     assert (out / "report.html").read_text().count("<img ") == 1  # Fig. O1 only
     assert (out / "report" / "analytic.html").read_text().count("<img ") == 2  # Figs. 4, 5
 
-    plan = run(*args, "figures=[example]", "-n")
+    plan = run(*args, "figures=[example]", "-n", *LIST_JOBS)
     assert plan.returncode == 0, plan.stderr[-3000:]
     pattern = r"^rule (\w+):\n(?:    .*\n)*?    wildcards: dataset=(\w+)"
     assert re.findall(pattern, plan.stdout, re.M) == [("analyse", "example")], plan.stdout
@@ -388,7 +420,7 @@ def test_missing_or_altered_outputs_are_rebuilt_and_nothing_else(tmp_path, isola
     (out / "sim" / "runs" / "sine_dsm-20ms.parquet").unlink()
     with (out / "analytic" / "table1.csv").open("a") as fh:
         fh.write("0,0,0\n")
-    plan = run(*args, "-n")
+    plan = run(*args, "-n", *LIST_JOBS)
     assert plan.returncode == 0, plan.stderr[-3000:]
     rules = re.findall(r"^rule (\w+):", plan.stdout, flags=re.M)
     assert sorted(rules) == sorted(

@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from spa.closedloop.design import DEFAULT_TAU_C, design_pi, operating_levels
 from spa.closedloop.experiments import (
@@ -30,6 +29,7 @@ from spa.closedloop.experiments import (
     spread,
 )
 from spa.closedloop.metrics import STEP_METRICS, cycle_mean
+from spa.io import dump_yaml
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -488,4 +488,4 @@ def fmt_gain(value: Any) -> str:
 def write_controllers(result: ClosedLoopResult, path: str | Path) -> None:
     """Write ``controllers.yaml`` (plain floats and lists, key order kept)."""
     with open(path, "w", encoding="utf-8") as fh:
-        yaml.safe_dump(result.controllers, fh, sort_keys=False, allow_unicode=True)
+        dump_yaml(result.controllers, fh, sort_keys=False, allow_unicode=True)

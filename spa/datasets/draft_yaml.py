@@ -41,6 +41,7 @@ from spa.datasets.readers import READERS
 from spa.datasets.readers.base import Source, _ReadError, _Retry
 from spa.datasets.recorded import session_date
 from spa.datasets.yaml_loader import _UniqueKeyLoader
+from spa.io import dump_yaml
 
 __all__ = ["FileDraft", "draft_dataset", "draft_files", "write_draft"]
 
@@ -285,7 +286,7 @@ def draft_files(folder: str | Path) -> tuple[list[FileDraft], list[str]]:
 
 def _scalar(value: Any) -> str:
     """``value`` as YAML text that the project's loader reads back as ``value``."""
-    text = yaml.safe_dump(value, default_flow_style=True, width=10**9, sort_keys=False)
+    text = dump_yaml(value, default_flow_style=True, width=10**9, sort_keys=False)
     text = text.removesuffix("\n").removesuffix("\n...")
     if yaml.load(text, Loader=_UniqueKeyLoader) != value and isinstance(value, str):
         text = "'" + value.replace("'", "''") + "'"

@@ -43,7 +43,7 @@ def compensate_lag(
     lag : float
         Delay of ``p`` with respect to ``x_in`` in s, a whole number of sample periods:
         the lag ``L`` maximising ``sum_k (p[k + L] - mean(p))*(x_in[k] - mean(x_in))``.
-    t_aligned, x_aligned, p_aligned : numpy.ndarray, shape (n - |L|,)
+    t_aligned, x_aligned, p_aligned : numpy.ndarray, shape (n - abs(L),)
         The overlapping part with ``p`` shifted back by the lag: ``p_aligned[k]`` is the
         response to ``x_aligned[k]``, which was applied at ``t_aligned[k]``.
 

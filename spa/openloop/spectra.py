@@ -154,7 +154,7 @@ def bicoherence(
     Notes
     -----
     With ``Y_k(f)`` the scaled FFT of segment ``k`` (module docstring) and means over the ``K``
-    segments,
+    segments, ::
 
         bic(f1, f2) = |<Y(f1) Y(f2) conj(Y(f1 + f2))>|**2
                       / (<|Y(f1)|**2> <|Y(f2)|**2> <|Y(f1 + f2)|**2>)
@@ -164,7 +164,7 @@ def bicoherence(
     the product of the three powers): where ``Y1`` and ``Y2`` are large in the same few
     segments, ``<|Y1 Y2|^2>`` exceeds ``<|Y1|^2> <|Y2|^2>`` many times over, which a chirp
     does at every low frequency (values of 50 and more for a linear system). The default
-    (``"bounded"``, Kim & Powers 1979) divides by what Cauchy-Schwarz bounds it with,
+    (``"bounded"``, Kim & Powers 1979) divides by what Cauchy-Schwarz bounds it with, ::
 
         bic(f1, f2) = |<Y(f1) Y(f2) conj(Y(f1 + f2))>|**2
                       / (<|Y(f1) Y(f2)|**2> <|Y(f1 + f2)|**2>),

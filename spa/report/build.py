@@ -12,7 +12,7 @@ from typing import Any
 import pandas as pd
 import yaml
 
-from spa.io import PNG_DPI
+from spa.io import PNG_DPI, dump_yaml
 from spa.pipeline.outputs import (
     FIGURE,
     FIGURES,
@@ -113,7 +113,7 @@ def recommendation_html(rec: Any) -> str:
     best = rec.get("recommended")
     setting = best.get("setting") if isinstance(best, Mapping) else None
     if isinstance(setting, Mapping) and setting:
-        block = yaml.safe_dump({"modulator": dict(setting)}, sort_keys=False).rstrip()
+        block = dump_yaml({"modulator": dict(setting)}, sort_keys=False).rstrip()
         body += f"<pre>{html.escape(block)}</pre>"
     notes = [*dict(rec.get("skipped") or {}).values()]
     notes += [

@@ -7,10 +7,9 @@ from collections.abc import Mapping
 from typing import Any
 
 import pandas as pd
-import yaml
 
 from spa.identification import IdentificationResult
-from spa.io import write_csv
+from spa.io import dump_yaml, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
 from spa.plots.openloop import write_no_runs
 from spa.plots.save import draw
@@ -46,7 +45,7 @@ def write_identification(
         Where the identified parameters are logged.
     """
     with open(out.get("params"), "w") as fh:
-        yaml.safe_dump(result.to_dict(), fh, sort_keys=False)
+        dump_yaml(result.to_dict(), fh, sort_keys=False)
     (log or _LOG).info("identified %s", result.to_valve_params())
     fallback = "; ".join(f"{k} from the fallback" for k in result.fallback)
     for data_fn, fig_fn, fit, key, kind in (

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-import yaml
-
-from spa.io import write_csv
+from spa.io import dump_yaml, write_csv
 from spa.plots.save import draw
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
 from spa.tuning.stage import TuningResult
@@ -36,4 +34,4 @@ def write_tuning(result: TuningResult, out: Any, dataset: str) -> None:
     write_csv(result.curves, out.get("fig5_csv"))
     draw(out.get("fig5"), plot_tuning_equilibrium, result.curves)
     with open(out.get("recommendation"), "w") as fh:
-        yaml.safe_dump(dict(result.recommendation), fh, sort_keys=False, allow_unicode=True)
+        dump_yaml(dict(result.recommendation), fh, sort_keys=False, allow_unicode=True)

@@ -44,7 +44,8 @@ def write_example_dataset(folder: str | Path, seed: int = 2025) -> list[Path]:
         The files written.
     """
     import scipy.io
-    import yaml
+
+    from spa.io import dump_yaml
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -103,5 +104,5 @@ def write_example_dataset(folder: str | Path, seed: int = 2025) -> list[Path]:
         "runs": runs_yaml,
     }
     spec_path = folder / "dataset.yaml"
-    spec_path.write_text(yaml.safe_dump(doc, sort_keys=False, width=100))
+    spec_path.write_text(dump_yaml(doc, sort_keys=False, width=100))
     return [spec_path, *files]

@@ -217,7 +217,7 @@ def feasible(
 
     Returns
     -------
-    numpy.ndarray of bool or numpy.bool_
+    numpy.ndarray of bool, or a NumPy bool for a scalar ``value``
         PWM: always; IPFM: ``t_h > t_on``; IIPFM: ``t_l > t_off``; ΔΣM: ``period > t_off``
         and ``period > t_on``.
 

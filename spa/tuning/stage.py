@@ -21,6 +21,7 @@ import pandas as pd
 import yaml
 
 from spa import _checks as checks
+from spa.io import dump_yaml
 from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import threshold_table
@@ -33,6 +34,7 @@ from spa.tuning.recommend import (
     candidate_frame,
     recommend,
     recommendation_sentence,
+    setting_metrics,
 )
 from spa.tuning.tables import equilibrium_frame, sweep_frame, tuning_table
 
@@ -40,6 +42,7 @@ __all__ = [
     "Identified",
     "TuningError",
     "TuningResult",
+    "compact_table",
     "format_result",
     "read_identified",
     "tune",
@@ -211,7 +214,7 @@ def tune(
     selected: Iterable[Mapping[str, Any] | Modulator] | None = None,
     linearity: Mapping[str, float] | None = None,
 ) -> TuningResult:
-    """Tune every registered modulator kind for one valve and recommend a setting (paper Section 5).
+    """Tune every registered modulator kind for one valve and recommend a setting (Section 5).
 
     Parameters
     ----------
@@ -334,23 +337,6 @@ def tune_with_config(
     )
 
 
-#: Table 2 columns printed by :func:`format_result`.
-_SHOWN = [
-    "modulator",
-    "optimum",
-    "unit",
-    "gain",
-    "J_min",
-    "J_min_lo",
-    "J_min_hi",
-    "J_exact",
-    "J_paper_setting",
-    "optimum_lo",
-    "optimum_hi",
-    "analytic_optimum",
-]
-
-
 def _plain(value: Any) -> Any:
     """NumPy scalars and NaN to plain JSON/YAML values."""
     if isinstance(value, Mapping):
@@ -364,28 +350,92 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def format_result(result: TuningResult, as_json: bool = False) -> str:
-    """Text for people (Table 2, the recommendation as YAML, its sentence) or JSON.
+def compact_table(result: TuningResult) -> pd.DataFrame:
+    """Table 2 in brief: one row per modulator kind, as ``spa tune`` prints it.
+
+    Parameters
+    ----------
+    result : TuningResult
+        :func:`tune`'s result.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``modulator``, ``optimum`` (the setting minimising ``J``, its label), ``J``,
+        ``J_exact`` (at that setting, bar), ``chattering`` (its largest ``P+ - P-``, bar,
+        :func:`spa.tuning.recommend.setting_metrics`), ``J 95 %`` (the interval of ``J``'s
+        minimum, only where the identification has intervals) and ``at_grid_edge``: the
+        optimum columns of Table 2 whose ``*_at_grid_edge`` flag is set (``-`` for none).
+
+    Examples
+    --------
+    >>> small = {k: {**g, "step": g["step"] * 10} for k, g in DEFAULT_SWEEPS.items()}
+    >>> table = compact_table(tune(ValveParams(), sweeps=small, n_xi=50))
+    >>> list(table.columns)
+    ['modulator', 'optimum', 'J', 'J_exact', 'chattering', 'at_grid_edge']
+    """
+    t2 = result.table2
+    p = result.identified.params
+    n = int(result.recommendation.get("n_xi", 100))
+    chattering = [
+        float(setting_metrics(k, v * get_kind(k).unscale, p, n)["chattering"])
+        for k, v in zip(t2["modulator"], t2["optimum"], strict=True)
+    ]
+    flags = [c for c in t2.columns if c.endswith("_at_grid_edge")]
+    edges = [
+        ", ".join(c.removesuffix("_at_grid_edge") for c in flags if bool(row[c])) or "-"
+        for _, row in t2.iterrows()
+    ]
+    table = pd.DataFrame(
+        {
+            "modulator": t2["modulator"],
+            "optimum": t2["label"],
+            "J": t2["J_min"],
+            "J_exact": t2["J_exact"],
+            "chattering": chattering,
+        }
+    )
+    if (t2["interval_method"] != "none").any():
+        bounds = zip(t2["J_min_lo"], t2["J_min_hi"], strict=True)
+        table["J 95 %"] = [f"{lo:.4g}-{hi:.4g}" for lo, hi in bounds]
+    table["at_grid_edge"] = edges
+    return table
+
+
+def format_result(result: TuningResult, as_json: bool = False, as_yaml: bool = False) -> str:
+    """Text for people (compact Table 2 and the sentence), or all of it as JSON or YAML.
 
     Parameters
     ----------
     result : TuningResult
         :func:`tune`'s result.
     as_json : bool, default False
-        ``{"table2": [rows], "recommendation": {...}}`` as JSON instead.
+        ``{"table2": [rows], "recommendation": {...}}`` as JSON (every column of Table 2).
+    as_yaml : bool, default False
+        The same as YAML (:func:`spa.io.dump_yaml`: no aliases).
 
     Returns
     -------
     str
     """
-    rec = _plain(result.recommendation)
-    if as_json:
+    if as_json or as_yaml:
         rows = [_plain(r) for r in result.table2.to_dict(orient="records")]
-        return json.dumps({"table2": rows, "recommendation": rec}, indent=2)
-    table = result.table2[_SHOWN].to_string(index=False, float_format=lambda x: f"{x:.4g}")
+        data = {"table2": rows, "recommendation": _plain(result.recommendation)}
+        if as_json:
+            return json.dumps(data, indent=2)
+        return dump_yaml(data, sort_keys=False, allow_unicode=True)
+    table = compact_table(result)
+    text = table.to_string(index=False, float_format=lambda x: f"{x:.4g}")
     interval = result.table2["interval_method"].iloc[0]
-    return (
-        f"Table 2 for {result.identified.source} (intervals: {interval})\n{table}\n\n"
-        f"recommendation:\n{yaml.safe_dump(rec, sort_keys=False, allow_unicode=True)}\n"
-        f"{result.sentence}\n"
-    )
+    lines = [
+        f"Table 2 for {result.identified.source} (intervals: {interval}): each modulator's "
+        "optimum by J (bar)",
+        text,
+    ]
+    if (table["at_grid_edge"] != "-").any():
+        lines.append(
+            "at_grid_edge: that optimum is an end of its sweep, the best setting may lie "
+            "beyond (widen analytic.sweeps)"
+        )
+    lines += ["", result.sentence, "(all of Table 2 and the recommendation: --yaml or --json)"]
+    return "\n".join(lines) + "\n"

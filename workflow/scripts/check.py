@@ -4,17 +4,16 @@ First, every output of the run is recorded (size, time, sha256: spa.pipeline.pro
 that the next run rebuilds any output changed in between.
 """
 
+import logging
 import sys
 from pathlib import Path
 
-import yaml
-
-from spa.io import get_logger
+from spa.io import dump_yaml, get_logger
 from spa.pipeline.outputs import all_targets
 from spa.pipeline.provenance import record_outputs
 from spa.pipeline.status import dataset_failures, failure_summary, guard_environment
 
-log = get_logger("check", snakemake.log[0])
+log = get_logger("check", snakemake.log[0], console=logging.INFO)  # the run's summary
 guard_environment(log, "the check")  # a full disk: one line saying so
 out = Path(snakemake.output.status)
 datasets, figures = snakemake.params.datasets, snakemake.params.figures
@@ -26,5 +25,5 @@ if failures:
     log.error("%d of %d datasets failed:\n%s", len(failures), len(snakemake.params.datasets), text)
     print(f"spa: {len(failures)} dataset(s) failed (see the report):\n{text}", file=sys.stderr)
     sys.exit(1)
-out.write_text(yaml.safe_dump({"datasets": list(snakemake.params.datasets), "failed": []}))
+out.write_text(dump_yaml({"datasets": list(snakemake.params.datasets), "failed": []}))
 log.info("all %d datasets complete", len(snakemake.params.datasets))
