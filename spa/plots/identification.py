@@ -17,7 +17,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from spa.identification import ChargeFit, DischargeFit
-from spa.plots.style import OKABE_ITO, minmax_indices, new_figure
+from spa.plots.style import OKABE_ITO, legend_beside, minmax_indices, new_figure
 from spa.validation import ValidationResult
 
 if TYPE_CHECKING:
@@ -328,7 +328,7 @@ def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
     ax.plot(data["t"], data["p"], color=_MEASURED, lw=0.8, label="measured")
     ax.plot(data["t"], data["p_model"], color=_MODEL, lw=1.0, ls="--", label="model")
     ax.set_ylabel("P (bar)")
-    ax.legend(frameon=False, loc="upper left")
+    legend_beside(ax, frameon=False)
     if title:
         ax.set_title(title)
     ae.plot(data["t"], err, color="k", lw=0.6)
