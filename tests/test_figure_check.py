@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 
 import spa.plots.save
 from spa.plots.check import (
+    cut_off,
     figure_problems,
     legend_overlaps,
     missing_tick_labels,
@@ -143,6 +144,25 @@ def test_two_series_of_one_colour_and_style_fail_and_a_marker_tells_them_apart()
     second.set_marker("s")
     assert shared_styles(fig) == []
     assert figure_problems(fig) == []
+
+
+def test_a_title_or_a_legend_past_the_figures_edge_fails():
+    fig = Figure(figsize=(3.0, 2.0), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot([0, 1], [0, 1], label="a line")
+    ax.set_title("a title far too long for a figure three inches wide, cut at both ends")
+    assert cut_off(fig) == [
+        "the text 'a title far too long for a figure three inches wide, cut at both ends' "
+        "reaches past the figure's edge"
+    ]
+    ax.set_title("a short title")
+    fig.legend(["a line with a label wider than the whole figure, cut"], loc="outside lower center")
+    assert cut_off(fig) == [
+        "the legend with 'a line with a label wider than the whole figure, cut' reaches past "
+        "the figure's edge"
+    ]
+    fig.legends.clear()
+    assert cut_off(fig) == []
 
 
 # --- every figure of the pipeline -------------------------------------------------------------

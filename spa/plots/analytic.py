@@ -79,7 +79,7 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
     jumps as that step passes the grid's points. With ``params`` that range is shaded.
     """
     _require(sweeps, ["modulator", "x_ms", "J"], "sweeps")
-    fig = new_figure(figsize=(7.0, 5.0), layout="constrained")
+    fig = new_figure(figsize=(8.0, 5.2), layout="constrained")
     ax = fig.add_subplot()
     for kind in MODULATOR_ORDER:  # legend in the order of every table
         label = _LABELS[kind]

@@ -10,7 +10,9 @@ what is wrong; an empty list is a pass. :func:`figure_problems` runs them all.
 * :func:`missing_tick_labels`: an axis of an axes that shows data has no tick label, and no
   axes sharing it below (x) or to its left (y), or a twin, labels it instead;
 * :func:`small_axis_labels`: an axis label's font is smaller than its tick labels';
-* :func:`shared_styles`: two series of one axes share colour, line style and marker.
+* :func:`shared_styles`: two series of one axes share colour, line style and marker;
+* :func:`cut_off`: a title, label, annotation or legend reaches past the figure's edge (the
+  saved image would cut it).
 
 Examples
 --------
@@ -36,6 +38,7 @@ if TYPE_CHECKING:
     from matplotlib.transforms import Bbox
 
 __all__ = [
+    "cut_off",
     "figure_problems",
     "legend_overlaps",
     "missing_tick_labels",
@@ -57,8 +60,9 @@ def figure_problems(fig: Figure) -> list[str]:
     Returns
     -------
     list of str
-        :func:`legend_overlaps`, :func:`missing_tick_labels`, :func:`small_axis_labels` and
-        :func:`shared_styles`, in that order; empty when the figure passes.
+        :func:`legend_overlaps`, :func:`missing_tick_labels`, :func:`small_axis_labels`,
+        :func:`shared_styles` and :func:`cut_off`, in that order; empty when the figure
+        passes.
     """
     renderer = _draw(fig)
     return [
@@ -66,6 +70,7 @@ def figure_problems(fig: Figure) -> list[str]:
         *_missing_tick_labels(fig),
         *small_axis_labels(fig, drawn=True),
         *shared_styles(fig),
+        *_cut_off(fig, renderer),
     ]
 
 
@@ -190,6 +195,57 @@ def shared_styles(fig: Figure) -> list[str]:
             else:
                 seen[key] = series
     return problems
+
+
+def cut_off(fig: Figure) -> list[str]:
+    """Texts and legends that reach past the edge of the figure.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+
+    Returns
+    -------
+    list of str
+        One sentence per legend or text (titles, axis labels, annotations, the figure's
+        title; not tick labels, which the layout places) more than one pixel outside.
+    """
+    return _cut_off(fig, _draw(fig))
+
+
+def _cut_off(fig: Figure, renderer: RendererBase) -> list[str]:
+    from matplotlib.text import Text
+
+    ticks = {
+        id(t)
+        for ax in fig.axes
+        for axis in (ax.xaxis, ax.yaxis)
+        for tick in (*axis.get_major_ticks(), *axis.get_minor_ticks())
+        for t in (tick.label1, tick.label2)
+    }
+    off = {id(t) for ax in fig.axes if not ax.axison for t in (ax.xaxis.label, ax.yaxis.label)}
+    page = fig.bbox
+    problems = []
+    for legend in [*(ax.get_legend() for ax in fig.axes), *fig.legends]:
+        if legend is not None and legend.get_visible():
+            ticks.update(id(t) for t in (*legend.get_texts(), legend.get_title()))
+            box = legend.get_window_extent(renderer)
+            if _past(box, page):
+                first = legend.get_texts()[0].get_text() if legend.get_texts() else ""
+                problems.append(f"the legend with {first!r} reaches past the figure's edge")
+    for text in fig.findobj(Text):
+        if id(text) in ticks or id(text) in off or not text.get_visible():
+            continue
+        if text.get_text().strip() and _past(text.get_window_extent(renderer), page):
+            line = text.get_text().strip().splitlines()[0]
+            problems.append(f"the text {line!r} reaches past the figure's edge")
+    return problems
+
+
+def _past(box: Bbox, page: Bbox) -> bool:
+    return bool(
+        box.x0 < page.x0 - 1 or box.y0 < page.y0 - 1 or box.x1 > page.x1 + 1 or box.y1 > page.y1 + 1
+    )
 
 
 # --- drawing and the data of an axes ---------------------------------------------------------

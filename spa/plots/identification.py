@@ -9,6 +9,7 @@ pyplot state, no GUI backend), so they render headless; save them with
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -330,7 +331,7 @@ def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
     ax.set_ylabel("P (bar)")
     legend_beside(ax, frameon=False)
     if title:
-        ax.set_title(title)
+        ax.set_title(textwrap.fill(title, 70), fontsize=11)
     ae.plot(data["t"], err, color="k", lw=0.6)
     ae.axhline(0.0, color="0.5", lw=0.6)
     ae.set_ylabel("error (bar)")

@@ -260,8 +260,9 @@ def fig7a(
     return fig
 
 
-def _title(text: str, note: str) -> str:
-    return f"{text}\n{note}" if note else text
+def _title(text: str, note: str, width: int = 60) -> str:
+    """A panel's title and its note, each wrapped to ``width`` characters."""
+    return "\n".join(textwrap.fill(part, width) for part in (text, note) if part)
 
 
 def _style(g: pd.DataFrame) -> dict:
@@ -372,7 +373,7 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
                         ha="center", va="bottom", fontsize=8,
                     )  # fmt: skip
             axes[1].set_title(
-                "Every setting (outlined: shown on the left; ×n: n outliers in the mean)",
+                "Every setting (outlined: shown on the left;\n×n: n outliers in the mean)",
                 fontsize=9,
             )
     return fig
