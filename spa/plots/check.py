@@ -88,11 +88,12 @@ def legend_overlaps(fig: Figure) -> list[str]:
 
     Notes
     -----
-    The legend's box (its frame, or its text where it has none) is widened by one point, and
-    by half the line width or marker size of each artist tested: a line touching the frame
-    counts. The data counted are the segments of each line (after its draw style, such as
-    steps) and of each line collection (error bars), each marker, scatter point, bar and the
-    extent of each image and colour mesh; only within the axes that draws them (clipped).
+    The legend's box (its frame, or its text and padding where it has none) is widened by
+    half the line width or marker size of each artist tested, and a framed one by one point
+    more: a line touching the frame counts. The data counted are the segments of each line
+    (after its draw style, such as steps) and of each line collection (error bars), each
+    marker, scatter point, bar and the extent of each image and colour mesh; only within the
+    axes that draws them (clipped).
     Grid lines, spans and filled bands are background and are not counted.
     """
     return _legend_overlaps(fig, _draw(fig))
@@ -395,10 +396,10 @@ def _clip(box: Bbox, pad: float, ax_box: Bbox) -> tuple[float, float, float, flo
     return (x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
 
 
-def _covered(ax: Axes, legend_box: Bbox, renderer: RendererBase) -> list[str]:
+def _covered(ax: Axes, legend_box: Bbox, renderer: RendererBase, framed: bool) -> list[str]:
     """What data of ``ax`` the legend box covers (kinds of artist, once each)."""
     ax_box = ax.get_window_extent(renderer)
-    point = ax.figure.dpi / 72.0
+    point = ax.figure.dpi / 72.0 if framed else 0.0
     found = []
     for p0, p1, half in _segments(ax):
         box = _clip(legend_box, point + half, ax_box)
@@ -431,7 +432,7 @@ def _legend_overlaps(fig: Figure, renderer: RendererBase) -> list[str]:
         for i, ax in enumerate(fig.axes):
             if not ax.get_visible():
                 continue
-            found = " and ".join(_covered(ax, box, renderer))
+            found = " and ".join(_covered(ax, box, renderer, legend.get_frame_on()))
             if found:
                 whose = "its" if ax is owner else f"those of {_name(ax, i)}:"
                 problems.append(f"{where} covers {whose} {found}")

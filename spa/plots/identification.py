@@ -260,7 +260,8 @@ def fig2c(
         cmd.set_ylim(-0.05, 3.0)
         cmd.set_yticks([0, 1])
         cmd.set_ylabel("valve command")
-    ax.legend(frameon=False, loc="upper left")
+    # above the axes, left of the title: the pulse train fills the panel
+    ax.legend(frameon=False, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncols=2, borderaxespad=0)
     ax.set_title("(c) pulse response")
     ax.axvspan(at + zoom_span[0], at + zoom_span[1], color="0.8")
     ax.set_xlabel("t (s)")

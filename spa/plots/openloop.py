@@ -400,7 +400,7 @@ def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str
         _require(reference, ["xi", "p_norm", "rms"], "reference")
     ncols = min(len(kinds), 2)
     nrows = -(-len(kinds) // ncols)
-    fig = new_figure(figsize=(3.6 * ncols, 3.9 * nrows + 0.5), layout="constrained")
+    fig = new_figure(figsize=(5.8 * ncols, 3.9 * nrows + 0.5), layout="constrained")
     grid = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False).ravel()
     for ax in grid[len(kinds) :]:
         fig.delaxes(ax)
@@ -422,24 +422,26 @@ def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str
         ax.set_title(_LABELS[kind], fontsize=10)
         ax.set_xlim(0.0, 1.0)
         ax.set_ylim(0.0, 1.05)
-        ax.set_aspect("equal")
         ax.grid(True, lw=0.3, alpha=0.5)
         handles, labels = ax.get_legend_handles_labels()
         n_common = 2 if reference is not None else 1
-        ax.legend(
-            handles[n_common:], labels[n_common:], fontsize=8, loc="lower right",
-            title="setting (RMS deviation)", title_fontsize=8, framealpha=0.9,
+        legend_beside(
+            ax, handles[n_common:], labels[n_common:], fontsize=8,
+            title="setting (RMS deviation)", title_fontsize=8,
         )  # fmt: skip
-    for ax in axes:
+    for i, ax in enumerate(axes):
         ax.set_xlabel("input fraction ξ")
         ax.set_ylabel("P / max(P)")
         ax.label_outer()
+        if i + ncols >= len(axes):  # no panel below: this one reads the ξ axis
+            ax.xaxis.set_tick_params(labelbottom=True)
+            ax.set_xlabel("input fraction ξ")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(
         handles[:n_common], labels[:n_common], loc="outside lower center", ncol=2, fontsize=8
     )
     if note:
-        fig.suptitle(textwrap.fill(note, int(15 * 3.6 * ncols)), fontsize=9)
+        fig.suptitle(textwrap.fill(note, int(15 * 5.8 * ncols)), fontsize=9)
     return fig
 
 
