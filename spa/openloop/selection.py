@@ -240,15 +240,15 @@ def fallback_note(
     >>> fallback_note([], "FIT")
     "the paper's settings"
     >>> fallback_note(["iipfm-20ms-G1.2"], "FIT")
-    "the paper's settings; not in this dataset, so iipfm-20ms-G1.2 (highest FIT of its group)"
-    >>> fallback_note([], "significant_fraction", higher=False, beyond=["lpwm-20Hz"])
-    "the paper's settings; not in the paper: lpwm-20Hz (lowest significant fraction of its group)"
+    "the paper's settings; not in this dataset, so iipfm-20ms-G1.2 (its modulator's highest FIT)"
+    >>> fallback_note([], "mean_bicoherence", higher=False, beyond=["lpwm-20Hz"])
+    "the paper's settings; not in the paper: lpwm-20Hz (its modulator's lowest mean bicoherence)"
     """
     word = "highest" if higher else "lowest"
     name = score.replace("_", " ")
     note = "the paper's settings"
     if fallbacks:
-        note += f"; not in this dataset, so {', '.join(fallbacks)} ({word} {name} of its group)"
+        note += f"; not in this dataset, so {', '.join(fallbacks)} (its modulator's {word} {name})"
     if beyond:
-        note += f"; not in the paper: {', '.join(beyond)} ({word} {name} of its group)"
+        note += f"; not in the paper: {', '.join(beyond)} (its modulator's {word} {name})"
     return note
