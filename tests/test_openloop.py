@@ -15,6 +15,7 @@ from spa.openloop import (
     PAPER_SETTINGS,
     PAPER_TABLE3,
     best_settings,
+    beyond_paper,
     chirp_analysis,
     chirp_reference,
     fallback_note,
@@ -236,6 +237,18 @@ def test_best_settings_keeps_the_best_of_each_modulator_and_gains_apart():
     shown, fallbacks = paper_settings(table[table["setting"] != "iipfm-20ms"])
     assert shown["setting"].tolist() == ["pwm-20Hz", "iipfm-10ms", "iipfm-20ms-G1.15", "dsm-20ms"]
     assert fallbacks == ["iipfm-10ms"] and "iipfm-10ms" in fallback_note(fallbacks, "FIT")
+    # a modulator the paper did not test is shown at its best, and is no stand-in: a dataset
+    # holding every paper setting says so
+    lpwm = pd.DataFrame(
+        {"modulator": "lpwm", "setting": ["lpwm-20Hz", "lpwm-40Hz"], "gain": 1.0, "fit": [90, 95]}
+    )
+    shown, fallbacks = paper_settings(pd.concat([table, lpwm], ignore_index=True))
+    assert shown["setting"].tolist()[-1] == "lpwm-40Hz" and fallbacks == []
+    assert beyond_paper(shown) == ["lpwm-40Hz"]
+    note = fallback_note(fallbacks, "FIT", beyond=beyond_paper(shown))
+    assert "not in this dataset" not in note and "highest FIT" in note and "lpwm-40Hz" in note
+    low = fallback_note(["dsm-5ms"], "significant_fraction", higher=False)
+    assert "lowest significant fraction" in low and "not in this dataset" in low
 
 
 def test_run_labels_and_kinds():

@@ -3,7 +3,8 @@
 `runs_of_kind` and `run_tags` pick and label a dataset's runs; `paper_settings` chooses the
 rows that Figs. 7a, 7b and 9 show: the paper's own settings (`PAPER_SETTINGS`), as the paper
 does, and where a dataset lacks one of them the best setting of that group by a score,
-named as a fallback. `best_settings` is that ranking alone.
+named as a fallback; a modulator the paper did not test (`beyond_paper`) shows its best
+setting too. `best_settings` is that ranking alone; `fallback_note` says which is which.
 """
 
 from __future__ import annotations
@@ -17,7 +18,14 @@ import pandas as pd
 from spa.model.modulators import MODULATOR_ORDER, Modulator, get_kind
 from spa.openloop.paper import PAPER_SETTINGS
 
-__all__ = ["best_settings", "fallback_note", "paper_settings", "run_tags", "runs_of_kind"]
+__all__ = [
+    "best_settings",
+    "beyond_paper",
+    "fallback_note",
+    "paper_settings",
+    "run_tags",
+    "runs_of_kind",
+]
 
 
 def _group_rank(group: str) -> int:
@@ -127,6 +135,11 @@ def best_settings(table: pd.DataFrame, score: str = "fit", higher: bool = True) 
     return _in_order(best, groups)
 
 
+def _paper_groups() -> set[str]:
+    """The groups (`_groups`) of the paper's settings."""
+    return {m.kind + ("+G" if m.gain != 1.0 else "") for m in PAPER_SETTINGS}
+
+
 def paper_settings(
     table: pd.DataFrame, score: str = "fit", higher: bool = True
 ) -> tuple[pd.DataFrame, list[str]]:
@@ -145,20 +158,24 @@ def paper_settings(
     Returns
     -------
     rows : pandas.DataFrame
-        One row per group present (PWM, IPFM, IIPFM, IIPFM with gain, ΔΣM, in that order):
-        the paper's setting (`PAPER_SETTINGS`: PWM 20 Hz, IPFM 20 ms, IIPFM 20 ms with G = 1
-        and 1.15, ΔΣM 20 ms) when the table has it, else the group's best by ``score``.
+        One row per group present (PWM, IPFM, IIPFM, IIPFM with gain, ΔΣM, then the
+        modulators the paper did not test, in that order): the paper's setting
+        (`PAPER_SETTINGS`: PWM 20 Hz, IPFM 20 ms, IIPFM 20 ms with G = 1 and 1.15, ΔΣM 20 ms)
+        when the table has it, else the group's best by ``score``.
     fallbacks : list of str
-        The labels of the rows that are a group's best rather than the paper's setting.
+        The labels of the rows that stand in for a paper's setting the table lacks (a
+        group's best). The best of a group the paper has no setting for (`beyond_paper`) is
+        not one.
 
     Examples
     --------
-    >>> t = pd.DataFrame({"modulator": ["pwm", "pwm", "iipfm"], "gain": [1.0, 1.0, 1.2],
-    ...                   "setting": ["pwm-10Hz", "pwm-20Hz", "iipfm-20ms-G1.2"],
-    ...                   "fit": [80.0, 70.0, 85.0]})
+    >>> t = pd.DataFrame({"modulator": ["pwm", "pwm", "iipfm", "lpwm"],
+    ...                   "gain": [1.0, 1.0, 1.2, 1.0],
+    ...                   "setting": ["pwm-10Hz", "pwm-20Hz", "iipfm-20ms-G1.2", "lpwm-20Hz"],
+    ...                   "fit": [80.0, 70.0, 85.0, 90.0]})
     >>> rows, fallbacks = paper_settings(t)
-    >>> rows["setting"].tolist(), fallbacks
-    (['pwm-20Hz', 'iipfm-20ms-G1.2'], ['iipfm-20ms-G1.2'])
+    >>> rows["setting"].tolist(), fallbacks, beyond_paper(rows)
+    (['pwm-20Hz', 'iipfm-20ms-G1.2', 'lpwm-20Hz'], ['iipfm-20ms-G1.2'], ['lpwm-20Hz'])
     """
     _check_table(table, score)
     paper = {m.label for m in PAPER_SETTINGS}
@@ -167,22 +184,71 @@ def paper_settings(
     missing = ~groups.isin(set(groups.loc[chosen.index]))
     best = best_settings(table[missing], score, higher)
     rows = _in_order(pd.concat([chosen, best]), groups)
-    return rows, best["setting"].tolist()
+    stand_in = groups.loc[best.index].isin(_paper_groups())
+    return rows, best.loc[stand_in, "setting"].tolist()
 
 
-def fallback_note(fallbacks: Sequence[str], score: str) -> str:
-    """What a figure's title says when some of the paper's settings are not in the dataset.
+def beyond_paper(rows: pd.DataFrame) -> list[str]:
+    """The settings of ``rows`` whose group the paper has no setting for (a modulator it did
+    not test, such as LPWM, or a gain other than 1 where it showed none), in order.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        Rows with ``modulator``, ``gain`` and ``setting`` (:func:`paper_settings`' rows).
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> beyond_paper(pd.DataFrame({"modulator": ["pwm", "lpwm"], "gain": [1.0, 1.0],
+    ...                            "setting": ["pwm-20Hz", "lpwm-20Hz"]}))
+    ['lpwm-20Hz']
+    """
+    if rows.empty:
+        return []
+    return rows.loc[~_groups(rows).isin(_paper_groups()), "setting"].tolist()
+
+
+def fallback_note(
+    fallbacks: Sequence[str],
+    score: str,
+    higher: bool = True,
+    beyond: Sequence[str] = (),
+) -> str:
+    """What a figure's title says about the settings it shows (:func:`paper_settings`).
+
+    Parameters
+    ----------
+    fallbacks : sequence of str
+        The settings standing in for a paper's setting the dataset lacks.
+    score : str
+        The column that ranked them (a column name's underscores are read as spaces).
+    higher : bool, default True
+        Whether a higher score is better: the note says "highest" or "lowest".
+    beyond : sequence of str, optional
+        The settings shown of modulators the paper did not test (:func:`beyond_paper`).
+
+    Returns
+    -------
+    str
 
     Examples
     --------
     >>> fallback_note([], "FIT")
     "the paper's settings"
     >>> fallback_note(["iipfm-20ms-G1.2"], "FIT")
-    "the paper's settings; not in this dataset, so its best by FIT instead: iipfm-20ms-G1.2"
+    "the paper's settings; not in this dataset, so iipfm-20ms-G1.2 (its modulator's highest FIT)"
+    >>> fallback_note([], "mean_bicoherence", higher=False, beyond=["lpwm-20Hz"])
+    "the paper's settings; not in the paper: lpwm-20Hz (its modulator's lowest mean bicoherence)"
     """
-    if not fallbacks:
-        return "the paper's settings"
-    return (
-        "the paper's settings; not in this dataset, so its best by "
-        f"{score} instead: {', '.join(fallbacks)}"
-    )
+    word = "highest" if higher else "lowest"
+    name = score.replace("_", " ")
+    note = "the paper's settings"
+    if fallbacks:
+        note += f"; not in this dataset, so {', '.join(fallbacks)} (its modulator's {word} {name})"
+    if beyond:
+        note += f"; not in the paper: {', '.join(beyond)} (its modulator's {word} {name})"
+    return note

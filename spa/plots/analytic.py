@@ -22,7 +22,7 @@ from spa.plots.style import MODULATOR_COLOURS, MODULATOR_NAMES, new_figure
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["plot_cost_sweeps", "plot_equilibrium"]
+__all__ = ["cost_legend", "plot_cost_sweeps", "plot_equilibrium"]
 
 #: Display names, in the paper's panel order of Fig. 5, and colours (:mod:`spa.plots.style`).
 _LABELS = MODULATOR_NAMES
@@ -79,7 +79,7 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
     jumps as that step passes the grid's points. With ``params`` that range is shaded.
     """
     _require(sweeps, ["modulator", "x_ms", "J"], "sweeps")
-    fig = new_figure(figsize=(7.0, 4.2), layout="constrained")
+    fig = new_figure(figsize=(8.0, 5.2), layout="constrained")
     ax = fig.add_subplot()
     for kind in MODULATOR_ORDER:  # legend in the order of every table
         label = _LABELS[kind]
@@ -112,7 +112,7 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
     ax.set_xlabel("modulator parameter: T_W, t_h, t_l, T_ΔΣ (ms)")
     ax.set_ylabel("linearity cost J (bar)")
     ax.grid(True, which="both", lw=0.3, alpha=0.5)
-    ax.legend(fontsize=8, loc="upper right")
+    cost_legend(fig, *ax.get_legend_handles_labels())
     top = ax.secondary_xaxis("top", functions=(_inverse_ms, _inverse_ms))
     top.xaxis.set_major_locator(FixedLocator(_HZ_TICKS))
     top.xaxis.set_major_formatter(FormatStrFormatter("%g"))
@@ -120,6 +120,13 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
     top.set_xlabel("PWM frequency f_W (Hz)")
     ax.set_title("Linearity cost versus modulator parameter (Eq. 25)", fontsize=10)
     return fig
+
+
+def cost_legend(fig: Figure, handles: list, labels: list[str]) -> None:
+    """Fig. 4's legend, below the axes (replacing any): it never covers a curve."""
+    for legend in list(fig.legends):
+        legend.remove()
+    fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize=8)
 
 
 def _inverse_ms(x: np.ndarray) -> np.ndarray:

@@ -8,23 +8,33 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from spa.plots.style import MODULATOR_COLOURS, new_figure, ordered_settings, setting_colours
+from spa.plots.style import (
+    MODULATOR_COLOURS,
+    new_figure,
+    ordered_settings,
+    setting_kind,
+    setting_styles,
+    shade,
+)
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["CONTROLLER_STYLES", "fig10", "fig11"]
 
-#: Line style and name of each controller, in every closed-loop figure.
-CONTROLLER_STYLES: dict[str, tuple[str, str, str]] = {
-    "fixed": ("-", "#000000", "fixed PI"),
-    "scheduled": ("-", "#0072B2", "scheduled PI"),
-    "scheduled_ff": ("--", "#D55E00", "scheduled PI + feed-forward"),
+#: Line style, lightness (:func:`spa.plots.style.shade` of the setting's colour) and name of
+#: each controller in Fig. 10, where the three share a panel of one setting.
+CONTROLLER_STYLES: dict[str, tuple[str, float, str]] = {
+    "fixed": ("-", -0.45, "fixed PI"),
+    "scheduled": ("--", 0.0, "scheduled PI"),
+    "scheduled_ff": ("-.", 0.4, "scheduled PI + feed-forward"),
 }
 
 
-def _kind(label: str) -> str:
-    return label.split("-", 1)[0]
+def _colour(label: str) -> str:
+    """A setting's colour: its modulator type's (declared by the type's module)."""
+    kind = setting_kind(label)
+    return MODULATOR_COLOURS[kind] if kind is not None else "#808080"
 
 
 def fig10(traces: pd.DataFrame) -> Figure:
@@ -35,30 +45,53 @@ def fig10(traces: pd.DataFrame) -> Figure:
     traces : pandas.DataFrame
         ``modulator``, ``controller``, ``t``, ``r``, ``p_mean``
         (:class:`spa.closedloop.stage.ClosedLoopResult`'s ``traces``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels a row, each in its modulator's colour; the controllers told apart by line
+        style and lightness (:data:`CONTROLLER_STYLES`); one legend, below the panels.
     """
     labels = ordered_settings(traces["modulator"])
     ncols = 2 if len(labels) > 1 else 1
     nrows = math.ceil(len(labels) / ncols)
-    fig = new_figure(figsize=(10.0, 2.2 * nrows + 0.6), layout="constrained")
+    fig = new_figure(figsize=(10.0, 2.2 * nrows + 1.0), layout="constrained")
     axes = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False).ravel()
     for ax, label in zip(axes, labels, strict=False):
         sel = traces[traces["modulator"] == label]
         first = sel[sel["controller"] == sel["controller"].iloc[0]]
+        colour = _colour(label)
         ax.plot(first["t"], first["r"], color="0.6", lw=1.0, ls=":", label="set-point")
-        for name, (ls, colour, text) in CONTROLLER_STYLES.items():
+        for name, (ls, amount, text) in CONTROLLER_STYLES.items():
             rows = sel[sel["controller"] == name]
             if len(rows):
-                ax.plot(rows["t"], rows["p_mean"], ls=ls, color=colour, lw=1.0, label=text)
-        ax.set_title(label, fontsize=9, color=MODULATOR_COLOURS.get(_kind(label), "black"))
+                ax.plot(
+                    rows["t"], rows["p_mean"], ls=ls, color=shade(colour, amount), lw=1.1,
+                    label=text,
+                )  # fmt: skip
+        ax.set_title(label, fontsize=10, color=colour)
         ax.grid(alpha=0.3)
     for ax in axes[len(labels) :]:
         ax.axis("off")
-    for ax in axes[(nrows - 1) * ncols :]:
-        ax.set_xlabel("t (s)")
+    for i, ax in enumerate(axes[: len(labels)]):
+        if i + ncols >= len(labels):  # nothing drawn below: this panel reads the time axis
+            ax.set_xlabel("t (s)")
+            ax.xaxis.set_tick_params(labelbottom=True)
     for ax in axes[::ncols]:
         ax.set_ylabel("cycle-mean P (bar)")
-    axes[0].legend(fontsize=7, loc="upper left")
-    fig.suptitle("Fig. 10: closed-loop staircase, fixed against gain-scheduled PI", fontsize=10)
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color="0.6", lw=1.0, ls=":")]
+    texts = ["set-point"]
+    for name, (ls, amount, text) in CONTROLLER_STYLES.items():
+        if (traces["controller"] == name).any():
+            handles.append(Line2D([], [], ls=ls, color=shade("#808080", amount), lw=1.1))
+            texts.append(text)
+    fig.legend(
+        handles, texts, loc="outside lower center", ncols=len(handles), fontsize=9,
+        title="line style and shade of the panel's colour: controller", title_fontsize=9,
+    )  # fmt: skip
+    fig.suptitle("Fig. 10: closed-loop staircase, fixed against gain-scheduled PI", fontsize=11)
     return fig
 
 
@@ -70,29 +103,45 @@ def fig11(steps: pd.DataFrame) -> Figure:
     steps : pandas.DataFrame
         One row per step (:class:`spa.closedloop.stage.ClosedLoopResult`'s ``steps``), with
         ``experiment``, ``modulator``, ``controller``, ``r0``, ``r1`` and the metrics.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One column per controller, a row per metric. Each setting in its modulator's colour
+        (:func:`spa.plots.style.setting_styles`: the settings of one type by marker and
+        shade); steps up solid with filled markers, steps down dotted with hollow ones. The
+        legend sits right of the panels.
     """
+    from matplotlib.lines import Line2D
+
     rows = steps[steps["experiment"] == "staircase"]
-    labels = ordered_settings(rows["modulator"])
-    colours = dict(zip(labels, setting_colours(len(labels)), strict=True))
+    styles = setting_styles(rows["modulator"])
     names = [n for n in CONTROLLER_STYLES if (rows["controller"] == n).any()]
     metrics = (("rise_time", "rise time 10–90 % (s)"), ("overshoot", "overshoot (%)"))
-    fig = new_figure(figsize=(10.0, 5.2), layout="constrained")
+    fig = new_figure(figsize=(11.0, 5.6), layout="constrained")
     axes = fig.subplots(len(metrics), len(names), sharex=True, sharey="row", squeeze=False)
     for j, name in enumerate(names):
         sel = rows[rows["controller"] == name]
-        axes[0, j].set_title(CONTROLLER_STYLES[name][2], fontsize=9)
+        axes[0, j].set_title(CONTROLLER_STYLES[name][2], fontsize=10)
         for i, (metric, text) in enumerate(metrics):
             ax = axes[i, j]
-            for label in labels:
+            for label, style in styles.items():
                 c = sel[sel["modulator"] == label]
                 up, down = c[c["r1"] > c["r0"]], c[c["r1"] < c["r0"]]
-                ax.plot(up["r1"], up[metric], "-^", ms=4, lw=1.0, color=colours[label], label=label)
-                ax.plot(down["r1"], down[metric], ":v", ms=4, lw=0.8, color=colours[label])
+                ax.plot(up["r1"], up[metric], ls="-", ms=5, lw=1.1, label=label, **style)
+                ax.plot(down["r1"], down[metric], ls=":", ms=5, lw=1.0, mfc="white", **style)
             ax.grid(alpha=0.3)
             if j == 0:
-                ax.set_ylabel(text, fontsize=8)
+                ax.set_ylabel(text)
     for ax in axes[-1]:
         ax.set_xlabel("set-point after the step (bar)")
-    axes[0, 0].legend(fontsize=7, title="▲ up, ▼ down", title_fontsize=7)
-    fig.suptitle("Fig. 11: closed-loop step metrics against the operating point", fontsize=10)
+    handles = [Line2D([], [], ls="-", lw=1.1, ms=5, **style) for style in styles.values()]
+    texts = list(styles)
+    handles += [
+        Line2D([], [], ls="-", marker="o", color="0.3", lw=1.1, ms=5),
+        Line2D([], [], ls=":", marker="o", mfc="white", color="0.3", lw=1.0, ms=5),
+    ]
+    texts += ["step up (solid, filled)", "step down (dotted, hollow)"]
+    fig.legend(handles, texts, loc="outside right upper", fontsize=9)
+    fig.suptitle("Fig. 11: closed-loop step metrics against the operating point", fontsize=11)
     return fig

@@ -9,6 +9,7 @@ pyplot state, no GUI backend), so they render headless; save them with
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -17,7 +18,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from spa.identification import ChargeFit, DischargeFit
-from spa.plots.style import OKABE_ITO, minmax_indices, new_figure
+from spa.plots.style import OKABE_ITO, legend_beside, minmax_indices, new_figure
 from spa.validation import ValidationResult
 
 if TYPE_CHECKING:
@@ -259,7 +260,8 @@ def fig2c(
         cmd.set_ylim(-0.05, 3.0)
         cmd.set_yticks([0, 1])
         cmd.set_ylabel("valve command")
-    ax.legend(frameon=False, loc="upper left")
+    # above the axes, left of the title: the pulse train fills the panel
+    ax.legend(frameon=False, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncols=2, borderaxespad=0)
     ax.set_title("(c) pulse response")
     ax.axvspan(at + zoom_span[0], at + zoom_span[1], color="0.8")
     ax.set_xlabel("t (s)")
@@ -328,9 +330,9 @@ def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
     ax.plot(data["t"], data["p"], color=_MEASURED, lw=0.8, label="measured")
     ax.plot(data["t"], data["p_model"], color=_MODEL, lw=1.0, ls="--", label="model")
     ax.set_ylabel("P (bar)")
-    ax.legend(frameon=False, loc="upper left")
+    legend_beside(ax, frameon=False)
     if title:
-        ax.set_title(title)
+        ax.set_title(textwrap.fill(title, 70), fontsize=11)
     ae.plot(data["t"], err, color="k", lw=0.6)
     ae.axhline(0.0, color="0.5", lw=0.6)
     ae.set_ylabel("error (bar)")

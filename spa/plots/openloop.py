@@ -25,6 +25,7 @@ from spa.openloop.reference import REFERENCE
 from spa.openloop.spectra import principal_domain_mask
 from spa.plots.analytic import _COLOURS, _LABELS, _require
 from spa.plots.style import (
+    legend_beside,
     minmax_indices,
     new_figure,
     ordered_settings,
@@ -157,10 +158,12 @@ def _sweep_panel(
     reference: float | None = None,
     ylabel: str = "",
     other: tuple[str, str, float | None] | None = None,
+    outline: str = "",
 ) -> None:
     """One bar per setting of ``table`` (in its order), coloured by modulator.
 
-    ``shown`` settings are outlined; ``error`` is a column of symmetric errors or a pair of
+    ``shown`` settings are outlined (``outline``: the legend entry saying what that means);
+    ``error`` is a column of symmetric errors or a pair of
     columns (low, high); ``paper`` a column of the paper's values (black diamonds);
     ``reference`` a level drawn as a dashed line (the linear reference); ``other`` a second
     measure of every setting, ``(column, label, reference)``: hollow circles, and its
@@ -194,13 +197,22 @@ def _sweep_panel(
         if level is not None and np.isfinite(level):
             ax.axhline(level, color="0.3", ls=":", lw=1.0, label=f"{label}: linear {level:.3g}")
         top = np.nanmax(np.r_[y, y2, 0.0])
-        if top > 0:  # room for a one-row legend above the tallest bar
-            ax.set_ylim(top=1.3 * top)
+        if top > 0:  # room for a two-row legend above the tallest bar
+            ax.set_ylim(top=1.45 * top)
     ax.set_xticks(x, table["setting"], rotation=60, ha="right", fontsize=8)
-    ax.set_ylabel(ylabel, fontsize=8)
+    ax.set_ylabel(ylabel)
     ax.grid(True, axis="y", lw=0.3, alpha=0.5)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper left", **({"ncols": 3} if other is not None else {}))
+    handles, labels = ax.get_legend_handles_labels()
+    if outline and outlined & set(table["setting"]):
+        from matplotlib.patches import Patch
+
+        handles.append(Patch(fc="none", ec="k", lw=1.2))
+        labels.append(outline)
+    if handles:
+        ax.legend(
+            handles, labels, fontsize=8, loc="upper left",
+            **({"ncols": 2} if other is not None else {}),
+        )  # fmt: skip
 
 
 def fig7a(
@@ -248,8 +260,9 @@ def fig7a(
     return fig
 
 
-def _title(text: str, note: str) -> str:
-    return f"{text}\n{note}" if note else text
+def _title(text: str, note: str, width: int = 60) -> str:
+    """A panel's title and its note, each wrapped to ``width`` characters."""
+    return "\n".join(textwrap.fill(part, width) for part in (text, note) if part)
 
 
 def _style(g: pd.DataFrame) -> dict:
@@ -341,7 +354,7 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
     ax.set_xlabel("input fraction after the step ξ")
     ax.set_ylabel("time constant (s), 63.2 % of the step")
     ax.grid(True, lw=0.3, alpha=0.5)
-    ax.legend(fontsize=8, loc="lower right", title="mean ± sd", title_fontsize=8)
+    legend_beside(ax, fontsize=8, title="mean ± sd", title_fontsize=8)
     ax.set_title(_title(f"Step time constants (paper, bench: {paper})", note), fontsize=9)
     if sweep is not None:
         _require(sweep, ["modulator", "setting", "tau_mean", "tau_sd"], "sweep")
@@ -360,7 +373,7 @@ def fig7b(steps: pd.DataFrame, sweep: pd.DataFrame | None = None, note: str = ""
                         ha="center", va="bottom", fontsize=8,
                     )  # fmt: skip
             axes[1].set_title(
-                "Every setting (outlined: shown on the left; ×n: n outliers in the mean)",
+                "Every setting (outlined: shown on the left;\n×n: n outliers in the mean)",
                 fontsize=9,
             )
     return fig
@@ -387,7 +400,7 @@ def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str
         _require(reference, ["xi", "p_norm", "rms"], "reference")
     ncols = min(len(kinds), 2)
     nrows = -(-len(kinds) // ncols)
-    fig = new_figure(figsize=(3.6 * ncols, 3.9 * nrows + 0.5), layout="constrained")
+    fig = new_figure(figsize=(5.8 * ncols, 3.9 * nrows + 0.5), layout="constrained")
     grid = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False).ravel()
     for ax in grid[len(kinds) :]:
         fig.delaxes(ax)
@@ -409,24 +422,26 @@ def fig8(aligned: pd.DataFrame, reference: pd.DataFrame | None = None, note: str
         ax.set_title(_LABELS[kind], fontsize=10)
         ax.set_xlim(0.0, 1.0)
         ax.set_ylim(0.0, 1.05)
-        ax.set_aspect("equal")
         ax.grid(True, lw=0.3, alpha=0.5)
         handles, labels = ax.get_legend_handles_labels()
         n_common = 2 if reference is not None else 1
-        ax.legend(
-            handles[n_common:], labels[n_common:], fontsize=8, loc="lower right",
-            title="setting (RMS deviation)", title_fontsize=8, framealpha=0.9,
+        legend_beside(
+            ax, handles[n_common:], labels[n_common:], fontsize=8,
+            title="setting (RMS deviation)", title_fontsize=8,
         )  # fmt: skip
-    for ax in axes:
+    for i, ax in enumerate(axes):
         ax.set_xlabel("input fraction ξ")
         ax.set_ylabel("P / max(P)")
         ax.label_outer()
+        if i + ncols >= len(axes):  # no panel below: this one reads the ξ axis
+            ax.xaxis.set_tick_params(labelbottom=True)
+            ax.set_xlabel("input fraction ξ")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(
         handles[:n_common], labels[:n_common], loc="outside lower center", ncol=2, fontsize=8
     )
     if note:
-        fig.suptitle(textwrap.fill(note, int(15 * 3.6 * ncols)), fontsize=9)
+        fig.suptitle(textwrap.fill(note, int(15 * 5.8 * ncols)), fontsize=9)
     return fig
 
 
@@ -536,6 +551,7 @@ def fig9(
             error=("significant_fraction_min", "significant_fraction_max"),
             reference=float(ref.iloc[0]) if ref.size else None,
             ylabel="fraction of the domain significant",
+            outline="outlined: its map is shown above",
             other=(quiet, "without the sensor's ringing",
                    float(quiet_ref.iloc[0]) if quiet_ref.size else None),
         )  # fmt: skip

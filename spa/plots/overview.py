@@ -16,7 +16,11 @@ if TYPE_CHECKING:
 
 __all__ = ["plot_overview"]
 
-_SCALE = {"t_on": (1e3, "t_on (ms)"), "t_off": (1e3, "t_off (ms)"), "c1": (1.0, "c1 (s·bar^-0.5)")}
+_SCALE = {
+    "t_on": (1e3, "t_on (ms)"),
+    "t_off": (1e3, "t_off (ms)"),
+    "c1": (1.0, "c1 (s·bar$^{-1/2}$)"),
+}
 _SCALE |= {"k2": (1.0, "k2 (bar)"), "tau2": (1.0, "tau2 (s)")}
 
 
@@ -32,16 +36,20 @@ def plot_overview(table: pd.DataFrame) -> Figure:
     -------
     matplotlib.figure.Figure
         One panel per parameter; x the days since the first session when every session is
-        dated, else the session's position (the axis says so); one colour per rig; error bars
-        the 95 % intervals; the least-squares trend dashed; a red ring on each session whose
-        interval excludes the previous one's of its rig.
+        dated, else the session's position in the table's order (dated sessions by date,
+        then the undated ones by name; the axis says so); one colour per rig, the rigs in
+        sorted order (the same rigs, the same colours, whatever the order of the datasets);
+        error bars the 95 % intervals; the least-squares trend dashed; a red ring on each
+        session whose interval excludes the previous one's of its rig. The legend, below the
+        panels, names only the rigs with a point.
     """
     fig = new_figure(figsize=(7.0, 8.0), layout="constrained")
     axes = fig.subplots(len(PARAM_NAMES), 1, sharex=True)
     recorded = [str(r) for r in table.get("recorded", pd.Series(dtype=str))]
     x = session_days(recorded)
     dated = bool(len(recorded)) and UNDATED not in recorded
-    rigs = list(dict.fromkeys(table.get("rig", pd.Series(dtype=str))))
+    rig_of = table.get("rig", pd.Series(dtype=str)).fillna("").astype(str).to_numpy()
+    rigs = sorted(set(rig_of))
     colours = dict(zip(rigs, setting_colours(len(rigs)), strict=True))
     for ax, p in zip(axes, PARAM_NAMES, strict=True):
         scale, label = _SCALE[p]
@@ -49,7 +57,9 @@ def plot_overview(table: pd.DataFrame) -> Figure:
         lo = table[f"{p}_lo"].to_numpy(float) * scale if len(table) else value
         hi = table[f"{p}_hi"].to_numpy(float) * scale if len(table) else value
         for rig in rigs:
-            m = (table["rig"] == rig).to_numpy()
+            m = (rig_of == rig) & np.isfinite(value)
+            if not m.any():  # no point of this rig here: no legend entry either
+                continue
             err = np.vstack([value[m] - lo[m], hi[m] - value[m]])
             ax.errorbar(
                 x[m],
@@ -79,18 +89,21 @@ def plot_overview(table: pd.DataFrame) -> Figure:
             )
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
-    if len(table):
-        handles, labels = axes[0].get_legend_handles_labels()
-        for ax in axes[1:]:
-            for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
-                if lab not in labels:
-                    handles.append(h)
-                    labels.append(lab)
-        axes[0].legend(handles, labels, fontsize=7, loc="best")
+    entries: dict[str, object] = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(lab, h)
+    changed = entries.pop("changed", None)
+    labels = [r for r in rigs if r in entries] + (["changed"] if changed is not None else [])
+    if labels:
+        handles = [entries[r] for r in rigs if r in entries] + ([changed] if changed else [])
+        fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 3))
     if dated:
         axes[-1].set_xlabel(f"days since the first session ({recorded[0]})")
+    elif any(r != UNDATED for r in recorded):
+        axes[-1].set_xlabel("session: the dated ones by date, then the undated ones by name")
     else:
-        axes[-1].set_xlabel("session (in name order: not every dataset has a recorded: date)")
+        axes[-1].set_xlabel("session, in name order (no dataset has a recorded: date)")
         if 0 < len(table) <= 20:
             axes[-1].set_xticks(x, [str(d) for d in table["dataset"]], rotation=30, ha="right")
     fig.suptitle("Fig. O1: identified valve parameters across sessions", fontsize=11)

@@ -25,11 +25,16 @@ __all__ = [
     "MODULATOR_COLOURS",
     "MODULATOR_NAMES",
     "OKABE_ITO",
+    "SETTING_MARKERS",
     "TRACE_COLUMNS",
+    "legend_beside",
     "minmax_indices",
     "ordered_settings",
     "setting_colours",
+    "setting_kind",
     "setting_sort_key",
+    "setting_styles",
+    "shade",
 ]
 
 #: Okabe–Ito: black, orange, sky blue, bluish green, yellow, blue, vermillion, reddish purple.
@@ -108,6 +113,107 @@ def _modulator(label: str) -> Modulator | None:
 def ordered_settings(labels: Iterable[str]) -> list[str]:
     """The distinct labels in numeric order (:func:`setting_sort_key`)."""
     return sorted(dict.fromkeys(labels), key=setting_sort_key)
+
+
+#: Markers of the settings of one modulator type, in numeric order (:func:`setting_styles`).
+SETTING_MARKERS: Final = ("o", "s", "D", "^", "v", "P", "X", "h")
+
+#: Lightness of the settings of one modulator type, in numeric order: the type's colour, then
+#: darker, then lighter (:func:`shade`).
+_SHADES: Final = (0.0, -0.4, 0.45, -0.65, 0.7)
+
+
+def shade(colour: str, amount: float) -> str:
+    """``colour`` mixed with white (``amount > 0``) or black (``amount < 0``).
+
+    Parameters
+    ----------
+    colour : str
+        Any matplotlib colour.
+    amount : float
+        In [-1, 1]: the share of white (positive) or black (negative) mixed in.
+
+    Returns
+    -------
+    str
+        The mixed colour, ``#rrggbb`` (lower case).
+
+    Examples
+    --------
+    >>> shade("#0072B2", 0.0), shade("#0072B2", 1.0), shade("#0072B2", -1.0)
+    ('#0072b2', '#ffffff', '#000000')
+    """
+    from matplotlib.colors import to_hex, to_rgb
+
+    if not -1.0 <= amount <= 1.0:
+        raise ValueError(f"amount must be in [-1, 1], got {amount}")
+    rgb = to_rgb(colour)
+    target = 1.0 if amount > 0 else 0.0
+    return to_hex(tuple(c + abs(amount) * (target - c) for c in rgb))
+
+
+def setting_kind(label: str) -> str | None:
+    """The modulator type a setting's label (or a run id standing for one) names, or None.
+
+    Examples
+    --------
+    >>> setting_kind("iipfm-20ms-G1.15"), setting_kind("pwm_run_b"), setting_kind("linear")
+    ('iipfm', 'pwm', None)
+    """
+    mod = _modulator(str(label))
+    if mod is not None:
+        return mod.kind
+    rank = setting_sort_key(label)[0]
+    return MODULATOR_ORDER[rank] if rank < len(MODULATOR_ORDER) else None
+
+
+def setting_styles(labels: Iterable[str]) -> dict[str, dict[str, str]]:
+    """Colour and marker of each setting drawn on one axes, told apart without a legend order.
+
+    Each setting takes its modulator type's colour (:data:`MODULATOR_COLOURS`, declared by
+    the type's module); the settings of one type, in numeric order, take the markers of
+    :data:`SETTING_MARKERS` and the type's colour, a darker and a lighter shade of it
+    (:func:`shade`). A label of no known type is grey. So no two settings share colour and
+    marker, and the same settings get the same style in every figure and every run.
+
+    Parameters
+    ----------
+    labels : iterable of str
+        Setting labels (:attr:`~spa.model.modulators.Modulator.label`).
+
+    Returns
+    -------
+    dict
+        Label -> ``{"color": "#rrggbb", "marker": str}``, in numeric order.
+
+    Examples
+    --------
+    >>> s = setting_styles(["iipfm-20ms-G1.15", "pwm-20Hz", "iipfm-20ms"])
+    >>> [(label, style["marker"]) for label, style in s.items()]
+    [('pwm-20Hz', 'o'), ('iipfm-20ms', 'o'), ('iipfm-20ms-G1.15', 's')]
+    >>> s["pwm-20Hz"]["color"] == MODULATOR_COLOURS["pwm"].lower()
+    True
+    """
+    out: dict[str, dict[str, str]] = {}
+    counts: dict[str | None, int] = {}
+    for label in ordered_settings(labels):
+        kind = setting_kind(label)
+        k = counts[kind] = counts.get(kind, -1) + 1
+        base = MODULATOR_COLOURS[kind] if kind is not None else "#808080"
+        out[label] = {
+            "color": shade(base, _SHADES[k % len(_SHADES)]),
+            "marker": SETTING_MARKERS[k % len(SETTING_MARKERS)],
+        }
+    return out
+
+
+def legend_beside(ax: Any, *args: Any, **kwargs: Any) -> Any:
+    """``ax.legend(*args, **kwargs)`` right of the axes, top aligned: never over its data.
+
+    Constrained layout makes room for it (the axes narrow).
+    """
+    kwargs = {"loc": "upper left", "bbox_to_anchor": (1.02, 1.0), "borderaxespad": 0.0} | kwargs
+    return ax.legend(*args, **kwargs)
 
 
 def setting_colours(n: int) -> list[str]:

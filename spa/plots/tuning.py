@@ -18,6 +18,7 @@ from spa.plots.analytic import (
     _COLOURS,
     _panel_order,
     _require,
+    cost_legend,
     plot_cost_sweeps,
     plot_equilibrium,
 )
@@ -73,7 +74,7 @@ def plot_tuning_sweeps(
     handles, labels = ax.get_legend_handles_labels()
     handles.append(Line2D([], [], color="k", lw=1.0, ls="--"))
     labels.append("dashed: J_exact (exact periodic steady state)")
-    ax.legend(handles, labels, fontsize=8, loc="upper right")
+    cost_legend(fig, handles, labels)
     ax.set_title(
         (f"{title}: " if title else "") + "linearity cost J (Eq. 25, solid) and J_exact (dashed)",
         fontsize=10,

@@ -14,6 +14,7 @@ import pandas as pd
 from spa.io import write_csv
 from spa.model.params import ValveParams
 from spa.openloop import (
+    beyond_paper,
     chirp_analysis,
     chirp_reference,
     fallback_note,
@@ -141,7 +142,8 @@ def run_chirp(
     named.append((ref["setting"], f, bic, ref["threshold"], ref["fmin"]))
     note = (
         f"{cfg['normalisation']} bicoherence, {ref['n_segments']} segments, bins above "
-        f"{ref['threshold']:.3f} (α = {cfg['alpha']}) coloured; " + fallback_note(fallbacks, score)
+        f"{ref['threshold']:.3f} (α = {cfg['alpha']}) coloured; "
+        + fallback_note(fallbacks, score, higher=False, beyond=beyond_paper(shown))
     )
     titles = [*(_title(r) for _, r in shown.iterrows()), _title(ref)]
     return ChirpResult(table, named, list(shown["setting"]), titles, note)

@@ -13,6 +13,7 @@ import pandas as pd
 from spa.io import write_csv
 from spa.model.params import ValveParams
 from spa.openloop import (
+    beyond_paper,
     fallback_note,
     noise_free_pressure,
     paper_settings,
@@ -148,7 +149,7 @@ def run_staircase(
         fig7a=chosen,
         fig7b=chosen_steps,
         sweep=table3.join(counts, on="setting"),
-        note=fallback_note(fallbacks, "FIT"),
+        note=fallback_note(fallbacks, "FIT", beyond=beyond_paper(shown)),
         k2=params.k2,
     )
 
