@@ -67,11 +67,14 @@ def test_levels_above_the_valve_are_left_out() -> None:
     low = ValveParams(k2=0.5)
     res = closed_loop(low, SELECTED[:1], None, CFG)
     assert res.controllers["controllers"]["pwm-20Hz"]["levels"] == [0.1, 0.4]
-    # Issue 29: a valve that holds one level gets a named exclusion, not an exception.
-    none = closed_loop(ValveParams(k2=0.3), SELECTED[:1], None, CFG)
+    # Issue 29: a valve whose supply holds one of the levels gets levels spread over the
+    # range it holds; a setting that holds none gets a named exclusion, not an exception.
+    low_supply = closed_loop(ValveParams(k2=0.3), SELECTED[:1], None, CFG)
+    levels = low_supply.controllers["controllers"]["pwm-20Hz"]["levels"]
+    assert len(levels) == 3 and 0.0 < min(levels) < max(levels) < 0.95 * 0.3
+    none = closed_loop(ValveParams(k2=0.3), [{"type": "pwm", "f_w": 80.0}], None, CFG)
     assert none.table.empty and "setting" not in none.controllers
-    assert "no usable operating range" in none.skipped["pwm-20Hz"]
-    assert "pwm-20Hz: no usable operating range" in none.sentence
+    assert "pwm-80Hz: unusable on this valve" in none.sentence
 
 
 def test_a_setting_with_a_flat_equilibrium_is_left_out_by_name() -> None:

@@ -170,6 +170,7 @@ def operating_levels(
     modulator: Modulator | dict[str, Any],
     params: ValveParams | None = None,
     max_fraction: float = 1.0,
+    spread: bool = False,
 ) -> tuple[list[float], str | None]:
     """The set-points a setting can hold on a valve, or why it can hold none.
 
@@ -183,6 +184,10 @@ def operating_levels(
         The valve; nominal when omitted.
     max_fraction : float, default 1
         Levels at or above ``max_fraction * k2`` are left out too.
+    spread : bool, default False
+        When fewer than two of ``levels`` fit (a valve whose supply is below the wanted
+        set-points), spread as many levels as were wanted (at least three) evenly over the
+        range the setting holds, rounded to 3 significant digits, instead of giving up.
 
     Returns
     -------
@@ -198,6 +203,9 @@ def operating_levels(
     --------
     >>> operating_levels([0.1, 0.5, 0.9], {"type": "pwm", "f_w": 20.0})
     ([0.1, 0.5], None)
+    >>> low = ValveParams(k2=0.3)
+    >>> operating_levels([0.1, 0.5, 0.9], {"type": "pwm", "f_w": 20.0}, low, spread=True)
+    ([0.078, 0.15, 0.222], None)
     """
     from spa.model.usable import rising_range, unusable_reason
 
@@ -214,6 +222,12 @@ def operating_levels(
     kept = [v for v in wanted if lo + pad < v < top]
     if len(kept) >= 2:
         return kept, None
+    if spread and top > lo + pad:
+        n = max(len(wanted), 3)
+        inner = np.linspace(lo + pad, top, n + 2)[1:-1]
+        even = sorted({float(f"{v:.3g}") for v in inner})
+        if len(even) >= 2:
+            return even, None
     return kept, (
         f"{mod.label}: no usable operating range for the closed loop: it holds "
         f"{lo + pad:.3g}–{top:.3g} bar on this valve, which leaves {len(kept)} of the "

@@ -183,7 +183,9 @@ def _design_all(
     gains: dict[str, Any] = {}
     skipped: dict[str, str] = {}
     for mod in mods:
-        levels, why = operating_levels(c["levels"], mod, params, float(c["max_level_fraction"]))
+        levels, why = operating_levels(
+            c["levels"], mod, params, float(c["max_level_fraction"]), spread=True
+        )
         if why is not None:
             skipped[mod.label] = why
             continue

@@ -102,6 +102,8 @@ def semantic_errors(config: Mapping[str, Any]) -> list[str]:
                         f"{grid['stop']}"
                     )
     for name, sim in (config.get("simulated") or {}).items():
+        if sim is None:  # dropped by a configuration merged over this one
+            continue
         dt = float(sim["controller_dt"])
         fs = float(sim["sensor"]["fs"])
         ratio = 1.0 / (fs * dt)
@@ -338,8 +340,9 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
     Returns
     -------
     simulated : list of str
-        The names under ``simulated``, sorted, minus those of ``exclude`` (so that a
-        configuration merged over another can drop a simulated dataset).
+        The names under ``simulated`` whose entry is not null (``name: null`` in a
+        configuration merged over another drops that dataset), sorted, minus those of
+        ``exclude``.
     raw : list of str
         The folders of ``raw_dir`` holding a ``dataset.yaml`` (hidden folders, starting with
         ``.``, are skipped), sorted; only those of ``include`` when it is not empty (in its
@@ -369,7 +372,9 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
             f"with a dataset.yaml (found: {found})"
         )
     raw = [d for d in wanted or found if d not in exclude]
-    simulated = sorted(d for d in config["simulated"] if d not in exclude)
+    simulated = sorted(
+        d for d, sim in config["simulated"].items() if sim is not None and d not in exclude
+    )
     check_dataset_names([*simulated, *raw])
     clash = sorted(set(raw) & set(simulated))
     if clash:

@@ -20,7 +20,7 @@ from spa.plots.style import (
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["CONTROLLER_STYLES", "fig10", "fig11"]
+__all__ = ["CONTROLLER_STYLES", "fig10", "fig11", "no_design"]
 
 #: Line style, lightness (:func:`spa.plots.style.shade` of the setting's colour) and name of
 #: each controller in Fig. 10, where the three share a panel of one setting.
@@ -35,6 +35,26 @@ def _colour(label: str) -> str:
     """A setting's colour: its modulator type's (declared by the type's module)."""
     kind = setting_kind(label)
     return MODULATOR_COLOURS[kind] if kind is not None else "#808080"
+
+
+def no_design(text: str) -> Figure:
+    """A figure that says why there is nothing to draw (no loop designed for the valve).
+
+    Parameters
+    ----------
+    text : str
+        The closed-loop sentence (``controllers.yaml``'s ``sentence``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One empty axes-free panel holding ``text``, wrapped.
+    """
+    import textwrap
+
+    fig = new_figure(figsize=(10.0, 2.4), layout="constrained")
+    fig.text(0.02, 0.5, textwrap.fill(text, 110), va="center", ha="left", fontsize=10)
+    return fig
 
 
 def fig10(traces: pd.DataFrame) -> Figure:

@@ -11,7 +11,7 @@ import pandas as pd
 from spa.closedloop.bench import BenchOutputs
 from spa.closedloop.stage import ClosedLoopResult, write_controllers
 from spa.io import write_csv
-from spa.plots.closedloop import fig10, fig11
+from spa.plots.closedloop import fig10, fig11, no_design
 from spa.plots.save import draw
 
 __all__ = ["write_closed_loop"]
@@ -42,9 +42,13 @@ def write_closed_loop(
     write_csv(result.table, out.get("table"))
     write_controllers(result, out.get("controllers"))
     write_csv(result.traces, out.get("fig10_csv"))
-    draw(out.get("fig10"), fig10, result.traces)
     write_csv(result.steps, out.get("fig11_csv"))
-    draw(out.get("fig11"), fig11, result.steps)
+    if result.traces.empty:  # nothing designed for this valve: the figures say why
+        draw(out.get("fig10"), no_design, result.sentence)
+        draw(out.get("fig11"), no_design, result.sentence)
+    else:
+        draw(out.get("fig10"), fig10, result.traces)
+        draw(out.get("fig11"), fig11, result.steps)
     write_csv(recorded, out.get("recorded"))
     if bench is not None:
         write_csv(bench.robust, out.get("robust"))

@@ -382,8 +382,9 @@ def closed_loop_runs(
     list of RunSpec
         Run ids ``closed_loop_<setting label>``; the staircase up then down, from rest at
         0 bar, over the levels the setting can hold on this valve
-        (:func:`spa.closedloop.design.operating_levels`). A setting that holds fewer than
-        two of them is left out (named in ``skipped``), as a lab would not run it.
+        (:func:`spa.closedloop.design.operating_levels`, spread over its range when fewer
+        than two of ``levels`` fit, as a lab with a low supply would choose them). A setting
+        that holds no range is left out (named in ``skipped``).
     """
     from spa.closedloop.design import design_pi, operating_levels
     from spa.closedloop.experiments import staircase_reference
@@ -391,7 +392,7 @@ def closed_loop_runs(
     runs = []
     for setting in cfg["modulators"]:
         mod = Modulator.from_mapping(setting)
-        levels, why = operating_levels(cfg["levels"], mod, params)
+        levels, why = operating_levels(cfg["levels"], mod, params, spread=True)
         if why is not None:
             if skipped is not None:
                 skipped[mod.label] = why
