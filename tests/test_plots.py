@@ -82,8 +82,7 @@ def _aligned(settings: list[tuple[str, str]]) -> pd.DataFrame:
 
 
 def test_legends_and_colours_follow_the_numeric_order():
-    # the data list 100 ms first; the legend and the colours put 10 ms first (curves above the
-    # line fill the upper left: the legend sits lower right)
+    # the data list 100 ms first; the legend and the colours put 10 ms first
     data = _aligned([("ipfm", "ipfm-100ms"), ("ipfm", "ipfm-10ms"), ("ipfm", "ipfm-20ms")])
     ax = fig8(data).axes[0]
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
