@@ -82,8 +82,7 @@ def _aligned(settings: list[tuple[str, str]]) -> pd.DataFrame:
 
 
 def test_legends_and_colours_follow_the_numeric_order():
-    # the data list 100 ms first; the legend and the colours put 10 ms first (curves above the
-    # line fill the upper left: the legend sits lower right)
+    # the data list 100 ms first; the legend and the colours put 10 ms first
     data = _aligned([("ipfm", "ipfm-100ms"), ("ipfm", "ipfm-10ms"), ("ipfm", "ipfm-20ms")])
     ax = fig8(data).axes[0]
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
@@ -315,3 +314,118 @@ def test_thinned_traces_draw_the_same_pixels_as_every_sample(tmp_path):
     reference = _pixels(fig6(full), tmp_path / "full.png")
     assert np.abs(_pixels(fig6(small), tmp_path / "thin.png") - reference).max() <= 16
     assert np.abs(_pixels(fig6(every_kth), tmp_path / "kth.png") - reference).max() > 128
+
+
+# --- colours from each modulator's module, stable; Figs. 9, 10, 11 and O1 ---------------------
+
+
+def test_setting_styles_take_each_kinds_colour_and_tell_its_settings_apart():
+    from spa.model.modulators import MODULATOR_ORDER, get_kind
+    from spa.plots.style import setting_styles
+
+    labels = ["lpwm-49Hz", "iipfm-20ms-G1.15", "pwm-20Hz", "iipfm-20ms", "lpwm-20Hz", "dsm-20ms"]
+    styles = setting_styles(labels)
+    assert list(styles) == ordered_settings(labels)
+    for kind in MODULATOR_ORDER:  # the first setting of a kind: the colour its module declares
+        first = next((s for lab, s in styles.items() if lab.startswith(f"{kind}-")), None)
+        if first is not None:
+            assert first["color"] == get_kind(kind).colour.lower()
+    pairs = [(s["color"], s["marker"]) for s in styles.values()]
+    assert len(set(pairs)) == len(pairs)
+    assert styles["iipfm-20ms"]["marker"] != styles["iipfm-20ms-G1.15"]["marker"]
+    assert setting_styles(reversed(labels)) == styles  # whatever the order of the data
+
+
+def _steps() -> pd.DataFrame:
+    rows = []
+    for label in ["pwm-20Hz", "iipfm-20ms", "iipfm-20ms-G1.15", "dsm-20ms"]:
+        for controller in ("fixed", "scheduled"):
+            for r0, r1 in ((0.1, 0.4), (0.4, 0.7), (0.7, 0.4)):
+                rows.append(
+                    {"experiment": "staircase", "modulator": label, "controller": controller,
+                     "r0": r0, "r1": r1, "rise_time": 0.5 + r1, "overshoot": 10 * r1}
+                )  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def test_fig11_draws_each_setting_in_its_modulators_colour():
+    from spa.plots.check import figure_problems
+    from spa.plots.closedloop import fig11
+
+    fig = fig11(_steps())
+    ax = fig.axes[0]
+    colours = {ln.get_label(): to_hex(ln.get_color()) for ln in ax.get_lines()}
+    assert colours["pwm-20Hz"] == MODULATOR_COLOURS["pwm"].lower()
+    assert colours["iipfm-20ms"] == MODULATOR_COLOURS["iipfm"].lower()
+    assert colours["iipfm-20ms-G1.15"] != colours["iipfm-20ms"]  # a shade of the same green
+    assert len(fig.legends) == 1 and not any(a.get_legend() for a in fig.axes)
+    assert figure_problems(fig) == []
+
+
+def test_fig10_labels_the_time_axis_under_every_column():
+    from spa.plots.check import missing_tick_labels
+    from spa.plots.closedloop import fig10
+
+    t = np.linspace(0.0, 4.0, 50)
+    traces = pd.concat(
+        pd.DataFrame({"modulator": label, "controller": c, "t": t, "r": 0.5, "p_mean": 0.4})
+        for label in ("pwm-20Hz", "ipfm-20ms", "dsm-20ms")
+        for c in ("fixed", "scheduled")
+    )
+    fig = fig10(traces)
+    assert missing_tick_labels(fig) == []  # the upper right panel sits above an empty slot
+    assert [ax.get_xlabel() for ax in fig.axes if ax.axison] == ["", "t (s)", "t (s)"]
+
+
+def test_fig9_says_what_the_outlines_mean():
+    sweep = pd.DataFrame(
+        {
+            "modulator": ["pwm", "ipfm", "linear"],
+            "setting": ["pwm-20Hz", "ipfm-20ms", "linear"],
+            "significant_fraction": [0.2, 0.1, 0.03],
+        }
+    )
+    fig = fig9(_maps(1.0), sweep=sweep, shown=["pwm-20Hz"])
+    texts = [t.get_text() for t in fig.axes[-1].get_legend().get_texts()]
+    assert "outlined: its map is shown above" in texts
+
+
+def _overview(order: list[int], empty_rig: bool = False) -> pd.DataFrame:
+    from spa.report.overview import overview_table
+    from spa.report.params import PARAM_NAMES
+
+    rows = []
+    for i, (name, rig, day) in enumerate(
+        [("a", "rig B", "2025-01-01"), ("b", "rig A", "undated"), ("c", "rig B", "undated")]
+    ):
+        row = {"dataset": name, "recorded": day, "rig": rig, "status": "ok"}
+        for p in PARAM_NAMES:
+            row |= {p: 1.0 + i, f"{p}_lo": 0.9 + i, f"{p}_hi": 1.1 + i}
+        rows.append(row)
+    if empty_rig:  # a failed dataset: no numbers
+        nan = float("nan")
+        failed = {"dataset": "d", "recorded": "undated", "rig": "unnamed rig", "status": "failed"}
+        rows.append(failed | {f"{p}{s}": nan for p in PARAM_NAMES for s in ("", "_lo", "_hi")})
+    return overview_table([rows[i] for i in order] + rows[3:])
+
+
+def test_overview_colours_rigs_in_sorted_order_and_names_only_rigs_with_points():
+    from spa.plots.overview import plot_overview
+
+    def colours(fig) -> dict[str, str]:
+        legend = fig.legends[0]
+        return {
+            t.get_text(): to_hex(h.get_color())
+            for t, h in zip(legend.get_texts(), legend.legend_handles, strict=True)
+        }
+
+    one = plot_overview(_overview([0, 1, 2], empty_rig=True))
+    other = plot_overview(_overview([2, 1, 0], empty_rig=True))
+    assert colours(one) == colours(other)
+    # sorted; the failed dataset's rig, without a point, has no entry ("changed": the red ring)
+    assert list(colours(one)) == ["rig A", "rig B", "changed"]
+    assert colours(one)["rig A"] == setting_colours(2)[0].lower()
+    assert "$^{-1/2}$" in one.axes[0].get_ylabel()
+    assert one.axes[-1].get_xlabel() == (
+        "session: the dated ones by date, then the undated ones by name"
+    )

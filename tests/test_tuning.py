@@ -248,7 +248,7 @@ def test_figures_draw_the_tidy_tables():
     )
     fig = plot_cost_sweeps(sweeps)
     assert isinstance(fig, Figure)
-    assert len(fig.axes[0].get_legend().get_texts()) == 4
+    assert len(fig.legends[0].get_texts()) == 4  # below the axes: never over a curve
     curves = equilibrium_frame({"pwm": 20.0, "iipfm": 0.02}, P, n_xi=21)
     assert len(curves) == 42
     np.testing.assert_allclose(curves["p_target"], P.k2 * curves["xi"])

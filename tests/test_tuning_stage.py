@@ -155,7 +155,7 @@ def test_tables_and_figures_of_the_stage(nominal):
     assert np.isnan(nominal.sweeps["J_exact"]).sum() == np.isnan(nominal.sweeps["J"]).sum()
     assert "p_exact" in nominal.curves.columns
     fig = plot_tuning_sweeps(nominal.sweeps, title="nominal")
-    assert isinstance(fig, Figure) and len(fig.axes[0].get_legend().get_texts()) == 5
+    assert isinstance(fig, Figure) and len(fig.legends[0].get_texts()) == 5
     assert len(plot_tuning_equilibrium(nominal.curves).axes) == 8
 
 

@@ -1,7 +1,8 @@
 """A figure read as a person reads it: checks on a drawn matplotlib figure.
 
-Each check is a pure function of a :class:`~matplotlib.figure.Figure` that draws it (Agg, no
-file written) and returns one sentence per problem found, naming the axes (its title) and
+Each check is a function of a :class:`~matplotlib.figure.Figure` alone: it draws the figure
+(on an Agg canvas, attached where it has none; no file written) and returns one sentence per
+problem found, naming the axes (its title) and
 what is wrong; an empty list is a pass. :func:`figure_problems` runs them all.
 
 * :func:`legend_overlaps`: a legend's box covers plotted data (a line's segments or markers,
@@ -63,6 +64,19 @@ def figure_problems(fig: Figure) -> list[str]:
         :func:`legend_overlaps`, :func:`missing_tick_labels`, :func:`small_axis_labels`,
         :func:`shared_styles` and :func:`cut_off`, in that order; empty when the figure
         passes.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure(figsize=(4, 3), layout="constrained")
+    >>> ax = fig.add_subplot()
+    >>> _ = ax.plot([0, 1], [1, 0], label="falling")
+    >>> _ = ax.set_ylabel("P (bar)", fontsize=8)
+    >>> _ = ax.legend(loc="upper left")
+    >>> for problem in figure_problems(fig):
+    ...     print(problem)
+    the legend of axes 0 ('P (bar)') covers its lines
+    axes 0 ('P (bar)'): y-label 'P (bar)' is 8 pt, its tick labels 10 pt
     """
     renderer = _draw(fig)
     return [
