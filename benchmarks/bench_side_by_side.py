@@ -35,17 +35,24 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def run(tree: Path, args: list[str]) -> float:
-    """Wall time of `snakemake reproduce-all -c2` (small config) with ``args`` in ``tree``."""
+def run(tree: Path, args: list[str], profile: Path | None = None) -> tuple[float, float]:
+    """Wall time and CPU time (user + system of Snakemake and every job it waited for) of
+    `snakemake reproduce-all -c2` (small config) with ``args`` in ``tree``; with ``profile``,
+    each stage records its CPU time there (``SPA_PROFILE_DIR``)."""
     cmd = [sys.executable, "-m", "snakemake", "reproduce-all", "-c2", "--configfile",
            "config/small.yaml", *args]  # fmt: skip
     env = {**os.environ, "PYTHONPATH": str(tree)}
-    start = time.perf_counter()
-    done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
-    elapsed = time.perf_counter() - start
-    if done.returncode != 0:
-        sys.exit(f"{tree}: {' '.join(cmd)} failed:\n{done.stdout[-3000:]}{done.stderr[-3000:]}")
-    return elapsed
+    if profile is not None:
+        env["SPA_PROFILE_DIR"] = str(profile)
+    with tempfile.TemporaryFile("w+") as log:
+        start = time.perf_counter()
+        proc = subprocess.Popen(cmd, cwd=tree, env=env, stdout=log, stderr=subprocess.STDOUT)
+        _, status, usage = os.wait4(proc.pid, 0)
+        elapsed = time.perf_counter() - start
+        if os.waitstatus_to_exitcode(status) != 0:
+            log.seek(0)
+            sys.exit(f"{tree}: {' '.join(cmd)} failed:\n{log.read()[-4000:]}")
+    return elapsed, usage.ru_utime + usage.ru_stime
 
 
 def copies(raw: Path, n: int, with_example: bool = True) -> Path:
@@ -83,6 +90,7 @@ def main() -> None:
     args = parser.parse_args()
     trees = {"old": args.old.resolve(), "new": ROOT}
     times: dict[str, dict[str, float]] = {name: {} for name in trees}
+    cpu: dict[str, dict[str, float]] = {name: {} for name in trees}
     loads = []
     with tempfile.TemporaryDirectory(prefix="side_by_side_") as tmp_name:
         tmp = args.keep.resolve() if args.keep else Path(tmp_name)
@@ -93,20 +101,24 @@ def main() -> None:
             for name, tree in trees.items():
                 loads.append(os.getloadavg()[0])
                 out = tmp / f"{step}_{name}"
-                times[name][step] = run(tree, [
-                    "--config", f"results={out}", f"datasets={{'raw_dir': '{raw}'}}"])  # fmt: skip
+                cfg = ["--config", f"results={out}", f"datasets={{'raw_dir': '{raw}'}}"]
+                times[name][step], cpu[name][step] = run(tree, cfg, tmp / f"prof_{step}_{name}")
         for name, tree in trees.items():
             out = tmp / f"dry_{name}"
             cfg = ["--config", f"results={out}", f"datasets={{'raw_dir': '{dry_raw}'}}"]
-            times[name]["dry"] = min(run(tree, [*cfg, "--dry-run", "--quiet"]) for _ in range(2))
+            times[name]["dry"] = min(run(tree, [*cfg, "--dry-run", "--quiet"])[0] for _ in range(2))
         old_tables, new_tables = (digests(tmp / f"base_{name}") for name in trees)
     per = {n: (t["added"] - t["base"]) / args.copies for n, t in times.items()}
+    per_cpu = {n: (t["added"] - t["base"]) / args.copies for n, t in cpu.items()}
     print(f"load average (1 min) at each run's start: {', '.join(f'{x:.1f}' for x in loads)}\n")
     print("| measure | old | new | old / new |\n|---|---:|---:|---:|")
     rows = [
         ("base run (example + sim), s", times["old"]["base"], times["new"]["base"]),
         (f"with {args.copies} more copies, s", times["old"]["added"], times["new"]["added"]),
         ("per added dataset, s", per["old"], per["new"]),
+        ("base run, CPU s", cpu["old"]["base"], cpu["new"]["base"]),
+        (f"with {args.copies} more copies, CPU s", cpu["old"]["added"], cpu["new"]["added"]),
+        ("per added dataset, CPU s", per_cpu["old"], per_cpu["new"]),
         (f"dry run, {args.dry_count + 1} datasets, s (best of 2)",
          times["old"]["dry"], times["new"]["dry"]),
     ]  # fmt: skip
