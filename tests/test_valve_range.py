@@ -121,7 +121,10 @@ def test_closed_loop_designs_or_names_every_setting(valve: ValveParams) -> None:
         assert why.startswith(label)
     for entry in res.controllers["controllers"].values():
         mod = Modulator.from_mapping(entry["setting"])
-        assert operating_levels(CLOSED["levels"], mod, valve, 0.95, spread=True) == (entry["levels"], None)
+        assert operating_levels(CLOSED["levels"], mod, valve, 0.95, spread=True) == (
+            entry["levels"],
+            None,
+        )
     if "setting" in res.controllers:
         chosen = Modulator.from_mapping(res.controllers["setting"]).label
         t = res.table
