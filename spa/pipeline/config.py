@@ -225,15 +225,21 @@ def _run_size_errors(config: Mapping[str, Any]) -> list[str]:
         seconds["sine"] = len(sine["amplitudes"]) * (per + float(sine.get("settle", 0)))
     if "duration" in (exp.get("chirp") or {}):
         seconds["chirp"] = float(exp["chirp"]["duration"])
+    steps = {
+        name: float(sim.get("controller_dt") or 0)
+        for name, sim in (config.get("simulated") or {}).items()
+        if sim is not None and float(sim.get("controller_dt") or 0) > 0
+    }
     lines = []
-    for name, sim in (config.get("simulated") or {}).items():
-        dt = float((sim or {}).get("controller_dt") or 0)
-        for kind, length in seconds.items():
-            if dt > 0 and length / dt > MAX_RUN_SAMPLES:
-                lines.append(
-                    f"experiments.{kind}: a run of {length:,.0f} s is {length / dt:,.0f} samples "
-                    f"at simulated.{name}.controller_dt = {dt:g} s; at most {MAX_RUN_SAMPLES:,}"
-                )
+    for kind, length in seconds.items():
+        over = sorted((dt, name) for name, dt in steps.items() if length / dt > MAX_RUN_SAMPLES)
+        if over:  # one line per experiment, at the finest controller step
+            dt, name = over[0]
+            more = f" (and {len(over) - 1} more simulated datasets)" if len(over) > 1 else ""
+            lines.append(
+                f"experiments.{kind}: a run of {length:,.0f} s is {length / dt:,.0f} samples "
+                f"at simulated.{name}.controller_dt = {dt:g} s{more}; at most {MAX_RUN_SAMPLES:,}"
+            )
     return lines
 
 
@@ -341,8 +347,7 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
     -------
     simulated : list of str
         The names under ``simulated`` whose entry is not null (``name: null`` in a
-        configuration merged over another drops that dataset), sorted, minus those of
-        ``exclude``.
+        configuration merged over another drops that dataset), sorted.
     raw : list of str
         The folders of ``raw_dir`` holding a ``dataset.yaml`` (hidden folders, starting with
         ``.``, are skipped), sorted; only those of ``include`` when it is not empty (in its
@@ -372,9 +377,7 @@ def discover_datasets(config: Mapping[str, Any]) -> tuple[list[str], list[str]]:
             f"with a dataset.yaml (found: {found})"
         )
     raw = [d for d in wanted or found if d not in exclude]
-    simulated = sorted(
-        d for d, sim in config["simulated"].items() if sim is not None and d not in exclude
-    )
+    simulated = sorted(d for d, sim in config["simulated"].items() if sim is not None)
     check_dataset_names([*simulated, *raw])
     clash = sorted(set(raw) & set(simulated))
     if clash:
