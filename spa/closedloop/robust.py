@@ -116,6 +116,8 @@ def box_worst_case(
     -------
     worst : dict
         :func:`worst_of_steps` over the estimate and every corner.
+    n_corners : int
+        Corners evaluated (0 without intervals: the estimate alone).
 
     Notes
     -----
@@ -124,8 +126,6 @@ def box_worst_case(
     :func:`spa.closedloop.experiments.run_staircase`), so that the steps, not the start, are
     measured; every run is measured with the estimate's cycle-mean window (the modulator's
     period at the middle level): one measurement for all valves, computed once.
-    n_corners : int
-        Corners evaluated (0 without intervals: the estimate alone).
     """
     valves = [params, *corners(params, intervals)]
     r = staircase_reference(levels, hold, dt)
