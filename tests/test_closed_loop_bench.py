@@ -124,3 +124,24 @@ def test_sensor_noise_reads_the_pulse_fit():
     for bad in (None, {}, {"fits": {}}, {"fits": {"pulse": {"rmse": float("nan")}}}):
         assert sensor_noise(bad) == NOISE_FALLBACK
     assert math.isfinite(NOISE_FALLBACK) and np.isclose(NOISE_FALLBACK, 0.005)
+
+
+def test_table_csv_holds_the_box_worst_case_and_the_disturbances(staged):
+    """Issue 31: table.csv (the long table) carries the worst case over the 95 % box for the
+    chosen loop and the supply drop and sensor noise for every designed setting."""
+    result, bench = staged
+    result = ClosedLoopResult(
+        result.table.copy(), result.steps, result.traces, dict(result.controllers), result.skipped
+    )
+    before = len(result.table)
+    apply_bench(result, bench)
+    t = result.table
+    assert len(t) > before
+    chosen = bench.robust[bench.robust.chosen].iloc[0]
+    box = t[t.experiment == "box_95"]
+    assert set(box.modulator) == {chosen.modulator}
+    worst = box[box.metric == "overshoot"]["max"].iloc[0]
+    assert worst == pytest.approx(chosen.worst_overshoot)
+    drop = t[(t.experiment == "supply_drop") & (t.metric == "dip")]
+    assert set(drop.modulator) == set(bench.robust.modulator)
+    assert set(t[t.experiment == "sensor_noise"].metric) == {"added_ripple_rms", "added_ripple_pp"}

@@ -265,8 +265,8 @@ def test_a_dataset_with_a_failed_stage_in_the_browser(browser, fake_results, tmp
     index.write_text(build_index(root, fake_results.datasets, meta), encoding="utf-8")
     figures, tables = expected_counts_of(fake_results.root, "sim")
     stats, console = open_report(browser, page)
-    # closed_loop: Figs. 10-11, its metrics and recorded-runs tables are not shown
-    check_site_page(stats, console, figures - 2, tables - 2)
+    # closed_loop: Figs. 10-11, its metrics, recorded-runs and robust tables are not shown
+    check_site_page(stats, console, figures - 2, tables - 3)
     assert stats["table3"], "no Table 3 shown"
     stats, console = open_report(browser, index)
     check_site_page(stats, console, 1, 2)  # Fig. O1; the summary and the overview table

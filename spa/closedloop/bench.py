@@ -282,9 +282,80 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
     )
 
 
+#: ``robust.csv`` columns as rows of ``table.csv``: experiment -> (column, metric) pairs.
+TABLE_ROWS: dict[str, tuple[tuple[str, str], ...]] = {
+    "box_95": (
+        ("worst_rise_time", "rise_time"),
+        ("worst_overshoot", "overshoot"),
+        ("worst_steady_state_error", "steady_state_error"),
+        ("worst_ripple_pp", "ripple_pp"),
+        ("worst_ripple_rms", "ripple_rms"),
+        ("tau_c_robust", "tau_c_robust"),
+    ),
+    "supply_drop": (
+        ("recovery_time", "recovery_time"),
+        ("dip", "dip"),
+        ("steady_state_error_after_drop", "steady_state_error"),
+    ),
+    "sensor_noise": (
+        ("added_ripple_rms", "added_ripple_rms"),
+        ("added_ripple_pp", "added_ripple_pp"),
+    ),
+}
+
+
+def table_rows(robust: pd.DataFrame) -> pd.DataFrame:
+    """``robust.csv`` as rows of ``table.csv`` (one value each: median = min = max).
+
+    Parameters
+    ----------
+    robust : pandas.DataFrame
+        :data:`ROBUST_COLUMNS`, one row per setting.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``modulator``, ``description``, ``controller``, ``experiment`` (``box_95``: the worst
+        case over the 95 % box, chosen loop only; ``supply_drop``; ``sensor_noise``),
+        ``metric``, ``median``, ``min``, ``max``, ``spread`` (0), ``n`` (1), ``n_missing``;
+        a value that is NaN (not computed for that setting) gives no row.
+
+    Examples
+    --------
+    >>> rows = table_rows(pd.DataFrame([{"modulator": "pwm-20Hz", "description": "PWM",
+    ...     "controller": "fixed", "recovery_time": 0.4, "dip": 0.01}]))
+    >>> rows[["experiment", "metric", "median"]].values.tolist()
+    [['supply_drop', 'recovery_time', 0.4], ['supply_drop', 'dip', 0.01]]
+    """
+    out = []
+    for _, row in robust.iterrows():
+        base = {k: row[k] for k in ("modulator", "description", "controller")}
+        for experiment, pairs in TABLE_ROWS.items():
+            for column, metric in pairs:
+                value = row.get(column, math.nan)
+                if value is None or not math.isfinite(float(value)):
+                    continue
+                out.append(
+                    {
+                        **base,
+                        "experiment": experiment,
+                        "metric": metric,
+                        **dict.fromkeys(("median", "min", "max"), float(value)),
+                        "spread": 0.0,
+                        "n": 1,
+                        "n_missing": 0,
+                    }
+                )
+    return pd.DataFrame(out)
+
+
 def apply_bench(result: ClosedLoopResult, bench: BenchOutputs) -> None:
-    """Add the bench numbers to ``controllers.yaml`` (key ``bench``) and its sentence."""
+    """Add the bench numbers to ``controllers.yaml`` (key ``bench``), its sentence and
+    ``table.csv`` (:func:`table_rows`: the box's worst case and the disturbances)."""
     if not bench.summary:
         return
     result.controllers["bench"] = bench.summary
     result.controllers["sentence"] = f"{result.controllers['sentence']} {bench.sentence}"
+    extra = table_rows(bench.robust)
+    if not extra.empty:
+        result.table = pd.concat([result.table, extra], ignore_index=True)

@@ -388,7 +388,11 @@ STAGES: tuple[Stage, ...] = (
             "(staircase up and down, steps from 0 bar, sine) and metric, the median, smallest "
             "and largest value over the operating points and their spread (max - min). Step "
             "metrics on the cycle-mean pressure (docs/model.md section 8); n_missing: steps "
-            "where a metric is undefined (not reached, or not settled within 2 %).",
+            "where a metric is undefined (not reached, or not settled within 2 %). Rows of "
+            "experiment box_95: the chosen loop's worst case over the 95 % box (and its "
+            "robust tau_c); supply_drop and sensor_noise: each setting's recovery from a 10 % "
+            "drop of k2 and the ripple the sensor's noise adds (robust.csv has them by "
+            "setting).",
             required=False,
         ),
         Output(

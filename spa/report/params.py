@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -60,8 +61,9 @@ def params_table(params: Mapping[str, Any]) -> pd.DataFrame:
             {
                 "parameter": name,
                 "value": float(entry["value"]),
-                "95 % lo": float(entry["lo"]),
-                "95 % hi": float(entry["hi"]),
+                # a fallback value has no interval: NaN, shown as a blank
+                "95 % lo": math.nan if entry["lo"] is None else float(entry["lo"]),
+                "95 % hi": math.nan if entry["hi"] is None else float(entry["hi"]),
                 "unit": str(entry["unit"]),
                 "method": str(entry["method"]),
                 "fallback": "no" if fallback in (None, False, "") else str(fallback),
