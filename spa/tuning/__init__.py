@@ -10,13 +10,14 @@ One concept per module, all re-exported here:
   of their box;
 * :mod:`spa.tuning.tables` – the tidy tables of Fig. 4, Table 2 and Fig. 5;
 * :mod:`spa.tuning.recommend` – candidates, constraints and the recommended setting;
+* :mod:`spa.tuning.sentence` – the recommendation in one sentence;
 * :mod:`spa.tuning.stage` – :func:`tune`, the whole stage for one valve.
 """
 
 from spa._lazy import lazy_exports
 
 #: Submodules whose ``__all__`` the package re-exports (imported on first use).
-_MODULES = ("cost", "exact", "intervals", "recommend", "stage", "tables")
+_MODULES = ("cost", "exact", "intervals", "recommend", "sentence", "stage", "tables")
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
 __all__ = sorted(_EXPORTS)

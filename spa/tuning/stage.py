@@ -29,13 +29,8 @@ from spa.model.usable import unusable_reason
 from spa.openloop.paper import paper_case
 from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
 from spa.tuning.intervals import PARAMETERS, read_intervals
-from spa.tuning.recommend import (
-    TuningOptions,
-    candidate_frame,
-    recommend,
-    recommendation_sentence,
-    setting_metrics,
-)
+from spa.tuning.recommend import TuningOptions, candidate_frame, recommend, setting_metrics
+from spa.tuning.sentence import recommendation_sentence
 from spa.tuning.tables import equilibrium_frame, sweep_frame, tuning_table
 
 __all__ = [
