@@ -27,18 +27,12 @@ import pandas as pd
 import yaml
 
 from spa.identification import IdentificationError, identify_with_config
-from spa.model.params import ValveParams
+from spa.model.params import PHYSICAL_RANGE, ValveParams
 from spa.synthetic import Sensor, identification_experiment_for, identification_runs
 from spa.synthetic.runs import run_seed, simulate_run
 
 ROOT = Path(__file__).resolve().parents[1]
-RANGES = {
-    "c1": (0.1, 2.0),
-    "k2": (0.2, 6.0),
-    "tau2": (0.05, 3.0),
-    "t_on": (0.0005, 0.020),
-    "t_off": (0.001, 0.040),
-}
+RANGES = PHYSICAL_RANGE
 NAMES = tuple(RANGES)
 
 

@@ -18,19 +18,14 @@ from hypothesis import strategies as st
 
 from spa import ValveParams
 from spa.identification import IdentificationError, fit_charge, fit_discharge, identify_runs
+from spa.model.params import PHYSICAL_RANGE
 from spa.synthetic import Ringing, Sensor, identification_experiment_for, identification_runs
 from spa.synthetic.runs import run_seed, simulate_run
 
 SENSOR = Sensor(fs=1000.0, noise=0.005, quantum=0.001, ringing=Ringing())
 DT = 1e-3
 NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
-RANGE = {
-    "c1": (0.1, 2.0),
-    "k2": (0.2, 6.0),
-    "tau2": (0.05, 3.0),
-    "t_on": (0.0005, 0.020),
-    "t_off": (0.001, 0.040),
-}
+RANGE = PHYSICAL_RANGE
 
 
 def _runs(params: ValveParams, seed: int, sensor: Sensor = SENSOR, only: tuple = ()):

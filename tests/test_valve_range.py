@@ -20,7 +20,7 @@ from spa.closedloop.stage import closed_loop
 from spa.model.averaging import equilibrium
 from spa.model.chattering import pseudo_steady_state
 from spa.model.modulators import Modulator
-from spa.model.params import ValveParams
+from spa.model.params import PHYSICAL_RANGE, ValveParams
 from spa.model.periodic import train_mean
 from spa.model.thresholds import thresholds
 from spa.model.usable import rising_range, unusable_reason
@@ -28,13 +28,7 @@ from spa.tuning import tune
 from spa.tuning.cost import DEFAULT_SWEEPS
 
 #: The physical range of issue 29, (lo, hi) per parameter.
-RANGE = {
-    "c1": (0.1, 2.0),
-    "k2": (0.2, 6.0),
-    "tau2": (0.05, 3.0),
-    "t_on": (0.0005, 0.020),
-    "t_off": (0.001, 0.040),
-}
+RANGE = PHYSICAL_RANGE
 
 #: One setting of every kind, as a lab would first try (the paper's 20 Hz / 20 ms).
 SETTINGS = [

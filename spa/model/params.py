@@ -7,7 +7,17 @@ from dataclasses import asdict, dataclass, fields
 
 from spa._checks import ArgumentTypeError
 
-__all__ = ["ValveParams"]
+__all__ = ["PHYSICAL_RANGE", "ValveParams"]
+
+#: The valves every stage is made and tested for (README, "Any valve"): ``name -> (lo, hi)``
+#: in s·bar^-1/2, bar, s, s, s. The tests draw valves from it; a valve outside it still runs.
+PHYSICAL_RANGE: dict[str, tuple[float, float]] = {
+    "c1": (0.1, 2.0),
+    "k2": (0.2, 6.0),
+    "tau2": (0.05, 3.0),
+    "t_on": (0.0005, 0.020),
+    "t_off": (0.001, 0.040),
+}
 
 
 @dataclass(frozen=True, slots=True)
