@@ -131,6 +131,7 @@ def test_valve_opening_at_once_gives_an_interval_on_the_bound():
         est = getattr(res, name)
         assert 0.0 <= est.lo <= est.value <= est.hi <= 0.05, (name, est)
     assert res.t_on.lo == 0.0 and res.t_on.contains(0.0)
+    assert "physical bound 0" in res.t_on.method  # said, in params.yaml too
     assert res.to_valve_params().t_on >= 0.0
 
 
