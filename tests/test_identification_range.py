@@ -126,12 +126,13 @@ def test_valve_opening_at_once_gives_an_interval_on_the_bound():
         est = getattr(res, name)
         assert 0.0 <= est.lo <= est.value <= est.hi <= 0.05, (name, est)
     assert res.t_on.lo == 0.0 and res.t_on.contains(0.0)
+    assert "physical bound 0" in res.t_on.method  # said, in params.yaml too
     assert res.to_valve_params().t_on >= 0.0
 
 
 def test_delay_interval_stays_below_max_delay():
-    """A closing delay close to ``max_delay``: the interval is clipped to the searched domain."""
-    truth = ValveParams(c1=0.5, k2=0.8, tau2=0.5, t_on=0.003, t_off=0.0395)
+    """A closing delay at ``max_delay``: the interval is clipped to the searched domain."""
+    truth = ValveParams(c1=0.5, k2=0.8, tau2=0.5, t_on=0.003, t_off=0.04)
     res = _identify(truth, seed=1, max_delay=0.04)
     est = res.t_off
     assert 0.0 <= est.lo <= est.value <= est.hi <= 0.04, est

@@ -159,3 +159,31 @@ def test_shipped_example_is_what_the_documented_command_makes(tmp_path):
     for name in names:
         if name.endswith((".csv", ".yaml")):  # text: exact; binary formats carry writer versions
             assert (shipped / name).read_bytes() == (tmp_path / "example" / name).read_bytes(), name
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        ValveParams(c1=0.12, k2=0.3, tau2=0.06, t_on=0.0008, t_off=0.0015),
+        ValveParams(),
+        ValveParams(c1=2.0, k2=6.0, tau2=3.0, t_on=0.020, t_off=0.040),
+    ],
+    ids=["small-fast", "paper", "large-slow"],
+)
+def test_identification_experiment_for_scales_to_the_valve(params):
+    from spa.synthetic import identification_experiment_for
+
+    d = identification_experiment_for(params)
+    empty = 2 * params.c1 * np.sqrt(params.k2)  # Eq. A1: from the supply to 0 bar
+    assert d["charge_time"] >= params.t_on + 6 * params.tau2  # within 0.25 % of the supply
+    assert d["discharge_time"] >= params.t_off + 1.5 * empty
+    assert sum(low > params.t_off + 0.005 for low in d["low_times"]) >= 2
+    assert any(low < params.t_off for low in d["low_times"]) or params.t_off <= 0.005
+    assert d["high_time"] > 5 * params.t_on
+    for key in ("charge_time", "discharge_time", "high_time", *range(len(d["low_times"]))):
+        value = d["low_times"][key] if isinstance(key, int) else d[key]
+        assert abs(value * 1000 - round(value * 1000)) < 1e-6  # whole ms: whole steps of dt
+    specs = identification_runs(params, 1e-3, **d)  # the mapping is identification_runs' kwargs
+    assert [s.id for s in specs] == ["charge", "discharge", "pulse"]
+    assert specs[0].valve.size == round(d["charge_time"] / 1e-3)
+    assert identification_experiment_for(params) == d  # pure: same valve, same design

@@ -372,13 +372,19 @@ def fit_delays(
             "max": float(d.max()),
         }
         v = float(x[i])
+        lo, hi = v - _Z95 * float(se[i]), v + _Z95 * float(se[i])
+        note = ""
+        if lo < 0.0 or hi > max_delay:
+            note = f"; interval clipped to the domain [0, max_delay = {max_delay:g} s]" + (
+                " (it reaches the physical bound 0: a valid result)" if lo < 0.0 else ""
+            )
         ests[name] = Estimate(
             v,
-            max(v - _Z95 * float(se[i]), 0.0),
-            min(v + _Z95 * float(se[i]), max_delay),
+            max(lo, 0.0),
+            min(hi, max_delay),
             UNITS[name],
             rids,
-            method,
+            method + note,
             spread=spread,
         )
     nuisance = {name: float(x[i]) for i, name in enumerate(("c1", "k2", "tau2"))}
