@@ -26,7 +26,7 @@ def declared_names(path: Path) -> list[str]:
     --------
     >>> import spa.model.params
     >>> declared_names(Path(spa.model.params.__file__))
-    ['ValveParams']
+    ['PHYSICAL_RANGE', 'ValveParams']
     """
     for node in ast.parse(path.read_text(encoding="utf-8")).body:
         if (
@@ -87,7 +87,7 @@ def lazy_exports(
     --------
     >>> exports, getattr_, dir_ = lazy_exports("spa.model", ["params"])
     >>> exports
-    {'ValveParams': 'spa.model.params'}
+    {'PHYSICAL_RANGE': 'spa.model.params', 'ValveParams': 'spa.model.params'}
     >>> getattr_("ValveParams").__name__
     'ValveParams'
     """
