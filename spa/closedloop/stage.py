@@ -246,6 +246,7 @@ def closed_loop(
     limit = float(c["max_overshoot"])
     mods, rec = _settings(selected, recommendation)
     tried: list[dict[str, Any]] = []
+    first = None
     for factor in (1.0, *TAU_C_FACTORS):
         used = tau_c * factor
         rows, step_rows, traces, gains, skipped = _design_all(mods, params, c, used)
@@ -259,14 +260,13 @@ def closed_loop(
                 "met": bool(met),
             }
         )
+        if first is None:
+            first = (used, rows, step_rows, traces, gains, skipped, table, choice)
         if met or not gains:
             break
-    if not (choice is not None and met) and len(tried) > 1:
-        # Lengthening did not help: report the loops at the requested tau_c.
-        used = tau_c
-        rows, step_rows, traces, gains, skipped = _design_all(mods, params, c, used)
-        table = pd.DataFrame(rows)
-        choice = _choice(table, rec, limit)
+    if not met:
+        # Lengthening did not help: report the loops at the requested tau_c, as designed first.
+        used, rows, step_rows, traces, gains, skipped, table, choice = first
     steps = pd.concat(step_rows, ignore_index=True) if step_rows else pd.DataFrame()
     controllers: dict[str, Any] = {
         "tau_c": used,
@@ -280,7 +280,7 @@ def closed_loop(
     }
     if len(tried) > 1:
         controllers["tau_c_tried"] = tried
-    if choice is not None and _worst(table, *choice, "overshoot") <= limit:
+    if met:
         controllers["setting"] = gains[choice[0]]["setting"]
         controllers["controller"] = choice[1]
         sentence = closed_loop_sentence(table, gains, *choice)
