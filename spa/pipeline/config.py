@@ -68,6 +68,9 @@ def config_errors(config: Mapping[str, Any], schema: Mapping[str, Any]) -> list[
         if err.validator == "additionalProperties":
             allowed = sorted(err.schema.get("properties", {}))
             msg = f"{msg}; allowed keys: {allowed}"
+        elif err.validator == "anyOf":
+            keys = [" and ".join(b.get("required", [])) for b in err.validator_value]
+            msg = f"needs {' or '.join(k for k in keys if k)}"
         elif err.validator == "enum":
             msg = f"{err.instance!r} is not one of {err.validator_value}"
         lines.append(f"{where}: {msg}")
@@ -81,6 +84,8 @@ def semantic_errors(config: Mapping[str, Any]) -> list[str]:
       ``start < stop``;
     - a simulated dataset's logging period ``1/sensor.fs`` is a whole number of controller
       steps ``controller_dt`` (samples fall on the modulator's clock);
+    - a simulated dataset with a physical ``plant`` sets its sensor's noise and ADC step
+      there, not under ``sensor`` (which keeps ``fs``);
     - its modulators are valid for that controller (:meth:`Modulator.from_mapping` and the
       step checks of :func:`spa.model.modulators.check_settings`).
 
@@ -106,6 +111,7 @@ def semantic_errors(config: Mapping[str, Any]) -> list[str]:
             continue
         dt = float(sim["controller_dt"])
         fs = float(sim["sensor"]["fs"])
+        lines += _plant_errors(name, sim)
         ratio = 1.0 / (fs * dt)
         if abs(ratio - round(ratio)) > 1e-9 * max(ratio, 1.0) or round(ratio) < 1:
             lines.append(
@@ -118,6 +124,25 @@ def semantic_errors(config: Mapping[str, Any]) -> list[str]:
                 check_settings(setting.kind, dt, **setting.settings)
             except ValueError as exc:
                 lines.append(f"simulated.{name}.modulators[{i}]: {exc}")
+    return lines
+
+
+def _plant_errors(name: str, sim: Mapping[str, Any]) -> list[str]:
+    """A physical plant's settings together (its sensor replaces ``sensor:`` but ``fs``)."""
+    if sim.get("plant") is None:
+        return []
+    from spa.synthetic.physical import PhysicalPlant
+
+    lines = [
+        f"simulated.{name}.sensor.{key}: with a physical plant the sensor's {key} is set in "
+        f"simulated.{name}.plant (noise, quantum, sensor_lag, mains); sensor: keeps fs only"
+        for key in ("noise", "quantum", "ringing")
+        if key in sim["sensor"]
+    ]
+    try:
+        PhysicalPlant.from_mapping(sim["plant"])
+    except ValueError as exc:
+        lines.append(f"simulated.{name}.plant: {exc}")
     return lines
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from spa._lazy import lazy_exports
 
 #: Submodules whose ``__all__`` the package re-exports (imported on first use).
-_MODULES = ("example", "inputs", "runs", "sensor")
+_MODULES = ("example", "inputs", "physical", "runs", "sensor")
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
 __all__ = sorted(_EXPORTS)

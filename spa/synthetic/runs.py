@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import zlib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,12 +19,14 @@ from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 from spa.synthetic.inputs import chirp_input, sine_input, staircase_input
+from spa.synthetic.physical import PhysicalPlant, simulate_physical
 from spa.synthetic.sensor import Sensor, sensor_record
 
 __all__ = [
     "RunSpec",
     "closed_loop_runs",
     "dataset_experiments",
+    "dataset_plant",
     "dataset_runs",
     "generate_dataset",
     "identification_experiment_for",
@@ -70,6 +72,7 @@ def simulate_run(
     dt: float,
     sensor: Sensor,
     rng: np.random.Generator,
+    plant: PhysicalPlant | None = None,
 ) -> pd.DataFrame:
     """Simulate one run and log it through the sensor: the canonical run table.
 
@@ -85,6 +88,11 @@ def simulate_run(
         Logging rate, noise, quantisation, ringing.
     rng : numpy.random.Generator
         Source of the sensor noise.
+    plant : PhysicalPlant, optional
+        A physical plant that makes the run instead of the model
+        (:func:`spa.synthetic.physical.simulate_physical`; its own sensor, logged at
+        ``sensor.fs``); ``params`` is then only the valve the modulators and controllers are
+        designed for (an LPWM setting without a valve inverts it).
 
     Returns
     -------
@@ -93,6 +101,8 @@ def simulate_run(
         fraction), one row per logged sample. ``valve`` is the command at each sample
         instant.
     """
+    if plant is not None:
+        return _physical_run(spec, params, dt, sensor.fs, rng, plant)
     ratio = 1.0 / (sensor.fs * dt)
     every = round(ratio)
     if every < 1 or abs(ratio - every) > 1e-6:
@@ -129,6 +139,38 @@ def simulate_run(
     if reference is not None:
         table["r"] = reference[idx]
     return pd.DataFrame(table)
+
+
+def _physical_run(
+    spec: RunSpec,
+    params: ValveParams,
+    dt: float,
+    fs: float,
+    rng: np.random.Generator,
+    plant: PhysicalPlant,
+) -> pd.DataFrame:
+    """:func:`simulate_run` on a physical plant."""
+    from spa.synthetic.physical import closed_loop_physical
+
+    if spec.reference is not None and spec.modulator is not None and spec.controller:
+        from spa.closedloop import PIController
+
+        ctrl = PIController.from_mapping(dict(spec.controller))
+        run = closed_loop_physical(plant, spec.reference, dt, spec.modulator, ctrl, rng=rng)
+        every = round(1.0 / (fs * dt))
+        return run.iloc[::every, :5].reset_index(drop=True)
+    xi = None
+    if spec.valve is not None:
+        u = np.asarray(spec.valve, dtype=np.int8)
+    elif spec.xi is not None and spec.modulator is not None:
+        mod = Modulator.from_mapping(spec.modulator).bind(params)
+        xi = np.asarray(spec.xi, dtype=np.float64)
+        u = modulate(mod.kind, xi, dt, **mod.settings)
+    else:
+        raise ValueError(f"run {spec.id!r}: give either valve, or xi and modulator")
+    table = simulate_physical(plant, u, dt, fs=fs, p0=spec.p0, rng=rng, u=xi)
+    table.attrs.clear()
+    return table
 
 
 def identification_runs(
@@ -345,15 +387,52 @@ def dataset_runs(
     skipped : dict, optional
         Filled with ``run -> reason`` for the closed-loop runs left out.
     """
-    params = ValveParams(**cfg["params"])
     dt = float(cfg["controller_dt"])
+    plant, params = dataset_plant(cfg)
     ident = dict(experiments.get("identification", {}))
     runs = identification_runs(params, dt, **ident)
+    if plant is not None:  # the discharge starts at rest at the plant's supply
+        runs = [replace(r, p0=plant.supply) if r.kind == "discharge" else r for r in runs]
     modulated = {k: v for k, v in experiments.items() if k in ("staircase", "sine", "chirp")}
     runs += modulated_runs(cfg["modulators"], dt, modulated)
     if experiments.get("closed_loop"):
         runs += closed_loop_runs(params, dt, experiments["closed_loop"], skipped)
     return runs
+
+
+def dataset_plant(cfg: Mapping[str, Any]) -> tuple[PhysicalPlant | None, ValveParams]:
+    """What makes a simulated dataset's runs, and the valve its experiments are designed for.
+
+    Parameters
+    ----------
+    cfg : mapping
+        One entry of the config's ``simulated:``: ``params`` (the model's five parameters)
+        and/or ``plant`` (``{kind: physical, ...}``, :class:`PhysicalPlant`'s settings).
+
+    Returns
+    -------
+    plant : PhysicalPlant or None
+        The physical plant that makes every run, or None (the model does, with ``params``).
+    params : ValveParams
+        The model's valve: ``params`` when given, else the plant's equivalent
+        (:func:`spa.synthetic.physical.equivalent_params`). With a plant it is only what the
+        experiments and closed-loop designs assume, not what makes the data.
+
+    Raises
+    ------
+    ValueError
+        If neither is given, or a setting is out of range (named).
+    """
+    from spa.synthetic.physical import PhysicalPlant, equivalent_params
+
+    plant = None
+    if cfg.get("plant") is not None:
+        plant = PhysicalPlant.from_mapping(cfg["plant"])
+    if cfg.get("params") is not None:
+        return plant, ValveParams(**cfg["params"])
+    if plant is None:
+        raise ValueError("a simulated dataset needs params: (the model) or plant: (physical)")
+    return plant, equivalent_params(plant, float(cfg.get("controller_dt", 1e-3)))
 
 
 def closed_loop_runs(
@@ -476,7 +555,7 @@ def generate_dataset(
     """
     from spa.datasets import write_run_table
 
-    params = ValveParams(**cfg["params"])
+    plant, params = dataset_plant(cfg)
     dt = float(cfg["controller_dt"])
     sensor = Sensor.from_mapping(cfg.get("sensor"))
     out = Path(out_dir)
@@ -488,7 +567,7 @@ def generate_dataset(
         if progress is not None:
             progress(f"{name}: closed-loop run left out: {why}")
     for spec in progress_bar(specs, f"simulating {name}"):
-        table = simulate_run(spec, params, dt, sensor, run_seed(seed, name, spec.id))
+        table = simulate_run(spec, params, dt, sensor, run_seed(seed, name, spec.id), plant)
         meta = {
             "dataset": name,
             "run": spec.id,
@@ -498,7 +577,12 @@ def generate_dataset(
             **({"controller": dict(spec.controller)} if spec.controller else {}),
             "notes": spec.notes,
             "description": str(cfg.get("description", "")),
-            "truth": params.as_dict(),
+            # a physical plant's runs have no model truth: nothing replays them as the model
+            **(
+                {"plant": plant.to_mapping(), "design_params": params.as_dict()}
+                if plant
+                else {"truth": params.as_dict()}
+            ),
             "controller_dt": dt,
             "sensor": dict(cfg.get("sensor") or {}),
             "seed": int(seed),

@@ -1,0 +1,807 @@
+"""A physical test plant that is not the paper's model: orifice flow, a compliant chamber, a
+spool with dead times and transit, a drooping regulator and a lagging, quantised sensor.
+
+The paper's four-state model (:func:`spa.simulate`) is exact for itself; a bench is not that
+model. This plant is a *test fixture*: data made by it check that identification, design and
+the exported controllers hold on a plant whose physics differ from the model's. It is
+integrated with a fixed-step classical Runge-Kutta scheme (compiled with numba; the same
+step in plain Python and in C, ``physical_plant.c``, agree with it), which is fine for a
+fixture and never used by the simulator.
+
+Physics (docs/model.md, "A physical plant for testing"; absolute pressures inside, gauge at
+the interface):
+
+* **Valve ports**: a 3/2 valve connects the chamber to the supply (command 1) or to the
+  exhaust (command 0). Each port is an ISO 6358-1:2013 orifice with sonic conductance ``C``,
+  critical pressure ratio ``b`` and subsonic index ``m``: choked flow ``C*p1*rho0`` below
+  ``b``, ``C*p1*rho0*(1 - ((r - b)/(1 - b))**2)**m`` above it (``r = p2/p1``), made linear
+  in ``1 - r`` above ``r = 0.999`` (the laminar region, so that the flow is Lipschitz at
+  equilibrium). Air enters at the reference temperature ``T0``.
+* **Spool**: after a command edge the armature waits its dead time (``t_open`` after a
+  rising edge, ``t_close`` after a falling one) while the *previous connection persists*;
+  then the spool crosses over in ``transit`` s, the effective conductances changing
+  linearly (supply ``C_s*s``, exhaust ``C_e*(1 - s)``, ``s`` the spool position 0..1). An
+  edge whose dead time ends before that of an earlier pending edge cancels it.
+* **Chamber**: polytropic with index ``n`` (1: isothermal, 1.4: adiabatic), volume growing
+  linearly with the gauge pressure, ``V = V0 + k_v*(P - p_atm)``:
+  ``dP/dt = n*R*T0*q / (V + n*P*k_v)`` with ``q`` the net mass flow in.
+* **Regulator**: first order, sagging with the flow drawn:
+  ``dPs/dt = (p_set - droop*q_s/rho0 - Ps)/tau_r``.
+* **Sensor**: first-order lag ``tau_s`` on the gauge pressure, plus a mains pickup
+  ``A*sin(2*pi*f*t + phase)``, plus seeded Gaussian noise, rounded to the ADC step.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+from numba import njit
+
+__all__ = [
+    "PHYSICAL_KEYS",
+    "PhysicalPlant",
+    "c_plant_source",
+    "close_loop_in_c",
+    "closed_loop_physical",
+    "equivalent_params",
+    "measure_staircase",
+    "random_plant",
+    "run_plant_in_c",
+    "sensor_output",
+    "simulate_physical",
+    "substeps",
+]
+
+#: Air: specific gas constant, J/(kg*K).
+R_AIR = 287.05
+#: ISO 8778 reference atmosphere (ANR): density at 20 degC and 100 kPa, kg/m^3.
+RHO0 = 1.185
+#: Pressure ratio above which the ISO 6358 law is continued linearly to zero flow at r = 1.
+LAMINAR_RATIO = 0.999
+#: Longest pending-edge queue (dead time / controller step + 2).
+QUEUE = 4096
+
+# dm^3/(s*bar) -> m^3/(s*Pa); cm^3 -> m^3; bar -> Pa
+_DM3_PER_S_BAR = 1e-3 / 1e5
+_CM3 = 1e-6
+_BAR = 1e5
+
+
+@dataclass(frozen=True)
+class PhysicalPlant:
+    """A 3/2 solenoid valve, a soft chamber, a regulator and a sensor: every setting in SI-like
+    bench units (config keys of the same names, ``plant: {kind: physical, ...}``).
+
+    Parameters
+    ----------
+    supply : float
+        Regulator set-point, bar gauge, in (0.05, 12].
+    c_supply, c_exhaust : float
+        ISO 6358 sonic conductance of the supply (P->A) and exhaust (A->R) ports,
+        dm³/(s·bar) (ANR), in (0, 50].
+    b_supply, b_exhaust : float
+        Critical pressure ratios, in [0, 0.95].
+    m_supply, m_exhaust : float
+        Subsonic indices, in (0, 1] (0.5: the classic elliptic law).
+    volume : float
+        Chamber volume at 0 bar gauge, cm³, in (0.1, 1e5].
+    compliance : float
+        Volume growth per bar gauge, cm³/bar, in [0, 1e5] (linear).
+    polytropic : float
+        Polytropic index ``n`` of the chamber, in [1, 1.4] (1: isothermal, 1.4: adiabatic).
+    t_open, t_close : float
+        Armature dead time after a rising / falling command edge, s, in [0, 0.1]: the
+        previous connection persists meanwhile.
+    transit : float
+        Spool transit time, s, in (0, 0.01]: the effective conductances change linearly.
+    droop : float
+        Regulator sag per flow drawn, bar per (NL/s) (normal litres per second), in [0, 10].
+    regulator_tau : float
+        Regulator time constant, s, in [1e-4, 1].
+    sensor_lag : float
+        Sensor time constant (first order), s, in [0, 0.1] (0: none).
+    noise : float
+        Sensor noise standard deviation, bar, in [0, 1].
+    quantum : float
+        ADC step, bar, in [0, 1] (0: none).
+    mains : float
+        Amplitude of the mains pickup, bar, in [0, 1].
+    mains_frequency : float
+        Mains frequency, Hz, in (0, 1000] (50 in Europe).
+    mains_phase : float
+        Phase of the pickup at t = 0, rad, in [-2π, 2π].
+    atmosphere : float
+        Atmospheric pressure, bar absolute, in [0.5, 1.2].
+    temperature : float
+        Supply air temperature ``T0``, K, in [200, 400].
+
+    Raises
+    ------
+    ValueError
+        Naming the field and its range, for a value out of range or not a number.
+
+    Examples
+    --------
+    >>> PhysicalPlant(supply=4.0).supply
+    4.0
+    >>> PhysicalPlant(b_supply=1.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: PhysicalPlant.b_supply = 1.0: must be in [0, 0.95] (critical pressure ratio)
+    """
+
+    supply: float = 0.85
+    c_supply: float = 0.04
+    b_supply: float = 0.3
+    m_supply: float = 0.5
+    c_exhaust: float = 0.05
+    b_exhaust: float = 0.3
+    m_exhaust: float = 0.5
+    volume: float = 20.0
+    compliance: float = 12.0
+    polytropic: float = 1.2
+    t_open: float = 0.004
+    t_close: float = 0.006
+    transit: float = 0.0015
+    droop: float = 0.2
+    regulator_tau: float = 0.02
+    sensor_lag: float = 0.002
+    noise: float = 0.003
+    quantum: float = 0.001
+    mains: float = 0.002
+    mains_frequency: float = 50.0
+    mains_phase: float = 0.0
+    atmosphere: float = 1.01325
+    temperature: float = 293.15
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            lo, hi, lo_open, what = _RANGES[f.name]
+            if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+                raise ValueError(f"PhysicalPlant.{f.name} must be a number ({what}), got {value!r}")
+            v = float(value)
+            ok = math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi
+            if not ok:
+                bra = "(" if lo_open else "["
+                raise ValueError(
+                    f"PhysicalPlant.{f.name} = {value!r}: must be in {bra}{lo:g}, {hi:g}] ({what})"
+                )
+            object.__setattr__(self, f.name, v)
+
+    @classmethod
+    def from_mapping(cls, cfg: Mapping[str, Any]) -> PhysicalPlant:
+        """From a config mapping (``kind: physical`` allowed and dropped); unknown keys are
+        refused by name."""
+        d = dict(cfg)
+        kind = d.pop("kind", "physical")
+        if kind != "physical":
+            raise ValueError(f"plant.kind = {kind!r}: only 'physical' is known")
+        unknown = sorted(set(d) - set(PHYSICAL_KEYS))
+        if unknown:
+            raise ValueError(f"plant: unknown key(s) {unknown}; allowed: {list(PHYSICAL_KEYS)}")
+        return cls(**d)
+
+    def to_mapping(self) -> dict[str, Any]:
+        """The config mapping (``kind: physical`` and every field)."""
+        return {"kind": "physical", **asdict(self)}
+
+
+#: field -> (lower bound, upper bound, lower bound open, what it is with its unit)
+_RANGES: dict[str, tuple[float, float, bool, str]] = {
+    "supply": (0.05, 12.0, True, "regulator set-point, bar gauge"),
+    "c_supply": (0.0, 50.0, True, "sonic conductance, dm^3/(s*bar)"),
+    "b_supply": (0.0, 0.95, False, "critical pressure ratio"),
+    "m_supply": (0.0, 1.0, True, "subsonic index"),
+    "c_exhaust": (0.0, 50.0, True, "sonic conductance, dm^3/(s*bar)"),
+    "b_exhaust": (0.0, 0.95, False, "critical pressure ratio"),
+    "m_exhaust": (0.0, 1.0, True, "subsonic index"),
+    "volume": (0.1, 1e5, True, "chamber volume at 0 bar gauge, cm^3"),
+    "compliance": (0.0, 1e5, False, "volume growth, cm^3/bar"),
+    "polytropic": (1.0, 1.4, False, "polytropic index"),
+    "t_open": (0.0, 0.1, False, "opening dead time, s"),
+    "t_close": (0.0, 0.1, False, "closing dead time, s"),
+    "transit": (0.0, 0.01, True, "spool transit time, s"),
+    "droop": (0.0, 10.0, False, "regulator sag, bar/(NL/s)"),
+    "regulator_tau": (1e-4, 1.0, False, "regulator time constant, s"),
+    "sensor_lag": (0.0, 0.1, False, "sensor time constant, s"),
+    "noise": (0.0, 1.0, False, "noise standard deviation, bar"),
+    "quantum": (0.0, 1.0, False, "ADC step, bar"),
+    "mains": (0.0, 1.0, False, "mains pickup amplitude, bar"),
+    "mains_frequency": (0.0, 1000.0, True, "mains frequency, Hz"),
+    "mains_phase": (-2 * math.pi, 2 * math.pi, False, "mains phase, rad"),
+    "atmosphere": (0.5, 1.2, False, "atmospheric pressure, bar absolute"),
+    "temperature": (200.0, 400.0, False, "supply air temperature, K"),
+}
+
+#: The settings of a physical plant (config keys), in order.
+PHYSICAL_KEYS = tuple(f.name for f in fields(PhysicalPlant))
+
+# ---- the constants the kernels read ---------------------------------------------------
+
+#: Index of each constant in the array the kernels (Python, numba, C) read.
+_C = (
+    "p_atm",  # Pa abs
+    "p_set",  # Pa abs
+    "n",  # polytropic index
+    "rt",  # R*T0, J/kg
+    "rho0",  # kg/m^3
+    "cs",  # m^3/(s*Pa)
+    "bs",
+    "ms",
+    "ce",  # m^3/(s*Pa)
+    "be",
+    "me",
+    "v0",  # m^3
+    "kv",  # m^3/Pa
+    "droop",  # Pa per m^3/s (ANR)
+    "tau_r",  # s
+    "tau_s",  # s (0: no lag)
+    "transit",  # s
+    "t_open",  # s
+    "t_close",  # s
+    "blam",  # laminar ratio
+)
+N_CONST = len(_C)
+
+
+def _constants(plant: PhysicalPlant) -> np.ndarray:
+    """The plant's constants in SI, in the order of ``_C`` (the C twin's order too)."""
+    patm = plant.atmosphere * _BAR
+    return np.array(
+        [
+            patm,
+            patm + plant.supply * _BAR,
+            plant.polytropic,
+            R_AIR * plant.temperature,
+            RHO0,
+            plant.c_supply * _DM3_PER_S_BAR,
+            plant.b_supply,
+            plant.m_supply,
+            plant.c_exhaust * _DM3_PER_S_BAR,
+            plant.b_exhaust,
+            plant.m_exhaust,
+            plant.volume * _CM3,
+            plant.compliance * _CM3 / _BAR,
+            plant.droop * _BAR / 1e-3,
+            plant.regulator_tau,
+            plant.sensor_lag,
+            plant.transit,
+            plant.t_open,
+            plant.t_close,
+            LAMINAR_RATIO,
+        ],
+        dtype=np.float64,
+    )
+
+
+def substeps(plant: PhysicalPlant, dt: float) -> int:
+    """Runge-Kutta sub-steps per controller step ``dt``: the step ``h = dt/n`` is at most
+    the fastest time constant of the linearised plant and at most 0.1 ms (a spool transit
+    spans several steps).
+
+    The fastest rate is the chamber's at equilibrium with the larger port (the laminar
+    slope ``C*rho0*phi(0.999)/0.001``), the regulator's ``1/tau_r`` and the sensor's
+    ``1/tau_s``.
+
+    Examples
+    --------
+    >>> substeps(PhysicalPlant(), 0.001)
+    10
+    """
+    c = _constants(plant)
+    lam = 0.0
+    for cc, b, m in ((c[5], c[6], c[7]), (c[8], c[9], c[10])):
+        phi = (1.0 - ((LAMINAR_RATIO - b) / (1.0 - b)) ** 2) ** m
+        slope = cc * RHO0 * phi / (1.0 - LAMINAR_RATIO)
+        lam = max(lam, c[2] * c[3] * slope / c[11])
+    lam = max(lam, 1.0 / plant.regulator_tau)
+    if plant.sensor_lag > 0:
+        lam = max(lam, 1.0 / plant.sensor_lag)
+    return max(math.ceil(dt * lam - 1e-9), math.ceil(dt / 1e-4 - 1e-9), 1)
+
+
+# ---- the kernels (compiled; the tests run them as plain Python too) ------------------------
+# State x: [P (Pa abs), Ps (Pa abs), y (sensor, Pa gauge), s_ref, t_ref, v_ref, last command,
+#           time of the next controller step]; queue: pending armature switches (time, value)
+# in a ring buffer qt/qv with qi = [head, count].
+
+
+@njit(cache=True)
+def _flow(p1, p2, cond, b, m, rho0, blam):  # pragma: no cover (compiled)
+    """ISO 6358-1 mass flow from p1 to p2 (kg/s, negative when p2 > p1)."""
+    if p1 >= p2:
+        up, dn, sgn = p1, p2, 1.0
+    else:
+        up, dn, sgn = p2, p1, -1.0
+    if up <= 0.0 or cond <= 0.0:
+        return 0.0
+    r = dn / up
+    if r <= b:
+        phi = 1.0
+    elif r <= blam:
+        z = (r - b) / (1.0 - b)
+        phi = (1.0 - z * z) ** m
+    else:
+        z = (blam - b) / (1.0 - b)
+        phi = (1.0 - z * z) ** m * (1.0 - r) / (1.0 - blam)
+    return sgn * cond * up * rho0 * phi
+
+
+@njit(cache=True)
+def _spool(t, x, transit):  # pragma: no cover (compiled)
+    """Spool position at time t of the current segment (x[3] at x[4], towards x[5])."""
+    direction = 1.0 if x[5] > 0.5 else -1.0
+    s = x[3] + (t - x[4]) * direction / transit
+    if s < 0.0:
+        return 0.0
+    if s > 1.0:
+        return 1.0
+    return s
+
+
+@njit(cache=True)
+def _events(t, x, qt, qv, qi, transit):  # pragma: no cover (compiled)
+    """Apply every pending armature switch due by time t (the spool segment restarts)."""
+    while qi[1] > 0 and qt[qi[0]] <= t:
+        tau = qt[qi[0]]
+        x[3] = _spool(tau, x, transit)
+        x[4] = tau
+        x[5] = qv[qi[0]]
+        qi[0] = (qi[0] + 1) % qt.size
+        qi[1] -= 1
+
+
+@njit(cache=True)
+def _rhs(p, ps, y, s, c, d):  # pragma: no cover (compiled)
+    """Derivatives of (P, Ps, y) at spool position s into d."""
+    q_in = _flow(ps, p, c[5] * s, c[6], c[7], c[4], c[19])
+    q_out = _flow(p, c[0], c[8] * (1.0 - s), c[9], c[10], c[4], c[19])
+    vol = c[11] + c[12] * (p - c[0])
+    d[0] = c[2] * c[3] * (q_in - q_out) / (vol + c[2] * p * c[12])
+    d[1] = (c[1] - c[13] * q_in / c[4] - ps) / c[14]
+    if c[15] > 0.0:
+        d[2] = (p - c[0] - y) / c[15]
+    else:
+        d[2] = 0.0
+
+
+@njit(cache=True)
+def _command(x, qt, qv, qi, tk, u, c):  # pragma: no cover (compiled)
+    """The command u (0/1) from time tk on: an edge schedules the armature's switch."""
+    v = 1.0 if u != 0 else 0.0
+    if v == x[6]:
+        return
+    tau = tk + (c[17] if v > 0.5 else c[18])
+    # a switch due no earlier than this one is overtaken by it
+    while qi[1] > 0 and qt[(qi[0] + qi[1] - 1) % qt.size] >= tau:
+        qi[1] -= 1
+    if qi[1] == qt.size:
+        raise ValueError("physical plant: too many pending valve edges (dead time / dt)")
+    j = (qi[0] + qi[1]) % qt.size
+    qt[j] = tau
+    qv[j] = v
+    qi[1] += 1
+    x[6] = v
+
+
+@njit(cache=True)
+def _advance(x, qt, qv, qi, tk, dt, nsub, c, d):  # pragma: no cover (compiled)
+    """Integrate the plant from tk over one controller step dt (nsub RK4 steps)."""
+    h = dt / nsub
+    for i in range(nsub):
+        t = tk + i * h
+        p, ps, y = x[0], x[1], x[2]
+        _events(t, x, qt, qv, qi, c[16])
+        _rhs(p, ps, y, _spool(t, x, c[16]), c, d)
+        k1p, k1s, k1y = d[0], d[1], d[2]
+        _events(t + 0.5 * h, x, qt, qv, qi, c[16])
+        s2 = _spool(t + 0.5 * h, x, c[16])
+        _rhs(p + 0.5 * h * k1p, ps + 0.5 * h * k1s, y + 0.5 * h * k1y, s2, c, d)
+        k2p, k2s, k2y = d[0], d[1], d[2]
+        _rhs(p + 0.5 * h * k2p, ps + 0.5 * h * k2s, y + 0.5 * h * k2y, s2, c, d)
+        k3p, k3s, k3y = d[0], d[1], d[2]
+        _events(t + h, x, qt, qv, qi, c[16])
+        _rhs(p + h * k3p, ps + h * k3s, y + h * k3y, _spool(t + h, x, c[16]), c, d)
+        x[0] = p + h / 6.0 * (k1p + 2.0 * k2p + 2.0 * k3p + d[0])
+        x[1] = ps + h / 6.0 * (k1s + 2.0 * k2s + 2.0 * k3s + d[1])
+        if c[15] > 0.0:
+            x[2] = y + h / 6.0 * (k1y + 2.0 * k2y + 2.0 * k3y + d[2])
+        else:
+            x[2] = x[0] - c[0]
+
+
+@njit(cache=True)
+def _init(x, qi, p0, c, u0):  # pragma: no cover (compiled)
+    """Rest at p0 (Pa gauge) with the valve settled at command u0 and no flow drawn."""
+    x[0] = c[0] + p0
+    x[1] = c[1]
+    x[2] = p0
+    x[3] = 1.0 if u0 != 0 else 0.0
+    x[4] = 0.0
+    x[5] = x[3]
+    x[6] = x[3]
+    qi[0] = 0
+    qi[1] = 0
+
+
+@njit(cache=True)
+def _run(u, dt, nsub, every, c, p0, p_out, y_out):  # pragma: no cover (compiled)
+    """The open-loop run: command u[k] over [k*dt, (k+1)*dt); samples every `every` steps
+    of the chamber's gauge pressure (p_out) and of the lagged sensor (y_out), Pa."""
+    x = np.zeros(8)
+    qt = np.zeros(QUEUE)
+    qv = np.zeros(QUEUE)
+    qi = np.zeros(2, dtype=np.int64)
+    d = np.zeros(3)
+    _init(x, qi, p0, c, u[0])
+    j = 0
+    for k in range(u.size):
+        tk = k * dt
+        if k % every == 0:
+            p_out[j] = x[0] - c[0]
+            y_out[j] = x[2]
+            j += 1
+        _command(x, qt, qv, qi, tk, u[k], c)
+        _advance(x, qt, qv, qi, tk, dt, nsub, c, d)
+
+
+# ---- the public functions --------------------------------------------------------------
+
+
+def _check_dt(plant: PhysicalPlant, dt: float) -> float:
+    dt = float(dt)
+    if not (math.isfinite(dt) and 1e-5 <= dt <= 0.1):
+        raise ValueError(f"dt = {dt!r} s: the controller step must be in [1e-5, 0.1] s")
+    if max(plant.t_open, plant.t_close) / dt + 2 > QUEUE:
+        raise ValueError(
+            f"dt = {dt:g} s: the dead times ({plant.t_open:g}, {plant.t_close:g} s) span more "
+            f"than {QUEUE - 2} controller steps"
+        )
+    return dt
+
+
+def _every(fs: float, dt: float) -> int:
+    ratio = 1.0 / (float(fs) * dt)
+    every = round(ratio)
+    if every < 1 or abs(ratio - every) > 1e-6:
+        raise ValueError(
+            f"fs = {fs:g} Hz: 1/fs must be a whole number of controller steps dt = {dt:g} s"
+        )
+    return every
+
+
+def sensor_output(
+    t: npt.ArrayLike, lagged: npt.ArrayLike, plant: PhysicalPlant, noise: npt.ArrayLike | None
+) -> np.ndarray:
+    """What the logger records, bar: lagged pressure + mains pickup + noise, ADC-rounded.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times, s.
+    lagged : array_like
+        The sensor's lagged gauge pressure at ``t``, bar.
+    plant : PhysicalPlant
+        ``mains``, ``mains_frequency``, ``mains_phase``, ``quantum``.
+    noise : array_like or None
+        The noise sequence (bar, one per sample), or None for none.
+
+    Examples
+    --------
+    >>> plant = PhysicalPlant(mains=0.0, quantum=0.01)
+    >>> sensor_output([0.0, 0.001], [0.123, 0.456], plant, None).tolist()
+    [0.12, 0.46]
+    """
+    tt = np.asarray(t, dtype=np.float64)
+    out = np.asarray(lagged, dtype=np.float64).copy()
+    if plant.mains > 0:
+        phase = 2.0 * np.pi * plant.mains_frequency * tt + plant.mains_phase
+        out = out + plant.mains * np.sin(phase)
+    if noise is not None:
+        out = out + np.asarray(noise, dtype=np.float64)
+    if plant.quantum > 0:
+        out = np.round(out / plant.quantum) * plant.quantum
+    return out
+
+
+def simulate_physical(
+    plant: PhysicalPlant,
+    valve: npt.ArrayLike,
+    dt: float,
+    *,
+    fs: float | None = None,
+    p0: float = 0.0,
+    rng: np.random.Generator | None = None,
+    u: npt.ArrayLike | None = None,
+    compiled: bool = True,
+) -> pd.DataFrame:
+    """Drive the physical plant with a valve command sampled at the controller step.
+
+    Parameters
+    ----------
+    plant : PhysicalPlant
+        The plant.
+    valve : array_like of int, shape (n,)
+        The command (0/1) over ``[k*dt, (k+1)*dt)``.
+    dt : float
+        Controller step, s, in [1e-5, 0.1].
+    fs : float, optional
+        Logging rate, Hz (``1/fs`` a whole number of steps); default every step.
+    p0 : float, default 0
+        Initial chamber pressure, bar gauge, at rest (the valve settled at ``valve[0]``,
+        the regulator at its set-point, the sensor at ``p0``).
+    rng : numpy.random.Generator, optional
+        Source of the sensor noise (one draw of ``n`` normals when ``plant.noise > 0``);
+        None: no noise.
+    u : array_like, optional
+        The input fraction at every step (copied into the table's ``u``, clipped to [0, 1]).
+    compiled : bool, default True
+        False runs the same step as plain Python (slow; for the tests).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The canonical run table: ``t`` (s), ``p`` (bar gauge, as logged), ``valve`` (int8,
+        the command at each sample) and ``u`` when given; ``attrs["p_true"]`` holds the
+        chamber's gauge pressure and ``attrs["p_lagged"]`` the sensor's lagged pressure
+        (bar) at the samples, before pickup, noise and ADC.
+
+    Raises
+    ------
+    ValueError
+        For a bad step, rate, command or initial pressure.
+    """
+    dt = _check_dt(plant, dt)
+    cmd = np.asarray(valve)
+    if cmd.ndim != 1 or cmd.size < 1:
+        raise ValueError(f"valve: a non-empty 1-D command, got shape {cmd.shape}")
+    if not np.all((cmd == 0) | (cmd == 1)):
+        raise ValueError("valve: every command must be 0 or 1")
+    cmd = cmd.astype(np.int8)
+    every = 1 if fs is None else _every(fs, dt)
+    p0 = float(p0)
+    if not (math.isfinite(p0) and -plant.atmosphere < p0 <= 2.0 * plant.supply + 1.0):
+        raise ValueError(f"p0 = {p0!r} bar gauge: outside the plant's range")
+    idx = np.arange(0, cmd.size, every)
+    p_true = np.zeros(idx.size)
+    lagged = np.zeros(idx.size)
+    run = _run if compiled else _run.py_func
+    run(cmd, dt, substeps(plant, dt), every, _constants(plant), p0 * _BAR, p_true, lagged)
+    p_true /= _BAR
+    lagged /= _BAR
+    t = idx * dt
+    noisy = rng is not None and plant.noise > 0
+    noise = rng.normal(0.0, plant.noise, idx.size) if noisy else None
+    table = {"t": t, "p": sensor_output(t, lagged, plant, noise), "valve": cmd[idx]}
+    if u is not None:
+        table["u"] = np.clip(np.asarray(u, dtype=np.float64)[idx], 0.0, 1.0)
+    out = pd.DataFrame(table)
+    out.attrs["p_true"] = p_true
+    out.attrs["p_lagged"] = lagged
+    return out
+
+
+# ---- what a designer would take from it, and plants at random ------------------------------
+
+
+def _crossing(t: np.ndarray, p: np.ndarray, level: float, rising: bool) -> float:
+    """First time p crosses level (linear between samples), NaN when never."""
+    hit = np.flatnonzero(p >= level) if rising else np.flatnonzero(p <= level)
+    if hit.size == 0:
+        return math.nan
+    i = int(hit[0])
+    if i == 0:
+        return float(t[0])
+    a, b = p[i - 1], p[i]
+    return float(t[i - 1] + (level - a) / (b - a) * (t[i] - t[i - 1]))
+
+
+def equivalent_params(plant: PhysicalPlant, dt: float = 1e-3):
+    """The paper's five parameters a designer would read off this plant's step responses.
+
+    Not an identification (no noise, no fit): ``k2`` is the supply set-point; ``t_on`` and
+    ``t_off`` are the dead times plus half the transit; ``tau2`` is the time the noise-free
+    charge from 0 bar takes to 63.2 % of ``k2`` after ``t_on``; ``c1`` makes the model's
+    discharge (Eq. A1, ``sqrt(P) = sqrt(k2) - t/(2*c1)``) reach ``k2/4`` when the plant's
+    does: ``c1 = t25/sqrt(k2)``.
+
+    Parameters
+    ----------
+    plant : PhysicalPlant
+    dt : float
+        Step of the responses simulated, s.
+
+    Returns
+    -------
+    spa.model.params.ValveParams
+
+    Examples
+    --------
+    >>> eq = equivalent_params(PhysicalPlant(t_open=0.004, transit=0.002))
+    >>> eq.k2, round(eq.t_on, 6)
+    (0.85, 0.005)
+    """
+    from spa.model.params import ValveParams
+
+    k2 = plant.supply
+    t_on = plant.t_open + 0.5 * plant.transit
+    t_off = plant.t_close + 0.5 * plant.transit
+    out = {}
+    for name, first, level, start in (
+        ("tau2", 0, (1.0 - math.exp(-1.0)) * k2, 0.0),
+        ("t25", 1, 0.25 * k2, k2),
+    ):
+        duration = 2.0
+        while True:
+            n = round(duration / dt)
+            u = np.full(n, 1 - first, dtype=np.int8)
+            u[0] = first
+            res = simulate_physical(plant, u, dt, p0=start)
+            t = res["t"].to_numpy()
+            cross = _crossing(t, res.attrs["p_true"], level, rising=first == 0)
+            if math.isfinite(cross) or duration > 500.0:
+                break
+            duration *= 4.0
+        if not math.isfinite(cross):
+            raise ValueError(f"plant {plant}: the {name} response never crosses {level:g} bar")
+        out[name] = cross - dt - (t_on if first == 0 else t_off)
+    tau2 = max(out["tau2"], 1e-3)
+    c1 = max(out["t25"], 1e-3) / math.sqrt(k2)
+    return ValveParams(c1=c1, k2=k2, tau2=tau2, t_on=t_on, t_off=t_off)
+
+
+def random_plant(rng: np.random.Generator) -> PhysicalPlant:
+    """A physical plant drawn over the range a lab meets.
+
+    Supply log-uniform 0.5–6 bar gauge; dead times uniform 2–25 ms each, opening and closing
+    at least 1 ms apart; transit 1–2 ms; chamber 5–200 cm³ (log-uniform) growing by 30–100 %
+    of its volume over 0 bar..supply; polytropic index 1–1.4; supply conductance set so that
+    the choked charge from 0 bar would fill the chamber in 0.05–1.5 s (log-uniform), exhaust
+    conductance 0.7–2 times it; ``b`` 0.15–0.5, ``m`` 0.4–0.6 each port; regulator 5–50 ms,
+    sagging 0–5 % of the supply at choked flow; sensor lag 0–5 ms, noise 0.1–0.4 % of
+    max(supply, 1 bar), ADC step a 4096th of 1.5 times the supply, mains pickup 0–3 mbar at
+    a random phase.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    PhysicalPlant
+
+    Examples
+    --------
+    >>> p = random_plant(np.random.default_rng(1))
+    >>> 0.5 <= p.supply <= 6.0 and p.t_open != p.t_close
+    True
+    """
+
+    def logu(lo: float, hi: float) -> float:
+        return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+    supply = logu(0.5, 6.0)
+    while True:
+        t_open, t_close = (float(v) for v in rng.uniform(0.002, 0.025, 2))
+        if abs(t_open - t_close) >= 0.001:
+            break
+    volume = logu(5.0, 200.0)
+    growth = float(rng.uniform(0.3, 1.0))
+    compliance = growth * volume / supply
+    n = float(rng.uniform(1.0, 1.4))
+    fill = logu(0.05, 1.5)
+    patm = 1.01325
+    # choked charge rate at 0 bar: n*R*T*rho0*C*Ps/(V0 + n*patm*kv); fill = supply/rate
+    cap = (volume * _CM3 + n * patm * _BAR * compliance * _CM3 / _BAR) / (n * R_AIR * 293.15)
+    c_si = cap * supply / (fill * RHO0 * (supply + patm))  # m^3/(s*Pa)
+    c_supply = c_si / _DM3_PER_S_BAR
+    c_exhaust = c_supply * float(rng.uniform(0.7, 2.0))
+    sag = float(rng.uniform(0.0, 0.05)) * supply
+    return PhysicalPlant(
+        supply=supply,
+        c_supply=c_supply,
+        b_supply=float(rng.uniform(0.15, 0.5)),
+        m_supply=float(rng.uniform(0.4, 0.6)),
+        c_exhaust=c_exhaust,
+        b_exhaust=float(rng.uniform(0.15, 0.5)),
+        m_exhaust=float(rng.uniform(0.4, 0.6)),
+        volume=volume,
+        compliance=compliance,
+        polytropic=n,
+        t_open=t_open,
+        t_close=t_close,
+        transit=float(rng.uniform(0.001, 0.002)),
+        droop=sag / (c_supply * (supply + patm)),
+        regulator_tau=float(rng.uniform(0.005, 0.05)),
+        sensor_lag=float(rng.uniform(0.0, 0.005)),
+        noise=float(rng.uniform(0.001, 0.004)) * max(supply, 1.0),
+        quantum=1.5 * supply / 4096.0,
+        mains=float(rng.uniform(0.0, 0.003)),
+        mains_phase=float(rng.uniform(-math.pi, math.pi)),
+    )
+
+
+from spa.synthetic._physical_c import (  # noqa: E402  (they use the plant above)
+    c_plant_source,
+    close_loop_in_c,
+    measure_staircase,
+    run_plant_in_c,
+)
+
+
+def closed_loop_physical(
+    plant: PhysicalPlant,
+    reference: npt.ArrayLike,
+    dt: float,
+    modulator: Mapping[str, Any],
+    controller: Any,
+    *,
+    integral0: float = 0.0,
+    rng: np.random.Generator | None = None,
+) -> pd.DataFrame:
+    """A PI and a modulator (:class:`spa.closedloop.ControllerStepper`) closed on the plant.
+
+    From rest at 0 bar (exhaust open). Every controller step ``k`` the sensor is read at
+    ``t_k`` (lag, mains pickup, noise, ADC step, as :func:`sensor_output`), the stepper gives
+    the command, the plant integrates over the step. The loop steps in Python (a test
+    fixture; the plant's step is compiled); :func:`close_loop_in_c` runs the same loop with
+    an exported header in C.
+
+    Parameters
+    ----------
+    plant : PhysicalPlant
+    reference : array_like
+        Set-point at every controller step, bar.
+    dt : float
+        Controller step, s.
+    modulator : mapping
+        The setting, e.g. ``{"type": "pwm", "f_w": 20.0}``.
+    controller : spa.closedloop.PIController
+    integral0 : float, default 0
+        The integrator at start.
+    rng : numpy.random.Generator, optional
+        Sensor noise (one draw of ``n`` normals); None: none.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t``, ``r``, ``p`` (what the controller read, bar gauge), ``valve``, ``u`` (``xi``)
+        and ``p_true`` (the chamber's gauge pressure, bar), one row per step.
+    """
+    from spa.closedloop.stepper import ControllerStepper
+
+    dt = _check_dt(plant, dt)
+    r = np.asarray(reference, dtype=np.float64)
+    n = r.size
+    stepper = ControllerStepper(modulator, controller, dt, integral0)
+    noisy = rng is not None and plant.noise > 0
+    noise = rng.normal(0.0, plant.noise, n) if noisy else np.zeros(n)
+    c = _constants(plant)
+    nsub = substeps(plant, dt)
+    x, qt, qv = np.zeros(8), np.zeros(QUEUE), np.zeros(QUEUE)
+    qi, d = np.zeros(2, dtype=np.int64), np.zeros(3)
+    _init(x, qi, 0.0, c, 0)
+    p_read, p_true, xi = np.zeros(n), np.zeros(n), np.zeros(n)
+    valve = np.zeros(n, dtype=np.int8)
+    w = 2.0 * math.pi * plant.mains_frequency
+    for k in range(n):
+        tk = k * dt
+        y = x[2] / _BAR
+        if plant.mains > 0:
+            y = y + plant.mains * math.sin(w * tk + plant.mains_phase)
+        y = y + noise[k]
+        if plant.quantum > 0:
+            y = round(y / plant.quantum) * plant.quantum
+        p_read[k], p_true[k] = y, (x[0] - c[0]) / _BAR
+        valve[k], xi[k] = stepper.step(r[k], y)
+        _command(x, qt, qv, qi, tk, int(valve[k]), c)
+        _advance(x, qt, qv, qi, tk, dt, nsub, c, d)
+    t = np.arange(n) * dt
+    return pd.DataFrame({"t": t, "r": r, "p": p_read, "valve": valve, "u": xi, "p_true": p_true})
