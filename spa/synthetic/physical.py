@@ -101,7 +101,7 @@ class PhysicalPlant:
     transit : float
         Spool transit time, s, in (0, 0.01]: the effective conductances change linearly.
     droop : float
-        Regulator sag per flow drawn, bar per (NL/s) (normal litres per second), in [0, 10].
+        Regulator sag per flow drawn, bar per (NL/s) (normal litres per second), in [0, 100].
     regulator_tau : float
         Regulator time constant, s, in [1e-4, 1].
     sensor_lag : float
@@ -208,7 +208,7 @@ _RANGES: dict[str, tuple[float, float, bool, str]] = {
     "t_open": (0.0, 0.1, False, "opening dead time, s"),
     "t_close": (0.0, 0.1, False, "closing dead time, s"),
     "transit": (0.0, 0.01, True, "spool transit time, s"),
-    "droop": (0.0, 10.0, False, "regulator sag, bar/(NL/s)"),
+    "droop": (0.0, 100.0, False, "regulator sag, bar/(NL/s)"),
     "regulator_tau": (1e-4, 1.0, False, "regulator time constant, s"),
     "sensor_lag": (0.0, 0.1, False, "sensor time constant, s"),
     "noise": (0.0, 1.0, False, "noise standard deviation, bar"),
@@ -432,7 +432,7 @@ def _init(x, qi, p0, c, u0):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _run(u, dt, nsub, every, c, p0, p_out, y_out):  # pragma: no cover (compiled)
+def _run(u, dt, nsub, every, c, p0, u0, p_out, y_out):  # pragma: no cover (compiled)
     """The open-loop run: command u[k] over [k*dt, (k+1)*dt); samples every `every` steps
     of the chamber's gauge pressure (p_out) and of the lagged sensor (y_out), Pa."""
     x = np.zeros(8)
@@ -440,7 +440,7 @@ def _run(u, dt, nsub, every, c, p0, p_out, y_out):  # pragma: no cover (compiled
     qv = np.zeros(QUEUE)
     qi = np.zeros(2, dtype=np.int64)
     d = np.zeros(3)
-    _init(x, qi, p0, c, u[0])
+    _init(x, qi, p0, c, u0)
     j = 0
     for k in range(u.size):
         tk = k * dt
@@ -520,6 +520,7 @@ def simulate_physical(
     p0: float = 0.0,
     rng: np.random.Generator | None = None,
     u: npt.ArrayLike | None = None,
+    settled: int | None = None,
     compiled: bool = True,
 ) -> pd.DataFrame:
     """Drive the physical plant with a valve command sampled at the controller step.
@@ -542,6 +543,9 @@ def simulate_physical(
         None: no noise.
     u : array_like, optional
         The input fraction at every step (copied into the table's ``u``, clipped to [0, 1]).
+    settled : {0, 1}, optional
+        The connection the valve rests at before ``t = 0`` (default ``valve[0]``: no edge at
+        the start, as the model's runs; :func:`closed_loop_physical` starts from 0).
     compiled : bool, default True
         False runs the same step as plain Python (slow; for the tests).
 
@@ -572,8 +576,12 @@ def simulate_physical(
     idx = np.arange(0, cmd.size, every)
     p_true = np.zeros(idx.size)
     lagged = np.zeros(idx.size)
+    start = int(cmd[0]) if settled is None else int(settled)
+    if start not in (0, 1):
+        raise ValueError(f"settled = {settled!r}: 0 or 1")
     run = _run if compiled else _run.py_func
-    run(cmd, dt, substeps(plant, dt), every, _constants(plant), p0 * _BAR, p_true, lagged)
+    c = _constants(plant)
+    run(cmd, dt, substeps(plant, dt), every, c, p0 * _BAR, start, p_true, lagged)
     p_true /= _BAR
     lagged /= _BAR
     t = idx * dt
