@@ -294,7 +294,7 @@ def test_harness_refuses_a_header_that_is_not_spas_or_another_step(tmp_path, fin
     bad.write_text("int main;")
     with pytest.raises(ValueError, match="not a spa controller header"):
         close_loop_in_c(bad, plant, [0.3], 1.0)
-    with pytest.raises(ValueError, match="steps every 0.001 s"):
+    with pytest.raises(ValueError, match=r"steps every 0\.001 s"):
         close_loop_in_c(header, plant, [0.3], 1.0, dt=0.002)
 
 
@@ -319,7 +319,8 @@ def test_a_physical_dataset_is_made_by_the_plant_and_carries_no_model_truth(tmp_
     }
     paths = generate_dataset("phys", cfg, experiments, 3, tmp_path)
     runs, metas = read_runs(tmp_path)
-    assert set(runs) == {"charge", "discharge", "pulse", "staircase_pwm-20Hz", "closed_loop_pwm-20Hz"}
+    modulated = {"staircase_pwm-20Hz", "closed_loop_pwm-20Hz"}
+    assert set(runs) == {"charge", "discharge", "pulse", *modulated}
     for rid, meta in metas.items():
         assert "truth" not in meta and not is_simulated(meta), rid
         assert meta["plant"]["supply"] == 1.5
@@ -341,9 +342,10 @@ def test_config_names_a_dataset_without_a_valve_and_a_sensor_set_twice():
     validate_config(cfg, "workflow/schemas/config.schema.yaml")
     assert {"phys-finger", "phys-choked", "phys-balloon"} <= set(cfg["simulated"])
     small = yaml.safe_load(open("config/small.yaml", encoding="utf-8"))
-    assert all(small["simulated"][k] is None for k in ("phys-finger", "phys-choked", "phys-balloon"))
+    names = ("phys-finger", "phys-choked", "phys-balloon")
+    assert all(small["simulated"][k] is None for k in names)
     del cfg["simulated"]["sim"]["params"]
-    with pytest.raises(ConfigError, match="simulated.sim: needs params or plant"):
+    with pytest.raises(ConfigError, match=r"simulated\.sim: needs params or plant"):
         validate_config(cfg, "workflow/schemas/config.schema.yaml")
     cfg = yaml.safe_load(open("config/config.yaml", encoding="utf-8"))
     cfg["simulated"]["phys-finger"]["sensor"]["noise"] = 0.01
