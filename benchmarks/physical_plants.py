@@ -1,0 +1,179 @@
+"""Identification, and a designed controller, on physical plants that are not the model.
+
+Draws ``--n`` plants with :func:`spa.synthetic.physical.random_plant` (supply 0.5-6 bar
+gauge, dead times 2-25 ms with opening != closing, 30-100 % volume growth over the range,
+sensor lag up to 5 ms; seeded), and for each:
+
+1. generates a dataset made by the plant: the identification experiments (durations from
+   ``spa.synthetic.identification_experiment_for`` on the plant's equivalent model) and a
+   staircase of the input fraction (0 -> 1 by 0.1, each level held ``max(3 s, 5 tau2)``)
+   through PWM 20 Hz, IIPFM 20 ms G 1.15 and DSM 20 ms, logged at 1 kHz;
+2. identifies the valve with today's identification (``config/config.yaml``'s
+   ``identification:``) from the charge, discharge and pulse runs;
+3. scores the identified model on each staircase (held out: identification never sees
+   them) with the FIT of ``validation/fit.csv``;
+4. with ``--closed-loop``: designs a fixed PI at the identified valve for PWM 20 Hz
+   (``spa.closedloop.export.export_designed``, levels at 20/40/60 % of the identified
+   supply), closes the exported ``controller.h`` on the plant in C
+   (``spa.synthetic.physical.close_loop_in_c``) and measures the staircase as spa measures
+   its own (``measure_staircase``): worst overshoot, unsettled steps, worst error and ripple.
+
+One CSV row per plant (its settings, its equivalent model, the identified parameters, each
+staircase's FIT and their median, the closed-loop outcome); a summary on stdout. Later it will
+also run the adequacy verdict, the closed-loop stage's promise and compare them with the
+outcome (issue targets: held-out median staircase FIT >= 85 %, promise kept on >= 90 % of
+plants, at most 10 % unverified).
+
+Run:  nice .venv/bin/python benchmarks/physical_plants.py [--n 20] [--seed 1]
+      [--closed-loop] [--csv /tmp/physplant/plants.csv]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from spa.identification import identify_with_config
+from spa.synthetic import Sensor, identification_experiment_for
+from spa.synthetic.physical import (
+    PHYSICAL_KEYS,
+    close_loop_in_c,
+    equivalent_params,
+    measure_staircase,
+    random_plant,
+)
+from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
+from spa.validation import validate_run
+
+ROOT = Path(__file__).resolve().parents[1]
+MODULATORS = (
+    {"type": "pwm", "f_w": 20.0},
+    {"type": "iipfm", "t_l": 0.020, "gain": 1.15},
+    {"type": "dsm", "period": 0.020},
+)
+DT = 1e-3
+NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
+
+
+def one_plant(index: int, seed: int, config: dict, closed_loop: bool) -> dict:
+    """Generate, identify and score one plant; a row of the table."""
+    rng = np.random.default_rng([seed, index])
+    plant = random_plant(rng)
+    eq = equivalent_params(plant, DT)
+    row: dict = {"plant": index, **{f"plant_{k}": getattr(plant, k) for k in PHYSICAL_KEYS}}
+    row.update({f"eq_{k}": getattr(eq, k) for k in NAMES})
+    hold = math.ceil(max(3.0, 5.0 * eq.tau2))
+    cfg = {
+        "controller_dt": DT,
+        "sensor": {"fs": 1000.0},
+        "plant": plant.to_mapping(),
+        "modulators": [dict(m) for m in MODULATORS],
+    }
+    experiments = {
+        "identification": identification_experiment_for(eq),
+        "staircase": {"step": 0.1, "hold": float(hold)},
+    }
+    start = time.perf_counter()
+    specs = dataset_runs(cfg, experiments)
+    sensor = Sensor(fs=1000.0)
+    runs = {
+        s.id: simulate_run(s, eq, DT, sensor, run_seed(seed, f"plant{index}", s.id), plant)
+        for s in specs
+    }
+    kinds = {s.id: s.kind for s in specs}
+    mods = {s.id: s.modulator for s in specs}
+    row["generate_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    try:
+        res = identify_with_config(runs, kinds, config, seed=seed)
+    except Exception as err:  # the benchmark reports every failure
+        row["error"] = f"{type(err).__name__}: {err}"
+        return row
+    row["error"] = ""
+    row["identify_s"] = time.perf_counter() - start
+    ident = res.to_valve_params()
+    row.update({k: getattr(ident, k) for k in NAMES})
+    fits = []
+    for rid, kind in kinds.items():
+        if kind == "staircase":
+            fit = validate_run(runs[rid], ident, mods[rid]).fit_percent
+            row[f"fit_{rid}"] = fit
+            fits.append(fit)
+    row["heldout_median_fit"] = float(np.median(fits))
+    if closed_loop:
+        row.update(_closed_loop(plant, ident, rng))
+    return row
+
+
+def _closed_loop(plant, ident, rng) -> dict:
+    """A fixed PI designed at the identified valve, exported and closed on the plant in C."""
+    from spa.closedloop.export import export_designed
+
+    levels = [round(f * ident.k2, 3) for f in (0.2, 0.4, 0.6)]
+    with tempfile.TemporaryDirectory(prefix="spa-bench-") as tmp:
+        try:
+            header, _ = export_designed(
+                tmp, ident, MODULATORS[0], controller="fixed", levels=levels
+            )
+            run = close_loop_in_c(header, plant, levels, 3.0, rng=rng)
+        except Exception as err:
+            return {"loop_error": f"{type(err).__name__}: {err}"}
+    _, summary = measure_staircase(run, 1.0 / MODULATORS[0]["f_w"])
+    return {"loop_error": "", **{f"loop_{k}": v for k, v in summary.items()}}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=20, help="plants drawn")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--closed-loop", action="store_true", help="also close a designed PI in C")
+    ap.add_argument("--csv", type=Path, default=None, help="per-plant table")
+    args = ap.parse_args(argv)
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    rows = []
+    for i in range(args.n):
+        row = one_plant(i, args.seed, config, args.closed_loop)
+        rows.append(row)
+        fit = row.get("heldout_median_fit", float("nan"))
+        print(
+            f"plant {i}: supply {row['plant_supply']:.2f} bar, dead times "
+            f"{1e3 * row['plant_t_open']:.1f}/{1e3 * row['plant_t_close']:.1f} ms; identified "
+            f"t_on/t_off {1e3 * row.get('t_on', math.nan):.1f}/"
+            f"{1e3 * row.get('t_off', math.nan):.1f} ms; held-out median FIT {fit:.1f} %"
+            + (f"; loop overshoot {row['loop_worst_overshoot']:.1f} %, "
+               f"{row['loop_unsettled']} unsettled" if "loop_worst_overshoot" in row else "")
+            + (f"; {row['error']}" if row.get("error") else ""),
+            flush=True,
+        )  # fmt: skip
+    table = pd.DataFrame(rows)
+    if args.csv is not None:
+        args.csv.parent.mkdir(parents=True, exist_ok=True)
+        table.to_csv(args.csv, index=False)
+    ok = table[table["error"] == ""]
+    print(f"\n{len(ok)} of {len(table)} plants identified")
+    if len(ok):
+        fits = ok["heldout_median_fit"]
+        print(
+            f"held-out staircase FIT, median over plants of each plant's median: "
+            f"{fits.median():.1f} % (>= 85 %: {100 * (fits >= 85).mean():.0f} % of plants)"
+        )
+    if "loop_worst_overshoot" in table:
+        loop = table[table.get("loop_error", "") == ""]
+        print(
+            f"closed loop (fixed PI from the identified valve, PWM 20 Hz, in C): median worst "
+            f"overshoot {loop['loop_worst_overshoot'].median():.1f} %, plants with an "
+            f"unsettled level {int((loop['loop_unsettled'] > 0).sum())} of {len(loop)}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
