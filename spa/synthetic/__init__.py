@@ -5,6 +5,10 @@ digital modulator clocked at the controller step, the valve + actuator (exact, f
 :func:`spa.simulate`), and a pressure sensor logged at its own rate with noise, ADC
 quantisation and optionally the short damped ringing the paper saw after each valve edge.
 The result is the canonical run table (``t`` s, ``p`` bar, ``valve`` 0/1, ``u`` 0–1).
+
+:mod:`~spa.synthetic.physical` is a test plant that is *not* the model (orifice flow, spool
+dead times, a compliant chamber, regulator droop, a lagging sensor; its twin in C): a
+dataset that declares ``plant: {kind: physical}`` has every run made by it.
 """
 
 from __future__ import annotations
