@@ -12,11 +12,12 @@ sensor lag up to 5 ms; seeded), and for each:
    ``identification:``) from the charge, discharge and pulse runs;
 3. scores the identified model on each staircase (held out: identification never sees
    them) with the FIT of ``validation/fit.csv``;
-4. with ``--closed-loop``: designs a fixed PI at the identified valve for PWM 20 Hz
-   (``spa.closedloop.export.export_designed``, levels at 20/40/60 % of the identified
-   supply), closes the exported ``controller.h`` on the plant in C
-   (``spa.synthetic.physical.close_loop_in_c``) and measures the staircase as spa measures
-   its own (``measure_staircase``): worst overshoot, unsettled steps, worst error and ripple.
+4. with ``--closed-loop``: designs a fixed PI at the identified valve for PWM (20 Hz, slower
+   when the identified delays need it; ``spa.closedloop.export.export_designed``, levels at
+   20/40/60 % of the identified supply that it holds), closes the exported ``controller.h``
+   on the plant in C (``spa.synthetic.physical.close_loop_in_c``) and measures the staircase
+   as spa measures its own (``measure_staircase``): worst overshoot, unsettled steps, worst
+   error and ripple.
 
 One CSV row per plant (its settings, its equivalent model, the identified parameters, each
 staircase's FIT and their median, the closed-loop outcome); a summary on stdout. Later it will
@@ -114,20 +115,30 @@ def one_plant(index: int, seed: int, config: dict, closed_loop: bool) -> dict:
 
 
 def _closed_loop(plant, ident, rng) -> dict:
-    """A fixed PI designed at the identified valve, exported and closed on the plant in C."""
+    """A fixed PI designed at the identified valve, exported and closed on the plant in C.
+
+    PWM at 20 Hz, or slower when the identified delays need it (``f_w <= 0.25/(t_on +
+    t_off)``); the levels 20/40/60 % of the identified supply that the setting holds on the
+    identified valve (``spa.closedloop.design.operating_levels``, spread when fewer fit).
+    """
+    from spa.closedloop.design import operating_levels
     from spa.closedloop.export import export_designed
 
-    levels = [round(f * ident.k2, 3) for f in (0.2, 0.4, 0.6)]
+    f_w = float(max(1, min(20, math.floor(0.25 / max(ident.t_on + ident.t_off, 1e-3)))))
+    setting = {"type": "pwm", "f_w": f_w}
+    wanted = [round(f * ident.k2, 3) for f in (0.2, 0.4, 0.6)]
+    levels, why = operating_levels(wanted, setting, ident, spread=True)
+    out: dict = {"loop_f_w": f_w, "loop_levels": str(levels)}
+    if why is not None:
+        return {**out, "loop_error": why}
     with tempfile.TemporaryDirectory(prefix="spa-bench-") as tmp:
         try:
-            header, _ = export_designed(
-                tmp, ident, MODULATORS[0], controller="fixed", levels=levels
-            )
+            header, _ = export_designed(tmp, ident, setting, controller="fixed", levels=levels)
             run = close_loop_in_c(header, plant, levels, 3.0, rng=rng)
         except Exception as err:
-            return {"loop_error": f"{type(err).__name__}: {err}"}
-    _, summary = measure_staircase(run, 1.0 / MODULATORS[0]["f_w"])
-    return {"loop_error": "", **{f"loop_{k}": v for k, v in summary.items()}}
+            return {**out, "loop_error": f"{type(err).__name__}: {err}"}
+    _, summary = measure_staircase(run, 1.0 / f_w)
+    return {**out, "loop_error": "", **{f"loop_{k}": v for k, v in summary.items()}}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -150,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{1e3 * row.get('t_off', math.nan):.1f} ms; held-out median FIT {fit:.1f} %"
             + (f"; loop overshoot {row['loop_worst_overshoot']:.1f} %, "
                f"{row['loop_unsettled']} unsettled" if "loop_worst_overshoot" in row else "")
+            + (f"; loop: {row['loop_error']}" if row.get("loop_error") else "")
             + (f"; {row['error']}" if row.get("error") else ""),
             flush=True,
         )  # fmt: skip
@@ -168,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     if "loop_worst_overshoot" in table:
         loop = table[table.get("loop_error", "") == ""]
         print(
-            f"closed loop (fixed PI from the identified valve, PWM 20 Hz, in C): median worst "
+            f"closed loop (fixed PI from the identified valve, PWM, in C): median worst "
             f"overshoot {loop['loop_worst_overshoot'].median():.1f} %, plants with an "
             f"unsettled level {int((loop['loop_unsettled'] > 0).sum())} of {len(loop)}"
         )

@@ -22,6 +22,7 @@ from spa.synthetic.physical import (
     close_loop_in_c,
     closed_loop_physical,
     equivalent_params,
+    header_setting,
     measure_staircase,
     random_plant,
     run_plant_in_c,
@@ -296,6 +297,9 @@ def test_harness_refuses_a_header_that_is_not_spas_or_another_step(tmp_path, fin
         close_loop_in_c(bad, plant, [0.3], 1.0)
     with pytest.raises(ValueError, match=r"steps every 0\.001 s"):
         close_loop_in_c(header, plant, [0.3], 1.0, dt=0.002)
+    assert header_setting(header) == {"type": "pwm", "f_w": 20.0}
+    with pytest.raises(ValueError, match="no 'Setting"):
+        header_setting(bad)
 
 
 # ---- datasets -------------------------------------------------------------------------------

@@ -22,7 +22,13 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-__all__ = ["c_plant_source", "close_loop_in_c", "measure_staircase", "run_plant_in_c"]
+__all__ = [
+    "c_plant_source",
+    "close_loop_in_c",
+    "header_setting",
+    "measure_staircase",
+    "run_plant_in_c",
+]
 
 #: Flags every compilation uses: ISO C, no fused multiply-add (the Python kernels have none).
 CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Wno-unused-function")
@@ -171,6 +177,32 @@ def _header_prefix(text: str) -> tuple[str, float]:
     if d is None:
         raise ValueError(f"controller header: no {prefix.upper()}_DT")
     return prefix, float(d.group(1))
+
+
+def header_setting(header_path: str | Path) -> dict[str, Any]:
+    """The modulator setting an exported header records (its ``Setting:`` comment line).
+
+    With :func:`spa.closedloop.experiments.cycle_period` it gives the window
+    :func:`measure_staircase` needs, e.g. ``1/f_w`` for PWM.
+
+    Raises
+    ------
+    ValueError
+        If the header has no readable ``Setting:`` line.
+    """
+    import ast
+
+    text = Path(header_path).read_text(encoding="utf-8")
+    m = re.search(r"^\s*\*\s*Setting:\s*(\{.*\})\s*$", text, flags=re.MULTILINE)
+    if m is None:
+        raise ValueError(f"{header_path}: no 'Setting: {{...}}' line in its comment")
+    try:
+        setting = ast.literal_eval(m.group(1))
+    except (ValueError, SyntaxError):
+        raise ValueError(f"{header_path}: unreadable setting {m.group(1)!r}") from None
+    if not isinstance(setting, dict) or "type" not in setting:
+        raise ValueError(f"{header_path}: the setting {setting!r} has no type")
+    return setting
 
 
 def close_loop_in_c(

@@ -50,6 +50,7 @@ __all__ = [
     "close_loop_in_c",
     "closed_loop_physical",
     "equivalent_params",
+    "header_setting",
     "measure_staircase",
     "random_plant",
     "run_plant_in_c",
@@ -739,6 +740,7 @@ def random_plant(rng: np.random.Generator) -> PhysicalPlant:
 from spa.synthetic._physical_c import (  # noqa: E402  (they use the plant above)
     c_plant_source,
     close_loop_in_c,
+    header_setting,
     measure_staircase,
     run_plant_in_c,
 )
