@@ -14,7 +14,8 @@ sensor lag up to 5 ms; seeded), and for each:
    them) with the FIT of ``validation/fit.csv``;
 4. with ``--closed-loop``: designs a fixed PI at the identified valve for PWM (20 Hz, slower
    when the identified delays need it; ``spa.closedloop.export.export_designed``, levels at
-   20/40/60 % of the identified supply that it holds), closes the exported ``controller.h``
+   20/40/60 % of the identified supply that it holds, each held as long as a staircase
+   level), closes the exported ``controller.h``
    on the plant in C (``spa.synthetic.physical.close_loop_in_c``) and measures the staircase
    as spa measures its own (``measure_staircase``): worst overshoot, unsettled steps, worst
    error and ripple.
@@ -110,11 +111,11 @@ def one_plant(index: int, seed: int, config: dict, closed_loop: bool) -> dict:
             fits.append(fit)
     row["heldout_median_fit"] = float(np.median(fits))
     if closed_loop:
-        row.update(_closed_loop(plant, ident, rng))
+        row.update(_closed_loop(plant, ident, rng, float(hold)))
     return row
 
 
-def _closed_loop(plant, ident, rng) -> dict:
+def _closed_loop(plant, ident, rng, hold: float) -> dict:
     """A fixed PI designed at the identified valve, exported and closed on the plant in C.
 
     PWM at 20 Hz, or slower when the identified delays need it (``f_w <= 0.25/(t_on +
@@ -134,7 +135,7 @@ def _closed_loop(plant, ident, rng) -> dict:
     with tempfile.TemporaryDirectory(prefix="spa-bench-") as tmp:
         try:
             header, _ = export_designed(tmp, ident, setting, controller="fixed", levels=levels)
-            run = close_loop_in_c(header, plant, levels, 3.0, rng=rng)
+            run = close_loop_in_c(header, plant, levels, hold, rng=rng)
         except Exception as err:
             return {**out, "loop_error": f"{type(err).__name__}: {err}"}
     _, summary = measure_staircase(run, 1.0 / f_w)
