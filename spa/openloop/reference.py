@@ -113,10 +113,10 @@ def reference_time_constant(
         saturation, where ``tau_m`` jumps with the last digit of ``t_off``: nominal IPFM
         10 ms gives 2.36 s, the identified valve NaN. The median does not move so.)
 
-    Raises
-    ------
-    ValueError
-        If no setting gives a finite ``tau_m`` at ``xi``.
+        When no setting gives a finite ``tau_m`` at ``xi`` (a valve whose identified delays
+        put every setting in its dead-zone there), the nearest input fraction on the grid
+        ``0.05, 0.10, ..., 0.95`` where one does is used; when none does anywhere, the
+        valve's own ``tau2``.
 
     Examples
     --------
@@ -125,15 +125,17 @@ def reference_time_constant(
     0.864
     """
     x = _checks.fraction("xi", xi)
-    taus = []
-    for mod in modulators:
-        setting = Modulator.from_mapping(mod)
-        a1, a2 = time_fractions(setting.kind, x, params, **setting.settings)
-        taus.append(float(time_constant(a1, a2, params)))
-    finite = [tau for tau in taus if np.isfinite(tau)]
-    if not finite:
-        raise ValueError(f"no setting has a finite tau_m (Eq. 9) at xi = {x:g}")
-    return float(np.median(finite))
+    settings = [Modulator.from_mapping(mod) for mod in modulators]
+    grid = np.round(np.arange(1, 20) * 0.05, 12)
+    for at in [x, *sorted(grid, key=lambda g: (abs(g - x), g))]:
+        taus = []
+        for setting in settings:
+            a1, a2 = time_fractions(setting.kind, float(at), params, **setting.settings)
+            taus.append(float(time_constant(a1, a2, params)))
+        finite = [tau for tau in taus if np.isfinite(tau)]
+        if finite:
+            return float(np.median(finite))
+    return float(params.tau2)
 
 
 def reference_run(run: pd.DataFrame, params: ValveParams, tau: float) -> pd.DataFrame:
