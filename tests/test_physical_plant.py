@@ -262,6 +262,12 @@ def test_exported_controller_closed_on_the_plant_in_c_tracks_the_staircase(finge
     assert summary["worst_error"] < 3.0, steps  # % of the step
     assert summary["worst_overshoot"] < 25.0, steps
     assert 0.0 < summary["worst_ripple_pp"] < 0.1
+    # started settled at the first level, as spa's stage measures: four steps, not five
+    led = close_loop_in_c(header, plant, [0.2, 0.4, 0.6], 3.0, lead=2.0)
+    assert len(led) == 2000 + 5 * 3000
+    steps4, led_summary = measure_staircase(led, 1 / 20.0, skip=2.0, r_initial=0.2)
+    assert led_summary["steps"] == 4 and steps4["t0"].iloc[0] == pytest.approx(5.0)
+    assert led_summary["unsettled"] == 0, steps4
     # the C loop and the Python loop are the same loop: same commands, same pressures
     from spa.closedloop import PIController
 

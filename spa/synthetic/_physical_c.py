@@ -212,6 +212,7 @@ def close_loop_in_c(
     hold: float,
     dt: float | None = None,
     *,
+    lead: float = 0.0,
     integral0: float = 0.0,
     rng: np.random.Generator | None = None,
     cc: str = "cc",
@@ -220,9 +221,11 @@ def close_loop_in_c(
 
     The set-points go up through ``setpoints`` and back down (each held ``hold`` s, as
     :func:`spa.closedloop.experiments.staircase_reference`), from rest at 0 bar with the
-    exhaust open. Every controller step ``k``: the sensor is read at ``t_k`` (the lagged
-    pressure, the mains pickup, noise from ``rng``, the ADC step), ``<prefix>_step`` gives
-    the command, the plant integrates over the step with it.
+    exhaust open, after ``lead`` s at the first set-point (to start the staircase settled,
+    as spa's closed-loop stage does: measure with ``measure_staircase(run, period,
+    skip=lead, r_initial=setpoints[0])``). Every controller step ``k``: the sensor is read
+    at ``t_k`` (the lagged pressure, the mains pickup, noise from ``rng``, the ADC step),
+    ``<prefix>_step`` gives the command, the plant integrates over the step with it.
 
     Parameters
     ----------
@@ -234,6 +237,8 @@ def close_loop_in_c(
         The staircase's levels, bar gauge (at least one).
     hold : float
         Seconds at each level.
+    lead : float, default 0
+        Seconds at the first level before the staircase (its time stamps start at 0 s).
     dt : float, optional
         Controller step, s; must equal the header's ``<PREFIX>_DT`` (its value by default).
     integral0 : float, default 0
@@ -275,7 +280,10 @@ def close_loop_in_c(
         raise ValueError(f"setpoints: finite levels >= 0 bar, got {list(setpoints)}")
     if not (math.isfinite(hold) and hold >= 2 * dt):
         raise ValueError(f"hold = {hold!r} s: at least two controller steps")
-    r = staircase_reference(levels, float(hold), dt)
+    if not (math.isfinite(lead) and lead >= 0):
+        raise ValueError(f"lead = {lead!r} s: finite and >= 0")
+    first = np.full(round(lead / dt), levels[0])
+    r = np.concatenate([first, staircase_reference(levels, float(hold), dt)])
     n = r.size
     noise = (
         rng.normal(0.0, plant.noise, n) if (rng is not None and plant.noise > 0) else np.zeros(n)
@@ -307,7 +315,12 @@ def close_loop_in_c(
 
 
 def measure_staircase(
-    run: pd.DataFrame, period: float, *, column: str = "p", r_initial: float = 0.0
+    run: pd.DataFrame,
+    period: float,
+    *,
+    column: str = "p",
+    r_initial: float = 0.0,
+    skip: float = 0.0,
 ) -> tuple[pd.DataFrame, dict[str, float]]:
     """Measure a closed-loop staircase as spa measures its own (:mod:`spa.closedloop.metrics`).
 
@@ -323,6 +336,8 @@ def measure_staircase(
         Which pressure: ``p`` (what the sensor logged) or ``p_true``.
     r_initial : float, default 0
         The pressure before the first step (0: from rest).
+    skip : float, default 0
+        Seconds left out at the start (a ``lead`` of :func:`close_loop_in_c`).
 
     Returns
     -------
@@ -341,6 +356,7 @@ def measure_staircase(
     if column not in run:
         raise ValueError(f"run has no column {column!r}")
     table = run[["t", "r", "valve"]].assign(p=run[column].to_numpy(np.float64))
+    table = table[table["t"] >= table["t"].iloc[0] + skip - 1e-12].reset_index(drop=True)
     steps = step_metrics(table, period, r_initial=r_initial)
     size = (steps["r1"] - steps["r0"]).abs()
     err = 100.0 * steps["steady_state_error"].abs() / size
