@@ -209,7 +209,8 @@ def _evaluate(
     rows: list[dict[str, Any]] = []
     step_rows = []
     for experiment, frame in (("staircase", stair), ("steps", step_set)):
-        for row in _summary(frame, STEP_METRICS):
+        measured = frame.assign(end_error=end_error(frame))
+        for row in _summary(measured, (*STEP_METRICS, "end_error")):
             rows.append({**base, "experiment": experiment, **row})
         step_rows.append(frame.assign(experiment=experiment, **base))
     for metric, value in sine.items():
@@ -469,20 +470,45 @@ def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> flo
     return float(sel["max"].iloc[0]) if len(sel) else math.nan
 
 
+#: A step is settled when its mean pressure over the last quarter of the step is within
+#: this share of the step, %.
+SETTLED = 2.0
+
+
+def end_error(steps: pd.DataFrame) -> np.ndarray:
+    """Each step's steady-state error in % of its size: ``100*|sse|/|r1 - r0|``.
+
+    Examples
+    --------
+    >>> e = end_error(pd.DataFrame({"r0": [0.1, 0.4], "r1": [0.4, 0.1],
+    ...                             "steady_state_error": [0.003, -0.0015]}))
+    >>> e.round(9).tolist()
+    [1.0, 0.5]
+    """
+    size = np.abs(steps["r1"].to_numpy(np.float64) - steps["r0"].to_numpy(np.float64))
+    sse = np.abs(steps["steady_state_error"].to_numpy(np.float64))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(size > 0.0, 100.0 * sse / size, np.nan)
+
+
 def _settled(table: pd.DataFrame, label: str, controller: str) -> bool:
-    """Every staircase step of the loop settles within 2 % before its level ends."""
+    """Every staircase step of the loop ends within :data:`SETTLED` % of its size (the mean
+    pressure over the last quarter of the step, as a bench measures it)."""
     sel = table[
         (table.modulator == label)
         & (table.controller == controller)
         & (table.experiment == "staircase")
-        & (table.metric == "settling_time")
+        & (table.metric == "end_error")
     ]
-    return bool(len(sel)) and int(sel["n_missing"].iloc[0]) == 0
+    if not len(sel) or int(sel["n_missing"].iloc[0]) != 0:
+        return False
+    return bool(float(sel["max"].iloc[0]) <= SETTLED)
 
 
 def _meets(table: pd.DataFrame, label: str, controller: str, limit: float) -> bool:
-    """The loop overshoots at most ``limit`` % over the staircase AND every step settles:
-    a longer ``tau_c`` that trades overshoot for a loop that never settles does not meet."""
+    """The loop overshoots at most ``limit`` % over the staircase AND every step ends within
+    2 % of its size (:func:`_settled`): a longer ``tau_c`` that trades overshoot for a loop
+    that never settles does not meet."""
     over = _worst(table, label, controller, "overshoot")
     return bool(math.isfinite(over) and over <= limit and _settled(table, label, controller))
 
