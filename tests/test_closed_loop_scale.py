@@ -109,3 +109,17 @@ def test_header_comment_lists_lpwm_constants():
     ctrl = design_pi(mod, BIG, levels=[1.0, 2.0, 3.0])["fixed"]
     text = controller_header(mod, ctrl, 1e-3)
     assert "Inverted valve (the identified one): c1 = 0.2, k2 = 4, tau2 = 1.2" in text
+
+
+def test_a_high_supply_valve_judges_every_setting_on_the_same_pressures():
+    # on main, PWM was judged on 0.05-0.75 bar and IIPFM G 1.15 on its own 1.6-4.8 bar
+    valve = ValveParams(c1=1.0, k2=5.5, tau2=1.0, t_on=0.002, t_off=0.01)
+    settings = [{"type": "pwm", "f_w": 20.0}, {"type": "iipfm", "t_l": 0.02, "gain": 1.15}]
+    cfg = {**QUICK, "sine": {**QUICK["sine"], "offset": 2.5, "amplitude": 0.5}}
+    res = closed_loop(valve, settings, None, cfg)
+    ctl = res.controllers
+    pwm, iipfm = (ctl["controllers"][k]["levels"] for k in ("pwm-20Hz", "iipfm-20ms-G1.15"))
+    assert pwm == iipfm == ctl["levels"]
+    assert min(pwm) > ctl["held_range"]["iipfm-20ms-G1.15"][0]  # IIPFM cannot go lower
+    if ctl.get("setting", {}).get("type") == "iipfm":
+        assert "cannot hold below" in res.sentence

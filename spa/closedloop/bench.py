@@ -496,6 +496,7 @@ TABLE_ROWS: dict[str, tuple[tuple[str, str], ...]] = {
     "box_95": (
         ("worst_rise_time", "rise_time"),
         ("worst_overshoot", "overshoot"),
+        ("worst_settling_time", "settling_time"),
         ("worst_steady_state_error", "steady_state_error"),
         ("worst_ripple_pp", "ripple_pp"),
         ("worst_ripple_rms", "ripple_rms"),
