@@ -352,16 +352,22 @@ def bench_outputs(
         ),
     }
     settle = worst.get("settling_time", math.nan)
-    note = (
-        f"The closed_loop stage's choice (controllers.yaml), shipped at tau_c = {shipped_tau:g} s; "
-        + (
-            f"promise over the 95 % box and the measured model error ({rd.n_corners} corners): "
-            f"overshoot <= {worst['overshoot']:.1f} %, every level within 2 % by the end of "
-            "its hold" + (f", settling <= {settle:.2f} s." if math.isfinite(settle) else ".")
-            if rd.tau_c_robust is not None
-            else "no promise: no tau_c tried kept the overshoot and settling over the box."
+    if rd.tau_c_robust is not None:
+        stairs = ", ".join(f"{v:.4g}" for v in own)
+        note = (
+            f"The closed_loop stage's choice (controllers.yaml), shipped at tau_c = "
+            f"{shipped_tau:g} s; promise over the 95 % box and the measured model error "
+            f"({rd.n_corners} corners), staircase {stairs} bar up then down, each level held "
+            f"{summary['promise']['hold']:.1f} s: overshoot <= {worst['overshoot']:.1f} %, "
+            "every level within 2 % of its step by the end of its hold, ripple <= "
+            f"{worst['ripple_pp'] * 1e3:.1f} mbar peak-to-peak"
+            + (f", settling <= {settle:.2f} s." if math.isfinite(settle) else ".")
         )
-    )
+    else:
+        note = (
+            f"The closed_loop stage's choice (controllers.yaml), tau_c = {shipped_tau:g} s; "
+            "no promise: no tau_c tried kept the overshoot and settling over the box."
+        )
     header = controller_header(mod, ctrl, dt, note=note)
     plain = _plain(summary)
     plain["verified"] = bool(verified)
@@ -448,10 +454,9 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
         if math.isfinite(settle):
             text += f", settling (2 %) ≤ {settle:.2f} s"
         elif math.isfinite(ripple):
-            text += (
-                ", though its cycle-mean pressure does not stay within 2 % on every level "
-                f"(ripple ≤ {ripple * 1e3:.0f} mbar peak-to-peak)"
-            )
+            text += ", though its cycle-mean pressure does not stay within 2 % on every level"
+        if math.isfinite(ripple):
+            text += f", ripple ≤ {ripple * 1e3:.0f} mbar peak-to-peak"
     elif promise:
         text += (
             f". No promise: no τ_c tried keeps the overshoot within {limit:.3g} % with every "
