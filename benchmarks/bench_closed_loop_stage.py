@@ -50,7 +50,8 @@ def main(argv: list[str] | None = None) -> int:
     result = closed_loop(valve.params, selected, rec, c)
     t1 = time.process_time()
     runs, metas = read_runs(d / "runs")
-    error = dataset_error(runs, metas, valve.params, identified)
+    with_ff = result.controllers.get("controller") == "scheduled_ff"
+    error = dataset_error(runs, metas, valve.params, identified, equilibrium=with_ff)
     t2 = time.process_time()
     bench_outputs(
         result,

@@ -3,12 +3,15 @@
 Per staircase level of every recorded open-loop staircase, the measured mean pressure over
 the last part of the level is compared with the identified model's (the exact model driven
 by the recorded valve command): the *equilibrium error* ``p_meas/p_model - 1`` per level and
-the *gain error* ``dp_meas/dp_model - 1`` per step between levels (:func:`level_errors`).
-:func:`error_intervals` turns them, with the spread of the valve delays between delay
-conventions (``params.yaml``'s ``delay_convention``), into intervals of the valve parameters:
-the supply ``k2`` scaled by the extreme relative errors (``P_eq`` and its slope scale with
-``k2``), ``t_on`` and ``t_off`` over every convention's value. :func:`widen` merges them with
-the identification's 95 % box, so that the closed loop's promise is the worst over both.
+the *gain error* per step between levels, the measured slope ``dp/dxi`` over the model's at
+the same pressure, less 1 (:func:`level_errors`). The equilibrium error shifts the input
+that holds a pressure, which the PI's integrator removes; the gain error changes the loop
+gain. :func:`error_intervals` turns the gain errors, with the spread of the valve delays
+between delay conventions (``params.yaml``'s ``delay_convention``), into intervals of the
+valve parameters: the supply ``k2`` scaled by the extreme gain errors (the slope of ``P_eq``
+scales with ``k2``), ``t_on`` and ``t_off`` over every convention's value. :func:`widen`
+merges them with the identification's 95 % box, so that the closed loop's promise is the
+worst over both.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ __all__ = [
     "dataset_error",
     "error_intervals",
     "level_errors",
+    "same_pressure_gain_error",
     "widen",
 ]
 
@@ -69,8 +73,9 @@ def level_errors(
     pandas.DataFrame
         :data:`LEVEL_COLUMNS`, one row per level: ``xi``, the measured and predicted mean
         pressure (bar), ``error = p_meas - p_model`` (bar), ``rel_error = p_meas/p_model - 1``
-        (NaN where ``p_model < 0.2 k2``) and ``gain_error = dp_meas/dp_model - 1`` from the
-        previous level (NaN for the first level and steps below ``0.05 k2``).
+        (NaN where ``p_model < 0.2 k2``) and ``gain_error``, the measured slope
+        ``dp/dxi`` from the previous level over the model's slope at the same pressure, less
+        1 (:func:`same_pressure_gain_error`; NaN for the first level and small steps).
 
     Examples
     --------
@@ -114,9 +119,59 @@ def level_errors(
     with np.errstate(divide="ignore", invalid="ignore"):
         level_floor = MIN_LEVEL_FRACTION * params.k2
         out["rel_error"] = np.where(pp >= level_floor, pm / pp - 1.0, np.nan)
-        dm, dp = np.diff(pm, prepend=np.nan), np.diff(pp, prepend=np.nan)
-        out["gain_error"] = np.where(np.abs(dp) >= floor, dm / dp - 1.0, np.nan)
+    out["gain_error"] = same_pressure_gain_error(out["xi"].to_numpy(np.float64), pm, pp, floor)
     return out[list(LEVEL_COLUMNS)]
+
+
+def same_pressure_gain_error(
+    xi: np.ndarray, p_meas: np.ndarray, p_model: np.ndarray, floor: float
+) -> np.ndarray:
+    """The static gain's error where the loop works: at the same pressure, not the same
+    input.
+
+    For level ``i`` (after level ``i - 1``), the measured slope
+    ``(p_meas[i] - p_meas[i-1])/(xi[i] - xi[i-1])`` is compared with the model's slope on the
+    segment of its own curve ``(xi, p_model)`` that contains the step's middle pressure
+    (a loop holding that pressure sees the model's gain there, whatever input it takes).
+
+    Parameters
+    ----------
+    xi, p_meas, p_model : numpy.ndarray
+        The levels' input fractions and mean pressures, in the run's order.
+    floor : float
+        Steps (measured, and the model's segment) smaller than this, bar, give NaN.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``slope_meas/slope_model - 1`` per level; NaN where undefined.
+
+    Examples
+    --------
+    >>> xi = np.array([0.2, 0.4, 0.6, 0.8])
+    >>> same_pressure_gain_error(xi, 0.5 * xi + 0.2, xi, 0.01).round(6).tolist()  # half as steep
+    [nan, -0.5, -0.5, -0.5]
+    >>> bool(np.allclose(same_pressure_gain_error(xi, xi + 0.1, xi, 0.01)[1:3], 0.0))  # offset
+    True
+    """
+    out = np.full(xi.size, np.nan)
+    order = np.argsort(xi, kind="stable")
+    x_m, p_m = xi[order], p_model[order]
+    rising = np.concatenate(([True], np.diff(p_m) > 0.0))
+    x_m, p_m = x_m[rising], p_m[rising]
+    for i in range(1, xi.size):
+        dx, dpm = xi[i] - xi[i - 1], p_meas[i] - p_meas[i - 1]
+        if dx == 0.0 or abs(dpm) < floor:
+            continue
+        mid = 0.5 * (p_meas[i] + p_meas[i - 1])
+        k = int(np.searchsorted(p_m, mid))
+        if k <= 0 or k >= p_m.size:
+            continue  # the model never reaches that pressure: no slope to compare
+        seg = p_m[k] - p_m[k - 1]
+        if seg < floor:
+            continue
+        out[i] = (dpm / dx) / (seg / (x_m[k] - x_m[k - 1])) - 1.0
+    return out
 
 
 def _delays(identified: Mapping[str, Any] | None) -> dict[str, list[float]]:
@@ -140,7 +195,11 @@ def _delays(identified: Mapping[str, Any] | None) -> dict[str, list[float]]:
 
 
 def error_intervals(
-    levels: pd.DataFrame, params: ValveParams, identified: Mapping[str, Any] | None = None
+    levels: pd.DataFrame,
+    params: ValveParams,
+    identified: Mapping[str, Any] | None = None,
+    *,
+    equilibrium: bool = False,
 ) -> dict[str, tuple[float, float]]:
     """The valve parameters' ranges that cover the measured model error.
 
@@ -153,12 +212,15 @@ def error_intervals(
     identified : mapping, optional
         ``params.yaml``'s content; its ``delay_convention`` (``hold`` and ``transport``
         ``t_on``/``t_off``) widens the delays.
+    equilibrium : bool, default False
+        Also widen ``k2`` by the relative equilibrium errors: for a loop with the averaged
+        model's feed-forward, whose input then holds a different pressure.
 
     Returns
     -------
     dict
-        ``k2 -> (k2*(1 + e_lo), k2*(1 + e_hi))`` with ``e`` over every finite relative
-        equilibrium and gain error and 0 (clipped to ±:data:`MAX_RELATIVE_ERROR`), and
+        ``k2 -> (k2*(1 + e_lo), k2*(1 + e_hi))`` with ``e`` over every finite gain error
+        and 0 (clipped to ±:data:`MAX_RELATIVE_ERROR`), and
         ``t_on``/``t_off -> (min, max)`` over the estimate and the conventions' values, where
         they differ from the estimate.
 
@@ -168,14 +230,21 @@ def error_intervals(
     >>> iv = error_intervals(lv, ValveParams(k2=1.0), {"delay_convention": {
     ...     "hold": {"t_on": 0.003, "t_off": 0.01}, "transport": {"t_on": 0.005, "t_off": 0.0}}})
     >>> [(k, tuple(round(x, 4) for x in v)) for k, v in iv.items()]
-    [('k2', (0.98, 1.1)), ('t_on', (0.003, 0.005)), ('t_off', (0.0, 0.01))]
+    [('k2', (1.0, 1.1)), ('t_on', (0.003, 0.005)), ('t_off', (0.0, 0.01))]
+    >>> error_intervals(lv, ValveParams(k2=1.0), equilibrium=True)["k2"]
+    (0.98, 1.1)
     """
     out: dict[str, tuple[float, float]] = {}
     errs = np.concatenate(
-        [levels[c].to_numpy(np.float64) for c in ("rel_error", "gain_error") if c in levels.columns]
+        [
+            levels[c].to_numpy(np.float64)
+            for c in (("gain_error", "rel_error") if equilibrium else ("gain_error",))
+            if c in levels.columns
+        ]
         or [np.empty(0)]
     )
     errs = np.clip(errs[np.isfinite(errs)], -MAX_RELATIVE_ERROR, MAX_RELATIVE_ERROR)
+    errs = np.where(np.abs(errs) < 1e-6, 0.0, errs)  # rounding, not model error
     if errs.size:
         lo, hi = min(float(errs.min()), 0.0), max(float(errs.max()), 0.0)
         if hi > lo:
@@ -212,6 +281,8 @@ def dataset_error(
     metas: Mapping[str, Mapping[str, Any]],
     params: ValveParams,
     identified: Mapping[str, Any] | None = None,
+    *,
+    equilibrium: bool = False,
 ) -> dict[str, tuple[float, float]]:
     """:func:`error_intervals` over every ``staircase`` run of a dataset.
 
@@ -223,6 +294,8 @@ def dataset_error(
         The identified valve.
     identified : mapping, optional
         ``params.yaml``'s content (its ``delay_convention``).
+    equilibrium : bool, default False
+        As :func:`error_intervals`.
 
     Returns
     -------
@@ -235,4 +308,4 @@ def dataset_error(
         if meta.get("kind") == "staircase" and rid in runs
     ]
     frame = pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
-    return error_intervals(frame, params, identified)
+    return error_intervals(frame, params, identified, equilibrium=equilibrium)
