@@ -209,27 +209,67 @@ def _design_pi(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def stage_choice(params_path: str | Path) -> dict[str, Any] | None:
+    """The ``closed_loop`` stage's ``controllers.yaml`` for a ``params.yaml`` inside a
+    results folder (``<ds>/identification/params.yaml`` -> ``<ds>/closed_loop/``, or beside
+    it), or None when there is none."""
+    import yaml
+
+    here = Path(params_path).resolve().parent
+    for folder in (here.parent / "closed_loop", here):
+        path = folder / "controllers.yaml"
+        if path.is_file():
+            data = yaml.safe_load(path.read_text(encoding="utf-8"))
+            return data if isinstance(data, dict) else None
+    return None
+
+
 def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
     from spa.closedloop.describe import parse_modulator_spec
     from spa.closedloop.export import export_designed
+    from spa.model.modulators import Modulator
     from spa.tuning.stage import read_identified
 
     try:
-        mod = parse_modulator_spec(args.modulator)
-        levels = [float(v) for v in args.levels.split(",")] if args.levels else None
+        valve = read_identified(str(args.params)).params
+        stage = stage_choice(args.params) or {}
+        chosen = (
+            Modulator.from_mapping(stage["setting"]).bind(valve) if "setting" in stage else None
+        )
+        if args.modulator:
+            mod = parse_modulator_spec(args.modulator).bind(valve)
+        elif chosen is not None:
+            mod = chosen
+        else:
+            raise ValueError(
+                "--modulator is needed: no closed_loop/controllers.yaml with a chosen setting "
+                f"beside {args.params}"
+            )
+        controller = args.controller or str(stage.get("controller") or "scheduled_ff")
+        tau_c, levels = args.tau_c, None
+        if args.levels:
+            levels = [float(v) for v in args.levels.split(",")]
+        same = chosen is not None and mod.to_mapping() == chosen.to_mapping()
+        if same:
+            promise = (stage.get("bench") or {}).get("promise") or {}
+            entry = (stage.get("controllers") or {}).get(mod.label) or {}
+            if tau_c is None:
+                tau_c = promise.get("tau_c", stage.get("tau_c"))
+            if levels is None and entry.get("levels"):
+                levels = [float(v) for v in entry["levels"]]
         header, sketch = export_designed(
             args.out,
-            read_identified(str(args.params)).params,
+            valve,
             mod,
-            controller=args.controller,
-            tau_c=args.tau_c,
+            controller=controller,
+            tau_c=TAU_C if tau_c is None else float(tau_c),
             levels=levels,
             dt=args.dt,
         )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)
         return 1
-    print(f"wrote {header} and {sketch}", file=out)
+    print(f"wrote {header} and {sketch} ({mod.label}, {controller} PI)", file=out)
     return 0
 
 
@@ -398,7 +438,11 @@ def _parser() -> argparse.ArgumentParser:
         help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20",
     )
     p.add_argument("--tau-c", type=float, default=TAU_C, help="closed-loop time constant, s")
-    p.add_argument("--levels", metavar="R1,R2,...", help="set-points, bar (default 0.05-0.75)")
+    p.add_argument(
+        "--levels",
+        metavar="R1,R2,...",
+        help="set-points, bar (default: fractions 0.1-0.8 of k2 that the setting holds)",
+    )
     p.add_argument("--json", action="store_true", help="print JSON for scripts")
     p.set_defaults(func=_design_pi)
     p = sub.add_parser(
@@ -412,18 +456,31 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("params", metavar="PARAMS.yaml", help="identified parameters")
     p.add_argument(
         "--modulator",
-        required=True,
         metavar="KIND:NAME=VALUE,...",
-        help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20",
+        help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20 (default: the closed_loop "
+        "stage's choice when PARAMS.yaml is in a results folder); an LPWM without its "
+        "valve inverts the valve of PARAMS.yaml",
     )
     p.add_argument(
         "--controller",
         choices=["fixed", "scheduled", "scheduled_ff"],
-        default="scheduled_ff",
-        help="which design (default scheduled_ff: gain-scheduled with feed-forward)",
+        default=None,
+        help="which design (default: the closed_loop stage's choice when PARAMS.yaml is in "
+        "a results folder, else scheduled_ff: gain-scheduled with feed-forward)",
     )
-    p.add_argument("--tau-c", type=float, default=0.2, help="closed-loop time constant, s")
-    p.add_argument("--levels", metavar="R1,R2,...", help="set-points, bar (default 0.05-0.75)")
+    p.add_argument(
+        "--tau-c",
+        type=float,
+        default=None,
+        help="closed-loop time constant, s (default: the stage's shipped one for its "
+        "chosen setting, else 0.2)",
+    )
+    p.add_argument(
+        "--levels",
+        metavar="R1,R2,...",
+        help="set-points, bar (default: the stage's for its chosen setting, else spread "
+        "over the range the setting holds)",
+    )
     p.add_argument("--dt", type=float, default=0.001, help="controller step, s")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.set_defaults(func=_export_controller)

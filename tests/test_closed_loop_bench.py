@@ -16,6 +16,7 @@ from spa.closedloop.bench import (
     ROBUST_COLUMNS,
     apply_bench,
     bench_outputs,
+    bench_sentence,
     sensor_noise,
 )
 from spa.closedloop.controller import PIController
@@ -28,7 +29,6 @@ from spa.stages.closed_loop import write_closed_loop
 SELECTED = [{"type": "pwm", "f_w": 20.0}, {"type": "iipfm", "t_l": 0.02, "gain": 1.15}]
 CFG = {
     "levels": [0.1, 0.4, 0.7],
-    "hold": 1.5,
     "step_hold": 1.0,
     "sine": {"offset": 0.4, "amplitude": 0.1, "frequency": 0.5, "duration": 4.0, "skip": 1.0},
 }
@@ -145,3 +145,81 @@ def test_table_csv_holds_the_box_worst_case_and_the_disturbances(staged):
     drop = t[(t.experiment == "supply_drop") & (t.metric == "dip")]
     assert set(drop.modulator) == set(bench.robust.modulator)
     assert set(t[t.experiment == "sensor_noise"].metric) == {"added_ripple_rms", "added_ripple_pp"}
+
+
+ONE = {
+    "levels": [0.2, 0.5],
+    "step_hold": 1.0,
+    "sine": {"offset": 0.35, "amplitude": 0.1, "frequency": 0.5, "duration": 3.0, "skip": 1.0},
+}
+INADEQUATE = {
+    "threshold": 80.0,
+    "noise_ceiling_fit": 97.0,
+    "heldout_fit": {"median": 70.0, "per_modulator": {"iipfm": 62.0}},
+    "insample_fit": {"median": 90.0, "per_modulator": {"iipfm": 88.0}},
+    "worst_run": {"run": "stair_pwm20", "fit": 62.0},
+    "adequate": False,
+    "measured_modulators": ["iipfm"],
+    "sentence": "The model does not describe this valve well enough.",
+}
+
+
+@pytest.fixture(scope="module")
+def one():
+    return closed_loop(ValveParams(), SELECTED[1:], None, ONE)
+
+
+def _text_is_clean(text: str) -> None:
+    assert "nan" not in text.lower().split() and " nan" not in text and "inf " not in text
+
+
+def test_adequacy_is_copied_and_an_inadequate_model_is_unverified(one):
+    bench = bench_outputs(one, ValveParams(), None, ONE, 0.004, adequacy=INADEQUATE)
+    assert bench.summary["adequacy"] == INADEQUATE
+    assert bench.summary["verified"] is False
+    assert "does not describe this valve well enough" in bench.sentence
+    assert "stair_pwm20" in bench.sentence and "unverified" in bench.sentence
+    _text_is_clean(bench.sentence)
+    res = ClosedLoopResult(one.table.copy(), one.steps, one.traces, dict(one.controllers))
+    apply_bench(res, bench)
+    assert res.controllers["verified"] is False and res.controllers["adequacy"] == INADEQUATE
+
+
+def test_unmeasured_modulator_and_unassessed_adequacy(one):
+    other = {**INADEQUATE, "adequate": True, "measured_modulators": ["pwm", "dsm"]}
+    bench = bench_outputs(one, ValveParams(), None, ONE, 0.004, adequacy=other)
+    assert bench.summary["verified"] is False
+    assert "not measured with this modulator on this bench" in bench.sentence
+    plain = bench_outputs(one, ValveParams(), None, ONE, 0.004)
+    assert plain.summary["adequacy"] is None
+    assert "adequacy not assessed" in plain.sentence
+    assert plain.summary["verified"] is plain.summary["promise"]["kept"]
+
+
+def test_the_promise_covers_the_measured_model_error(one):
+    narrow = bench_outputs(one, ValveParams(), None, ONE, 0.004)
+    error = {"k2": (0.7, 0.95), "t_on": (0.001, 0.008)}
+    wide = bench_outputs(one, ValveParams(), None, ONE, 0.004, model_error=error)
+    assert wide.summary["box"]["k2"] == [0.7, 0.95]
+    assert wide.summary["n_corners"] == 4 and narrow.summary["n_corners"] == 0
+    assert wide.summary["worst_overshoot"] >= narrow.summary["worst_overshoot"]
+    promise = wide.summary["promise"]
+    if promise["kept"]:
+        # the header ships the loop the promise is about, and the promise meets the limit
+        assert promise["overshoot"] <= wide.summary["max_overshoot"]
+        assert f"tau_c = {promise['tau_c']:g} s" in wide.header
+        assert f"τ_c = {promise['tau_c']:.3g} s" in wide.sentence
+    margins = wide.summary["margins"]
+    assert margins["gain_margin"] > 1.0 and margins["delay_margin"] > 0.0
+    _text_is_clean(wide.sentence)
+
+
+def test_sentence_never_prints_nan():
+    text = bench_sentence({"n_corners": 4, "tau_c": 0.2, "worst_rise_time": None,
+                           "worst_overshoot": None, "recovery_time": None, "dip": None,
+                           "noise": None, "added_ripple_rms": None, "drop_level": None,
+                           "promise": {"kept": True, "tau_c": 0.3, "hold": 2.0,
+                                       "overshoot": 4.0, "settling_time": None,
+                                       "ripple_pp": 0.01}})  # fmt: skip
+    _text_is_clean(text)
+    assert "does not reach 90 %" in text and "ripple ≤ 10 mbar" in text

@@ -18,6 +18,7 @@ from spa.closedloop.robust import (
     robust_design,
     worst_of_steps,
 )
+from spa.closedloop.stage import level_hold
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -28,7 +29,8 @@ PWM = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
 IIPFM = Modulator.from_mapping({"type": "iipfm", "t_l": 0.02, "gain": 1.15})
 # A box far wider than an identification gives: fast, weakly exhausting valves with long
 # delays, where the fixed PI designed at the estimate overshoots.
-WIDE = {"tau2": (0.3, 0.826), "c1": (0.533, 1.2), "t_off": (0.01, 0.05)}
+WIDE = {"tau2": (0.3, 0.826), "c1": (0.533, 1.2), "t_off": (0.01, 0.02)}
+WIDE_LEVELS = [0.1, 0.4, 0.6]
 
 
 def test_lengthen_tau_c_takes_the_first_that_holds():
@@ -45,14 +47,17 @@ def test_lengthen_tau_c_takes_the_first_that_holds():
 
 
 def test_worst_of_steps_takes_the_largest_magnitude_and_flags_no_rise():
-    a = {"rise_time": [0.2, 0.5], "overshoot": [1.0, 3.0], "steady_state_error": [0.01, -0.03],
+    a = {"rise_time": [0.2, 0.5], "overshoot": [1.0, 3.0], "settling_time": [0.4, 0.9],
+         "end_error": [0.5, 1.5], "steady_state_error": [0.01, -0.03],
          "ripple_pp": [0.01, 0.02], "ripple_rms": [0.003, 0.001]}  # fmt: skip
-    b = {**a, "overshoot": [7.0, 0.0], "rise_time": [0.1, math.nan]}
+    b = {**a, "overshoot": [7.0, 0.0], "rise_time": [0.1, math.nan],
+         "settling_time": [math.nan, 0.2]}  # fmt: skip
     w = worst_of_steps([a])
-    assert w == {"rise_time": 0.5, "overshoot": 3.0, "steady_state_error": 0.03,
-                 "ripple_pp": 0.02, "ripple_rms": 0.003}  # fmt: skip
+    assert w == {"rise_time": 0.5, "overshoot": 3.0, "settling_time": 0.9, "end_error": 1.5,
+                 "steady_state_error": 0.03, "ripple_pp": 0.02, "ripple_rms": 0.003}  # fmt: skip
     w2 = worst_of_steps([a, b])
     assert w2["overshoot"] == 7.0 and math.isnan(w2["rise_time"])
+    assert math.isnan(w2["settling_time"])  # a step that never settles is the worst case
 
 
 def test_box_worst_case_covers_the_estimate():
@@ -65,29 +70,48 @@ def test_box_worst_case_covers_the_estimate():
     box = {"k2": (0.8, 0.87), "tau2": (0.78, 0.86)}
     worst, n = box_worst_case(IIPFM, ctrl, P, box, LEVELS, 1.5, DT)
     assert n == 4
-    assert all(worst[m] >= alone[m] for m in worst)  # the estimate is one of the valves
+    # the estimate is one of the valves (NaN: a step of some valve never rises or settles)
+    assert all(math.isnan(worst[m]) or worst[m] >= alone[m] for m in worst)
 
 
 def test_robust_tau_c_where_the_box_breaks_the_limit():
+    def hold_of(tau):
+        return level_hold(PWM, P, WIDE_LEVELS, tau, {"hold": None})
+
     res = robust_design(
-        PWM, "fixed", P, WIDE, levels=LEVELS, hold=1.5, dt=DT, tau_c=0.1, limit=10.0
-    )
+        PWM, "fixed", P, WIDE, levels=WIDE_LEVELS, hold=1.5, dt=DT, tau_c=0.1, limit=10.0,
+        hold_of=hold_of,
+    )  # fmt: skip
     assert res.n_corners == 8
     assert res.worst["overshoot"] > 10.0  # the nominal tau_c breaks the limit over the box
     assert res.tau_c_robust is not None and res.tau_c_robust > res.tau_c
     assert res.worst_robust["overshoot"] <= 10.0
+    assert res.worst_robust["end_error"] <= 2.0  # and every step of every corner settles
     assert res.tried[-1][0] == res.tau_c_robust
     assert all(over > 10.0 for _, over in res.tried[:-1])
     # the robust design, evaluated afresh, holds the limit at every corner
-    ctrl = design_pi(PWM, P, levels=LEVELS, tau_c=res.tau_c_robust)["fixed"]
-    again, _ = box_worst_case(PWM, ctrl, P, WIDE, LEVELS, 1.5, DT)
+    ctrl = design_pi(PWM, P, levels=WIDE_LEVELS, tau_c=res.tau_c_robust)["fixed"]
+    hold = hold_of(res.tau_c_robust)
+    again, _ = box_worst_case(PWM, ctrl, P, WIDE, WIDE_LEVELS, hold, DT)
     assert again == res.worst_robust
+
+
+def test_a_tau_c_that_never_settles_does_not_hold():
+    # a corner whose delays exceed PWM's period cannot hold the levels: no tau_c holds,
+    # however small the overshoot
+    box = {**WIDE, "t_off": (0.01, 0.05)}
+    res = robust_design(
+        PWM, "fixed", P, box, levels=WIDE_LEVELS, hold=3.0, dt=DT, tau_c=0.2, limit=1e3,
+        max_tau_c=0.3,
+    )  # fmt: skip
+    assert res.tau_c_robust is None
+    assert all(math.isinf(over) for _, over in res.tried)
 
 
 def test_robust_tau_c_is_the_nominal_one_on_a_narrow_box():
     box = {"k2": (0.83, 0.845), "tau2": (0.82, 0.83)}
     res = robust_design(
-        IIPFM, "fixed", P, box, levels=LEVELS, hold=1.5, dt=DT, tau_c=0.2, limit=10.0
+        IIPFM, "fixed", P, box, levels=LEVELS, hold=5.0, dt=DT, tau_c=0.2, limit=10.0
     )
     assert res.tau_c_robust == 0.2 and len(res.tried) == 1
 

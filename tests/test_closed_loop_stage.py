@@ -16,7 +16,6 @@ SELECTED = [
 ]
 CFG = {
     "levels": [0.1, 0.4, 0.7],
-    "hold": 1.5,
     "step_hold": 1.0,
     "sine": {"offset": 0.4, "amplitude": 0.1, "frequency": 0.5, "duration": 4.0, "skip": 1.0},
 }
@@ -163,9 +162,12 @@ def test_tau_c_is_lengthened_until_a_loop_meets_the_overshoot_limit() -> None:
     does (and the sentence says so), or the sentence says plainly that none does; a loop
     over the limit is never chosen silently."""
     first = closed_loop(ValveParams(), SELECTED[:1], None, CFG)
-    t0 = first.table
-    stair = t0[(t0.experiment == "staircase") & (t0.metric == "overshoot")]
-    least = float(stair["max"].min())
+    if "tau_c_tried" in first.controllers:  # lengthened already: its first round's least
+        least = first.controllers["tau_c_tried"][0]["least_worst_overshoot"]
+    else:
+        t0 = first.table
+        stair = t0[(t0.experiment == "staircase") & (t0.metric == "overshoot")]
+        least = float(stair["max"].min())
     assert least > 0.5
     limit = 0.5 * least
     res = closed_loop(ValveParams(), SELECTED[:1], None, {**CFG, "max_overshoot": limit})

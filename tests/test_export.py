@@ -282,3 +282,67 @@ def test_cli_writes_the_header(tmp_path):
     assert (out / "controller.ino").is_file()
     bad = subprocess.run([*cmd[:-2], "--controller", "pid"], capture_output=True, text=True)
     assert bad.returncode != 0
+
+
+LAB = "c1: 0.533\nk2: 0.837\ntau2: 0.826\nt_on: 0.0155\nt_off: 0.0092\n"
+
+
+def _export(args, cwd=None):
+    cmd = [sys.executable, "-m", "spa", "export-controller", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, check=False, cwd=cwd)
+
+
+def test_cli_lpwm_inverts_the_identified_valve(tmp_path):
+    params = tmp_path / "params.yaml"
+    params.write_text(LAB)
+    out = tmp_path / "out"
+    res = _export([str(params), "--modulator", "lpwm:f_w=14.2", "--controller", "fixed",
+                   "--levels", "0.2,0.4,0.6", "--tau-c", "0.2", "--out", str(out)])  # fmt: skip
+    assert res.returncode == 0, res.stdout + res.stderr
+    body = (out / "controller.h").read_text()
+    valve = ValveParams(c1=0.533, k2=0.837, tau2=0.826, t_on=0.0155, t_off=0.0092)
+    mod = Modulator.from_mapping({"type": "lpwm", "f_w": 14.2}).bind(valve)
+    ctrl = design_pi(mod, valve, levels=[0.2, 0.4, 0.6], tau_c=0.2)["fixed"]
+    expected = controller_header(mod, ctrl, DT)
+    assert body[body.index("#ifndef") :] == expected[expected.index("#ifndef") :]
+    # the constants it inverts are the identified ones, and the comment lists them
+    assert "t_on = 0.0155, t_off = 0.0092" in body
+    nominal = KERNELS["lpwm"].configure({"f_w": 14.2}, DT)
+    bound = KERNELS["lpwm"].configure(dict(mod.settings), DT)
+    assert not np.array_equal(nominal, bound)
+
+
+def test_cli_defaults_to_the_stage_choice_in_a_results_folder(tmp_path):
+    ds = tmp_path / "results" / "lab"
+    (ds / "identification").mkdir(parents=True)
+    (ds / "closed_loop").mkdir()
+    params = ds / "identification" / "params.yaml"
+    params.write_text(LAB)
+    (ds / "closed_loop" / "controllers.yaml").write_text(
+        "tau_c: 0.3\nsetting: {type: pwm, f_w: 20.0}\ncontroller: fixed\n"
+        "controllers:\n  pwm-20Hz: {levels: [0.2, 0.4, 0.6]}\n"
+    )
+    out = tmp_path / "out"
+    res = _export([str(params), "--out", str(out)])
+    assert res.returncode == 0, res.stdout + res.stderr
+    body = (out / "controller.h").read_text()
+    assert body.startswith("/* SPA_CTRL: fixed PI -> PWM")
+    assert "tau_c = 0.3 s" in body
+    # a user's choice still wins; outside a results folder the default is scheduled_ff
+    res = _export([str(params), "--controller", "scheduled", "--out", str(out)])
+    assert (out / "controller.h").read_text().startswith("/* SPA_CTRL: gain-scheduled PI ->")
+    alone = tmp_path / "params.yaml"
+    alone.write_text(LAB)
+    res = _export([str(alone), "--modulator", "pwm:f_w=20", "--out", str(out)])
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "gain-scheduled PI with feed-forward" in (out / "controller.h").read_text()
+
+
+def test_sketch_setpoint_lies_in_the_held_range(tmp_path):
+    params = tmp_path / "params.yaml"
+    params.write_text("c1: 0.4\nk2: 4.0\ntau2: 1.0\nt_on: 0.004\nt_off: 0.01\n")
+    res = _export([str(params), "--modulator", "pwm:f_w=20", "--out", str(tmp_path)])
+    assert res.returncode == 0, res.stdout + res.stderr
+    sketch = (tmp_path / "controller.ino").read_text()
+    value = float(sketch.split("double setpoint_bar() {\n  return ")[1].split(";")[0])
+    assert 0.4 < value < 3.6  # inside the range PWM holds on a 4 bar valve, not 0.4

@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from spa.closedloop.controller import PIController
@@ -64,6 +65,7 @@ ROBUST_COLUMNS = (
     "tau_c",
     "worst_rise_time",
     "worst_overshoot",
+    "worst_settling_time",
     "worst_steady_state_error",
     "worst_ripple_pp",
     "worst_ripple_rms",
@@ -131,14 +133,92 @@ def _chosen(controllers: Mapping[str, Any]) -> tuple[str, str] | None:
     return Modulator.from_mapping(setting).label, str(name)
 
 
+def adequacy_of(identified: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """``params.yaml``'s ``adequacy`` mapping, or None when the identification did not
+    assess it."""
+    found = (identified or {}).get("adequacy")
+    return dict(found) if isinstance(found, Mapping) else None
+
+
+def adequacy_clause(adequacy: Mapping[str, Any] | None, modulator_type: str) -> str:
+    """The plain clause for an inadequate model or an unmeasured modulator ("" when the model
+    is adequate and the modulator was run on the bench; "adequacy not assessed" when
+    ``params.yaml`` has no ``adequacy``).
+
+    Uses :func:`spa.identification.adequacy.adequacy_clause` when that module is installed,
+    else the same wording from the mapping's ``adequate``, ``worst_run`` and
+    ``measured_modulators``.
+
+    Examples
+    --------
+    >>> adequacy_clause(None, "pwm")
+    'adequacy not assessed'
+    >>> adequacy_clause({"adequate": True, "measured_modulators": ["dsm"]}, "pwm")
+    'not measured with this modulator on this bench'
+    """
+    if adequacy is None:
+        return "adequacy not assessed"
+    try:
+        from spa.identification.adequacy import Adequacy
+        from spa.identification.adequacy import adequacy_clause as clause
+    except ImportError:
+        pass
+    else:
+        try:
+            return str(clause(Adequacy.from_mapping(adequacy), modulator_type))
+        except (KeyError, TypeError, ValueError):
+            pass
+    parts = []
+    if not bool(adequacy.get("adequate", True)):
+        worst = adequacy.get("worst_run") or {}
+        fit = worst.get("fit") if isinstance(worst, Mapping) else None
+        where = ""
+        if fit is not None and math.isfinite(float(fit)):
+            where = f" (held-out FIT {float(fit):.0f} % on run {worst.get('run', '?')})"
+        parts.append(f"the model does not describe this valve well enough{where}")
+    measured = adequacy.get("measured_modulators")
+    if isinstance(measured, list) and modulator_type not in measured:
+        parts.append("not measured with this modulator on this bench")
+    return "; ".join(parts)
+
+
+def _margins(
+    mod: Modulator, ctrl: PIController, params: ValveParams, levels: list[float]
+) -> tuple[float, float]:
+    """The smallest gain margin and delay margin (s) over the levels
+    (:func:`spa.closedloop.margins.loop_margins` on the averaged model at each level)."""
+    from spa.closedloop.controller import interp
+    from spa.closedloop.design import local_models
+    from spa.closedloop.margins import loop_margins
+
+    m = local_models(levels, mod, params)
+    grid, kp, ki, _, _ = ctrl.arrays()
+    gms, dms = [], []
+    for r, k, tau, theta in zip(m.r, m.gain, m.tau, m.dead_time, strict=True):
+        g, d = loop_margins(
+            float(k),
+            float(tau),
+            float(theta),
+            interp(float(r), grid, kp),
+            interp(float(r), grid, ki),
+        )
+        gms.append(g)
+        dms.append(d)
+    return float(min(gms)), float(min(dms))
+
+
 def bench_outputs(
     result: ClosedLoopResult,
     params: ValveParams,
     intervals: Mapping[str, tuple[float, float]] | None,
     cfg: Mapping[str, Any] | None = None,
     noise: float = NOISE_FALLBACK,
+    *,
+    model_error: Mapping[str, tuple[float, float]] | None = None,
+    adequacy: Mapping[str, Any] | None = None,
 ) -> BenchOutputs:
-    """The header of the chosen loop, its worst case over the box, and the disturbances.
+    """The header of the chosen loop, its promise over the box and the model error, and the
+    disturbances.
 
     Parameters
     ----------
@@ -152,14 +232,36 @@ def bench_outputs(
         The config's ``closed_loop:`` section, as the stage had it.
     noise : float, optional
         The sensor's noise, bar (:func:`sensor_noise`).
+    model_error : mapping, optional
+        Parameter ranges covering the model error measured on the dataset
+        (:func:`spa.closedloop.model_error.error_intervals`); merged with ``intervals``
+        (:func:`spa.closedloop.model_error.widen`): the promise is the worst over both.
+    adequacy : mapping, optional
+        ``params.yaml``'s ``adequacy`` (None: not assessed).
 
     Returns
     -------
     BenchOutputs
+
+    Notes
+    -----
+    The promise: the chosen loop is run on the staircase with the plant at the estimate and
+    at every corner of the merged box; ``tau_c`` is lengthened (x1.5) until the worst
+    overshoot is within ``max_overshoot`` with every step of every corner settled
+    (:func:`spa.closedloop.robust.robust_design`), each level held for the transit plus
+    five closed-loop time constants of that ``tau_c``. The header ships the loop designed at
+    that ``tau_c``; its worst overshoot and settling time are the promise. When no ``tau_c``
+    holds, the header ships the stage's loop, the sentence says there is no promise, and
+    ``verified`` is false. ``verified`` is also false when the model is inadequate or the
+    setting's modulator was not run on this bench.
     """
+    from spa.closedloop.design import design_pi
+    from spa.closedloop.model_error import widen
+    from spa.closedloop.stage import level_hold
+
     c = {**DEFAULTS, **dict(cfg or {})}
     ctl = result.controllers
-    dt, hold = float(ctl.get("dt", c["dt"])), float(c["hold"])
+    dt = float(ctl.get("dt", c["dt"]))
     levels = [float(v) for v in ctl.get("levels", [])]
     limit = float(ctl.get("max_overshoot", c.get("max_overshoot", MAX_OVERSHOOT)))
     chosen = _chosen(ctl)
@@ -171,6 +273,7 @@ def bench_outputs(
         mod = Modulator.from_mapping(designs["setting"])
         ctrl = PIController.from_mapping(designs[name])
         own = [float(v) for v in designs.get("levels", levels)]  # the levels it holds
+        hold = float(designs.get("hold", c["hold"] if c["hold"] is not None else 3.0))
         d = disturbances(mod, ctrl, params, own, hold, dt, noise, seed=NOISE_SEED)
         d["steady_state_error_after_drop"] = d.pop("steady_state_error")
         rows.append(
@@ -182,91 +285,198 @@ def bench_outputs(
                 **d,
             }
         )
-    mod = Modulator.from_mapping(ctl["controllers"][label]["setting"])
+    entry = ctl["controllers"][label]
+    mod = Modulator.from_mapping(entry["setting"])
+    own = [float(v) for v in entry.get("levels", levels)]
     tau_c = float(ctl.get("tau_c", c["tau_c"]))
+    box = widen(intervals, model_error or {})
     rd = robust_design(
         mod,
         name,
         params,
-        intervals,
-        levels=[float(v) for v in ctl["controllers"][label].get("levels", levels)],
-        hold=hold,
+        box,
+        levels=own,
+        hold=float(entry.get("hold", 3.0)),
         dt=dt,
         tau_c=tau_c,
         limit=limit,
+        hold_of=lambda tau: level_hold(mod, params, own, tau, c),
     )
-    box = {
+    shipped_tau = rd.tau_c_robust if rd.tau_c_robust is not None else tau_c
+    worst = rd.worst_robust if rd.tau_c_robust is not None else rd.worst
+    ctrl = (
+        PIController.from_mapping(entry[name])
+        if shipped_tau == tau_c
+        else design_pi(mod, params, levels=own, tau_c=shipped_tau)[name]
+    )
+    gm, dm = _margins(mod, ctrl, params, own)
+    clause = adequacy_clause(adequacy, mod.kind)
+    verified = rd.tau_c_robust is not None and (adequacy is None or clause == "")
+    info = {
         "n_corners": rd.n_corners,
         "tau_c": rd.tau_c,
-        **{f"worst_{k}": v for k, v in rd.worst.items()},
+        **{f"worst_{k}": v for k, v in rd.worst.items() if f"worst_{k}" in ROBUST_COLUMNS},
         "tau_c_robust": math.nan if rd.tau_c_robust is None else rd.tau_c_robust,
         "robust_rise_time": rd.worst_robust.get("rise_time", math.nan),
         "robust_overshoot": rd.worst_robust.get("overshoot", math.nan),
     }
     for row in rows:
-        row.update(box if row["chosen"] else dict.fromkeys(box, math.nan))
+        row.update(info if row["chosen"] else dict.fromkeys(info, math.nan))
     chosen_row = next(r for r in rows if r["chosen"])
     summary = {k: chosen_row[k] for k in ROBUST_COLUMNS[4:]}
     summary["tau_c_tried"] = [[t, o] for t, o in rd.tried]
     summary["max_overshoot"] = limit
-    ctrl = PIController.from_mapping(ctl["controllers"][label][name])
-    note = (
-        f"The closed_loop stage's choice (controllers.yaml), tau_c = {tau_c:g} s; worst "
-        f"overshoot over the 95 % box {rd.worst['overshoot']:.1f} % ({rd.n_corners} corners)."
-    )
+    summary["box"] = {k: [float(v[0]), float(v[1])] for k, v in box.items()}
+    summary["model_error"] = {k: [float(v[0]), float(v[1])] for k, v in (model_error or {}).items()}
+    summary["promise"] = {
+        "kept": rd.tau_c_robust is not None,
+        "tau_c": shipped_tau,
+        "controller": ctrl.to_mapping(),
+        "levels": own,
+        "hold": level_hold(mod, params, own, shipped_tau, c),
+        "overshoot": worst.get("overshoot", math.nan),
+        "settling_time": worst.get("settling_time", math.nan),
+        "end_error": worst.get("end_error", math.nan),
+        "rise_time": worst.get("rise_time", math.nan),
+        "ripple_pp": worst.get("ripple_pp", math.nan),
+        "steady_state_error": worst.get("steady_state_error", math.nan),
+        "plants": "the estimate and every corner of the 95 % box merged with the model error",
+    }
+    summary["margins"] = {
+        "gain_margin": gm,
+        "delay_margin": dm,
+        "how": (
+            "smallest over the levels; the averaged model linearised at each level "
+            "(K = dP_eq/dxi, tau_m, theta = (t_on + t_off)/2 + half the pulse period: the "
+            "modulator as a gain and a delay) under the shipped PI, at the estimate"
+        ),
+    }
+    settle = worst.get("settling_time", math.nan)
+    if rd.tau_c_robust is not None:
+        stairs = ", ".join(f"{v:.4g}" for v in own)
+        note = (
+            f"The closed_loop stage's choice (controllers.yaml), shipped at tau_c = "
+            f"{shipped_tau:g} s; promise over the 95 % box and the measured model error "
+            f"({rd.n_corners} corners), staircase {stairs} bar up then down, each level held "
+            f"{summary['promise']['hold']:.1f} s: overshoot <= {worst['overshoot']:.1f} %, "
+            "every level within 2 % of its step by the end of its hold, ripple <= "
+            f"{worst['ripple_pp'] * 1e3:.1f} mbar peak-to-peak"
+            + (f", settling <= {settle:.2f} s." if math.isfinite(settle) else ".")
+        )
+    else:
+        note = (
+            f"The closed_loop stage's choice (controllers.yaml), tau_c = {shipped_tau:g} s; "
+            "no promise: no tau_c tried kept the overshoot and settling over the box."
+        )
     header = controller_header(mod, ctrl, dt, note=note)
+    plain = _plain(summary)
+    plain["verified"] = bool(verified)
+    plain["adequacy"] = dict(adequacy) if adequacy is not None else None
+    plain["adequacy_clause"] = clause
+    held = (ctl.get("held_range") or {}).get(label)
+    mid = float(np.median(own))
+    if held:
+        mid = min(max(mid, float(held[0])), float(held[1]))
     return BenchOutputs(
         pd.DataFrame(rows, columns=list(ROBUST_COLUMNS)),
         header,
-        arduino_sketch(),
-        _plain(summary),
-        bench_sentence(summary),
+        arduino_sketch(setpoint=float(f"{mid:.3g}")),
+        plain,
+        bench_sentence(plain),
     )
 
 
 def _plain(summary: dict[str, Any]) -> dict[str, Any]:
-    """Plain floats (YAML-ready), NaN as None."""
+    """Plain floats (YAML-ready), NaN and infinities as None."""
 
     def one(v: Any) -> Any:
-        if isinstance(v, list):
+        if isinstance(v, dict):
+            return {k: one(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
             return [one(x) for x in v]
-        if isinstance(v, bool):
-            return v
-        if isinstance(v, int | float):
+        if isinstance(v, bool | np.bool_):
+            return bool(v)
+        if isinstance(v, int | float | np.integer | np.floating):
             f = float(v)
-            return None if math.isnan(f) else (int(v) if isinstance(v, int) else f)
+            return None if not math.isfinite(f) else (int(v) if isinstance(v, int) else f)
         return v
 
     return {k: one(v) for k, v in summary.items()}
 
 
+def _num(value: Any) -> float:
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        return math.nan
+    return f
+
+
 def bench_sentence(summary: Mapping[str, Any]) -> str:
-    """The chosen loop over the box and under the disturbances, in one sentence.
+    """The chosen loop's promise, margins, verdict and disturbances, in words; never a NaN.
 
     Examples
     --------
-    >>> bench_sentence({"n_corners": 32, "tau_c": 0.2, "worst_rise_time": 0.9,
-    ...   "worst_overshoot": 14.0, "tau_c_robust": 0.3, "drop_level": 0.35,
-    ...   "recovery_time": 0.4, "dip": 0.01, "noise": 0.005, "added_ripple_rms": 0.002})[:60]
-    "Over the identification's 95 % box (32 corners) its worst ri"
+    >>> s = bench_sentence({"n_corners": 32, "tau_c": 0.2, "worst_rise_time": None,
+    ...   "worst_overshoot": 14.0, "tau_c_robust": None, "drop_level": 0.35,
+    ...   "recovery_time": None, "dip": 0.01, "noise": 0.005, "added_ripple_rms": 0.002})
+    >>> "nan" in s, "does not reach 90 %" in s
+    (False, True)
     """
 
     def num(key: str) -> float:
-        v = summary.get(key)
-        return math.nan if v is None else float(v)
+        return _num(summary.get(key))
 
-    over, robust = num("worst_overshoot"), num("tau_c_robust")
-    limit = num("max_overshoot") if summary.get("max_overshoot") is not None else MAX_OVERSHOOT
-    text = (
-        f"Over the identification's 95 % box ({int(num('n_corners'))} corners) its worst rise "
-        f"time is {num('worst_rise_time'):.2f} s and overshoot {over:.0f} %"
-    )
-    if over <= limit:
-        text += f", within the {limit:.3g} % limit"
-    elif math.isfinite(robust):
-        text += f"; τ_c = {robust:.3g} s (robust τ_c) keeps it within {limit:.3g} %"
-    else:
-        text += f"; no longer τ_c tried keeps it within {limit:.3g} %"
+    limit = num("max_overshoot")
+    if not math.isfinite(limit):
+        limit = MAX_OVERSHOOT
+    corners = num("n_corners")
+    n = int(corners) if math.isfinite(corners) else 0
+    over, rise = num("worst_overshoot"), num("worst_rise_time")
+    where = f"Over the identification's 95 % box ({n} corners)"
+    if summary.get("model_error"):
+        where += " merged with the model error measured on this dataset"
+    rise_text = (
+        f"its worst rise time is {rise:.2f} s" if math.isfinite(rise) else
+        "a step of one of its plants does not reach 90 %"
+    )  # fmt: skip
+    over_text = f"overshoot {over:.0f} %" if math.isfinite(over) else "overshoot unknown"
+    text = f"{where} at τ_c = {num('tau_c'):.3g} s, {rise_text} and {over_text}"
+    promise = summary.get("promise") or {}
+    if promise.get("kept"):
+        tau, hold = _num(promise.get("tau_c")), _num(promise.get("hold"))
+        settle, ripple = _num(promise.get("settling_time")), _num(promise.get("ripple_pp"))
+        text += (
+            f". Promise (the header, τ_c = {tau:.3g} s): on any plant within that box, overshoot "
+            f"≤ {_num(promise.get('overshoot')):.0f} % and every level within 2 % of its step "
+            f"by the end of a {hold:.1f} s hold"
+        )
+        if math.isfinite(settle):
+            text += f", settling (2 %) ≤ {settle:.2f} s"
+        elif math.isfinite(ripple):
+            text += ", though its cycle-mean pressure does not stay within 2 % on every level"
+        if math.isfinite(ripple):
+            text += f", ripple ≤ {ripple * 1e3:.0f} mbar peak-to-peak"
+    elif promise:
+        text += (
+            f". No promise: no τ_c tried keeps the overshoot within {limit:.3g} % with every "
+            "level settled on every plant of the box"
+        )
+    margins = summary.get("margins") or {}
+    gm, dm = _num(margins.get("gain_margin")), _num(margins.get("delay_margin"))
+    if math.isfinite(gm) or math.isfinite(dm):
+        parts = []
+        if math.isfinite(gm):
+            parts.append(f"gain margin {gm:.2g}")
+        if math.isfinite(dm):
+            parts.append(f"delay margin {dm * 1e3:.0f} ms")
+        text += f"; {' and '.join(parts)} on the averaged model"
+    clause = str(summary.get("adequacy_clause") or "")
+    if "verified" in summary:
+        if summary.get("verified"):
+            text += ". Controller verified" + (f" ({clause})" if clause else "")
+        else:
+            text += ". Controller unverified" + (f": {clause}" if clause else "")
     rec = num("recovery_time")
     if math.isnan(rec):
         back = "is not back within 2 % before the level ends"
@@ -274,12 +484,16 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
         back = "stays within 2 % of the undisturbed run"
     else:
         back = f"is back within 2 % after {rec:.2f} s"
-    return (
-        f"{text}. After a {DROP * 100:.0f} % supply drop at {num('drop_level'):.2f} bar the "
-        f"pressure dips {num('dip') * 1e3:.0f} mbar and {back}; sensor noise of "
-        f"{num('noise') * 1e3:.1f} mbar adds {num('added_ripple_rms') * 1e3:.2f} mbar RMS "
-        "ripple. The C header is closed_loop/controller.h."
-    )
+    dip, noise, added = num("dip"), num("noise"), num("added_ripple_rms")
+    tail = f". After a {DROP * 100:.0f} % supply drop"
+    if math.isfinite(num("drop_level")):
+        tail += f" at {num('drop_level'):.2f} bar"
+    tail += f" the pressure dips {dip * 1e3:.0f} mbar and {back}" if math.isfinite(dip) else (
+        f" the pressure {back}"
+    )  # fmt: skip
+    if math.isfinite(noise) and math.isfinite(added):
+        tail += f"; sensor noise of {noise * 1e3:.1f} mbar adds {added * 1e3:.2f} mbar RMS ripple"
+    return f"{text}{tail}. The C header is closed_loop/controller.h."
 
 
 #: ``robust.csv`` columns as rows of ``table.csv``: experiment -> (column, metric) pairs.
@@ -287,6 +501,7 @@ TABLE_ROWS: dict[str, tuple[tuple[str, str], ...]] = {
     "box_95": (
         ("worst_rise_time", "rise_time"),
         ("worst_overshoot", "overshoot"),
+        ("worst_settling_time", "settling_time"),
         ("worst_steady_state_error", "steady_state_error"),
         ("worst_ripple_pp", "ripple_pp"),
         ("worst_ripple_rms", "ripple_rms"),
@@ -350,11 +565,14 @@ def table_rows(robust: pd.DataFrame) -> pd.DataFrame:
 
 
 def apply_bench(result: ClosedLoopResult, bench: BenchOutputs) -> None:
-    """Add the bench numbers to ``controllers.yaml`` (key ``bench``), its sentence and
-    ``table.csv`` (:func:`table_rows`: the box's worst case and the disturbances)."""
+    """Add the bench numbers to ``controllers.yaml`` (key ``bench``; ``verified`` and
+    ``adequacy`` also at the top level), its sentence and ``table.csv`` (:func:`table_rows`:
+    the box's worst case and the disturbances)."""
     if not bench.summary:
         return
     result.controllers["bench"] = bench.summary
+    result.controllers["verified"] = bool(bench.summary.get("verified", False))
+    result.controllers["adequacy"] = bench.summary.get("adequacy")
     result.controllers["sentence"] = f"{result.controllers['sentence']} {bench.sentence}"
     extra = table_rows(bench.robust)
     if not extra.empty:

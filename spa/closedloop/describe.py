@@ -64,7 +64,15 @@ def design_summary(
         ``K``, ``tau``, ``theta``, ``kp``, ``ki``), ``controllers`` (name -> mapping) and
         ``staircase`` (name -> worst and best rise time and overshoot).
     """
-    lv = [float(v) for v in (levels if levels is not None else DEFAULTS["levels"])]
+    if levels is None:
+        from spa.closedloop.stage import setting_levels
+
+        mod = modulator.bind(params)
+        found, skipped, _ = setting_levels([mod], params, DEFAULTS)
+        if mod.label not in found:
+            raise ValueError(skipped.get(mod.label, f"{mod.label}: no levels on this valve"))
+        levels = found[mod.label]
+    lv = [float(v) for v in levels]
     designs = design_pi(modulator, params, levels=lv, tau_c=tau_c)
     m = local_models(lv, modulator, params)
     kp, ki = simc(m.gain, m.tau, m.dead_time, tau_c)

@@ -20,6 +20,7 @@ point of a set-point grid, plus the feed-forward ``xi_ff(r)``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -83,12 +84,26 @@ class LocalModels:
 
 
 def _curve(mod: Modulator, params: ValveParams) -> tuple[np.ndarray, np.ndarray]:
-    """``(xi, P_eq)`` on a fine grid, restricted to where ``P_eq`` strictly increases."""
+    """``(xi, P_eq)`` on a fine grid, restricted to where ``P_eq`` strictly increases.
+
+    Computed once per setting and valve (:func:`_curve_of`, cached): the design, the
+    feed-forward, the cycle period and the settled start of every experiment share it.
+    """
+    return _curve_of(mod.kind, tuple(sorted(mod.settings.items())), params)
+
+
+@lru_cache(maxsize=256)
+def _curve_of(
+    kind: str, settings: tuple[tuple[str, Any], ...], params: ValveParams
+) -> tuple[np.ndarray, np.ndarray]:
     xi = np.linspace(0.0, 1.0, _N_XI)
-    peq = np.asarray(equilibrium(mod.kind, xi, params, **mod.settings), dtype=np.float64)
+    peq = np.asarray(equilibrium(kind, xi, params, **dict(settings)), dtype=np.float64)
     keep = np.concatenate(([True], np.diff(peq) > 0.0))
     # Drop the flat dead-zone except its last point, and the flat saturation.
-    return xi[keep], peq[keep]
+    out = xi[keep], peq[keep]
+    for a in out:
+        a.setflags(write=False)  # shared by every caller
+    return out
 
 
 def feedforward(

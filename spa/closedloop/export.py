@@ -122,7 +122,7 @@ double read_pressure_bar() {
 }
 
 double setpoint_bar() {
-  return 0.4;  // TODO: the set-point, bar
+  return ${r};  // TODO: the set-point, bar (inside the range the loop holds)
 }
 
 void setup() {
@@ -236,6 +236,12 @@ def controller_header(
         f" * Setting: {mod.to_mapping()}",
         f" * Controller: {controller.to_mapping()}",
     ]
+    valve = [k for k in mod.spec.optional if k in settings]
+    if valve:
+        lines.append(
+            " * Inverted valve (the identified one): "
+            + ", ".join(f"{k} = {settings[k]:.6g}" for k in valve)
+        )
     if note:
         lines.append(f" * {note}")
     lines.append(" */")
@@ -269,8 +275,11 @@ def controller_header(
     return "\n".join(body)
 
 
-def arduino_sketch(header: str = "controller.h", prefix: str = "spa_ctrl") -> str:
-    """A minimal Arduino-style sketch around the header ``header`` (file name).
+def arduino_sketch(
+    header: str = "controller.h", prefix: str = "spa_ctrl", setpoint: float = 0.4
+) -> str:
+    """A minimal Arduino-style sketch around the header ``header`` (file name);
+    ``setpoint`` (bar) is its default set-point (choose one the loop holds).
 
     Examples
     --------
@@ -279,7 +288,9 @@ def arduino_sketch(header: str = "controller.h", prefix: str = "spa_ctrl") -> st
     """
     if not _PREFIX.fullmatch(prefix):
         raise ValueError(f"prefix must be a C identifier, got {prefix!r}")
-    return Template(_SKETCH).substitute(header=header, p=prefix, P=prefix.upper())
+    return Template(_SKETCH).substitute(
+        header=header, p=prefix, P=prefix.upper(), r=c_double(setpoint)
+    )
 
 
 def write_controller(
@@ -353,11 +364,24 @@ def export_designed(
     if controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {list(CONTROLLERS)}, got {controller!r}")
     tau = float(DEFAULTS["tau_c"] if tau_c is None else tau_c)
+    # An LPWM that omits its valve inverts the identified one, not the nominal valve.
+    modulator = Modulator.from_mapping(modulator).bind(params)
     if levels is None:
-        cap = float(DEFAULTS["max_level_fraction"]) * params.k2
-        levels = [float(v) for v in DEFAULTS["levels"] if v < cap]
+        from spa.closedloop.stage import setting_levels
+
+        found, skipped, _ = setting_levels([modulator], params, DEFAULTS)
+        if modulator.label not in found:
+            raise ValueError(skipped.get(modulator.label, f"{modulator.label}: no levels"))
+        levels = found[modulator.label]
     if len(levels) < 2:
         raise ValueError(f"levels: need at least two set-points, got {list(levels)}")
     designs = design_pi(modulator, params, levels=levels, tau_c=tau)
     text = note or f"SIMC, tau_c = {tau:g} s, schedule over {list(levels)} bar."
-    return write_controller(folder, modulator, designs[controller], dt, note=text)
+    header = controller_header(modulator, designs[controller], dt, note=text)
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    h, sk = out / "controller.h", out / "controller.ino"
+    h.write_text(header, encoding="utf-8")
+    mid = float(f"{float(np.median(levels)):.3g}")
+    sk.write_text(arduino_sketch(h.name, setpoint=mid), encoding="utf-8")
+    return h, sk

@@ -24,7 +24,12 @@ from spa.model.modulators import Modulator, kernels
 from spa.model.modulators.kernels import KERNELS
 from spa.model.params import ValveParams, valve_params
 
-__all__ = ["closed_loop_arrays", "segment_pressure_scalar", "simulate_closed_loop"]
+__all__ = [
+    "closed_loop_arrays",
+    "closed_loop_many",
+    "segment_pressure_scalar",
+    "simulate_closed_loop",
+]
 
 _interp = njit(cache=True)(interp)
 
@@ -124,6 +129,82 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
         p_out[k] = p
         xi_out[k] = xi
         u_out[k] = u
+
+
+@njit(cache=True)
+def _loop_many(  # pragma: no cover  (compiled; its Python body is run by the tests)
+    r, dt, p0s, i0s, plants, grid, kp, ki, ff_r, ff_xi, kind, cfg, initial, p_out, xi_out, u_out
+):
+    # _loop once per plant (row of `plants`), each from the modulator's initial state.
+    noise = np.empty(0)
+    for j in range(plants.shape[0]):
+        st = initial.copy()
+        _loop(
+            r, dt, p0s[j], i0s[j], plants[j], grid, kp, ki, ff_r, ff_xi, kind, cfg, st,
+            p_out[j], xi_out[j], u_out[j], -1, plants[j, 1], noise,
+        )  # fmt: skip
+
+
+def closed_loop_many(
+    reference: npt.ArrayLike,
+    dt: float,
+    modulator: Modulator | dict[str, Any],
+    controller: PIController,
+    valves: list[ValveParams],
+    p0: npt.ArrayLike,
+    integral0: npt.ArrayLike,
+    *,
+    compiled: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`closed_loop_arrays` for several plants in one compiled call.
+
+    Parameters
+    ----------
+    reference, dt, modulator, controller : as :func:`closed_loop_arrays`
+    valves : list of ValveParams
+        The plants (e.g. the estimate and the corners of a box).
+    p0, integral0 : array_like, shape (len(valves),)
+        Each plant's starting pressure (bar) and integrator.
+    compiled : bool, default True
+        False runs the same loops as plain Python (for the tests).
+
+    Returns
+    -------
+    p, xi, valve : numpy.ndarray, shape (len(valves), n)
+        Row ``j`` equals ``closed_loop_arrays(..., valves[j], p0[j], integral0=integral0[j])``.
+    """
+    dt = checks.positive("dt", dt, "s")
+    if not isinstance(controller, PIController):
+        raise ValueError(f"controller must be a PIController, got {controller!r}")
+    mod = Modulator.from_mapping(modulator)
+    if mod.kind not in KERNELS:
+        raise ValueError(f"no closed-loop kernel for modulator kind {mod.kind!r}")
+    settings = dict(mod.settings)
+    from spa.model.modulators import check_settings
+
+    check_settings(mod.kind, dt, **settings)
+    r = checks.finite_array("reference", reference, ndim=1)
+    m = len(valves)
+    p0s = np.asarray(p0, dtype=np.float64).reshape(m)
+    i0s = np.asarray(integral0, dtype=np.float64).reshape(m)
+    if np.any(p0s < 0.0) or not np.all(np.isfinite(p0s)):
+        raise ValueError("p0: expected finite pressures >= 0 bar")
+    kernel = KERNELS[mod.kind]
+    plants = np.array([[v.c1, v.k2, v.tau2, v.t_on, v.t_off] for v in valves], dtype=np.float64)
+    n = r.size
+    p, xi, u = np.empty((m, n)), np.empty((m, n)), np.empty((m, n), dtype=np.int8)
+    cfg = kernel.configure(settings, dt)
+    initial = np.array(kernel.INITIAL, dtype=np.float64)
+    args = (*controller.arrays(), kernels.code(mod.kind), cfg)
+    if compiled:
+        _loop_many(r, dt, p0s, i0s, plants, *args, initial, p, xi, u)
+        return p, xi, u
+    for j in range(m):  # the plain-Python loop, plant by plant (for the tests)
+        _loop.py_func(
+            r, dt, p0s[j], i0s[j], plants[j], *args, initial.copy(),
+            p[j], xi[j], u[j], -1, plants[j, 1], np.empty(0),
+        )  # fmt: skip
+    return p, xi, u
 
 
 def closed_loop_arrays(

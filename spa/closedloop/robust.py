@@ -23,7 +23,7 @@ from spa import _checks as checks
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import design_pi
 from spa.closedloop.experiments import _settled, cycle_period, staircase_reference
-from spa.closedloop.loop import closed_loop_arrays
+from spa.closedloop.loop import closed_loop_many
 from spa.closedloop.metrics import step_rows
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
@@ -43,10 +43,15 @@ __all__ = [
 WORST_METRICS: dict[str, bool] = {
     "rise_time": False,
     "overshoot": False,
+    "settling_time": False,
+    "end_error": False,
     "steady_state_error": True,
     "ripple_pp": False,
     "ripple_rms": False,
 }
+
+#: A step ends settled within this share of its size, % (``end_error``).
+SETTLED = 2.0
 
 #: Factor by which :func:`robust_tau_c` lengthens ``tau_c`` per try, and the longest it tries
 #: as a multiple of the nominal one.
@@ -66,13 +71,16 @@ def worst_of_steps(frames: Sequence[Mapping[str, Sequence[float]]]) -> dict[str,
     -------
     dict
         Metric -> largest value (of ``|value|`` for the steady-state error) over every step
-        of every frame; NaN where no step has a value, and for the rise time as soon as one
-        step never rises (a valve that does not reach a set-point is the worst case).
+        of every frame; NaN where no step has a value, and for the rise and settling times as
+        soon as one step never rises or settles (a valve that does not reach or hold a
+        set-point is the worst case).
 
     Examples
     --------
     >>> worst_of_steps([{"rise_time": [0.2, 0.3], "overshoot": [1.0, 4.0],
-    ...   "steady_state_error": [-0.01, 0.002], "ripple_pp": [0.0, 0.0],
+    ...   "settling_time": [0.5, 0.6], "end_error": [1.0, 0.5],
+    ...   "steady_state_error": [-0.01, 0.002],
+    ...   "ripple_pp": [0.0, 0.0],
     ...   "ripple_rms": [0.0, 0.0]}])["steady_state_error"]
     0.01
     """
@@ -81,7 +89,7 @@ def worst_of_steps(frames: Sequence[Mapping[str, Sequence[float]]]) -> dict[str,
         values = np.concatenate([np.asarray(f[metric], dtype=np.float64) for f in frames])
         if magnitude:
             values = np.abs(values)
-        if metric == "rise_time" and np.isnan(values).any():
+        if metric in ("rise_time", "settling_time") and np.isnan(values).any():
             out[metric] = math.nan
             continue
         finite = values[np.isfinite(values)]
@@ -125,7 +133,8 @@ def box_worst_case(
     integrator at its averaged equilibrium, as
     :func:`spa.closedloop.experiments.run_staircase`), so that the steps, not the start, are
     measured; every run is measured with the estimate's cycle-mean window (the modulator's
-    period at the middle level): one measurement for all valves, computed once.
+    period at the middle level): one measurement for all valves, computed once. The valves
+    run in one compiled call (:func:`spa.closedloop.loop.closed_loop_many`).
     """
     valves = [params, *corners(params, intervals)]
     r = staircase_reference(levels, hold, dt)
@@ -133,10 +142,13 @@ def box_worst_case(
     r0 = float(levels[0])
     period = cycle_period(modulator, params, float(np.median(levels)), dt)
     frames = []
-    for valve in valves:
-        i0 = _settled(modulator, controller, valve, r0)
-        p, _, u = closed_loop_arrays(r, dt, modulator, controller, valve, r0, integral0=i0)
+    i0 = [_settled(modulator, controller, valve, r0) for valve in valves]
+    ps, _, us = closed_loop_many(r, dt, modulator, controller, valves, [r0] * len(valves), i0)
+    for p, u in zip(ps, us, strict=True):
         rows = step_rows(t, r, p, u, period, r_initial=r0)
+        for row in rows:
+            size = abs(row["r1"] - row["r0"])
+            row["end_error"] = 100.0 * abs(row["steady_state_error"]) / size if size else math.nan
         frames.append({m: [row[m] for row in rows] for m in WORST_METRICS})
     return worst_of_steps(frames), len(valves) - 1
 
@@ -234,6 +246,7 @@ def robust_design(
     tau_c: float,
     limit: float,
     max_tau_c: float | None = None,
+    hold_of: Callable[[float], float] | None = None,
 ) -> RobustDesign:
     """Worst case over the box of the controller ``controller`` designed at the estimate,
     and the robust ``tau_c`` (:func:`lengthen_tau_c`).
@@ -252,17 +265,31 @@ def robust_design(
         Largest worst-case overshoot allowed, %.
     max_tau_c : float, optional
         As :func:`lengthen_tau_c`.
+    hold_of : callable, optional
+        ``tau_c -> hold`` (s): the staircase's hold for a lengthened ``tau_c`` (each level
+        held for several closed-loop time constants); ``hold`` for every ``tau_c`` when
+        omitted.
 
     Returns
     -------
     RobustDesign
+
+    Notes
+    -----
+    A ``tau_c`` holds when the worst-case overshoot is within ``limit`` AND every step of
+    every corner ends within 2 % of its size (``end_error``: the mean over the last quarter
+    of the step, as a bench measures it): a loop whose overshoot is bought with a loop that
+    never settles does not hold (its overshoot counts as infinite).
     """
     results: dict[float, tuple[dict[str, float], int]] = {}
 
     def evaluate(tau: float) -> float:
         ctrl = design_pi(modulator, params, levels=levels, tau_c=tau)[controller]
-        results[tau] = box_worst_case(modulator, ctrl, params, intervals, levels, hold, dt)
-        return results[tau][0]["overshoot"]
+        h = hold if hold_of is None else float(hold_of(tau))
+        results[tau] = box_worst_case(modulator, ctrl, params, intervals, levels, h, dt)
+        worst = results[tau][0]
+        settled = math.isfinite(worst["end_error"]) and worst["end_error"] <= SETTLED
+        return worst["overshoot"] if settled else math.inf
 
     robust, tried = lengthen_tau_c(evaluate, tau_c, limit, max_tau_c=max_tau_c)
     worst, n = results[tried[0][0]]

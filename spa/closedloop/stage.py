@@ -28,6 +28,7 @@ from spa.closedloop.experiments import (
     sine_within,
     spread,
 )
+from spa.closedloop.levels import common_levels, held_range, idle_duty, wanted_levels
 from spa.closedloop.metrics import STEP_METRICS, cycle_mean
 from spa.io import dump_yaml
 from spa.model.modulators import Modulator
@@ -49,14 +50,76 @@ CONTROLLERS = ("fixed", "scheduled", "scheduled_ff")
 DEFAULTS: dict[str, Any] = {
     "dt": 0.001,
     "tau_c": DEFAULT_TAU_C,
-    "levels": [0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75],
-    "hold": 3.0,
+    "levels": None,
+    "levels_fraction": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8],
+    "hold": None,
+    "hold_time_constants": 5.0,
+    "min_hold": 1.0,
     "step_hold": 2.0,
     "sine": {"offset": 0.4, "amplitude": 0.2, "frequency": 0.5, "duration": 10.0, "skip": 2.0},
     "max_level_fraction": 0.95,
     "figure_decimate": 20,
     "max_overshoot": 10.0,
 }
+
+
+def transit_time(levels: list[float], params: ValveParams) -> float:
+    """The longest time the valve takes between adjacent levels of the staircase held fully
+    open (up: ``tau2*ln((k2 - a)/(k2 - b))``, Eq. A2) or fully exhausting (down:
+    ``2*c1*(sqrt(b) - sqrt(a))``, Eq. A1), s: the part of a large step no controller can
+    shorten.
+
+    Examples
+    --------
+    >>> p = ValveParams(c1=0.5, k2=1.0, tau2=1.0)
+    >>> round(transit_time([0.25, 0.5], p), 4)  # up ln(0.75/0.5); down 0.7071 - 0.5
+    0.4055
+    """
+    lv = np.sort(np.asarray(levels, dtype=np.float64))
+    a, b = lv[:-1], lv[1:]
+    if a.size == 0:
+        return 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        up = params.tau2 * np.log((params.k2 - a) / np.maximum(params.k2 - b, 1e-12))
+    down = 2.0 * params.c1 * (np.sqrt(b) - np.sqrt(a))
+    both = np.concatenate((up, down))
+    both = both[np.isfinite(both)]
+    return float(both.max()) if both.size else 0.0
+
+
+def level_hold(
+    mod: Modulator,
+    params: ValveParams,
+    levels: list[float],
+    tau_c: float,
+    c: Mapping[str, Any],
+) -> float:
+    """How long the staircase holds each level, s: ``closed_loop.hold`` when set, else the
+    longest full-open transit between adjacent levels (:func:`transit_time`) plus
+    ``hold_time_constants`` (5) closed-loop time constants, at least ``min_hold``, rounded up
+    to 0.1 s. The closed-loop time constant is the slower of SIMC's target ``tau_c + theta``
+    and the PI's integral time ``Ti = min(tau, 4*(tau_c + theta))`` (the tail an integrator
+    leaves when it does not cancel the plant's pole), the largest over the levels
+    (:func:`spa.closedloop.design.local_models`).
+
+    Examples
+    --------
+    >>> level_hold(Modulator.from_mapping({"type": "pwm", "f_w": 20.0}), ValveParams(),
+    ...            [0.2, 0.3], 0.2, DEFAULTS)  # 0.826*ln(0.637/0.537) + 5*min(tau, 0.926)
+    4.8
+    """
+    if c.get("hold") is not None:
+        return float(c["hold"])
+    from spa.closedloop.design import local_models
+
+    m = local_models(levels, mod, params)
+    fast = tau_c + m.dead_time
+    slow = np.minimum(m.tau, 4.0 * fast)
+    t_cl = float(np.max(np.maximum(fast, np.where(np.isfinite(slow), slow, fast))))
+    n = float(c.get("hold_time_constants", DEFAULTS["hold_time_constants"]))
+    auto = transit_time(levels, params) + n * t_cl
+    auto = max(auto, float(c.get("min_hold", DEFAULTS["min_hold"])))
+    return math.ceil(round(auto * 10.0, 9)) / 10.0
 
 
 @dataclass
@@ -91,13 +154,19 @@ class ClosedLoopResult:
 
 
 def _settings(
-    selected: Iterable[Mapping[str, Any] | Modulator], recommendation: Mapping[str, Any] | None
+    selected: Iterable[Mapping[str, Any] | Modulator],
+    recommendation: Mapping[str, Any] | None,
+    params: ValveParams,
 ) -> tuple[list[Modulator], Modulator | None]:
-    mods = [Modulator.from_mapping(m) for m in selected]
+    """The settings to design, bound to the identified valve: an LPWM that omits the valve
+    it inverts gets the dataset's identified constants (not the paper's nominal valve), so
+    that its simulation, its ``controllers.yaml`` entry and its C header all invert the
+    dataset's valve."""
+    mods = [Modulator.from_mapping(m).bind(params) for m in selected]
     rec = None
     best = (recommendation or {}).get("recommended")
     if isinstance(best, Mapping) and best.get("setting"):
-        rec = Modulator.from_mapping(best["setting"])
+        rec = Modulator.from_mapping(best["setting"]).bind(params)
         if rec.label not in {m.label for m in mods}:
             mods.append(rec)
     return mods, rec
@@ -129,17 +198,19 @@ def _evaluate(
     params: ValveParams,
     levels: list[float],
     c: Mapping[str, Any],
+    hold: float,
 ) -> tuple[list[dict[str, Any]], list[pd.DataFrame], pd.DataFrame]:
     """One setting and controller: table rows, per-step rows and the Fig. 10 trace."""
     dt = float(c["dt"])
-    run, stair = run_staircase(mod, ctrl, params, levels, float(c["hold"]), dt)
+    run, stair = run_staircase(mod, ctrl, params, levels, hold, dt)
     step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
     _, sine = run_sine(mod, ctrl, params, sine_within(c["sine"], min(levels), max(levels)), dt)
     base = {"modulator": mod.label, "description": mod.description, "controller": name}
     rows: list[dict[str, Any]] = []
     step_rows = []
     for experiment, frame in (("staircase", stair), ("steps", step_set)):
-        for row in _summary(frame, STEP_METRICS):
+        measured = frame.assign(end_error=end_error(frame))
+        for row in _summary(measured, (*STEP_METRICS, "end_error")):
             rows.append({**base, "experiment": experiment, **row})
         step_rows.append(frame.assign(experiment=experiment, **base))
     for metric, value in sine.items():
@@ -169,11 +240,55 @@ def _evaluate(
     return rows, step_rows, trace
 
 
+def setting_levels(
+    mods: list[Modulator], params: ValveParams, c: Mapping[str, Any]
+) -> tuple[dict[str, list[float]], dict[str, str], dict[str, Any]]:
+    """The set-points each setting is checked on, the settings that hold none, and the
+    ranges (:mod:`spa.closedloop.levels`).
+
+    Returns
+    -------
+    levels : dict
+        Label -> set-points, bar: the common ones (:func:`~spa.closedloop.levels.common_levels`)
+        for the settings that hold them, each other setting's own
+        (:func:`~spa.closedloop.design.operating_levels`).
+    skipped : dict
+        Label -> why it holds none.
+    info : dict
+        ``wanted`` (bar), ``common`` (bar), ``group`` (labels compared on them) and
+        ``held`` (label -> ``[lo, hi]`` bar it holds).
+    """
+    maxf = float(c["max_level_fraction"])
+    wanted = wanted_levels(c.get("levels"), c.get("levels_fraction"), params.k2)
+    ranges = {m.label: held_range(m, params, maxf) for m in mods}
+    common, group = common_levels(wanted, ranges)
+    levels: dict[str, list[float]] = {}
+    skipped: dict[str, str] = {}
+    for mod in mods:
+        if mod.label in group and len(common) >= 2:
+            levels[mod.label] = list(common)
+            continue
+        own, why = operating_levels(wanted, mod, params, maxf, spread=True)
+        if why is not None:
+            skipped[mod.label] = why
+        else:
+            levels[mod.label] = own
+    info = {
+        "wanted": wanted,
+        "common": list(common),
+        "group": [g for g in group if g in levels],
+        "held": {k: [float(v[0]), float(v[1])] for k, v in ranges.items() if v is not None},
+    }
+    return levels, skipped, info
+
+
 def _design_all(
     mods: list[Modulator],
     params: ValveParams,
     c: Mapping[str, Any],
     tau_c: float,
+    levels_of: Mapping[str, list[float]],
+    skipped_before: Mapping[str, str],
 ) -> tuple[list[dict[str, Any]], list[pd.DataFrame], list[pd.DataFrame], dict[str, Any], dict]:
     """Design and evaluate every setting at one ``tau_c``; settings that cannot be designed
     are returned in ``skipped`` with their reason."""
@@ -181,23 +296,25 @@ def _design_all(
     step_rows: list[pd.DataFrame] = []
     traces: list[pd.DataFrame] = []
     gains: dict[str, Any] = {}
-    skipped: dict[str, str] = {}
+    skipped: dict[str, str] = dict(skipped_before)
     for mod in mods:
-        levels, why = operating_levels(
-            c["levels"], mod, params, float(c["max_level_fraction"]), spread=True
-        )
-        if why is not None:
-            skipped[mod.label] = why
+        if mod.label not in levels_of:
             continue
+        levels = levels_of[mod.label]
         try:
+            hold = level_hold(mod, params, levels, tau_c, c)
             designs = design_pi(mod, params, levels=levels, tau_c=tau_c)
-            done = [_evaluate(mod, name, ctrl, params, levels, c) for name, ctrl in designs.items()]
+            done = [
+                _evaluate(mod, name, ctrl, params, levels, c, hold)
+                for name, ctrl in designs.items()
+            ]
         except ValueError as exc:  # no local model, or no closed-loop law for the setting
             skipped[mod.label] = f"{mod.label}: {exc}" if mod.label not in str(exc) else str(exc)
             continue
         gains[mod.label] = {
             "setting": mod.to_mapping(),
             "levels": levels,
+            "hold": hold,
             **{name: ctrl.to_mapping() for name, ctrl in designs.items()},
         }
         for more_rows, more_steps, trace in done:
@@ -244,15 +361,18 @@ def closed_loop(
     c = {**DEFAULTS, **dict(cfg or {})}
     dt, tau_c = float(c["dt"]), float(c["tau_c"])
     limit = float(c["max_overshoot"])
-    mods, rec = _settings(selected, recommendation)
+    mods, rec = _settings(selected, recommendation, params)
+    levels_of, unheld, info = setting_levels(mods, params, c)
     tried: list[dict[str, Any]] = []
     first = None
     for factor in (1.0, *TAU_C_FACTORS):
         used = tau_c * factor
-        rows, step_rows, traces, gains, skipped = _design_all(mods, params, c, used)
+        rows, step_rows, traces, gains, skipped = _design_all(
+            mods, params, c, used, levels_of, unheld
+        )
         table = pd.DataFrame(rows)
         choice = _choice(table, rec, limit)
-        met = choice is not None and _worst(table, *choice, "overshoot") <= limit
+        met = choice is not None and _meets(table, *choice, limit)
         tried.append(
             {
                 "tau_c": used,
@@ -272,7 +392,10 @@ def closed_loop(
         "tau_c": used,
         "tau_c_requested": tau_c,
         "dt": dt,
-        "levels": [float(v) for v in c["levels"]],
+        "levels": info["common"],
+        "levels_wanted": info["wanted"],
+        "compared_on_common_levels": info["group"],
+        "held_range": info["held"],
         "max_overshoot": limit,
         "rule": "SIMC: Kp = tau/(K*(tau_c + theta)), Ki = Kp/min(tau, 4*(tau_c + theta))",
         "controllers": gains,
@@ -284,6 +407,11 @@ def closed_loop(
         controllers["setting"] = gains[choice[0]]["setting"]
         controllers["controller"] = choice[1]
         sentence = closed_loop_sentence(table, gains, *choice)
+        held = info["held"].get(choice[0])
+        if held is not None:
+            sentence += " " + held_clause(
+                gains[choice[0]]["setting"], params, held, float(c["max_level_fraction"])
+            )
         if used != tau_c:
             sentence += (
                 f" No loop kept the overshoot within {limit:.3g} % at tau_c = {tau_c:g} s, so "
@@ -294,7 +422,8 @@ def closed_loop(
         over = _worst(table, *choice, "overshoot")
         longest = tried[-1]["tau_c"]
         controllers["sentence"] = (
-            f"Closed loop: no designed controller keeps the overshoot within {limit:.3g} % on "
+            f"Closed loop: no designed controller keeps the overshoot within {limit:.3g} % "
+            "with every level settled within 2 % on "
             f"this valve, even with tau_c lengthened to {longest:g} s; the least is "
             f"{over:.0f} % ({choice[0]}, {choice[1]} PI at "
             f"tau_c = {tau_c:g} s). None is recommended: widen closed_loop.max_overshoot or "
@@ -341,14 +470,57 @@ def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> flo
     return float(sel["max"].iloc[0]) if len(sel) else math.nan
 
 
+#: A step is settled when its mean pressure over the last quarter of the step is within
+#: this share of the step, %.
+SETTLED = 2.0
+
+
+def end_error(steps: pd.DataFrame) -> np.ndarray:
+    """Each step's steady-state error in % of its size: ``100*|sse|/|r1 - r0|``.
+
+    Examples
+    --------
+    >>> e = end_error(pd.DataFrame({"r0": [0.1, 0.4], "r1": [0.4, 0.1],
+    ...                             "steady_state_error": [0.003, -0.0015]}))
+    >>> e.round(9).tolist()
+    [1.0, 0.5]
+    """
+    size = np.abs(steps["r1"].to_numpy(np.float64) - steps["r0"].to_numpy(np.float64))
+    sse = np.abs(steps["steady_state_error"].to_numpy(np.float64))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(size > 0.0, 100.0 * sse / size, np.nan)
+
+
+def _settled(table: pd.DataFrame, label: str, controller: str) -> bool:
+    """Every staircase step of the loop ends within :data:`SETTLED` % of its size (the mean
+    pressure over the last quarter of the step, as a bench measures it)."""
+    sel = table[
+        (table.modulator == label)
+        & (table.controller == controller)
+        & (table.experiment == "staircase")
+        & (table.metric == "end_error")
+    ]
+    if not len(sel) or int(sel["n_missing"].iloc[0]) != 0:
+        return False
+    return bool(float(sel["max"].iloc[0]) <= SETTLED)
+
+
+def _meets(table: pd.DataFrame, label: str, controller: str, limit: float) -> bool:
+    """The loop overshoots at most ``limit`` % over the staircase AND every step ends within
+    2 % of its size (:func:`_settled`): a longer ``tau_c`` that trades overshoot for a loop
+    that never settles does not meet."""
+    over = _worst(table, label, controller, "overshoot")
+    return bool(math.isfinite(over) and over <= limit and _settled(table, label, controller))
+
+
 def _choice(
     table: pd.DataFrame, rec: Modulator | None, limit: float = 10.0
 ) -> tuple[str, str] | None:
     """The setting and controller to use: over every designed setting and controller, the
     smallest worst-case rise time among those overshooting at most ``limit`` % over the
-    staircase,
-    else the smallest worst-case overshoot; ties go to the tuning's recommended setting, then
-    to the order of the table.
+    staircase with every step settled (:func:`_meets`); else, among those that settle, the
+    smallest worst-case overshoot; else the smallest worst-case overshoot. Ties go to the
+    tuning's recommended setting, then to the order of the table.
 
     The open-loop recommendation ranks linearity; a loop also needs speed without overshoot,
     so the closed loop chooses on its own metrics (its sentence names the setting).
@@ -364,12 +536,14 @@ def _choice(
             over = _worst(table, label, name, "overshoot")
             if not (math.isfinite(rise) and math.isfinite(over)):
                 continue
-            key = rise if over <= limit else over
-            scores.append((over > limit, key, label != recommended, order, label, name))
+            ok = _meets(table, label, name, limit)
+            settled = _settled(table, label, name)
+            key = rise if ok else over
+            scores.append((not ok, not settled, key, label != recommended, order, label, name))
     if not scores:
         return None
     best = min(scores)
-    return best[4], best[5]
+    return best[5], best[6]
 
 
 def closed_loop_sentence(
@@ -395,12 +569,51 @@ def closed_loop_sentence(
         & (table.metric == "steady_state_error")
     ]
     err = max(abs(float(sse["min"].iloc[0])), abs(float(sse["max"].iloc[0])))
+    settle = _worst(table, label, controller, "settling_time")
+    levels = gains[label].get("levels") or []
+    where = f" {min(levels):.3g}–{max(levels):.3g} bar" if levels else ""
+    rise_text = (
+        f"rise time (10–90 %) ≤ {rise:.2f} s"
+        if math.isfinite(rise)
+        else "a step that does not reach 90 %"
+    )
+    settle_text = (
+        f", settling (2 %) ≤ {settle:.2f} s" if math.isfinite(settle) else ", a level not settled"
+    )
+    err_text = f"{err * 1e3:.1f} mbar" if math.isfinite(err) else "unknown"
     return (
         f"Closed loop: use {desc} with the {kind[controller]} PI{ff} "
         f"(Kp = {fmt(g['kp'])} /bar, Ki = {fmt(g['ki'])} /(bar·s), controllers.yaml): over the "
-        f"set-point staircase, rise time (10–90 %) ≤ {rise:.2f} s, overshoot ≤ {over:.0f} % "
-        f"and steady-state error ≤ {err * 1e3:.1f} mbar in the exact simulation."
+        f"set-point staircase{where}, {rise_text}, overshoot ≤ {over:.0f} %{settle_text} "
+        f"and steady-state error ≤ {err_text} in the exact simulation of the identified model."
     )
+
+
+def held_clause(
+    setting: Mapping[str, Any] | Modulator,
+    params: ValveParams,
+    held: tuple[float, float] | list[float],
+    max_fraction: float = 1.0,
+) -> str:
+    """Which pressures the setting cannot hold on the valve, in one sentence.
+
+    Examples
+    --------
+    >>> held_clause({"type": "iipfm", "t_l": 0.02, "gain": 1.15}, ValveParams(k2=5.5),
+    ...             (1.07, 5.2), 0.95)[:62]
+    'It holds 1.07–5.2 bar on this valve and cannot hold below 1.07'
+    """
+    lo, hi = float(held[0]), float(held[1])
+    text = f"It holds {lo:.3g}–{hi:.3g} bar on this valve"
+    low = lo > 0.02 * params.k2
+    idle = idle_duty(setting, params)
+    if low:
+        text += f" and cannot hold below {lo:.3g} bar"
+        if idle > 0.005:
+            text += f" (at ξ = 0 it still opens the valve {idle * 100:.0f} % of the time)"
+    if hi < 0.98 * max_fraction * params.k2:
+        text += f", nor above {hi:.3g} bar" if low else f" and cannot hold above {hi:.3g} bar"
+    return text + "."
 
 
 #: Columns of ``runs.csv`` (recorded closed-loop runs against their replay).
