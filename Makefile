@@ -47,8 +47,9 @@ ccompiler:
 test: lint browser ccompiler
 	$(BIN)/pytest
 
-# The documentation site (Sphinx, numpydoc, MyST): the guide, the model, the benchmarks and
-# the API reference generated from the docstrings; warnings are errors.
+# The documentation site (Sphinx, numpydoc, MyST, myst-nb, pydata-sphinx-theme): getting
+# started (its tutorial runs the pipeline on the bundled example), how-to guides, explanation
+# and reference; warnings are errors.
 docs: $(STAMP)
 	$(BIN)/sphinx-build -b html -W --keep-going -j auto -q docs docs/_build/html
 	@echo "docs/_build/html/index.html"
@@ -61,4 +62,4 @@ lock:
 	rm -rf .lockenv
 
 clean:
-	rm -rf results .snakemake docs/_build docs/api
+	rm -rf results .snakemake docs/_build docs/api docs/reference/generated docs/reference/cli.md docs/jupyter_execute

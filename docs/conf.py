@@ -1,22 +1,45 @@
 """Sphinx configuration of spa's documentation site: ``make docs`` builds it offline into
 ``docs/_build/html``.
 
-The API reference is generated from the docstrings (numpydoc) on every build: each public
-module (one with ``__all__``) gets a page, and each public name one page, under the module
-that defines it; a package's page links its names there (:mod:`docs._api`).
+The site is in four parts, by what the reader is doing: getting started (a tutorial whose
+pages run at build time, with myst-nb, on the bundled example), how-to guides, explanation
+and reference. The reference's API page is written by hand, grouped by task (like
+scipy.signal's); its entries are checked against the public ``__all__`` lists by
+``tests/test_docs_site.py``. The CLI page is generated from ``spa.cli``'s parser
+(:mod:`docs._cli`).
 """
 
 from __future__ import annotations
 
+import os
+import re
 import sys
+import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+ROOT = HERE.parent
+sys.path[:0] = [str(ROOT), str(HERE)]  # this checkout's spa, whatever the venv points at
 
-from _api import write_api_pages  # noqa: E402
+from _cli import write_cli_page  # noqa: E402
 
 import spa  # noqa: E402
+
+# The executed pages (and the commands they start) import this checkout's spa.
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p
+)
+# ... and find this environment's commands (spa, snakemake) first.
+os.environ["PATH"] = os.pathsep.join((str(Path(sys.executable).parent), os.environ["PATH"]))
+os.environ.setdefault("MPLBACKEND", "Agg")
+os.environ.setdefault("SPA_PROGRESS", "0")
+# The executed pages' kernels run quietly (ipykernel warns on stderr about its TCP transport).
+_IPYTHON = Path(tempfile.mkdtemp(prefix="spa-docs-ipython-"))
+(_IPYTHON / "profile_default").mkdir()
+(_IPYTHON / "profile_default" / "ipython_kernel_config.py").write_text(
+    'c.IPKernelApp.log_level = "ERROR"\n'
+)
+os.environ["IPYTHONDIR"] = str(_IPYTHON)
 
 project = "spa"
 author = "spa contributors"
@@ -29,14 +52,17 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
     "numpydoc",
-    "myst_parser",
+    "myst_nb",  # Markdown through MyST, and the executed tutorial pages
 ]
-source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
-exclude_patterns = ["_build", "**/.ipynb_checkpoints"]
+source_suffix = {".rst": "restructuredtext", ".md": "myst-nb"}
+# docs/model.md is included by explanation/model.md; the generated pages of the old layout
+# (docs/api/) are not part of the site.
+exclude_patterns = ["_build", "**/.ipynb_checkpoints", "model.md", "api", "**/_work"]
 root_doc = "index"
 
-# The API pages, written before Sphinx reads the sources.
-write_api_pages(HERE / "api")
+# The CLI page, written before Sphinx reads the sources.
+write_cli_page(HERE / "reference" / "cli.md")
+
 autosummary_generate = True
 autosummary_imported_members = False
 autodoc_default_options = {"members": False}
@@ -45,12 +71,38 @@ numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 
-# Markdown pages (the README's guide, docs/model.md, benchmarks/README.md) through MyST.
-myst_enable_extensions = ["dollarmath", "amsmath"]
+# Markdown (MyST); the pages of docs/getting-started and explanation/figures run at build
+# time, offline, on the bundled example; an error in a cell fails the build.
+myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
 myst_heading_anchors = 3
+nb_execution_mode = "force"
+nb_execution_timeout = 600
+nb_execution_raise_on_error = True
+nb_execution_show_tb = True
+nb_merge_streams = True
 
-html_theme = "alabaster"
+html_theme = "pydata_sphinx_theme"
 html_title = f"spa {release}"
 html_static_path: list[str] = []
-html_theme_options = {"description": "soft pneumatic actuator, on/off valve, pulse modulators"}
+html_theme_options = {
+    "navbar_align": "left",
+    "show_toc_level": 2,
+    "navigation_with_keys": False,
+    "secondary_sidebar_items": ["page-toc"],
+    "footer_start": ["copyright"],
+    "footer_end": [],
+}
+html_sidebars = {"index": []}
 # Offline: MathJax is loaded by the reader's browser; the build fetches nothing.
+
+#: A development note in an included file's heading, e.g. "(issue 17)": not for the site.
+_ISSUE_NOTE = re.compile(r"[ \t]*\((?:see )?issue \d+[^)\n]*\)")
+
+
+def _strip_issue_notes(app, relative_path, parent_docname, content):
+    """Drop "(issue N ...)" notes from the Markdown files the site includes."""
+    content[0] = _ISSUE_NOTE.sub("", content[0])
+
+
+def setup(app):
+    app.connect("include-read", _strip_issue_notes)

@@ -9,7 +9,8 @@ checks, ingest), ``synthetic`` (simulated datasets), ``identification`` (Section
 ``validation`` (the identified model replayed on every run), ``tuning`` (Section 5),
 ``openloop`` (Section 6: Table 3, Figs. 6-9), ``plots`` and ``report``.
 
-The top level re-exports the public API. Names are imported on first use (PEP 562), so that
+The top level re-exports the public API: what a notebook user calls, grouped by task in the
+API reference (docs/api/index.rst). Names are imported on first use (PEP 562), so that
 ``import spa`` and ``import spa.io`` stay cheap in a workflow job that needs one stage only.
 """
 
@@ -19,10 +20,15 @@ from spa._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
-#: Public name -> the module that defines it.
+#: Public name -> the module that defines it: what a notebook user calls, by task. The API
+#: reference's front page (docs/api/index.rst) lists exactly these, in the same sections, and
+#: tests/test_docs_site.py keeps the two in step.
 _EXPORTS: dict[str, str] = {
+    # The valve and the plant: parameters, the exact simulation.
     "ValveParams": "spa.model.params",
     **dict.fromkeys(("charge", "discharge", "simulate"), "spa.model.plant"),
+    "load_params": "spa.identification.results",
+    # The modulators.
     **dict.fromkeys(
         ("MODULATORS", "Modulator", "check_settings", "modulate"), "spa.model.modulators"
     ),
@@ -36,16 +42,23 @@ _EXPORTS: dict[str, str] = {
         "spa.model.chattering",
     ),
     "thresholds": "spa.model.thresholds",
+    # Datasets: the raw/ contract, the canonical run tables.
+    **dict.fromkeys(("DatasetError", "ingest_dataset", "validate_dataset"), "spa.datasets"),
+    "read_run_table": "spa.datasets",
+    "read_runs": "spa.io",
+    # Identification (Section 3.2) and the model's validation on every run.
     **dict.fromkeys(
         ("IdentificationError", "IdentificationResult", "identify", "identify_runs"),
         "spa.identification",
     ),
-    "load_params": "spa.identification.results",
     **dict.fromkeys(("ValidationResult", "validate_run", "validate_runs"), "spa.validation"),
+    # Tuning (Section 5).
     **dict.fromkeys(
         ("iipfm_optimal_t_l", "linearity_cost", "modulator_settings", "optimum", "sweep"),
         "spa.tuning",
     ),
+    **dict.fromkeys(("TuningResult", "tune"), "spa.tuning"),
+    # Open-loop characterisation (Section 6).
     **dict.fromkeys(("linear_fit_metrics", "staircase_levels"), "spa.openloop.levels"),
     "step_time_constants": "spa.openloop.steps",
     **dict.fromkeys(("compensate_lag", "sine_linearity"), "spa.openloop.sine_fit"),
@@ -56,9 +69,12 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(
         ("bicoherence", "mean_bicoherence", "principal_domain_mask"), "spa.openloop.spectra"
     ),
-    # Closed loop (PI through the modulator).
+    # Closed loop: design, exact simulation, the controller on a bench.
     "PIController": "spa.closedloop.controller",
+    "design_pi": "spa.closedloop.design",
     "simulate_closed_loop": "spa.closedloop.loop",
+    "ControllerStepper": "spa.closedloop.stepper",
+    **dict.fromkeys(("controller_header", "export_designed"), "spa.closedloop.export"),
 }
 
 __all__ = sorted(_EXPORTS)

@@ -21,8 +21,15 @@ from spa._lazy import lazy_exports
 
 _EXPORTS: dict[str, str] = {
     "ControllerStepper": "spa.closedloop.stepper",
-    "controller_header": "spa.closedloop.export",
+    **dict.fromkeys(
+        ("arduino_sketch", "controller_header", "export_designed", "write_controller"),
+        "spa.closedloop.export",
+    ),
+    **dict.fromkeys(("design_pi", "feedforward", "local_models", "simc"), "spa.closedloop.design"),
     "PIController": "spa.closedloop.controller",
+    "closed_loop_reference": "spa.closedloop.reference",
+    **dict.fromkeys(("sine_metrics", "step_metrics"), "spa.closedloop.metrics"),
+    "robust_design": "spa.closedloop.robust",
     "simulate_closed_loop": "spa.closedloop.loop",
 }
 

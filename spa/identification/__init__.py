@@ -34,4 +34,17 @@ from spa._lazy import lazy_exports
 _MODULES = ("delays", "experiments", "identify", "rate_fits", "rates", "results")
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
-__all__ = sorted(_EXPORTS)
+#: What a notebook user calls (the API reference lists these); every other name of the
+#: submodules above stays importable from here but is not presented as public API.
+__all__ = [
+    "IdentificationError",
+    "IdentificationResult",
+    "fit_charge",
+    "fit_delays",
+    "fit_discharge",
+    "identification_commands",
+    "identify",
+    "identify_runs",
+    "load_params",
+    "simulate_identification",
+]

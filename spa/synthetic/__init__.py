@@ -19,4 +19,17 @@ from spa._lazy import lazy_exports
 _MODULES = ("example", "inputs", "physical", "runs", "sensor")
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
-__all__ = sorted(_EXPORTS)
+#: What a notebook user calls (the API reference lists these); every other name of the
+#: submodules above stays importable from here but is not presented as public API.
+__all__ = [
+    "EXAMPLE_PARAMS",
+    "Ringing",
+    "Sensor",
+    "chirp_input",
+    "identification_experiment_for",
+    "sensor_record",
+    "simulate_run",
+    "sine_input",
+    "staircase_input",
+    "write_example_dataset",
+]

@@ -20,4 +20,19 @@ from spa._lazy import lazy_exports
 _MODULES = ("cost", "exact", "intervals", "recommend", "sentence", "stage", "tables")
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
-__all__ = sorted(_EXPORTS)
+#: What a notebook user calls (the API reference lists these); every other name of the
+#: submodules above stays importable from here but is not presented as public API.
+__all__ = [
+    "CONSTRAINTS",
+    "TuningError",
+    "TuningOptions",
+    "TuningResult",
+    "exact_cost",
+    "iipfm_optimal_t_l",
+    "linearity_cost",
+    "modulator_settings",
+    "optimum",
+    "propagate",
+    "sweep",
+    "tune",
+]

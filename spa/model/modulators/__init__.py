@@ -18,6 +18,8 @@ A new kind is one module defining a :class:`ModulatorKind` subclass and one line
 
 from __future__ import annotations
 
+# The names imported here and left out of __all__ stay importable for the code that uses them.
+# ruff: noqa: F401
 from spa.model.modulators.base import REGISTRY, ModulatorKind, get_kind, kinds, register
 from spa.model.modulators.core import (
     MODULATOR_ORDER,
@@ -35,10 +37,12 @@ from spa.model.modulators.lpwm import LPWM
 from spa.model.modulators.pwm import PWM
 
 __all__ = [
+    "DSM",
+    "IIPFM",
+    "IPFM",
+    "LPWM",
     "MODULATORS",
-    "MODULATOR_ORDER",
-    "PARAMETER",
-    "REGISTRY",
+    "PWM",
     "Modulator",
     "ModulatorKind",
     "check_settings",
