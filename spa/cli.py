@@ -225,6 +225,7 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
             tau_c=args.tau_c,
             levels=levels,
             dt=args.dt,
+            precision=args.precision,
         )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)
@@ -425,6 +426,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--tau-c", type=float, default=0.2, help="closed-loop time constant, s")
     p.add_argument("--levels", metavar="R1,R2,...", help="set-points, bar (default 0.05-0.75)")
     p.add_argument("--dt", type=float, default=0.001, help="controller step, s")
+    p.add_argument(
+        "--precision",
+        choices=["double", "single"],
+        default="double",
+        help="the PI's arithmetic: double (default, the simulation's to the bit) or single "
+        "(float, for single-precision FPUs)",
+    )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.set_defaults(func=_export_controller)
     return parser

@@ -214,7 +214,9 @@ def bench_outputs(
         f"The closed_loop stage's choice (controllers.yaml), tau_c = {tau_c:g} s; worst "
         f"overshoot over the 95 % box {rd.worst['overshoot']:.1f} % ({rd.n_corners} corners)."
     )
-    header = controller_header(mod, ctrl, dt, note=note)
+    header = controller_header(
+        mod, ctrl, dt, note=note, precision=str(c.get("precision", "double"))
+    )
     return BenchOutputs(
         pd.DataFrame(rows, columns=list(ROBUST_COLUMNS)),
         header,
