@@ -236,7 +236,8 @@ def controller_header(
     -------
     str
         The header (every function ``static inline``, so a translation unit that includes it
-        and calls nothing compiles warning-free): ``<prefix>_state``, ``<prefix>_output`` (``valve``, ``xi``),
+        and calls nothing compiles warning-free): ``<prefix>_state``, ``<prefix>_output``
+        (``valve``, ``xi``),
         ``<prefix>_init(&state, integral0)``, ``<prefix>_step(&state, r, p)`` and the
         macro ``<PREFIX>_DT``; only ``<math.h>`` is included.
 
