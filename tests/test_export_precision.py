@@ -126,3 +126,23 @@ def test_cli_writes_the_single_precision_header(tmp_path):
     body = (out / "controller.h").read_text()
     expected = controller_header(SETTINGS["pwm"], _design("pwm"), DT, precision="single")
     assert body[body.index("#ifndef") :] == expected[expected.index("#ifndef") :]
+
+
+def test_the_stage_option_is_a_config_key():
+    """``closed_loop.precision`` chooses the stage's header: double or single, nothing else."""
+    from pathlib import Path
+
+    import yaml
+
+    from spa.pipeline.config import config_errors
+
+    root = Path(__file__).resolve().parents[1]
+    schema = yaml.safe_load((root / "workflow/schemas/config.schema.yaml").read_text())
+    cfg = yaml.safe_load((root / "config/config.yaml").read_text())
+    assert cfg["closed_loop"]["precision"] == "double"
+    cfg["closed_loop"]["precision"] = "single"
+    assert config_errors(cfg, schema) == []
+    cfg["closed_loop"]["precision"] = "half"
+    assert config_errors(cfg, schema) == [
+        "closed_loop.precision: 'half' is not one of ['double', 'single']"
+    ]
