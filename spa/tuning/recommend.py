@@ -666,10 +666,13 @@ def recommend(
     -------
     dict
         YAML-ready: ``score``, ``constraints`` (the options, and per constraint how many
-        candidates it excludes), ``n_candidates``, ``n_feasible``, ``recommended`` (None
-        when nothing is feasible; else ``modulator``, ``label``, ``description``,
+        candidates it excludes, and ``max_chattering_bar``, the chattering limit on this
+        valve), ``n_candidates``, ``n_feasible``, ``recommended`` (None only when no
+        candidate works on the valve; else ``modulator``, ``label``, ``description``,
         ``setting`` in the form of a ``dataset.yaml`` modulator, ``J``, ``J_exact``,
-        ``predicted``, ``at_feasible_edge``), ``runners_up`` (the best feasible setting of
+        ``predicted``, ``at_feasible_edge``; when no candidate meets every constraint, the
+        least-violating one, with ``violates``, constraint -> ``{value, limit, excess}``,
+        and ``violation``, :func:`violation`), ``runners_up`` (the best feasible setting of
         every other modulator, or the constraints that exclude all of its settings),
         ``excluded_by`` (the constraints that together exclude every setting; empty when one
         is feasible) and ``units``.
@@ -683,6 +686,8 @@ def recommend(
     predicted FIT. Better-scored ones further below are passed over (``passed_over`` says
     why) and follow it among the runners-up. ``at_feasible_edge`` flags a setting that is
     the lowest or highest of its kind's feasible settings, with what bounds it there.
+    When no setting meets every constraint, the one of smallest :func:`violation` (ties by
+    ``score``) is recommended: usable on the valve, and as near the user's limits as any.
     """
     opts = options or TuningOptions()
     feasible_rows = candidates[candidates["feasible"]]
