@@ -36,6 +36,7 @@ import sys
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -63,28 +64,27 @@ __all__ = [
 ]
 
 
-class Skipped(str):
+@dataclass(frozen=True)
+class Skipped:
     """A stage's warning that names a part of its work left out on this dataset, and why.
 
     A stage's work returns it among its warnings (:func:`run_stage`) when a property of the
     valve or the data rules one part out (the sine stage's linear reference of a setting
     that cannot work on the valve) while the rest is done. The status records it under
-    ``skipped`` (``part -> reason``) besides ``warnings``; the report names it on the page.
+    ``skipped`` (``part -> reason``) and, as text, among ``warnings``; the report names it
+    on the page.
 
     Examples
     --------
-    >>> note = Skipped("linear reference", "no setting gives a finite tau_m")
-    >>> str(note), note.part
-    ('linear reference skipped: no setting gives a finite tau_m', 'linear reference')
+    >>> str(Skipped("linear reference", "no setting gives a finite tau_m"))
+    'linear reference skipped: no setting gives a finite tau_m'
     """
 
     part: str
     reason: str
 
-    def __new__(cls, part: str, reason: str) -> Skipped:
-        note = super().__new__(cls, f"{part} skipped: {reason}")
-        note.part, note.reason = str(part), str(reason)
-        return note
+    def __str__(self) -> str:
+        return f"{self.part} skipped: {self.reason}"
 
 
 #: Folder of a dataset's results holding one ``<stage>.json`` per stage.
@@ -282,7 +282,7 @@ def write_status(
     }
     if errs and fault is not None:
         status["fault"] = fault
-    given = [w for w in warnings if isinstance(w, str)]
+    given = [w for w in warnings if isinstance(w, str | Skipped)]
     notes = [str(w) for w in given][:_MAX_ERRORS]
     if notes:
         status["warnings"] = notes
@@ -361,7 +361,8 @@ def run_stage(
         The stage's name in :data:`spa.pipeline.outputs.STAGES`.
     work : callable
         Does the stage's work and writes every output but ``status``; it may return a list
-        of warnings (str), which the status records (``warnings``).
+        of warnings (str, or :class:`Skipped` for a part left out), which the status records
+        (``warnings``, and ``skipped``).
     log : logging.Logger
         The job's log: the error and its traceback go there.
 

@@ -73,7 +73,7 @@ class ChirpResult:
     skipped: dict[str, str] = field(default_factory=dict)
 
     @property
-    def warnings(self) -> list[str]:
+    def warnings(self) -> list[Skipped]:
         """What the stage's status records: one :class:`~spa.pipeline.status.Skipped` a part."""
         return [Skipped(part, why) for part, why in self.skipped.items()]
 

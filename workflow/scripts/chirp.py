@@ -7,7 +7,7 @@ from spa.stages.chirp import run_chirp, write_chirp
 log = get_logger("chirp", snakemake.log[0])
 
 
-def main() -> list[str]:
+def main() -> list:
     runs, metas = read_runs(snakemake.input.runs)
     params = read_params(snakemake.input.params)
     result = run_chirp(runs, metas, params, snakemake.params.cfg, log)
