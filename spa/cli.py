@@ -265,6 +265,7 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
             tau_c=TAU_C if tau_c is None else float(tau_c),
             levels=levels,
             dt=args.dt,
+            precision=args.precision,
         )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)
@@ -482,6 +483,13 @@ def _parser() -> argparse.ArgumentParser:
         "over the range the setting holds)",
     )
     p.add_argument("--dt", type=float, default=0.001, help="controller step, s")
+    p.add_argument(
+        "--precision",
+        choices=["double", "single"],
+        default="double",
+        help="the PI's arithmetic: double (default, the simulation's to the bit) or single "
+        "(float, for single-precision FPUs)",
+    )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.set_defaults(func=_export_controller)
     return parser

@@ -57,7 +57,7 @@ def test_a_canonical_name_standing_for_itself_gives_way(tmp_path: Path) -> None:
 def test_a_run_mapping_claims_the_column_the_dataset_left_standing(tmp_path: Path) -> None:
     spec = {
         "columns": {"t": "time", "p": "pressure"},
-        "runs": [{"id": "r", "kind": "pulse", "file": "r.csv", "columns": {"valve": "u"}}],
+        "runs": [{"id": "r", "kind": "charge", "file": "r.csv", "columns": {"valve": "u"}}],
     }
     folder = _dataset(tmp_path, spec)
     assert _messages(folder) == []

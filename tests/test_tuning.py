@@ -323,7 +323,12 @@ def test_table2_of_a_non_nominal_valve_agrees_with_eq25_by_hand(kind, example_ta
 
 
 def test_recommendation_of_a_non_nominal_valve_is_the_minimum_of_eq25_by_hand():
-    unconstrained = {"max_switching_rate": None, "max_chattering": None, "min_pulse_width": None}
+    unconstrained = {
+        "max_switching_rate": None,
+        "max_chattering": None,
+        "max_chattering_relative": None,
+        "min_pulse_width": None,
+    }
     by_hand = {k: optimum_by_hand(k, EXAMPLE) for k in ("pwm", "ipfm", "iipfm", "dsm")}
     kind = min(by_hand, key=lambda k: by_hand[k][1])
     for options in (unconstrained, {}):  # the defaults do not bind at this optimum
@@ -382,13 +387,18 @@ def test_j_exact_optimum_meets_the_constraints_and_is_interior(example_table2):
     for kind, row in example_table2.iterrows():
         value = _seconds(kind, row["optimum_exact"])
         m = setting_metrics(kind, value, EXAMPLE)
-        assert m["chattering"] <= limits.max_chattering
+        assert m["chattering"] <= limits.chattering_limit(EXAMPLE)
         assert m["switching_rate"] <= limits.max_switching_rate
         assert m["min_pulse"] >= limits.min_pulse_width * (1 - 1e-9)
         assert not row["optimum_exact_at_grid_edge"] and not row["optimum_at_grid_edge"]
         assert row["J_exact_min"] == pytest.approx(float(exact_cost(kind, value, EXAMPLE)))
     assert example_table2.loc["dsm", "optimum_exact"] == pytest.approx(16.5)
-    free = {"max_switching_rate": None, "max_chattering": None, "min_pulse_width": None}
+    free = {
+        "max_switching_rate": None,
+        "max_chattering": None,
+        "max_chattering_relative": None,
+        "min_pulse_width": None,
+    }
     loose = tuning_table(SWEEPS, EXAMPLE, 100, options=TuningOptions(**free))
     loose = loose.set_index("modulator")
     for kind in ("ipfm", "dsm"):  # J_exact -> 0 as the period grows

@@ -117,7 +117,7 @@ def test_nominal_recommendation(nominal):
     assert pred["dead_zone"] == 0.0 and pred["saturation"] == 1.0
     assert 0 < pred["tau_m"]["min"] < pred["tau_m"]["max"] < 2 * P.tau2
     assert pred["switching_rate"] <= rec["constraints"]["max_switching_rate"]
-    assert pred["chattering"] <= rec["constraints"]["max_chattering"]
+    assert pred["chattering"] <= rec["constraints"]["max_chattering_bar"]
     # the simulated staircase ranks like the paper's Table 3: IIPFM fits best
     fits = {r["modulator"]: r["predicted"]["fit"] for r in rec["runners_up"]}
     assert pred["fit"] > max(fits.values()) and pred["fit"] > 85.0
@@ -127,22 +127,26 @@ def test_nominal_recommendation(nominal):
 
 
 def test_a_constraint_that_excludes_everything_is_named():
+    """Nothing meets the limit: the least-violating usable setting is recommended, and the
+    sentence names the constraint it breaks."""
     result = tune(P, sweeps=SMALL, n_xi=50, options={"max_switching_rate": 1.0})
     rec = result.recommendation
-    assert rec["recommended"] is None and rec["n_feasible"] == 0
+    assert rec["n_feasible"] == 0 and rec["recommended"] is not None
+    broken = rec["recommended"]["violates"]
+    assert "max_switching_rate" in broken and broken["max_switching_rate"]["limit"] == 1.0
     assert rec["excluded_by"] == ["max_switching_rate"]
     assert all(r["excluded_by"] == ["max_switching_rate"] for r in rec["runners_up"])
-    assert "max_switching_rate = 1.0 rules out every one" in result.sentence
-    assert (result.table1["case"] != "recommended").all()
+    assert result.sentence.startswith("No setting meets every constraint; the least-violating")
+    assert all(f"{name} (" in result.sentence for name in broken)
 
 
 def test_constraints_that_exclude_everything_together_are_named():
     """Slow switching forces long periods, little chattering forbids them: neither alone."""
     options = {"max_switching_rate": 10.0, "max_chattering": 0.01}
     rec = tune(P, sweeps=SMALL, n_xi=50, options=options).recommendation
-    assert rec["recommended"] is None
+    assert rec["recommended"] is not None and rec["n_feasible"] == 0
     assert rec["excluded_by"] == ["max_switching_rate", "max_chattering"]
-    assert "rule out every one; relax them" in recommendation_sentence(rec)
+    assert "the least-violating one breaks" in recommendation_sentence(rec)
     excludes = rec["constraints"]["excludes"]
     assert 0 < excludes["max_switching_rate"] < rec["n_candidates"]
 

@@ -368,7 +368,9 @@ def bench_outputs(
             f"The closed_loop stage's choice (controllers.yaml), tau_c = {shipped_tau:g} s; "
             "no promise: no tau_c tried kept the overshoot and settling over the box."
         )
-    header = controller_header(mod, ctrl, dt, note=note)
+    header = controller_header(
+        mod, ctrl, dt, note=note, precision=str(c.get("precision", "double"))
+    )
     plain = _plain(summary)
     plain["verified"] = bool(verified)
     plain["adequacy"] = dict(adequacy) if adequacy is not None else None

@@ -32,8 +32,10 @@ from spa.model.modulators.kernels import KERNELS
 from spa.model.modulators.kernels._common import EPS
 
 __all__ = [
+    "PRECISIONS",
     "arduino_sketch",
     "c_double",
+    "c_float",
     "controller_header",
     "export_designed",
     "write_controller",
@@ -42,7 +44,7 @@ __all__ = [
 _PREFIX = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 _PI = """
-static double ${p}_interp(double x, const double *xp, const double *fp, int n)
+static ${real} ${p}_interp(${real} x, const ${real} *xp, const ${real} *fp, int n)
 {
     int lo, hi, mid;
     if (n == 1 || x <= xp[0]) {
@@ -66,15 +68,15 @@ static double ${p}_interp(double x, const double *xp, const double *fp, int n)
 
 /* Start (or restart) the controller: step 0, integrator at integral0 (input fraction),
  * the modulator at its initial state. */
-static void ${p}_init(${p}_state *s, double integral0)
+static void ${p}_init(${p}_state *s, ${real} integral0)
 {
     int i;
     s->k = 0;
     s->integral = integral0;
-    s->r_prev = 0.0;
-    s->kp = 0.0;
-    s->ki = 0.0;
-    s->ff = 0.0;
+    s->r_prev = ${zero};
+    s->kp = ${zero};
+    s->ki = ${zero};
+    s->ff = ${zero};
     for (i = 0; i < ${P}_N_STATE; ++i) {
         s->mod[i] = ${p}_initial[i];
     }
@@ -83,10 +85,10 @@ static void ${p}_init(${p}_state *s, double integral0)
 /* One controller step at t_k = k*${P}_DT: r the set-point and p the measured pressure at
  * t_k (bar). Returns the valve command to apply at once and hold until the next step
  * (1 = charge, 0 = exhaust) and xi, the PI's output (the input fraction). */
-static ${p}_output ${p}_step(${p}_state *s, double r, double p)
+static ${p}_output ${p}_step(${p}_state *s, ${real} r, ${real} p)
 {
     ${p}_output out;
-    double e, v;
+    ${real} e, v;
     if (s->k == 0 || r != s->r_prev) {
         s->kp = ${p}_interp(r, ${p}_grid, ${p}_kp, ${P}_N_GRID);
         s->ki = ${p}_interp(r, ${p}_grid, ${p}_ki, ${P}_N_GRID);
@@ -95,9 +97,9 @@ static ${p}_output ${p}_step(${p}_state *s, double r, double p)
     }
     e = r - p;
     v = s->kp * e + s->integral + s->ff;
-    out.xi = v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v);
-    if (!((v > 1.0 && e > 0.0) || (v < 0.0 && e < 0.0))) {
-        s->integral += s->ki * ${P}_DT * e;
+    out.xi = v < ${zero} ? ${zero} : (v > ${one} ? ${one} : v);
+    if (!((v > ${one} && e > ${zero}) || (v < ${zero} && e < ${zero}))) {
+        s->integral += s->ki * ${dt} * e;
     }
     out.valve = ${p}_mod_step(s->k, out.xi, ${p}_cfg, s->mod);
     s->k += 1;
@@ -164,9 +166,38 @@ def c_double(x: float) -> str:
     return repr(v)
 
 
-def _array(name: str, values: Sequence[float] | np.ndarray) -> str:
-    items = ", ".join(c_double(v) for v in np.asarray(values, dtype=np.float64))
-    return f"static const double {name}[{len(values)}] = {{{items}}};"
+def c_float(x: float) -> str:
+    """A C float literal (``f`` suffix) that reads back as the float nearest ``x``: numpy's
+    shortest decimal that round-trips in single precision.
+
+    Raises
+    ------
+    ValueError
+        For a value that is not finite in single precision.
+
+    Examples
+    --------
+    >>> c_float(0.1), c_float(20.0), c_float(1e-9)
+    ('0.1f', '20.0f', '1e-09f')
+    """
+    with np.errstate(over="ignore"):
+        v = np.float32(x)
+    if not np.isfinite(v):
+        raise ValueError(f"c_float: {float(x)} has no finite single-precision C literal")
+    return c_double(float(str(v))) + "f"
+
+
+#: The header's floating-point precision for the PI: C type and literal writer.
+PRECISIONS = {"double": ("double", c_double), "single": ("float", c_float)}
+
+#: A function definition of the generated text: ``static`` at the start of a line, not a table.
+_STATIC_FUNCTION = re.compile(r"^static (?!const )", re.MULTILINE)
+
+
+def _array(name: str, values: Sequence[float] | np.ndarray, precision: str = "double") -> str:
+    ctype, literal = PRECISIONS[precision]
+    items = ", ".join(literal(v) for v in np.asarray(values, dtype=np.float64))
+    return f"static const {ctype} {name}[{len(values)}] = {{{items}}};"
 
 
 def controller_header(
@@ -176,6 +207,7 @@ def controller_header(
     *,
     prefix: str = "spa_ctrl",
     note: str = "",
+    precision: str = "double",
 ) -> str:
     """The C99 header of one controller and modulator setting.
 
@@ -192,11 +224,20 @@ def controller_header(
         upper case. Two headers with different prefixes can share a program.
     note : str, optional
         A line for the header's comment (e.g. where the design came from).
+    precision : {"double", "single"}, optional
+        ``"double"`` (default): every operation in IEEE double, the simulation's to the bit.
+        ``"single"``: the PI (its tables, integrator, error, ``xi``, the arguments ``r`` and
+        ``p``) in ``float`` with ``f`` literals, for boards whose FPU is single precision
+        (Cortex-M4F); the modulator keeps its constants and state in double (it computes
+        only at its events, and its step clock must not drift), so the header is the same
+        law rounded differently: docs/howto/controller-on-bench.md states the agreement.
 
     Returns
     -------
     str
-        The header: ``<prefix>_state``, ``<prefix>_output`` (``valve``, ``xi``),
+        The header (every function ``static inline``, so a translation unit that includes it
+        and calls nothing compiles warning-free): ``<prefix>_state``, ``<prefix>_output``
+        (``valve``, ``xi``),
         ``<prefix>_init(&state, integral0)``, ``<prefix>_step(&state, r, p)`` and the
         macro ``<PREFIX>_DT``; only ``<math.h>`` is included.
 
@@ -213,6 +254,8 @@ def controller_header(
     """
     if not isinstance(prefix, str) or not _PREFIX.fullmatch(prefix):
         raise ValueError(f"prefix must be a C identifier, got {prefix!r}")
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision must be one of {list(PRECISIONS)}, got {precision!r}")
     if not isinstance(controller, PIController):
         raise ValueError(f"controller must be a PIController, got {controller!r}")
     dt = checks.positive("dt", dt, "s")
@@ -226,13 +269,27 @@ def controller_header(
     grid, kp, ki, ff_r, ff_xi = controller.arrays()
     up = prefix.upper()
     subs = {"p": prefix, "P": up, "eps": c_double(EPS)}
+    real, literal = PRECISIONS[precision]
+    pi_subs = {
+        **subs,
+        "real": real,
+        "zero": literal(0.0),
+        "one": literal(1.0),
+        "dt": f"{up}_DT" if precision == "double" else f"(({real}){up}_DT)",
+    }
     kind = "gain-scheduled" if controller.scheduled else "fixed"
     ff = " with feed-forward" if controller.feedforward is not None else ""
     lines = [
         f"/* {up}: {kind} PI{ff} -> {mod.description} ({mod.label}), step {dt:g} s.",
         " * Generated by spa (spa export-controller); the law of docs/model.md section 8,",
-        " * checked against spa.simulate_closed_loop to the bit (tests/test_export.py).",
-        " * Compile as ISO C (-std=c99) or with -ffp-contract=off, IEEE double.",
+        " * checked against spa.simulate_closed_loop to the bit (tests/test_export.py)."
+        if precision == "double"
+        else " * in double precision the simulation's to the bit (tests/test_export.py).",
+        " * Compile as ISO C (-std=c99) or with -ffp-contract=off, IEEE double."
+        if precision == "double"
+        else " * Single precision: the PI in float (the modulator in double); its commands can"
+        " differ\n * from the double-precision loop's (by how much:"
+        " docs/howto/controller-on-bench.md).",
         f" * Setting: {mod.to_mapping()}",
         f" * Controller: {controller.to_mapping()}",
     ]
@@ -254,25 +311,25 @@ def controller_header(
         f"#define {up}_N_STATE {len(kernel.INITIAL)}\n",
         "/* Gains (1/bar, 1/(bar*s)) at the set-points of the grid (bar), the feed-forward",
         " * input fraction at its set-points: linear in the set-point, held outside. */",
-        _array(f"{prefix}_grid", grid),
-        _array(f"{prefix}_kp", kp),
-        _array(f"{prefix}_ki", ki),
-        _array(f"{prefix}_ff_r", ff_r),
-        _array(f"{prefix}_ff_xi", ff_xi),
+        _array(f"{prefix}_grid", grid, precision),
+        _array(f"{prefix}_kp", kp, precision),
+        _array(f"{prefix}_ki", ki, precision),
+        _array(f"{prefix}_ff_r", ff_r, precision),
+        _array(f"{prefix}_ff_xi", ff_xi, precision),
         "/* The modulator's constants and initial state. */",
         _array(f"{prefix}_cfg", cfg),
         _array(f"{prefix}_initial", kernel.INITIAL) + "\n",
         "typedef struct {\n    long long k; /* steps since init */\n"
-        "    double integral; /* the PI's integrator, input fraction */\n"
-        "    double r_prev, kp, ki, ff; /* gains at the last set-point */\n"
+        f"    {real} integral; /* the PI's integrator, input fraction */\n"
+        f"    {real} r_prev, kp, ki, ff; /* gains at the last set-point */\n"
         f"    double mod[{up}_N_STATE]; /* the modulator's state */\n}} {prefix}_state;\n",
         "typedef struct {\n    int valve; /* 1: charge, 0: exhaust, over the coming step */\n"
-        f"    double xi; /* the PI's output, input fraction */\n}} {prefix}_output;",
+        f"    {real} xi; /* the PI's output, input fraction */\n}} {prefix}_output;",
         Template(kernel.C_STEP).substitute(subs).rstrip(),
-        Template(_PI).substitute(subs).rstrip(),
+        Template(_PI).substitute(pi_subs).rstrip(),
         f"\n#endif /* {up}_H */\n",
     ]
-    return "\n".join(body)
+    return _STATIC_FUNCTION.sub("static inline ", "\n".join(body))
 
 
 def arduino_sketch(
@@ -302,20 +359,25 @@ def write_controller(
     name: str = "controller",
     prefix: str = "spa_ctrl",
     note: str = "",
+    precision: str = "double",
+    setpoint: float = 0.4,
 ) -> tuple[Path, Path]:
-    """Write ``<name>.h`` (:func:`controller_header`) and ``<name>.ino`` into ``folder``.
+    """Write ``<name>.h`` (:func:`controller_header`, in ``precision``) and ``<name>.ino``
+    (:func:`arduino_sketch`, whose default set-point is ``setpoint`` bar) into ``folder``.
 
     Returns
     -------
     header, sketch : pathlib.Path
         The two files written (``folder`` is created if needed).
     """
-    text = controller_header(modulator, controller, dt, prefix=prefix, note=note)
+    text = controller_header(
+        modulator, controller, dt, prefix=prefix, note=note, precision=precision
+    )
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     header, sketch = out / f"{name}.h", out / f"{name}.ino"
     header.write_text(text, encoding="utf-8")
-    sketch.write_text(arduino_sketch(header.name, prefix), encoding="utf-8")
+    sketch.write_text(arduino_sketch(header.name, prefix, setpoint), encoding="utf-8")
     return header, sketch
 
 
@@ -329,6 +391,7 @@ def export_designed(
     levels: Sequence[float] | None = None,
     dt: float = 0.001,
     note: str = "",
+    precision: str = "double",
 ) -> tuple[Path, Path]:
     """Design the PIs for a valve and a setting (as the ``closed_loop`` stage does) and write
     the header and sketch of one of them (``spa export-controller``).
@@ -348,6 +411,8 @@ def export_designed(
         (s); the ``closed_loop`` stage's defaults (levels below 0.95*k2) when omitted.
     note : str, optional
         A line for the header's comment.
+    precision : {"double", "single"}, optional
+        The header's PI arithmetic (:func:`controller_header`).
 
     Returns
     -------
@@ -377,11 +442,7 @@ def export_designed(
         raise ValueError(f"levels: need at least two set-points, got {list(levels)}")
     designs = design_pi(modulator, params, levels=levels, tau_c=tau)
     text = note or f"SIMC, tau_c = {tau:g} s, schedule over {list(levels)} bar."
-    header = controller_header(modulator, designs[controller], dt, note=text)
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
-    h, sk = out / "controller.h", out / "controller.ino"
-    h.write_text(header, encoding="utf-8")
     mid = float(f"{float(np.median(levels)):.3g}")
-    sk.write_text(arduino_sketch(h.name, setpoint=mid), encoding="utf-8")
-    return h, sk
+    return write_controller(
+        folder, modulator, designs[controller], dt, note=text, precision=precision, setpoint=mid
+    )

@@ -103,6 +103,12 @@ class _RunCheck:
         self.t_prev: float | None = None
         self.p_lo = math.inf
         self.p_hi = -math.inf
+        # the valve trace, for the kind check (:meth:`kind_problems`)
+        self.v_last: float | None = None
+        self.v_first: float | None = None
+        self.v_edges = 0
+        self.v_levels: set[int] = set()
+        self.v_first_edge: tuple[float, int] | None = None  # (t in the file's unit, to)
 
     @property
     def failed(self) -> bool:
@@ -228,6 +234,7 @@ class _RunCheck:
                     offset,
                     lambda i: f"valve = {v[i]:.17g}; expected the command 0 or 1",
                 )
+                self._trace_valve(t, v)
             if "u" in values:
                 u = values["u"]
                 self._note(
@@ -250,6 +257,63 @@ class _RunCheck:
         if "r" in values:  # a closed-loop run's set-point, in the file's pressure unit
             out["r"] = _to_bar(values["r"], pu)
         return out
+
+    def _trace_valve(self, t: npt.NDArray[np.float64], v: npt.NDArray[np.float64]) -> None:
+        """Count the valve's switches and levels over the chunks (0/1 rows only)."""
+        good = (v == 0) | (v == 1)
+        vv, tt = v[good], t[good]
+        if vv.size == 0:
+            return
+        self.v_levels.update(int(x) for x in np.unique(vv))
+        if self.v_first is None:
+            self.v_first = float(vv[0])
+        seq = vv if self.v_last is None else np.concatenate(([self.v_last], vv))
+        times = tt if self.v_last is None else np.concatenate(([np.nan], tt))
+        switch = np.flatnonzero(np.diff(seq)) + 1
+        if switch.size and self.v_first_edge is None:
+            self.v_first_edge = (float(times[switch[0]]), int(seq[switch[0]]))
+        self.v_edges += int(switch.size)
+        self.v_last = float(vv[-1])
+
+    def kind_problems(self, file: str | None, run: str | None, kind: str) -> list[Problem]:
+        """The run's declared kind against its valve trace (errors naming the run).
+
+        A ``charge`` run whose valve never opens, a ``discharge`` run whose valve never
+        closes, and a ``pulse`` run whose valve switches fewer than twice (no whole pulse:
+        held, or one switch after a lead-in, which is a charge or discharge run) cannot be
+        identified from; each is an error that says what the trace shows.
+        """
+        if self.failed or self.v_first is None or "valve" not in self.columns:
+            return []
+        col = self.columns["valve"]
+        name = f"{kind} run {run!r}" if run else f"{kind} run"
+        message = None
+        if kind == "charge" and 1 not in self.v_levels:
+            message = f"{name}: the valve never opens (valve 0 throughout); a charge run opens it"
+        elif kind == "discharge" and 0 not in self.v_levels:
+            message = (
+                f"{name}: the valve never closes (valve 1 throughout); a discharge run closes it"
+            )
+        elif kind == "pulse" and self.v_edges < 2:
+            if self.v_edges == 0:
+                held = int(self.v_first)
+                likely = "charge" if held == 1 else "discharge"
+                shows = f"the valve is held at {held} throughout"
+            else:
+                at, to = self.v_first_edge or (math.nan, 1)
+                likely = "charge" if to == 1 else "discharge"
+                verb = "opens" if to == 1 else "closes"
+                shows = (
+                    f"the valve switches once ({verb} at t = {at:.6g} {self.time_unit} and "
+                    "stays so)"
+                )
+            message = (
+                f"{name}: {shows}; a pulse run needs whole pulses (the valve opening and "
+                f"closing). Is it a {likely} run (kind: {likely})?"
+            )
+        if message is None:
+            return []
+        return [Problem(file, run, col, None, message)]
 
     def problems(self, file: str | None, run: str | None) -> list[Problem]:
         out = []

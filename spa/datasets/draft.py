@@ -28,7 +28,9 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
   constant with at least 3 levels held at least 0.2 s → staircase; upward crossings of its
   mid-range at a steady period (spread < 10 %) → sine; crossings whose period shrinks (or
   grows) steadily (rank correlation with time above 0.7 in magnitude) by a factor > 2 → chirp.
-  Without a moving ``u``: valve held at 1 → charge, held at 0 → discharge, toggling → pulse;
+  Without a moving ``u``: valve held at 1 → charge, held at 0 → discharge; a valve that
+  switches at most twice and is open (closed) for at least half the run while the pressure
+  rises (falls) → charge (discharge), whatever quiet lead-in comes first; toggling → pulse;
   without a valve either, pressure rising → charge, falling → discharge.
 * **modulator** (from the valve's edges): rising edges on a fixed period (or a multiple, to
   a sample) → PWM, ``f_w = 1/period``; every edge on a clock of at least 2.5 samples, the
@@ -41,6 +43,7 @@ The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
 
 from __future__ import annotations
 
+import itertools
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -68,13 +71,18 @@ _NAME_HINTS: Mapping[str, re.Pattern[str]] = {
     "valve": re.compile(r"valve|vent|ventil|solenoid|cmd|command|switch|onoff|on_off", re.I),
     "u": re.compile(r"^(u|xi|x|duty|d)([_ .\-\[(].*)?$|xi|duty|ref|input|frac|setpoint", re.I),
     "p": re.compile(r"^(p|pa)([_ .\-\[(\d].*)?$|press|kpa|mbar|bar|psi|act", re.I),
-    # the set-point of a closed loop; a bare "ref" or "reference" stays the input fraction's
+    # the set-point of a closed loop (``ref [psi]``, ``r [bar]``, ``setpoint``); a column
+    # named only "ref"/"reference" that holds a fraction beside a pressure well above 1 is
+    # the input fraction (_WEAK_SETPOINT)
     "r": re.compile(
-        r"^(r|sp|w|target|setpoint|set_point|set-point|sollwert|consigna|"
+        r"^(r|ref|reference|sp|w|target|setpoint|set_point|set-point|sollwert|consigna|"
         r"p_?(ref|set|sp|r|d|des|desired|target|cmd|demand))([_ .\-\[(].*)?$|setpoint|set_point",
         re.I,
     ),
 }
+
+#: Set-point names that an input fraction may carry too ("ref", "reference", with a suffix).
+_WEAK_SETPOINT = re.compile(r"^(ref|reference)([_ .\-\[(].*)?$", re.I)
 
 
 @dataclass(frozen=True, slots=True)
@@ -178,11 +186,17 @@ def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
     out["valve"] = _pick("valve", binary, switches, "holding only 0 and 1")
     rest = [k for k in rest if k != out["valve"].value]
     setpoints = _named("r", [k for k in rest if np.ptp(finite[k]) > 0])
+    top = max((float(np.max(np.abs(finite[k]))) for k in rest), default=0.0)
+    setpoints = [  # a "ref" within [0, 1] while the pressure reaches well above 1: a fraction
+        k
+        for k in setpoints
+        if not (_WEAK_SETPOINT.match(k.strip()) and _fraction(finite[k]) and top > 1.5)
+    ]
     if setpoints:
         var_r = {k: float(np.var(finite[k])) for k in setpoints}
         out["r"] = _pick("r", setpoints, var_r, "named like a pressure set-point")
     else:
-        out["r"] = Guess(None, "no column named like a set-point (r, sp, p_ref, ...)")
+        out["r"] = Guess(None, "no column named like a set-point (r, ref, setpoint, p_ref, ...)")
     rest = [k for k in rest if k != out["r"].value]
     named_p = set(_named("p", rest)) - set(_named("u", rest))
     fractions = [k for k in rest if _fraction(finite[k]) and k not in named_p]
@@ -440,6 +454,9 @@ def guess_kind(
         if edges == 0:
             kind = "charge" if v[0] == 1 else "discharge"
             return Guess(kind, f"valve held at {int(v[0])} throughout{_trend(p)}")
+        held = _held_kind(t, p, v)
+        if held is not None:
+            return held
         note = "" if u is None else ", u constant"
         return Guess("pulse", f"valve switches {edges} times{note}")
     if p is None:
@@ -453,6 +470,40 @@ def guess_kind(
         "could not tell: no valve or u column, and the pressure neither rises nor falls by "
         f"half its range (from {start:.4g} to {end:.4g}, range {span:.4g})",
     )
+
+
+#: Share of a run the valve's longest spell must cover for a charge or discharge run.
+HELD_SHARE = 0.5
+
+
+def _held_kind(t: _Array, p: npt.ArrayLike | None, v: _Array) -> Guess | None:
+    """A charge or discharge run behind a quiet lead-in (or before a closing tail).
+
+    The valve switches at most twice and its longest spell, open (charge) or closed
+    (discharge), covers at least :data:`HELD_SHARE` of the run; the pressure, when given,
+    moves the same way over that spell. Anything else (pulses) gives None.
+    """
+    edges = np.flatnonzero(np.diff(v)) + 1
+    if edges.size > 2 or t.size < 2:
+        return None
+    bounds = np.concatenate(([0], edges, [v.size]))
+    spans = [(t[min(b, t.size - 1)] - t[a], a, b) for a, b in itertools.pairwise(bounds)]
+    span, a, b = max(spans)
+    total = float(t[-1] - t[0])
+    if total <= 0 or span < HELD_SHARE * total:
+        return None
+    level = int(v[a])
+    kind = "charge" if level == 1 else "discharge"
+    word = "open" if level else "closed"
+    when = f"from t = {t[a] - t[0]:.3g} s" if a > 0 else "from the start"
+    reason = f"valve {word} {when} for {span:.3g} s ({span / total:.0%} of the run)"
+    if p is not None:
+        seg = np.asarray(p, dtype=np.float64).ravel()[a:b]
+        start, end = _ends(seg)
+        if (end > start) != (level == 1):
+            return None  # the pressure contradicts the valve: not a clean charge/discharge
+        reason += f"; pressure {'rises' if end > start else 'falls'} from {start:.4g} to {end:.4g}"
+    return Guess(kind, reason)
 
 
 def _ends(p: npt.ArrayLike) -> tuple[float, float]:

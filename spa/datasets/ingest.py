@@ -212,7 +212,8 @@ def _scan_run(
                 line=line,
             )
         )
-    found = check.problems(run.file, run.id) + check.warnings(run.file, run.id, run.kind)
+    found = check.problems(run.file, run.id) + check.kind_problems(run.file, run.id, run.kind)
+    found += check.warnings(run.file, run.id, run.kind)
     found = [replace(p, line=source.line_of(p.row)) if p.line is None else p for p in found]
     problems += found
     first = next((i for i, p in enumerate(problems) if _reading(p)), None)

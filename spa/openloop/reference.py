@@ -34,11 +34,16 @@ from spa.openloop._arrays import _array, _time, uniform_step
 
 __all__ = [
     "REFERENCE",
+    "SKIPPED_PART",
     "first_order_response",
     "linear_reference",
     "reference_run",
+    "reference_skip_reason",
     "reference_time_constant",
 ]
+
+#: The model-based part of the sine and chirp stages, named when it is skipped.
+SKIPPED_PART = "linear reference"
 
 #: The ``modulator`` (and ``setting``, ``run``) of the linear reference's row in a table.
 REFERENCE = "linear"
@@ -136,6 +141,47 @@ def reference_time_constant(
         if finite:
             return float(np.median(finite))
     return float(params.tau2)
+
+
+def reference_skip_reason(
+    modulators: Iterable[Mapping[str, Any] | Modulator], params: ValveParams, xi: float = 0.5
+) -> str:
+    """Why the linear reference cannot be built for these settings on this valve, or ``""``.
+
+    The reference needs Eq. 9's ``tau_m`` at ``xi`` from at least one setting
+    (:func:`reference_time_constant`); a setting that cannot work on the valve (its pulses
+    shorter than the valve's delays: :func:`spa.model.usable.unusable_reason`), or whose
+    ``xi`` lies in its dead-zone or saturation, gives none. The runs themselves are analysed
+    as recorded whatever this says: only the model-based reference is left out.
+
+    Returns
+    -------
+    str
+        ``""`` when some setting gives a finite ``tau_m``; else one sentence naming each
+        setting and its reason.
+
+    Examples
+    --------
+    >>> slow = ValveParams(t_on=0.007, t_off=0.038)
+    >>> reference_skip_reason([{"type": "pwm", "f_w": 25.0}], slow)[:74]
+    'no setting of these runs gives a finite tau_m (Eq. 9) at xi = 0.5: pwm-25H'
+    >>> reference_skip_reason([{"type": "pwm", "f_w": 25.0}, {"type": "pwm", "f_w": 5.0}], slow)
+    ''
+    """
+    from spa.model.usable import unusable_reason
+
+    x = _checks.fraction("xi", xi)
+    why = []
+    for mod in modulators:
+        setting = Modulator.from_mapping(mod)
+        a1, a2 = time_fractions(setting.kind, x, params, **setting.settings)
+        if np.isfinite(float(time_constant(a1, a2, params))):
+            return ""
+        reason = unusable_reason(setting, params)
+        why.append(reason or f"{setting.label}: xi = {x:g} lies in its dead-zone or saturation")
+    return f"no setting of these runs gives a finite tau_m (Eq. 9) at xi = {x:g}: " + "; ".join(
+        dict.fromkeys(why)
+    )
 
 
 def reference_run(run: pd.DataFrame, params: ValveParams, tau: float) -> pd.DataFrame:

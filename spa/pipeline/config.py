@@ -278,45 +278,100 @@ def _resolve(schema: Mapping[str, Any], root: Mapping[str, Any]) -> Mapping[str,
     return schema
 
 
-def _number(text: str) -> int | float | None:
+def _scalar(text: str) -> Any:
+    """``text`` read as a YAML scalar or flow collection (``'0.03'`` -> 0.03, ``'null'`` ->
+    None); YAML 1.1 misses ``1e-3``, read as a float. Unreadable text stays a string."""
     try:
         value = yaml.safe_load(text)
     except yaml.YAMLError:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int | float):
+        return text
+    if isinstance(value, str):
         try:
-            return float(text)  # YAML 1.1 misses 1e-3
+            return float(text)
         except ValueError:
-            return None
+            return text
     return value
 
 
+def _types(schema: Mapping[str, Any], root: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """The alternatives of ``schema``: itself, or each branch of its ``oneOf``/``anyOf``."""
+    branches = schema.get("oneOf") or schema.get("anyOf")
+    if branches and "type" not in schema:
+        return [_resolve(b, root) for b in branches]
+    return [schema]
+
+
+def _fits(value: Any, kind: Any) -> bool:
+    """Whether ``value`` (a parsed YAML value) is of the JSON-schema ``type`` ``kind``."""
+    kinds = kind if isinstance(kind, list) else [kind]
+    for k in kinds:
+        if k == "null" and value is None:
+            return True
+        if k == "boolean" and isinstance(value, bool):
+            return True
+        if isinstance(value, bool):
+            continue
+        if k == "number" and isinstance(value, int | float):
+            return True
+        if k == "integer" and isinstance(value, int | float) and float(value).is_integer():
+            return True
+        if k == "array" and isinstance(value, list):
+            return True
+        if k == "object" and isinstance(value, dict):
+            return True
+    return False
+
+
 def _coerce(value: Any, schema: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
-    """One value: a string read as the number its schema wants, or a container walked into."""
-    kind = schema.get("type")
-    if isinstance(value, str) and kind in ("number", "integer"):
-        number = _number(value)
-        if number is not None and (kind == "number" or float(number).is_integer()):
-            return int(number) if kind == "integer" else number
+    """One value: a string read as the YAML value its schema wants, or a container walked into.
+
+    A string is replaced only where no alternative of the schema takes a string (``type``
+    without ``string``, no ``enum`` holding it) and its YAML reading is of a type one
+    alternative takes; containers are then walked with that alternative's schema.
+    """
+    options = _types(schema, root)
+    if isinstance(value, str):
+        for option in options:
+            kind = option.get("type")
+            takes_string = kind is None or "string" in (kind if isinstance(kind, list) else [kind])
+            if value in (option.get("enum") or ()) or ("enum" not in option and takes_string):
+                return value
+        for option in options:
+            parsed = _scalar(value)
+            if option.get("type") is not None and _fits(parsed, option["type"]):
+                if option["type"] == "integer" or (
+                    isinstance(option["type"], list)
+                    and "integer" in option["type"]
+                    and "number" not in option["type"]
+                ):
+                    parsed = int(parsed) if isinstance(parsed, float) else parsed
+                return coerce_numbers(parsed, option, root)
         return value
-    return coerce_numbers(value, schema, root)
+    for option in options:
+        kind = option.get("type")
+        if kind is None or _fits(value, kind):
+            return coerce_numbers(value, option, root)
+    return value
 
 
 def coerce_numbers(config: Any, schema: Mapping[str, Any], root: Mapping[str, Any] | None = None):
-    """Turn strings into numbers where the schema wants a number, in place.
+    """Read strings as the YAML values the schema wants there, in place.
 
-    ``snakemake --config 'analytic={n_xi: 50}'`` hands nested values over as strings
-    (``'50'``); a user means the number. Only strings that read as a number, at a key whose
-    schema type is ``number`` or ``integer``, are changed; anything else is left for the
-    schema to report.
+    Snakemake reads a nested ``--config`` value with YAML's base loader, so
+    ``'tuning={score: J_exact, max_chattering: 0.03}'`` hands over ``'0.03'`` (and ``'null'``,
+    ``'true'``, ``'[5, 50]'``' items) as strings; a user means the number. A string is read as
+    YAML only at a key whose schema takes no string, and only when what it reads as is of a
+    type the schema takes (a number, an integer, null, a boolean, a list or a mapping, whose
+    items are then read in turn); anything else is left for the schema to report.
 
     Examples
     --------
-    >>> cfg = {"a": {"n": "50", "x": "1e-3", "name": "50"}}
+    >>> cfg = {"a": {"n": "50", "x": "1e-3", "name": "50", "m": "null"}}
     >>> schema = {"properties": {"a": {"properties": {
-    ...     "n": {"type": "integer"}, "x": {"type": "number"}, "name": {"type": "string"}}}}}
+    ...     "n": {"type": "integer"}, "x": {"type": "number"}, "name": {"type": "string"},
+    ...     "m": {"type": ["number", "null"]}}}}}
     >>> coerce_numbers(cfg, schema)
-    {'a': {'n': 50, 'x': 0.001, 'name': '50'}}
+    {'a': {'n': 50, 'x': 0.001, 'name': '50', 'm': None}}
     """
     root = schema if root is None else root
     node = _resolve(schema, root)
@@ -342,8 +397,8 @@ def coerce_numbers(config: Any, schema: Mapping[str, Any], root: Mapping[str, An
 def validate_config(config: Mapping[str, Any], schema_path: str | Path) -> None:
     """Check ``config`` against the YAML JSON-schema at ``schema_path``.
 
-    Numbers given as strings (``--config`` on the command line) are first read as numbers
-    where the schema wants one (:func:`coerce_numbers`), in place.
+    Values given as strings (``--config`` on the command line) are first read as the YAML
+    values the schema wants there (:func:`coerce_numbers`), in place.
 
     Raises
     ------

@@ -10,7 +10,9 @@ same way. So every other dataset, and the report, are still built; the report li
 datasets with their first errors (:func:`dataset_failures`), and the final ``check`` job of
 ``reproduce-all`` exits non-zero naming them (:func:`failure_summary`).
 
-A status file is ``{"stage", "dataset", "ok", "errors": [...], "upstream"}``; ``upstream`` names
+A status file is ``{"stage", "dataset", "ok", "errors": [...], "upstream"}`` (with
+``warnings`` and ``skipped``, the parts of a stage that worked left out by name with their
+reason: :class:`Skipped`, when there are any); ``upstream`` names
 the earlier stage that failed when this one was skipped for it. A stage that failed itself also
 records whose fault it was, ``"fault": "data"`` or ``"stage"`` (:func:`data_fault`): the report
 tells the user to fix the data only for the first.
@@ -34,6 +36,7 @@ import sys
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +48,7 @@ __all__ = [
     "STATUS_DIR",
     "EnvironmentFailure",
     "RunError",
+    "Skipped",
     "anticipated",
     "data_fault",
     "dataset_failures",
@@ -58,6 +62,30 @@ __all__ = [
     "write_placeholder",
     "write_status",
 ]
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """A stage's warning that names a part of its work left out on this dataset, and why.
+
+    A stage's work returns it among its warnings (:func:`run_stage`) when a property of the
+    valve or the data rules one part out (the sine stage's linear reference of a setting
+    that cannot work on the valve) while the rest is done. The status records it under
+    ``skipped`` (``part -> reason``) and, as text, among ``warnings``; the report names it
+    on the page.
+
+    Examples
+    --------
+    >>> str(Skipped("linear reference", "no setting gives a finite tau_m"))
+    'linear reference skipped: no setting gives a finite tau_m'
+    """
+
+    part: str
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.part} skipped: {self.reason}"
+
 
 #: Folder of a dataset's results holding one ``<stage>.json`` per stage.
 STATUS_DIR = "status"
@@ -241,8 +269,9 @@ def write_status(
     fault: str | None = None,
 ) -> dict[str, Any]:
     """Write a stage's status file; ``errors`` empty means it worked (``warnings``, such as
-    an implausible supply pressure, are recorded when there are any; ``fault``, ``"data"``
-    or ``"stage"``, whose fault a failure is: :func:`data_fault`)."""
+    an implausible supply pressure, are recorded when there are any, the :class:`Skipped`
+    among them also as ``skipped``, part -> reason; ``fault``, ``"data"`` or ``"stage"``,
+    whose fault a failure is: :func:`data_fault`)."""
     errs = [str(e) for e in errors][:_MAX_ERRORS]
     status: dict[str, Any] = {
         "stage": stage,
@@ -253,9 +282,13 @@ def write_status(
     }
     if errs and fault is not None:
         status["fault"] = fault
-    notes = [str(w) for w in warnings if isinstance(w, str)][:_MAX_ERRORS]
+    given = [w for w in warnings if isinstance(w, str | Skipped)]
+    notes = [str(w) for w in given][:_MAX_ERRORS]
     if notes:
         status["warnings"] = notes
+    skipped = {w.part: w.reason for w in given if isinstance(w, Skipped)}
+    if skipped:
+        status["skipped"] = skipped
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(status, indent=1) + "\n")
@@ -328,7 +361,8 @@ def run_stage(
         The stage's name in :data:`spa.pipeline.outputs.STAGES`.
     work : callable
         Does the stage's work and writes every output but ``status``; it may return a list
-        of warnings (str), which the status records (``warnings``).
+        of warnings (str, or :class:`Skipped` for a part left out), which the status records
+        (``warnings``, and ``skipped``).
     log : logging.Logger
         The job's log: the error and its traceback go there.
 

@@ -23,7 +23,7 @@ from spa.pipeline.outputs import (
     section_outputs,
 )
 from spa.pipeline.status import dataset_failures, dataset_statuses
-from spa.report.failure import failed_here, failure_box, stage_note
+from spa.report.failure import failed_here, failure_box, skipped_note, stage_note
 from spa.report.html import (
     STYLE,
     embed_png,
@@ -176,6 +176,8 @@ def _section(
     ``states`` (stage -> its status record, :func:`spa.pipeline.status.dataset_statuses`):
     the outputs of a stage that failed or was skipped are placeholders, not shown; one line
     naming the stage and its message stands in their place (:func:`spa.report.failure.stage_note`).
+    A stage that worked but left a part out names it before its first output
+    (:func:`spa.report.failure.skipped_note`).
     """
     parts: list[str] = []
     toc: list[tuple[str, str]] = []
@@ -209,6 +211,9 @@ def _section(
             if item.required:
                 raise FileNotFoundError(f"{path}: required by the report but missing")
             continue
+        if stage not in noted and skipped_note(stage, status):
+            noted.add(stage)
+            parts.append(skipped_note(stage, status))
         anchor = unique_anchor(f"{prefix}-{Path(item.path).stem}", taken)
         block = _render_item(path, item, anchor)
         if item.key_item:

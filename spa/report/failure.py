@@ -18,7 +18,14 @@ from typing import Any
 
 from spa.pipeline.outputs import STAGES
 
-__all__ = ["failed_here", "failure_box", "first_failure", "one_line", "stage_note"]
+__all__ = [
+    "failed_here",
+    "failure_box",
+    "first_failure",
+    "one_line",
+    "skipped_note",
+    "stage_note",
+]
 
 _MAX_CHARS = 400
 
@@ -86,6 +93,27 @@ def stage_note(stage: str, status: Mapping[str, Any], anchor: str) -> str:
     return (
         f'<p class="note stage-failed" id="{anchor}">Stage {_label(stage)} failed: '
         f"<code>{message}</code>; its outputs are not shown.</p>\n"
+    )
+
+
+def skipped_note(stage: str, status: Mapping[str, Any] | None) -> str:
+    """One line naming the parts a stage that worked left out on this dataset, with why
+    (its status's ``skipped``, :class:`spa.pipeline.status.Skipped`); ``""`` when none.
+
+    Examples
+    --------
+    >>> print(skipped_note("sine", {"ok": True, "skipped": {"linear reference": "no tau_m"}}), end="")
+    <p class="note stage-partial">Stage <code>sine</code> (Sine): linear reference skipped: no tau_m. The runs are analysed as recorded.</p>
+    >>> skipped_note("sine", {"ok": True})
+    ''
+    """  # noqa: E501
+    parts = dict((status or {}).get("skipped") or {})
+    if not parts or failed_here(status):
+        return ""
+    said = "; ".join(f"{part} skipped: {why}" for part, why in parts.items())
+    return (
+        f'<p class="note stage-partial">Stage {_label(stage)}: {html.escape(said)}. '
+        "The runs are analysed as recorded.</p>\n"
     )
 
 

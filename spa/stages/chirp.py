@@ -25,8 +25,9 @@ from spa.openloop import (
     run_tags,
     runs_of_kind,
 )
+from spa.openloop.reference import REFERENCE, SKIPPED_PART, reference_skip_reason
 from spa.openloop.shapes import check_input_shape
-from spa.pipeline.status import naming_run
+from spa.pipeline.status import Skipped, naming_run
 from spa.plots.openloop import fig9, fig9_data, write_no_runs
 from spa.plots.save import draw
 
@@ -56,6 +57,12 @@ class ChirpResult:
         Each map's panel title.
     note : str
         Fig. 9's note (normalisation, segments, threshold, settings shown).
+    skipped : dict
+        The model-based parts left out on this valve, part -> reason: the linear reference
+        when no setting of the runs gives Eq. 9's ``tau_m``
+        (:func:`~spa.openloop.reference.reference_skip_reason`). Its table row then holds
+        only its tags and the reason (column ``skipped``) and no map of it is shown; the
+        runs' bicoherence needs no model and is computed all the same.
     """
 
     table: pd.DataFrame
@@ -63,6 +70,12 @@ class ChirpResult:
     shown: list[str] = field(default_factory=list)
     titles: list[str] = field(default_factory=list)
     note: str = ""
+    skipped: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def warnings(self) -> list[Skipped]:
+        """What the stage's status records: one :class:`~spa.pipeline.status.Skipped` a part."""
+        return [Skipped(part, why) for part, why in self.skipped.items()]
 
     @property
     def empty(self) -> bool:
@@ -128,25 +141,37 @@ def run_chirp(
         )  # fmt: skip
     if not ids:
         return ChirpResult(pd.DataFrame())
-    # The same input (the first run's) through the linear first-order reference.
     mods = [metas[r]["modulator"] for r in ids]
     first = ids[0]  # through its sensor (ringing after its edges, its noise) if simulated
-    f, bic, ref = chirp_reference(runs[first], params, mods, metas[first], seeds, **cfg)
-    log.info("linear reference: tau_m %.3f s, significant fraction %.4f",
-             ref["tau_m"], ref["significant_fraction"])  # fmt: skip
+    why = reference_skip_reason(mods, params)
+    if why:  # the runs as recorded; the model-based reference left out by name
+        log.warning("%s skipped: %s", SKIPPED_PART, why)
+        tags = {"run": REFERENCE, "modulator": REFERENCE, "setting": REFERENCE}
+        ref = {**tags, "skipped": f"{SKIPPED_PART}: {why}"}
+        basis = rows[0]  # the runs' own segments and threshold
+    else:
+        # The same input (the first run's) through the linear first-order reference.
+        f, bic, ref = chirp_reference(runs[first], params, mods, metas[first], seeds, **cfg)
+        log.info("linear reference: tau_m %.3f s, significant fraction %.4f",
+                 ref["tau_m"], ref["significant_fraction"])  # fmt: skip
+        basis = ref
     table = pd.DataFrame([*rows, ref])
     bounded = cfg["normalisation"] == "bounded"
     score = "significant_fraction" if bounded else "mean_bicoherence"
     shown, fallbacks = paper_settings(table.iloc[:-1], score=score, higher=False)
     named: list[Map] = [(r["setting"], *maps[r["run"]]) for _, r in shown.iterrows()]
-    named.append((ref["setting"], f, bic, ref["threshold"], ref["fmin"]))
+    titles = [_title(r) for _, r in shown.iterrows()]
+    if not why:
+        named.append((ref["setting"], f, bic, ref["threshold"], ref["fmin"]))
+        titles.append(_title(ref))
     note = (
-        f"{cfg['normalisation']} bicoherence, {ref['n_segments']} segments, bins above "
-        f"{ref['threshold']:.3f} (α = {cfg['alpha']}) coloured; "
+        f"{cfg['normalisation']} bicoherence, {basis['n_segments']} segments, bins above "
+        f"{basis['threshold']:.3f} (α = {cfg['alpha']}) coloured; "
         + fallback_note(fallbacks, score, higher=False, beyond=beyond_paper(shown))
+        + (f"; {SKIPPED_PART} skipped: {why}" if why else "")
     )
-    titles = [*(_title(r) for _, r in shown.iterrows()), _title(ref)]
-    return ChirpResult(table, named, list(shown["setting"]), titles, note)
+    skipped = {SKIPPED_PART: why} if why else {}
+    return ChirpResult(table, named, list(shown["setting"]), titles, note, skipped)
 
 
 def write_chirp(

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import pandas as pd
@@ -13,9 +13,9 @@ import pandas as pd
 from spa.io import write_csv
 from spa.model.params import ValveParams
 from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, sine_reference
-from spa.openloop.reference import REFERENCE
+from spa.openloop.reference import REFERENCE, SKIPPED_PART, reference_skip_reason
 from spa.openloop.shapes import check_input_shape
-from spa.pipeline.status import naming_run
+from spa.pipeline.status import Skipped, naming_run
 from spa.plots.openloop import fig8, thin, write_no_runs
 from spa.plots.save import draw
 
@@ -39,12 +39,24 @@ class SineResult:
         The linear reference's aligned response, thinned.
     note : str
         Fig. 8's note on the frequency (:func:`spa.openloop.frequency_note`).
+    skipped : dict
+        The model-based parts left out on this valve, part -> reason: the linear reference
+        (:data:`~spa.openloop.reference.SKIPPED_PART`) when no setting of the runs gives
+        Eq. 9's ``tau_m`` (:func:`~spa.openloop.reference.reference_skip_reason`). Its table
+        row then holds only its tags and the reason (column ``skipped``), ``reference`` is
+        empty, and the runs are analysed as recorded all the same.
     """
 
     table: pd.DataFrame
     curves: pd.DataFrame
     reference: pd.DataFrame
     note: str
+    skipped: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def warnings(self) -> list[Skipped]:
+        """What the stage's status records: one :class:`~spa.pipeline.status.Skipped` a part."""
+        return [Skipped(part, why) for part, why in self.skipped.items()]
 
     @property
     def empty(self) -> bool:
@@ -103,11 +115,20 @@ def run_sine(
         )  # fmt: skip
     if not ids:
         return SineResult(pd.DataFrame(), pd.DataFrame(), pd.DataFrame(), "")
+    mods = [metas[r]["modulator"] for r in ids]
+    why = reference_skip_reason(mods, params)
+    if why:  # the runs as recorded; the model-based reference left out by name
+        log.warning("%s skipped: %s", SKIPPED_PART, why)
+        tags = {"run": REFERENCE, "modulator": REFERENCE, "setting": REFERENCE}
+        rows.append({**tags, "settle": settles[ids[0]], "skipped": f"{SKIPPED_PART}: {why}"})
+        note = f"sine at {float(rows[0]['frequency']):.3g} Hz; {SKIPPED_PART} skipped: {why}"
+        return SineResult(
+            pd.DataFrame(rows), pd.concat(curves), pd.DataFrame(), note, {SKIPPED_PART: why}
+        )
     # The same input (the first run's) through the linear first-order reference.
     aligned, ref = sine_reference(
-        runs[ids[0]], params, [metas[r]["modulator"] for r in ids],
-        settle=settles[ids[0]], max_lag=cfg["max_lag"],
-    )  # fmt: skip
+        runs[ids[0]], params, mods, settle=settles[ids[0]], max_lag=cfg["max_lag"]
+    )
     rows.append({**ref, "settle": settles[ids[0]]})
     log.info("linear reference: tau_m %.3f s, RMS %.4f", ref["tau_m"], ref["rms"])
     reference = thin(aligned, 5000).assign(rms=ref["rms"])
@@ -137,6 +158,9 @@ def write_sine(
         write_no_runs(f"{dataset}: no sine runs", tables, [out.get("fig8")])
         return
     write_csv(result.table, out.get("table"))
-    ref_rows = result.reference.assign(modulator=REFERENCE, setting=REFERENCE)
-    write_csv(pd.concat([result.curves, ref_rows], ignore_index=True), out.get("fig8_csv"))
-    draw(out.get("fig8"), fig8, result.curves, reference=result.reference, note=result.note)
+    reference = None if result.reference.empty else result.reference
+    ref_rows = (
+        [] if reference is None else [reference.assign(modulator=REFERENCE, setting=REFERENCE)]
+    )
+    write_csv(pd.concat([result.curves, *ref_rows], ignore_index=True), out.get("fig8_csv"))
+    draw(out.get("fig8"), fig8, result.curves, reference=reference, note=result.note)

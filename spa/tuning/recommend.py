@@ -40,13 +40,18 @@ from spa.tuning.exact import best_first, exact_cost
 
 __all__ = [
     "CONSTRAINTS",
+    "DEFAULT_CHATTERING_RELATIVE",
     "UNITS",
     "TuningOptions",
     "candidate_frame",
     "predict",
     "recommend",
     "setting_metrics",
+    "violation",
 ]
+
+#: Chattering limit as a fraction of the valve's ``k2`` (0.050 bar on the paper's valve).
+DEFAULT_CHATTERING_RELATIVE = 0.06
 
 #: The user's constraints, in the order they are reported.
 CONSTRAINTS: tuple[str, ...] = (
@@ -93,7 +98,12 @@ class TuningOptions:
         Largest switching rate allowed, valve command edges per second, max over ``xi``
         (valve life); None: no limit.
     max_chattering : float or None
-        Largest chattering allowed, bar (Appendix B's ``P+ - P-``, max over ``xi``).
+        Largest chattering allowed, bar (Appendix B's ``P+ - P-``, max over ``xi``). None
+        (the default): ``max_chattering_relative`` of the valve's ``k2`` decides.
+    max_chattering_relative : float or None
+        Largest chattering allowed as a fraction of the identified ``k2`` when
+        ``max_chattering`` is None: 0.06 by default (0.050 bar on the paper's 0.837 bar
+        valve, 0.24 bar on a 4 bar one). None with ``max_chattering`` None: no limit.
     min_pulse_width : float or None
         Shortest pulse the controller can produce, s. A setting needs every pulse that moves
         the pressure (high longer than ``t_on``, low longer than ``t_off``; ΔΣM: its clock
@@ -127,7 +137,8 @@ class TuningOptions:
 
     score: str = "J"
     max_switching_rate: float | None = 100.0
-    max_chattering: float | None = 0.05
+    max_chattering: float | None = None
+    max_chattering_relative: float | None = DEFAULT_CHATTERING_RELATIVE
     min_pulse_width: float | None = 0.001
     max_time_constant: float | None = 3.0
     max_fit_shortfall: float | None = 10.0
@@ -147,6 +158,11 @@ class TuningOptions:
         )
         object.__setattr__(
             self, "max_chattering", _limit("max_chattering", self.max_chattering, "bar")
+        )
+        object.__setattr__(
+            self,
+            "max_chattering_relative",
+            _limit("max_chattering_relative", self.max_chattering_relative, "of k2"),
         )
         object.__setattr__(
             self, "min_pulse_width", _limit("min_pulse_width", self.min_pulse_width, "s")
@@ -183,6 +199,37 @@ class TuningOptions:
             },
         )
 
+    def chattering_limit(self, params: ValveParams) -> float | None:
+        """The chattering limit on this valve, bar: ``max_chattering`` when set, else
+        ``max_chattering_relative * k2``; None: no limit.
+
+        Examples
+        --------
+        >>> round(TuningOptions().chattering_limit(ValveParams()), 4)  # the paper's valve
+        0.0502
+        >>> TuningOptions().chattering_limit(ValveParams(k2=4.0))
+        0.24
+        >>> TuningOptions(max_chattering=0.03).chattering_limit(ValveParams(k2=4.0))
+        0.03
+        """
+        if self.max_chattering is not None:
+            return self.max_chattering
+        if self.max_chattering_relative is None:
+            return None
+        return self.max_chattering_relative * float(params.k2)
+
+    def limits(self, params: ValveParams) -> dict[str, float | None]:
+        """Each constraint of :data:`CONSTRAINTS` but the setting range as a number on this
+        valve, in the unit of the metric it bounds (``max_time_constant`` in s)."""
+        return {
+            "max_switching_rate": self.max_switching_rate,
+            "max_chattering": self.chattering_limit(params),
+            "min_pulse_width": self.min_pulse_width,
+            "max_time_constant": None
+            if self.max_time_constant is None
+            else self.max_time_constant * float(params.tau2),
+        }
+
     @classmethod
     def from_mapping(cls, cfg: Mapping[str, Any] | None) -> TuningOptions:
         """Options from the config's ``tuning:`` section (missing keys take the defaults)."""
@@ -199,6 +246,7 @@ class TuningOptions:
             "score": self.score,
             "max_switching_rate": self.max_switching_rate,
             "max_chattering": self.max_chattering,
+            "max_chattering_relative": self.max_chattering_relative,
             "min_pulse_width": self.min_pulse_width,
             "max_time_constant": self.max_time_constant,
             "max_fit_shortfall": self.max_fit_shortfall,
@@ -341,17 +389,9 @@ def candidate_frame(
             frame["setting_range"] = (v >= lo * (1 - 1e-12)) & (v <= hi * (1 + 1e-12))
             parts.append(frame)
     out = pd.concat(parts, ignore_index=True)
-    limits = {
-        "max_switching_rate": ("switching_rate", opts.max_switching_rate, 1),
-        "max_chattering": ("chattering", opts.max_chattering, 1),
-        "min_pulse_width": ("min_pulse", opts.min_pulse_width, -1),
-        "max_time_constant": (
-            "tau_max",
-            None if opts.max_time_constant is None else opts.max_time_constant * params.tau2,
-            1,
-        ),
-    }
-    for name, (column, limit, sign) in limits.items():
+    on_valve = opts.limits(params)
+    for name, (column, sign) in _METRIC.items():
+        limit = on_valve[name]
         if limit is None:
             out[name] = True
         elif sign > 0:
@@ -359,6 +399,74 @@ def candidate_frame(
         else:
             out[name] = out[column] >= limit * (1 - 1e-9)
     out["feasible"] = out[list(CONSTRAINTS)].all(axis=1)
+    out["violation"] = violation(out, opts, params)
+    return out
+
+
+#: The metric each numeric constraint bounds, and its sense (1: at most, -1: at least).
+_METRIC: Mapping[str, tuple[str, int]] = {
+    "max_switching_rate": ("switching_rate", 1),
+    "max_chattering": ("chattering", 1),
+    "min_pulse_width": ("min_pulse", -1),
+    "max_time_constant": ("tau_max", 1),
+}
+
+
+def _excess(value: np.ndarray, limit: float, sign: int) -> np.ndarray:
+    """How far ``value`` is beyond ``limit``, relative to it (0 where it meets it)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        over = sign * (value - limit) / limit
+    return np.where(np.isfinite(over), np.maximum(over, 0.0), np.inf)
+
+
+def violation(
+    candidates: pd.DataFrame, options: TuningOptions, params: ValveParams
+) -> npt.NDArray[np.float64]:
+    """How far each candidate is from meeting the user's constraints: 0 when it meets them.
+
+    The sum over the violated constraints of the excess over the limit relative to the
+    limit: ``(metric - limit)/limit`` for an upper limit (switching rate, chattering, time
+    constant), ``(limit - metric)/limit`` for the shortest pulse, and the distance outside
+    ``tuning.ranges`` relative to the bound it passes. A candidate whose metric is not
+    finite where a limit applies violates it without bound (``inf``).
+
+    Examples
+    --------
+    >>> frame = pd.DataFrame({"modulator": ["pwm", "pwm"], "value": [20.0, 60.0],
+    ...     "switching_rate": [40.0, 120.0], "chattering": [0.06, 0.02],
+    ...     "min_pulse": [0.01, 0.004], "tau_max": [1.0, 1.0]})
+    >>> violation(frame, TuningOptions(max_chattering=0.05), ValveParams()).round(3).tolist()
+    [0.2, 0.2]
+    """
+    total = np.zeros(len(candidates))
+    for name, limit in options.limits(params).items():
+        if limit is None:
+            continue
+        column, sign = _METRIC[name]
+        total += _excess(candidates[column].to_numpy(dtype=float), limit, sign)
+    kinds = candidates["modulator"].to_numpy()
+    values = candidates["value"].to_numpy(dtype=float)
+    for kind, (lo, hi) in options.ranges.items():
+        mine = kinds == kind
+        total[mine] += _excess(values[mine], hi, 1) + _excess(values[mine], lo, -1)
+    return total
+
+
+def _violated(row: pd.Series, options: TuningOptions, params: ValveParams) -> dict[str, Any]:
+    """Each constraint ``row`` breaks: the metric, the limit and the relative excess."""
+    out: dict[str, Any] = {}
+    for name, limit in options.limits(params).items():
+        column, sign = _METRIC[name]
+        if limit is None or bool(row[name]):
+            continue
+        value = float(row[column])
+        excess = float(_excess(np.array([value]), limit, sign)[0])
+        out[name] = {"value": value, "limit": float(limit), "excess": excess}
+    if not bool(row["setting_range"]):
+        lo, hi = options.ranges[row["modulator"]]
+        value = float(row["value"])
+        excess = float(_excess(np.array([value]), hi, 1)[0] + _excess(np.array([value]), lo, -1)[0])
+        out["setting_range"] = {"value": value, "limit": [lo, hi], "excess": excess}
     return out
 
 
@@ -558,10 +666,13 @@ def recommend(
     -------
     dict
         YAML-ready: ``score``, ``constraints`` (the options, and per constraint how many
-        candidates it excludes), ``n_candidates``, ``n_feasible``, ``recommended`` (None
-        when nothing is feasible; else ``modulator``, ``label``, ``description``,
+        candidates it excludes, and ``max_chattering_bar``, the chattering limit on this
+        valve), ``n_candidates``, ``n_feasible``, ``recommended`` (None only when no
+        candidate works on the valve; else ``modulator``, ``label``, ``description``,
         ``setting`` in the form of a ``dataset.yaml`` modulator, ``J``, ``J_exact``,
-        ``predicted``, ``at_feasible_edge``), ``runners_up`` (the best feasible setting of
+        ``predicted``, ``at_feasible_edge``; when no candidate meets every constraint, the
+        least-violating one, with ``violates``, constraint -> ``{value, limit, excess}``,
+        and ``violation``, :func:`violation`), ``runners_up`` (the best feasible setting of
         every other modulator, or the constraints that exclude all of its settings),
         ``excluded_by`` (the constraints that together exclude every setting; empty when one
         is feasible) and ``units``.
@@ -575,25 +686,44 @@ def recommend(
     predicted FIT. Better-scored ones further below are passed over (``passed_over`` says
     why) and follow it among the runners-up. ``at_feasible_edge`` flags a setting that is
     the lowest or highest of its kind's feasible settings, with what bounds it there.
+    When no setting meets every constraint, the one of smallest :func:`violation` (ties by
+    ``score``) is recommended: usable on the valve, and as near the user's limits as any.
     """
     opts = options or TuningOptions()
     feasible_rows = candidates[candidates["feasible"]]
     best = best_first(feasible_rows, opts.score).drop_duplicates("modulator")
     entries = [_entry(row, params, n_xi, opts, linearity, candidates) for _, row in best.iterrows()]
     entries = _pass_over(entries, opts.max_fit_shortfall)
+    if not entries and not candidates.empty:  # the least-violating usable setting
+        scores = candidates["violation"] if "violation" in candidates else None
+        scores = violation(candidates, opts, params) if scores is None else scores
+        finite = candidates[np.isfinite(scores.to_numpy(dtype=float))]
+        if not finite.empty:
+            least = float(scores[finite.index].min())
+            tied = finite[scores[finite.index] <= least * (1 + 1e-9) + 1e-15]
+            row = best_first(tied, opts.score).iloc[0]
+            entry = _entry(row, params, n_xi, opts, linearity)
+            entry["violates"] = _violated(row, opts, params)
+            entry["violation"] = least
+            entries = [entry]
     runners_up: list[dict[str, Any]] = entries[1:]
     for kind in MODULATOR_ORDER:
         rows = candidates[candidates["modulator"] == kind]
         if not rows.empty and kind not in set(best["modulator"]):
             runners_up.append({"modulator": kind, "excluded_by": _excluded_by(rows)})
     excludes = {c: int((~candidates[c]).sum()) for c in CONSTRAINTS}
+    chattering = opts.chattering_limit(params)
     return {
         "score": opts.score,
-        "constraints": {**opts.to_mapping(), "excludes": excludes},
+        "constraints": {
+            **opts.to_mapping(),
+            "max_chattering_bar": None if chattering is None else float(chattering),
+            "excludes": excludes,
+        },
         "n_candidates": len(candidates),
         "n_feasible": len(feasible_rows),
         "recommended": entries[0] if entries else None,
         "runners_up": runners_up,
-        "excluded_by": [] if entries else _excluded_by(candidates),
+        "excluded_by": _excluded_by(candidates) if feasible_rows.empty and len(candidates) else [],
         "units": dict(UNITS),
     }

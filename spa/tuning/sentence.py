@@ -22,20 +22,27 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
 
     Examples
     --------
-    >>> text = recommendation_sentence({"recommended": None, "excluded_by": ["max_chattering"],
-    ...                                 "constraints": {"max_chattering": 0.001}})
-    >>> text[:80]
-    'No setting of any modulator meets the constraints: max_chattering = 0.001 rules '
+    >>> recommendation_sentence({"recommended": None, "n_candidates": 0})[:62]
+    'No setting of any swept modulator works on this valve: nothing'
+
+    A recommendation that breaks a constraint (no setting meets them all) names it first:
+
+    >>> best = {"description": "PWM at 20 Hz", "setting": {"type": "pwm", "f_w": 20.0},
+    ...     "J": 0.1, "J_exact": 0.1, "predicted": {"dead_zone": 0.1, "saturation": 0.9,
+    ...     "switching_rate": 40.0, "chattering": 0.06, "fit": 95.0, "tau_m": {"max": 1.0}},
+    ...     "violates": {"max_chattering": {"value": 0.06, "limit": 0.05, "excess": 0.2}}}
+    >>> text = recommendation_sentence({"recommended": best})
+    >>> text[:66]
+    'No setting meets every constraint; the least-violating one breaks '
+    >>> text[66:119]
+    'max_chattering (0.06 bar, limit 0.05 bar, 20 % over).'
     """
     best = rec.get("recommended")
     if not best:
-        names = list(rec.get("excluded_by") or [])
-        limits = rec.get("constraints", {})
-        said = " and ".join(f"{n} = {limits.get(n)}" for n in names) or "the constraints"
-        verb, them = ("rules", "it") if len(names) == 1 else ("rule", "them")
         return (
-            f"No setting of any modulator meets the constraints: {said} {verb} out every one; "
-            f"relax {them} in the tuning: section of the config."
+            "No setting of any swept modulator works on this valve: nothing to recommend "
+            "(every setting's pulses are shorter than the valve's delays, or leave no input "
+            "range that moves the pressure)."
         )
     pred = best["predicted"]
     setting = ", ".join(
@@ -45,7 +52,8 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
     j, other = (best["J"], best["J_exact"]) if score == "J" else (best["J_exact"], best["J"])
     other_name = "J_exact" if score == "J" else "J"
     return (
-        f"Use {best['description']} (dataset.yaml modulator: {{{setting}}}): "
+        _violation_note(best)
+        + f"Use {best['description']} (dataset.yaml modulator: {{{setting}}}): "
         f"{score} = {j:.2f} bar ({other_name} = {other:.2f}), dead-zone up to "
         f"xi = {pred['dead_zone']:.2f}, saturation from xi = {pred['saturation']:.2f}, "
         f"at most {pred['switching_rate']:.0f} valve switchings/s and "
@@ -53,6 +61,38 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
         f"{_fmt_tau(pred)}; a simulated staircase fits its line to FIT = {pred['fit']:.1f} %."
         + _edge_note(best)
         + _passed_note(rec)
+    )
+
+
+#: Units of the limits a recommendation can break, for its sentence.
+_LIMIT_UNITS = {
+    "max_switching_rate": "switchings/s",
+    "max_chattering": "bar",
+    "min_pulse_width": "s",
+    "max_time_constant": "s",
+    "setting_range": "",
+}
+
+
+def _violation_note(best: Mapping[str, Any]) -> str:
+    """The constraints a least-violating recommendation breaks, each with its numbers."""
+    broken = dict(best.get("violates") or {})
+    if not broken:
+        return ""
+    said = []
+    for name, v in broken.items():
+        unit = _LIMIT_UNITS.get(name, "")
+        limit = v.get("limit")
+        if isinstance(limit, list | tuple):
+            limit_text = f"range [{limit[0]:.4g}, {limit[1]:.4g}]"
+        else:
+            limit_text = f"limit {float(limit):.4g} {unit}".rstrip()
+        value = f"{float(v['value']):.4g} {unit}".rstrip()
+        said.append(f"{name} ({value}, {limit_text}, {100 * float(v['excess']):.0f} % over)")
+    return (
+        "No setting meets every constraint; the least-violating one breaks "
+        + " and ".join(said)
+        + ". "
     )
 
 

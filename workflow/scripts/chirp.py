@@ -7,11 +7,12 @@ from spa.stages.chirp import run_chirp, write_chirp
 log = get_logger("chirp", snakemake.log[0])
 
 
-def main() -> None:
+def main() -> list:
     runs, metas = read_runs(snakemake.input.runs)
     params = read_params(snakemake.input.params)
     result = run_chirp(runs, metas, params, snakemake.params.cfg, log)
     write_chirp(result, snakemake.output, snakemake.wildcards.dataset, log)
+    return result.warnings
 
 
 run_stage(snakemake, "chirp", main, log)

@@ -7,11 +7,12 @@ from spa.stages.sine import run_sine, write_sine
 log = get_logger("sine", snakemake.log[0])
 
 
-def main() -> None:
+def main() -> list:
     runs, metas = read_runs(snakemake.input.runs)
     params = read_params(snakemake.input.params)
     result = run_sine(runs, metas, params, snakemake.params.cfg, log)
     write_sine(result, snakemake.output, snakemake.wildcards.dataset, log)
+    return result.warnings
 
 
 run_stage(snakemake, "sine", main, log)
