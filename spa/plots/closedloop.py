@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from spa.plots.reduce import plot_reduced
 from spa.plots.style import (
     MODULATOR_COLOURS,
     new_figure,
@@ -16,19 +17,12 @@ from spa.plots.style import (
     setting_styles,
     shade,
 )
+from spa.plots.words import CONTROLLER_STYLES, SET_POINT_STYLE
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["CONTROLLER_STYLES", "fig10", "fig11", "no_design"]
-
-#: Line style, lightness (:func:`spa.plots.style.shade` of the setting's colour) and name of
-#: each controller in Fig. 10, where the three share a panel of one setting.
-CONTROLLER_STYLES: dict[str, tuple[str, float, str]] = {
-    "fixed": ("-", -0.45, "fixed PI"),
-    "scheduled": ("--", 0.0, "scheduled PI"),
-    "scheduled_ff": ("-.", 0.4, "scheduled PI + feed-forward"),
-}
 
 
 def _colour(label: str) -> str:
@@ -81,12 +75,13 @@ def fig10(traces: pd.DataFrame) -> Figure:
         sel = traces[traces["modulator"] == label]
         first = sel[sel["controller"] == sel["controller"].iloc[0]]
         colour = _colour(label)
-        ax.plot(first["t"], first["r"], color="0.6", lw=1.0, ls=":", label="set-point")
-        for name, (ls, amount, text) in CONTROLLER_STYLES.items():
+        grey, dots = SET_POINT_STYLE
+        plot_reduced(ax, first["t"], first["r"], color=grey, lw=1.0, ls=dots, label="set-point")
+        for name, (ls, amount, text, _) in CONTROLLER_STYLES.items():
             rows = sel[sel["controller"] == name]
             if len(rows):
-                ax.plot(
-                    rows["t"], rows["p_mean"], ls=ls, color=shade(colour, amount), lw=1.1,
+                plot_reduced(
+                    ax, rows["t"], rows["p_mean"], ls=ls, color=shade(colour, amount), lw=1.1,
                     label=text,
                 )  # fmt: skip
         ax.set_title(label, fontsize=10, color=colour)
@@ -101,9 +96,9 @@ def fig10(traces: pd.DataFrame) -> Figure:
         ax.set_ylabel("cycle-mean P (bar)")
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], color="0.6", lw=1.0, ls=":")]
+    handles = [Line2D([], [], color=SET_POINT_STYLE[0], lw=1.0, ls=SET_POINT_STYLE[1])]
     texts = ["set-point"]
-    for name, (ls, amount, text) in CONTROLLER_STYLES.items():
+    for name, (ls, amount, text, _) in CONTROLLER_STYLES.items():
         if (traces["controller"] == name).any():
             handles.append(Line2D([], [], ls=ls, color=shade("#808080", amount), lw=1.1))
             texts.append(text)

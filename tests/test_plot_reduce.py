@@ -1,0 +1,200 @@
+"""Figures at the cost of their pixels (spa.plots.reduce): a long trace is drawn through at
+most four samples per pixel column (M4), and the figure looks the same as one drawn through
+every sample: at most 0.5 % of the pixels differ by more than 16 grey levels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.figure import Figure
+
+from spa.plots import reduce as reduce_
+from spa.plots.reduce import PER_COLUMN, axes_columns, plot_reduced, reduce_indices
+from spa.plots.save import save_figure
+
+SHARE = 0.005  # of the pixels
+LEVELS = 16  # grey levels
+
+
+def _pixels(fig: Figure, path) -> np.ndarray:
+    from PIL import Image
+
+    save_figure(fig, path, vector=False)
+    return np.asarray(Image.open(path).convert("L")).astype(int)
+
+
+def _both_ways(make, tmp_path, name: str) -> tuple[float, int, int]:
+    """Share of pixels differing by more than LEVELS, and the points drawn each way."""
+
+    def points(fig: Figure) -> int:
+        return sum(len(line.get_xdata()) for ax in fig.axes for line in ax.get_lines())
+
+    reduce_.REDUCE["on"] = False
+    try:
+        whole = make()
+        n_whole = points(whole)
+        ref = _pixels(whole, tmp_path / f"{name}-whole.png")
+    finally:
+        reduce_.REDUCE["on"] = True
+    reduced = make()
+    n_reduced = points(reduced)
+    new = _pixels(reduced, tmp_path / f"{name}-reduced.png")
+    assert new.shape == ref.shape
+    return float((np.abs(new - ref) > LEVELS).mean()), n_whole, n_reduced
+
+
+def _staircase(n: int = 55_000, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """A 1 kHz staircase with 20 Hz chattering, noise and isolated spikes."""
+    t = np.arange(n) * 1e-3
+    rng = np.random.default_rng(seed)
+    p = 0.1 * np.floor(t / 5.0) + 0.02 * (np.sin(2 * np.pi * 20 * t) > 0)
+    p = p + rng.normal(0, 2e-3, t.size)
+    p[rng.choice(t.size, 12, replace=False)] += 0.3
+    return t, p
+
+
+# --- the reduction ----------------------------------------------------------------------------
+
+
+def test_the_reduction_keeps_every_columns_extremes_and_the_ends():
+    t, p = _staircase()
+    keep = reduce_indices(t, p, columns=1000)
+    assert len(keep) <= PER_COLUMN * 1000 + 2
+    assert keep[0] == 0 and keep[-1] == t.size - 1 and np.all(np.diff(keep) > 0)
+    # per column of equal width, the largest and smallest sample are kept
+    col = np.minimum((t / t[-1] * 1000).astype(int), 999)
+    kept = np.zeros(t.size, bool)
+    kept[keep] = True
+    for c in range(0, 1000, 37):
+        inside = np.flatnonzero(col == c)
+        assert kept[inside[np.argmax(p[inside])]] and kept[inside[np.argmin(p[inside])]]
+
+
+def test_a_short_trace_or_a_flat_abscissa_is_kept_whole():
+    t = np.arange(100.0)
+    assert np.array_equal(reduce_indices(t, t, columns=25), np.arange(100))
+    assert np.array_equal(reduce_indices(np.zeros(1000), np.ones(1000), 10), np.arange(1000))
+
+
+def test_nan_gaps_stay_gaps():
+    t, p = _staircase(20_000)
+    p[5_000:6_000] = np.nan
+    keep = reduce_indices(t, p, columns=200)
+    assert np.isnan(p[keep]).any()
+
+
+def test_bad_input_is_named():
+    with pytest.raises(ValueError, match="non-decreasing"):
+        reduce_indices(np.r_[np.arange(1000.0), 5.0], np.zeros(1001), columns=10)
+    with pytest.raises(ValueError, match="columns"):
+        reduce_indices(np.arange(10.0), np.zeros(10), columns=0)
+
+
+def test_plot_reduced_uses_the_axes_pixel_width_and_draws_a_non_monotonic_x_whole():
+    fig = Figure(figsize=(10.0, 3.0))
+    ax = fig.add_subplot()
+    t, p = _staircase()
+    (line,) = plot_reduced(ax, t, p)
+    cols = axes_columns(ax)
+    assert 1000 < cols < 2000  # 10 in at 200 dpi, less the margins
+    assert len(line.get_xdata()) <= PER_COLUMN * cols + 2
+    (loop,) = plot_reduced(ax, np.sin(t), p)  # a Lissajous figure: no pixel columns
+    assert len(loop.get_xdata()) == t.size
+
+
+# --- the figures, drawn both ways -------------------------------------------------------------
+
+
+def test_fig6_reduced_looks_like_every_sample(tmp_path):
+    from spa.plots.openloop import fig6
+
+    t, p = _staircase()
+    traces = pd.concat(
+        [
+            pd.DataFrame({"t": t, "p": p * k, "modulator": kind, "setting": setting})
+            for k, kind, setting in ((1.0, "pwm", "pwm-20Hz"), (0.9, "dsm", "dsm-20ms"))
+        ]
+    )
+    share, whole, reduced = _both_ways(lambda: fig6(traces), tmp_path, "fig6")
+    assert share <= SHARE and reduced < whole / 4
+
+
+def test_validation_overlay_and_fig2c_reduced_look_like_every_sample(tmp_path):
+    from spa.plots.identification import fig2c, validation_figure
+
+    t, p = _staircase(60_000, seed=5)
+    valve = (np.sin(2 * np.pi * 7 * t) > 0).astype(float)
+    data = pd.DataFrame({"t": t, "valve": valve, "p": p, "p_model": p + 0.01 * np.cos(t)})
+    data["error"] = data["p"] - data["p_model"]
+    share, whole, reduced = _both_ways(
+        lambda: validation_figure(data, "staircase: run s1 (FIT 90 %)"), tmp_path, "val"
+    )
+    assert share <= SHARE and reduced < whole / 4
+    share, whole, reduced = _both_ways(lambda: fig2c(data), tmp_path, "fig2c")
+    assert share <= SHARE and reduced < whole / 2
+
+
+def test_fig10_reduced_looks_like_every_sample(tmp_path):
+    from spa.plots.closedloop import fig10
+
+    t = np.arange(8_000) * 0.05  # cycle means of a 20 Hz modulator over a 400 s staircase
+    r = 0.1 * (1 + np.floor(t / 50.0))
+    rows = []
+    for k, controller in enumerate(("fixed", "scheduled", "scheduled_ff")):
+        # a cycle mean is smooth: its ripple is below a pixel (a dashed line through a
+        # trace that zigzags within each pixel column would move its dashes, see the docs)
+        p = r * (1 - np.exp(-(t % 50.0) / (0.3 + 0.1 * k))) + 2e-4 * np.sin(4 * t)
+        for setting in ("pwm-20Hz", "iipfm-20ms"):
+            rows.append(
+                pd.DataFrame(
+                    {"modulator": setting, "controller": controller, "t": t, "r": r, "p_mean": p}
+                )
+            )
+    traces = pd.concat(rows, ignore_index=True)
+    share, whole, reduced = _both_ways(lambda: fig10(traces), tmp_path, "fig10")
+    assert share <= SHARE and reduced < whole / 4
+
+
+def test_a_log_axis_is_reduced_in_its_own_columns(tmp_path):
+    f = np.logspace(-2, 2, 80_000)
+    rng = np.random.default_rng(1)
+    y = 1.0 / np.sqrt(1 + f**2) + rng.normal(0, 0.01, f.size)
+
+    def make() -> Figure:
+        fig = Figure(figsize=(8.0, 3.0), layout="constrained")
+        ax = fig.add_subplot()
+        ax.set_xscale("log")
+        plot_reduced(ax, f, y, lw=0.8, color="#0072B2")
+        return fig
+
+    share, whole, reduced = _both_ways(make, tmp_path, "log")
+    assert share <= SHARE and reduced < whole / 4
+
+
+def test_every_kth_sample_differs_from_every_sample(tmp_path):
+    """The test can fail: every k-th sample (no extremes kept) loses the spikes and the
+    chattering's envelope, and differs in more than 0.5 % of the pixels."""
+    from spa.plots.openloop import fig6
+
+    t, p = _staircase()
+    full = pd.DataFrame({"t": t, "p": p, "modulator": "pwm", "setting": "pwm-20Hz"})
+    every_kth = full.iloc[:: -(-len(full) // 6000)]
+    reduce_.REDUCE["on"] = False
+    try:
+        ref = _pixels(fig6(full), tmp_path / "full.png")
+        kth = _pixels(fig6(every_kth), tmp_path / "kth.png")
+    finally:
+        reduce_.REDUCE["on"] = True
+    assert (np.abs(kth - ref) > LEVELS).mean() > SHARE
+
+
+def test_the_csv_beside_fig6_keeps_every_sample(small_run):
+    """Only the drawing is reduced: Fig. 6's CSV holds every sample of each staircase run."""
+    from spa.io import read_runs
+
+    for ds in ("sim", "example"):
+        csv = pd.read_csv(small_run / ds / "staircase" / "fig6.csv")
+        runs, _ = read_runs(small_run / ds / "runs")
+        for run, rows in csv.groupby("run"):
+            assert len(rows) == len(runs[run]), (ds, run)
