@@ -95,7 +95,7 @@ def axes_columns(ax: Axes, dpi: float | None = None) -> int:
     """
     from spa.plots.save import png_dpi
 
-    fig = ax.get_figure(root=True)
+    fig = ax.figure
     dpi = png_dpi(fig) if dpi is None else dpi
     return max(1, math.ceil(ax.get_position().width * fig.get_figwidth() * dpi))
 
