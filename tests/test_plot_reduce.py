@@ -198,3 +198,68 @@ def test_the_csv_beside_fig6_keeps_every_sample(small_run):
         runs, _ = read_runs(small_run / ds / "runs")
         for run, rows in csv.groupby("run"):
             assert len(rows) == len(runs[run]), (ds, run)
+
+
+# --- formats: PNG by default, the layout computed once ------------------------------------------
+
+
+def test_constrained_layout_is_computed_once_for_png_and_svg(tmp_path, monkeypatch):
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    calls = []
+    execute = ConstrainedLayoutEngine.execute
+    monkeypatch.setattr(
+        ConstrainedLayoutEngine, "execute", lambda self, fig: calls.append(1) or execute(self, fig)
+    )
+    fig = Figure(figsize=(6.0, 3.0), layout="constrained")
+    ax = fig.add_subplot()
+    t, p = _staircase(5_000)
+    plot_reduced(ax, t, p)
+    ax.set_title("one layout")
+    save_figure(fig, tmp_path / "f.png", vector=True)
+    assert (tmp_path / "f.png").is_file() and (tmp_path / "f.svg").is_file()
+    assert len(calls) == 1
+
+
+def test_figure_formats_decide_the_svg_copy_and_the_declared_outputs(tmp_path):
+    from spa.pipeline.outputs import VECTOR, all_targets, get_stage, stage_outputs
+    from spa.plots import save
+
+    keep = list(save.FIGURE_FORMATS)
+    try:
+        assert save.set_figure_formats(["png"]) == ["png"]
+        save_figure(Figure(figsize=(3.0, 2.0)), tmp_path / "a.png")
+        assert save.set_figure_formats(["png", "svg"]) == ["png", "svg"]
+        save_figure(Figure(figsize=(3.0, 2.0)), tmp_path / "b.png")
+        with pytest.raises(ValueError, match="figure_formats"):
+            save.set_figure_formats(["svg"])
+        with pytest.raises(ValueError, match="figure_formats"):
+            save.set_figure_formats(["png", "pdf"])
+    finally:
+        save.FIGURE_FORMATS[:] = keep
+    assert not (tmp_path / "a.svg").exists() and (tmp_path / "b.svg").is_file()
+    # the stage table: a dataset's figures lose their SVG outputs, the analytic ones keep them
+    sine = stage_outputs("sine", "results", "d1", vectors=False)
+    assert "fig8" in sine and "fig8_svg" not in sine
+    assert "fig8_svg" in stage_outputs("sine", "results", "d1")
+    vectors = [o.key for o in get_stage("analytic_fig4").outputs if o.kind == VECTOR]
+    assert vectors and all(
+        k in stage_outputs("analytic_fig4", "results", vectors=False) for k in vectors
+    )
+    targets = all_targets("results", ["d1"], vectors=False)
+    assert "results/analytic/fig4.svg" in targets
+    assert not [t for t in targets if t.startswith("results/d1/") and t.endswith(".svg")]
+
+
+def test_the_config_defaults_to_png_and_the_schema_checks_the_formats():
+    import yaml
+
+    from spa.pipeline.config import validate_config
+
+    root = __import__("pathlib").Path(__file__).resolve().parents[1]
+    config = yaml.safe_load((root / "config" / "config.yaml").read_text(encoding="utf-8"))
+    assert config["figure_formats"] == ["png"]
+    schema = root / "workflow" / "schemas" / "config.schema.yaml"
+    validate_config({**config, "figure_formats": ["png", "svg"]}, schema)
+    with pytest.raises(Exception, match="figure_formats"):
+        validate_config({**config, "figure_formats": ["svg"]}, schema)
