@@ -478,11 +478,13 @@ STAGES: tuple[Stage, ...] = (
                     "overview.csv",
                     TABLE,
                     "Overview across datasets",
-                    "One row per dataset in session order: date, rig, the five identified "
+                    "One row per dataset in session order: date, rig, valve (the rig and "
+                    "the dataset's own valve name; a simulated dataset is a valve of its "
+                    "own), the five identified "
                     "parameters with their 95 % intervals, validation FIT (median and lowest), "
                     "the recommended setting with its J and J_exact (bar), the status, and "
                     "changed_<parameter>: the interval excludes the previous session's of the "
-                    "rig. Also the data of Fig. O1.",
+                    "same valve. Also the data of Fig. O1.",
                 ),
             )
         ),
