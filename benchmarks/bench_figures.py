@@ -13,8 +13,9 @@ each stage of the analysis job records its wall time (:func:`spa.pipeline.status
 - new: this tree, figures drawn (PNG only, long traces reduced per pixel column);
 - new, no figures: this tree with ``figures=none`` (the tables alone: the floor).
 
-Prints, per run, the CPU seconds of the whole run (Snakemake and every job) and the wall
-seconds of the stages that draw, summed over the two datasets; the median over the rounds.
+Prints, per run, the wall and CPU seconds of the whole run (Snakemake and every job) and the
+CPU seconds of the work of each stage that draws, summed over the two datasets; the median
+over the rounds. CPU seconds, not wall, since a shared machine's load moves the wall time.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ DRAWING = ("identify", "tune", "validate_model", "staircase", "sine", "chirp", "
 
 def run(tree: Path, extra: list[str]) -> dict[str, float]:
     """CPU and wall seconds of one cold small run in ``tree``, and each drawing stage's
-    wall seconds (summed over the datasets)."""
+    CPU seconds (summed over the datasets)."""
     with tempfile.TemporaryDirectory(prefix="bench-figures-") as tmp:
         results, profile = Path(tmp) / "results", Path(tmp) / "profile"
         cmd = [sys.executable, "-m", "snakemake", "reproduce-all", "-c1", "--configfile",
@@ -49,10 +50,9 @@ def run(tree: Path, extra: list[str]) -> dict[str, float]:
         if os.waitstatus_to_exitcode(status) != 0:
             sys.exit(f"{tree}: {' '.join(cmd)} failed:\n{proc.stderr.read()[-3000:]}")
         out = {"wall": wall, "cpu": usage.ru_utime + usage.ru_stime}
-        for stage in DRAWING:
-            out[stage] = sum(
-                json.loads(p.read_text())["wall_work"] for p in profile.glob(f"{stage}-*.json")
-            )
+        for stage in DRAWING:  # CPU seconds of the stage's work (the job's imports left out)
+            timings = [json.loads(p.read_text()) for p in profile.glob(f"{stage}-*.json")]
+            out[stage] = sum(t["cpu_total"] - t["cpu_before_work"] for t in timings)
         return out
 
 
