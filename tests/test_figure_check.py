@@ -309,10 +309,14 @@ def _caption(name: str) -> str | None:
 
 def test_every_figure_of_the_small_run_draws_what_its_caption_says(small_figures):
     from spa.plots.check import caption_problems
+    from spa.plots.words import O1_CONDITIONAL
 
     captions = {name: _caption(name) for name in small_figures}
     assert None not in captions.values(), [n for n, c in captions.items() if c is None]
-    problems = {n: caption_problems(f, captions[n]) for n, f in small_figures.items()}
+    problems = {
+        n: caption_problems(f, captions[n], O1_CONDITIONAL if n == "overview" else ())
+        for n, f in small_figures.items()
+    }
     assert {k: v for k, v in problems.items() if v} == {}
 
 
@@ -474,6 +478,10 @@ def test_overview_groups_by_valve_never_by_the_word_simulated():
     bench = [dict(r, rig="bench", valve="bench / V1") for r in rows[:2]]
     table = overview_table(bench)
     assert table["changed_k2"].tolist() == [False, True]
+    from spa.plots.check import caption_problems
+    from spa.plots.words import O1_CAPTION
+
+    assert caption_problems(plot_overview(table), O1_CAPTION) == []  # trend and ring drawn
 
 
 def test_table3_leaves_the_papers_case_of_a_bench_row_empty():

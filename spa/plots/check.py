@@ -32,6 +32,7 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -535,7 +536,7 @@ def _legend_over_titles(fig: Figure, renderer: RendererBase) -> list[str]:
 # --- a caption read against the figure -------------------------------------------------------
 
 
-def caption_problems(fig: Figure, caption: str) -> list[str]:
+def caption_problems(fig: Figure, caption: str, conditional: Iterable[str] = ()) -> list[str]:
     """The style words of ``caption`` that no artist of ``fig`` draws.
 
     Parameters
@@ -543,13 +544,17 @@ def caption_problems(fig: Figure, caption: str) -> list[str]:
     fig : matplotlib.figure.Figure
     caption : str
         The figure's caption.
+    conditional : iterable of str, optional
+        Style words the caption names for what is drawn only when the data has it (Fig. O1's
+        trend and ring: :data:`spa.plots.words.O1_CONDITIONAL`): not a problem when absent.
 
     Returns
     -------
     list of str
         One sentence per word (a colour, line style or marker of :mod:`spa.plots.words`,
         or ``filled``/``hollow`` markers) that the caption names and no line, collection or
-        patch of the figure's axes has; empty when every word is drawn.
+        patch of the figure's axes has; empty when every word is drawn, or when the figure
+        draws no data (it says why there is nothing to draw).
 
     Notes
     -----
@@ -573,17 +578,21 @@ def caption_problems(fig: Figure, caption: str) -> list[str]:
 
     from spa.plots.words import COLOUR_WORDS, LINE_STYLE_WORDS, MARKER_WORDS
 
+    if not any(ax.get_visible() and _has_data(ax) for ax in fig.axes):
+        return []  # a figure that says why there is nothing to draw
     text = caption.lower()
     drawn = _drawn_styles(fig)
-    problems = []
+    problems: list[str] = []
+    maybe = {str(w).lower() for w in conditional}
 
     def said(word: str) -> bool:
         nonlocal text
-        pattern = re.compile(rf"\b{re.escape(word)}(s|es)?\b")
+        # whole words: "bluish" is not "blue", "least-squares" is no marker
+        pattern = re.compile(rf"(?<![\w-]){re.escape(word)}(s|es)?(?![\w-])")
         if not pattern.search(text):
             return False
         text = pattern.sub(" ", text)  # read once: "sky blue" is not "blue" too
-        return True
+        return word not in maybe
 
     for word in sorted(COLOUR_WORDS, key=len, reverse=True):
         if said(word) and not _has_colour(drawn["colours"], COLOUR_WORDS[word]):

@@ -28,6 +28,7 @@ __all__ = [
     "LINE_STYLE_WORDS",
     "MARKER_WORDS",
     "O1_CAPTION",
+    "O1_CONDITIONAL",
     "SETTING_MARKERS",
     "shade_words",
 ]
@@ -140,3 +141,8 @@ O1_CAPTION: Final = (
     "changed."
 )
 """Fig. O1's caption."""
+
+O1_CONDITIONAL: Final = (LINE_STYLE_WORDS["--"], "red", MARKER_WORDS["o"])
+"""Style words of :data:`O1_CAPTION` for what Fig. O1 draws only when the sessions have it
+(a valve's trend, a changed valve's ring): :func:`spa.plots.check.caption_problems`'s
+``conditional``."""
