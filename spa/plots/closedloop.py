@@ -17,7 +17,7 @@ from spa.plots.style import (
     setting_styles,
     shade,
 )
-from spa.plots.words import CONTROLLER_STYLES, SET_POINT_STYLE
+from spa.plots.words import CONTROLLER_STYLES, LINE_STYLE_WORDS, SET_POINT_STYLE, STEP_STYLES
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -131,6 +131,7 @@ def fig11(steps: pd.DataFrame) -> Figure:
 
     rows = steps[steps["experiment"] == "staircase"]
     styles = setting_styles(rows["modulator"])
+    up_ls, down_ls = STEP_STYLES["up"][0], STEP_STYLES["down"][0]
     names = [n for n in CONTROLLER_STYLES if (rows["controller"] == n).any()]
     metrics = (("rise_time", "rise time 10–90 % (s)"), ("overshoot", "overshoot (%)"))
     fig = new_figure(figsize=(11.0, 5.6), layout="constrained")
@@ -143,8 +144,8 @@ def fig11(steps: pd.DataFrame) -> Figure:
             for label, style in styles.items():
                 c = sel[sel["modulator"] == label]
                 up, down = c[c["r1"] > c["r0"]], c[c["r1"] < c["r0"]]
-                ax.plot(up["r1"], up[metric], ls="-", ms=5, lw=1.1, label=label, **style)
-                ax.plot(down["r1"], down[metric], ls=":", ms=5, lw=1.0, mfc="white", **style)
+                ax.plot(up["r1"], up[metric], ls=up_ls, ms=5, lw=1.1, label=label, **style)
+                ax.plot(down["r1"], down[metric], ls=down_ls, ms=5, lw=1.0, mfc="white", **style)
             ax.grid(alpha=0.3)
             if j == 0:
                 ax.set_ylabel(text)
@@ -153,10 +154,12 @@ def fig11(steps: pd.DataFrame) -> Figure:
     handles = [Line2D([], [], ls="-", lw=1.1, ms=5, **style) for style in styles.values()]
     texts = list(styles)
     handles += [
-        Line2D([], [], ls="-", marker="o", color="0.3", lw=1.1, ms=5),
-        Line2D([], [], ls=":", marker="o", mfc="white", color="0.3", lw=1.0, ms=5),
+        Line2D([], [], ls=up_ls, marker="o", color="0.3", lw=1.1, ms=5),
+        Line2D([], [], ls=down_ls, marker="o", mfc="white", color="0.3", lw=1.0, ms=5),
     ]
-    texts += ["step up (solid, filled)", "step down (dotted, hollow)"]
+    texts += [
+        f"step {way} ({LINE_STYLE_WORDS[ls]}, {face})" for way, (ls, face) in STEP_STYLES.items()
+    ]
     fig.legend(handles, texts, loc="outside right upper", fontsize=9)
     fig.suptitle("Fig. 11: closed-loop step metrics against the operating point", fontsize=11)
     return fig

@@ -30,6 +30,8 @@ __all__ = [
     "O1_CAPTION",
     "O1_CONDITIONAL",
     "SETTING_MARKERS",
+    "SET_POINT_STYLE",
+    "STEP_STYLES",
     "shade_words",
 ]
 
@@ -90,6 +92,9 @@ CONTROLLER_STYLES: Final[dict[str, tuple[str, float, str, str]]] = {
     ),
 }
 
+#: Fig. 11's steps: direction -> (line style, marker face: "filled" or "hollow").
+STEP_STYLES: Final[dict[str, tuple[str, str]]] = {"up": ("-", "filled"), "down": (":", "hollow")}
+
 #: The set-point's line in Fig. 10: colour (grey), line style.
 SET_POINT_STYLE: Final = ("0.6", ":")
 
@@ -116,12 +121,14 @@ def _fig10_caption() -> str:
 
 def _fig11_caption() -> str:
     first = MARKER_WORDS[SETTING_MARKERS[0]]
+    up, down = STEP_STYLES["up"], STEP_STYLES["down"]
     return (
         "Rise time (10-90 %) and overshoot of each staircase step against the set-point "
         "after it, one column per controller. Each setting in its modulator's colour; the "
         f"first setting of a modulator with {first}s, any further one with another marker "
-        f"and shade. Rising steps: {LINE_STYLE_WORDS['-']} lines, filled markers; falling "
-        f"steps, which the exhaust limits: {LINE_STYLE_WORDS[':']} lines, hollow markers."
+        f"and shade. Rising steps: {LINE_STYLE_WORDS[up[0]]} lines, {up[1]} markers; falling "
+        f"steps, which the exhaust limits: {LINE_STYLE_WORDS[down[0]]} lines, {down[1]} "
+        "markers."
     )
 
 
