@@ -263,3 +263,31 @@ def test_the_config_defaults_to_png_and_the_schema_checks_the_formats():
     validate_config({**config, "figure_formats": ["png", "svg"]}, schema)
     with pytest.raises(Exception, match="figure_formats"):
         validate_config({**config, "figure_formats": ["svg"]}, schema)
+
+
+def test_asking_for_svg_copies_declares_them_for_every_dataset(small_run, isolated_config):
+    """A finished run (PNG alone) asked for `figure_formats: [png, svg]` has its analyses
+    to redo, for the SVG copies they now declare; the default asks for nothing."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+
+    def dry(*extra: str) -> str:
+        res = subprocess.run(
+            [sys.executable, "-m", "snakemake", "reproduce-all", "-n", "--configfile",
+             "config/small.yaml", str(isolated_config), "--config", f"results={small_run}",
+             *extra],
+            cwd=root, capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert res.returncode == 0, res.stderr[-2000:]
+        return res.stdout + res.stderr
+
+    assert "Nothing to be done" in dry()
+    plan = dry("figure_formats=[png, svg]")
+    import re
+
+    assert re.search(r"^analyse\s+2$", plan, re.M), plan  # both datasets' analyses
+    assert not list(small_run.glob("*/staircase/*.svg"))
+    assert (small_run / "analytic" / "fig4.svg").is_file()
