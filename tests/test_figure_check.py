@@ -281,3 +281,216 @@ def test_every_figure_of_the_small_run_passes_the_check(small_figures):
     assert {"analytic/fig4", "analytic/fig5", "overview", "sim/fig11"} <= names
     problems = {name: figure_problems(fig) for name, fig in small_figures.items()}
     assert {k: v for k, v in problems.items() if v} == {}
+
+
+def _caption(name: str) -> str | None:
+    """The registry's caption of a figure of :func:`pipeline_figures` by its name."""
+    from spa.pipeline.outputs import get_stage
+
+    where = {
+        "analytic/fig4": ("analytic_fig4", "figure"),
+        "analytic/fig5": ("analytic_fig5", "figure"),
+        "overview": ("overview", "figure"),
+        "tuning/fig4": ("tune", "fig4"),
+        "tuning/fig5": ("tune", "fig5"),
+        "validation": ("validate_model", "figures"),
+    }
+    part = name.split("/", 1)[1] if name.split("/")[0] not in ("analytic", "overview") else name
+    key = where.get(name) or where.get(part) or where.get(part.split("/")[0])
+    stages = {"fig2": "identify", "fig6": "staircase", "fig7": "staircase", "fig8": "sine",
+              "fig9": "chirp", "fig10": "closed_loop", "fig11": "closed_loop"}  # fmt: skip
+    if key is None:
+        stage = next((v for k, v in stages.items() if part.rstrip("abc") == k), None)
+        key = (stage, part) if stage else None
+    if key is None:
+        return None
+    return next((o.caption for o in get_stage(key[0]).outputs if o.key == key[1]), None)
+
+
+def test_every_figure_of_the_small_run_draws_what_its_caption_says(small_figures):
+    from spa.plots.check import caption_problems
+    from spa.plots.words import O1_CONDITIONAL
+
+    captions = {name: _caption(name) for name in small_figures}
+    assert None not in captions.values(), [n for n, c in captions.items() if c is None]
+    problems = {
+        n: caption_problems(f, captions[n], O1_CONDITIONAL if n == "overview" else ())
+        for n, f in small_figures.items()
+    }
+    assert {k: v for k, v in problems.items() if v} == {}
+
+
+# --- what the captions and legends say, against what is drawn ----------------------------------
+
+
+def _fig10_traces() -> pd.DataFrame:
+    t = np.linspace(0.0, 4.0, 50)
+    return pd.concat(
+        pd.DataFrame({"modulator": label, "controller": c, "t": t, "r": 0.5, "p_mean": 0.4 + k})
+        for label in ("pwm-20Hz", "dsm-20ms")
+        for k, c in enumerate(("fixed", "scheduled", "scheduled_ff"))
+    )
+
+
+def _fig11_steps() -> pd.DataFrame:
+    rows = []
+    for label in ("pwm-20Hz", "iipfm-20ms", "iipfm-20ms-G1.15"):
+        for c in ("fixed", "scheduled"):
+            for r0, r1 in ((0.1, 0.3), (0.3, 0.5), (0.5, 0.3), (0.3, 0.1)):
+                rows.append(
+                    {"experiment": "staircase", "modulator": label, "controller": c,
+                     "r0": r0, "r1": r1, "rise_time": 0.2 + r1, "overshoot": 3.0 * r1}
+                )  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+OLD_FIG10 = (
+    "Cycle-mean pressure over the set-point staircase up and down, one panel per setting: "
+    "fixed PI (black), gain-scheduled PI (blue) and gain-scheduled PI with the averaged "
+    "model's feed-forward (orange, dashed); dotted: the set-point."
+)
+OLD_FIG11 = (
+    "Rise time (10-90 %) and overshoot of each staircase step against the set-point after it, "
+    "one column per controller, one colour per setting (triangles up, solid: rising steps; "
+    "down, dotted: falling steps, which the exhaust limits)."
+)
+
+
+def test_fig10_and_fig11_captions_come_from_their_style_tables_and_match_the_artists():
+    from spa.pipeline.outputs import get_stage
+    from spa.plots.check import caption_problems
+    from spa.plots.closedloop import fig10, fig11
+    from spa.plots.words import FIG10_CAPTION, FIG11_CAPTION
+
+    captions = {o.key: o.caption for o in get_stage("closed_loop").outputs}
+    assert captions["fig10"] == FIG10_CAPTION and captions["fig11"] == FIG11_CAPTION
+    ten, eleven = fig10(_fig10_traces()), fig11(_fig11_steps())
+    assert caption_problems(ten, FIG10_CAPTION) == []
+    assert caption_problems(eleven, FIG11_CAPTION) == []
+    # the captions of before: words the figures do not draw
+    assert "the caption says 'black' but nothing is drawn black" in caption_problems(ten, OLD_FIG10)
+    assert caption_problems(eleven, OLD_FIG11) == [
+        "the caption says 'triangle' but no marker is a triangle"
+    ]
+    # and the style words of FIG10_CAPTION are those of the table the figure is drawn with
+    assert {"solid", "dashed", "dash-dot", "dotted", "darker", "lighter"} <= set(
+        FIG10_CAPTION.replace(",", " ").replace(")", " ").replace("(", " ").split()
+    )
+
+
+def test_a_caption_naming_a_colour_marker_or_line_style_must_match_an_artist():
+    from spa.plots.check import caption_problems
+
+    fig = Figure(figsize=(4.0, 3.0))
+    ax = fig.add_subplot()
+    ax.plot([0, 1], [0, 1], "s:", color="#D55E00", mfc="none")
+    assert caption_problems(fig, "vermillion, dotted, hollow squares") == []
+    assert caption_problems(fig, "sky blue circles, filled") == [
+        "the caption says 'sky blue' but nothing is drawn sky blue",
+        "the caption says 'circle' but no marker is a circle",
+        "the caption says 'filled' but no marker is filled",
+    ]
+    assert caption_problems(fig, "bluish markers") == []  # whole words only
+
+
+def test_fig4_legend_names_the_optimum_of_table_2():
+    """LPWM's J is 0 to round-off at every f_W: the legend named the smallest round-off
+    (1.1 Hz) while Table 2, breaking ties within COST_TIE by J_exact, named 22.3 Hz."""
+    from spa.plots.tuning import plot_tuning_sweeps
+    from spa.tuning.exact import best_first
+
+    f_w = np.array([1.1, 5.0, 22.3, 40.0])
+    sweeps = pd.DataFrame(
+        {
+            "modulator": "lpwm", "parameter": "f_w", "value": f_w, "unit": "Hz",
+            "x_ms": 1e3 / f_w, "J": [1e-15, 3e-15, 2e-15, 4e-15],
+            "J_exact": [0.9, 0.5, 0.05, 0.2],
+        }
+    )  # fmt: skip
+    table2 = best_first(sweeps, "J").iloc[0]  # Table 2's rule (spa.tuning.tables)
+    assert table2["value"] == 22.3
+    fig = plot_tuning_sweeps(sweeps, title="lab")
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    lpwm = next(label for label in labels if label.startswith("LPWM"))
+    assert "(22.3 Hz)" in lpwm, lpwm
+
+
+def test_fig5_tau_m_of_every_modulator_is_readable_when_one_is_orders_of_magnitude_apart():
+    from spa.plots.analytic import plot_equilibrium
+
+    xi = np.linspace(0.05, 0.95, 50)
+    rows = []
+    for kind, top in (("pwm", 1.0), ("ipfm", 2.0), ("lpwm", 600.0)):
+        rows.append(
+            pd.DataFrame(
+                {"modulator": kind, "parameter": "f_w" if kind != "ipfm" else "t_h",
+                 "value": 20.0 if kind != "ipfm" else 0.02, "gain": np.nan, "xi": xi,
+                 "p_eq": xi, "p_target": xi, "tau_m": top * (0.2 + xi)}
+            )
+        )  # fmt: skip
+    fig = plot_equilibrium(pd.concat(rows, ignore_index=True))
+    from spa.plots.check import _draw
+
+    _draw(fig)
+    bottoms = fig.axes[len(fig.axes) // 2 :]
+    for ax in bottoms:
+        (line,) = ax.get_lines()
+        y = ax.transData.transform(line.get_xydata())[:, 1]
+        box = ax.get_window_extent()
+        assert (y.max() - y.min()) / box.height > 0.15, ax.get_title()
+
+
+def test_fig2c_legend_does_not_cover_its_title():
+    from spa.plots.check import legend_over_titles
+    from spa.plots.identification import fig2c
+
+    t = np.arange(0.0, 2.0, 1e-3)
+    valve = ((t % 0.5) < 0.1).astype(float)
+    data = pd.DataFrame({"t": t, "valve": valve, "p": 0.3 * valve, "p_model": 0.3 * valve})
+    fig = fig2c(data)
+    assert legend_over_titles(fig) == []
+    ax = fig.axes[0]  # the layout of before: legend left above the axes, title centred
+    ax.legend(frameon=False, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncols=2,
+              borderaxespad=0)  # fmt: skip
+    ax.set_title("", loc="left")
+    ax.set_title("(c) pulse response")
+    assert legend_over_titles(fig) != []
+
+
+def test_overview_groups_by_valve_never_by_the_word_simulated():
+    from spa.plots.overview import plot_overview
+    from spa.report.overview import overview_table, valve_identity
+    from spa.report.params import PARAM_NAMES
+
+    rows = []
+    for i, name in enumerate(("large-slow", "small-fast", "sim")):
+        row = {"dataset": name, "recorded": "undated", "rig": "simulated", "status": "ok",
+               "valve": valve_identity(None, name, simulated=True)}  # fmt: skip
+        for p in PARAM_NAMES:  # three valves far apart: their intervals never overlap
+            row |= {p: 1.0 + 5 * i, f"{p}_lo": 0.9 + 5 * i, f"{p}_hi": 1.1 + 5 * i}
+        rows.append(row)
+    table = overview_table(rows)
+    assert not table[[f"changed_{p}" for p in PARAM_NAMES]].to_numpy().any()
+    fig = plot_overview(table)
+    for ax in fig.axes:
+        assert not [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]  # no trend
+    # two sessions of one bench valve still share a trend and are compared
+    bench = [dict(r, rig="bench", valve="bench / V1") for r in rows[:2]]
+    table = overview_table(bench)
+    assert table["changed_k2"].tolist() == [False, True]
+    from spa.plots.check import caption_problems
+    from spa.plots.words import O1_CAPTION
+
+    assert caption_problems(plot_overview(table), O1_CAPTION) == []  # trend and ring drawn
+
+
+def test_table3_leaves_the_papers_case_of_a_bench_row_empty():
+    from spa.report.table3 import table3_html
+
+    df = pd.DataFrame(
+        {"setting": ["pwm-20Hz", "bench_run"], "paper_case": ["PWM", np.nan],
+         "mse": [0.0079, 0.01], "paper_mse": [0.0073, np.nan]}
+    )  # fmt: skip
+    html = table3_html(df)
+    assert "nan" not in html.lower()
+    assert '<td class="paper"></td>' in html

@@ -38,7 +38,8 @@ def site(fake_results, tmp_path_factory):
     shutil.copytree(fake_results.root, root)
     rows = []
     for i, name in enumerate(fake_results.datasets):
-        rows.append(overview_row(root / name, name, f"2025-0{i + 1}-01", "bench"))
+        row = overview_row(root / name, name, f"2025-0{i + 1}-01", "bench", valve="bench / V1")
+        rows.append(row)
     table = overview_table(rows)
     write_csv(table, root / "overview.csv")
     save_figure(plot_overview(table), root / "overview.png")

@@ -149,6 +149,7 @@ def stage_outputs(
     dataset: str = "{dataset}",
     mark_directory: Callable[[str], object] | None = None,
     figures: bool = True,
+    vectors: bool = True,
 ) -> dict[str, object]:
     """The outputs of a stage: key -> path, for a rule's ``output:`` or input.
 
@@ -165,6 +166,9 @@ def stage_outputs(
     figures : bool, optional
         False: without the figures (:data:`FIGURE`, :data:`VECTOR`, :data:`FIGURES`), for a
         dataset whose figures the run does not draw (config ``figures``); their data stay.
+    vectors : bool, optional
+        False: a per-dataset stage's figures without their SVG copies (:data:`VECTOR`;
+        config ``figure_formats`` without ``svg``). The analytic figures keep theirs.
 
     Returns
     -------
@@ -176,6 +180,8 @@ def stage_outputs(
     paths: dict[str, object] = {}
     for out in stage.outputs:
         if not figures and out.kind in _DRAWN:
+            continue
+        if not vectors and stage.per_dataset and out.kind == VECTOR:
             continue
         path = str(_output_path(stage, out, results, dataset, root))
         paths[out.key] = mark_directory(path) if mark_directory and out.directory else path
@@ -201,6 +207,7 @@ def all_targets(
     datasets: Iterable[str],
     exclude: Iterable[str] = (),
     figures: Collection[str] | None = None,
+    vectors: bool = True,
 ) -> list[str]:
     """Every output of every stage, for every dataset: what ``reproduce-all`` makes.
 
@@ -214,6 +221,8 @@ def all_targets(
         Stages to leave out (the report rule's inputs are everything but the report).
     figures : collection of str, optional
         The datasets whose figures are drawn (config ``figures``); default all of them.
+    vectors : bool, optional
+        Whether per-dataset figures have SVG copies (config ``figure_formats``).
 
     Returns
     -------
@@ -228,7 +237,7 @@ def all_targets(
     for d in datasets:
         drawn = figures is None or d in figures
         for s in each:
-            paths += stage_outputs(s.name, results, d, figures=drawn).values()
+            paths += stage_outputs(s.name, results, d, figures=drawn, vectors=vectors).values()
     return [str(p) for p in paths]
 
 

@@ -26,6 +26,7 @@ from spa.pipeline.stage_types import (
     _per_dataset,
     _with_vectors,
 )
+from spa.plots.words import FIG10_CAPTION, FIG11_CAPTION, O1_CAPTION
 
 __all__ = ["STAGES"]
 
@@ -420,9 +421,7 @@ STAGES: tuple[Stage, ...] = (
             "closed_loop/fig10.png",
             FIGURE,
             "Fig. 10: closed-loop staircase",
-            "Cycle-mean pressure over the set-point staircase up and down, one panel per "
-            "setting: fixed PI (black), gain-scheduled PI (blue) and gain-scheduled PI with "
-            "the averaged model's feed-forward (orange, dashed); dotted: the set-point.",
+            FIG10_CAPTION,  # written from the style table Fig. 10 is drawn with
             required=False,
         ),
         Output("fig10_csv", "closed_loop/fig10.csv", DATA),
@@ -431,9 +430,7 @@ STAGES: tuple[Stage, ...] = (
             "closed_loop/fig11.png",
             FIGURE,
             "Fig. 11: closed-loop metrics against the operating point",
-            "Rise time (10-90 %) and overshoot of each staircase step against the set-point "
-            "after it, one column per controller, one colour per setting (triangles up, solid: "
-            "rising steps; down, dotted: falling steps, which the exhaust limits).",
+            FIG11_CAPTION,  # written from the style table Fig. 11 is drawn with
             required=False,
         ),
         Output("fig11_csv", "closed_loop/fig11.csv", DATA),
@@ -474,22 +471,20 @@ STAGES: tuple[Stage, ...] = (
                     "overview.png",
                     FIGURE,
                     "Fig. O1: the valve across sessions",
-                    "Each identified parameter against the session's date (dataset.yaml "
-                    "recorded:; undated sessions after the dated ones, by name, and said so "
-                    "on the axis) with its 95 % interval, one colour per rig, the least-squares "
-                    "trend (dashed) and a red ring where a session's interval excludes the "
-                    "previous session's of its rig: the valve changed.",
+                    O1_CAPTION,
                 ),
                 Output(
                     "table",
                     "overview.csv",
                     TABLE,
                     "Overview across datasets",
-                    "One row per dataset in session order: date, rig, the five identified "
+                    "One row per dataset in session order: date, rig, valve (the rig and "
+                    "the dataset's own valve name; a simulated dataset is a valve of its "
+                    "own), the five identified "
                     "parameters with their 95 % intervals, validation FIT (median and lowest), "
                     "the recommended setting with its J and J_exact (bar), the status, and "
                     "changed_<parameter>: the interval excludes the previous session's of the "
-                    "rig. Also the data of Fig. O1.",
+                    "same valve. Also the data of Fig. O1.",
                 ),
             )
         ),

@@ -22,7 +22,18 @@ from spa.plots.style import MODULATOR_COLOURS, MODULATOR_NAMES, new_figure
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["cost_legend", "plot_cost_sweeps", "plot_equilibrium"]
+__all__ = [
+    "TAU_SPREAD",
+    "cost_legend",
+    "plot_cost_sweeps",
+    "plot_equilibrium",
+    "sweep_optimum",
+    "tau_log_scale",
+]
+
+TAU_SPREAD = 10.0
+"""Ratio of the modulators' largest ``tau_m`` above which Fig. 5's ``tau_m`` row is drawn on
+a logarithmic axis (:func:`tau_log_scale`)."""
 
 #: Display names, in the paper's panel order of Fig. 5, and colours (:mod:`spa.plots.style`).
 _LABELS = MODULATOR_NAMES
@@ -42,6 +53,41 @@ def _require(df: pd.DataFrame, columns: list[str], what: str) -> None:
     missing = [c for c in columns if c not in df.columns]
     if missing:
         raise ValueError(f"{what}: missing column(s) {missing}; got {list(df.columns)}")
+
+
+def sweep_optimum(sweep: pd.DataFrame) -> pd.Series:
+    """The row of one modulator's sweep that its Table 2 names as the optimum.
+
+    With ``J_exact`` (a dataset's tuning), the tuning's rule: the smallest ``J``, ties within
+    :data:`spa.tuning.exact.COST_TIE` broken by ``J_exact``
+    (:func:`spa.tuning.exact.best_first`); without it (the analytic Table 2,
+    :func:`spa.tuning.cost.optimum`), the first grid value, in the sweep's own order, where
+    ``J`` is smallest. So the legend of Fig. 4 names the optimum of Table 2, also where
+    ``J`` is flat to round-off (LPWM, whose ``J`` is 0 up to 1e-14 bar everywhere).
+
+    Parameters
+    ----------
+    sweep : pandas.DataFrame
+        Rows of one modulator of :func:`spa.tuning.sweep_frame`, in grid order; ``J``, and
+        ``J_exact`` when the tuning computed it.
+
+    Returns
+    -------
+    pandas.Series
+        The optimum's row.
+
+    Examples
+    --------
+    >>> f = pd.DataFrame({"x_ms": [10.0, 20.0], "J": [2e-15, 1e-15], "J_exact": [0.07, 0.6]})
+    >>> float(sweep_optimum(f)["x_ms"]), float(sweep_optimum(f.drop(columns="J_exact"))["x_ms"])
+    (10.0, 20.0)
+    """
+    if "J_exact" in sweep.columns:
+        from spa.tuning.exact import best_first
+
+        return best_first(sweep, "J").iloc[0]
+    j = sweep["J"].to_numpy(dtype=float)
+    return sweep.iloc[int(np.nanargmin(j))]
 
 
 def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) -> Figure:
@@ -86,8 +132,8 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
         d = sweeps[(sweeps["modulator"] == kind) & np.isfinite(sweeps["J"])]
         if d.empty:
             continue
+        best = sweep_optimum(d)
         d = d.sort_values("x_ms")
-        best = d.loc[d["J"].idxmin()]
         spec = get_kind(kind)
         label = f"{label} ({spec.axis_name}): min {best['J']:.2f} at {best['x_ms']:.4g} ms"
         if spec.unit == "Hz":
@@ -137,6 +183,25 @@ def _inverse_ms(x: np.ndarray) -> np.ndarray:
     return out
 
 
+def tau_log_scale(curves: pd.DataFrame, spread: float = TAU_SPREAD) -> bool:
+    """Whether Fig. 5's shared ``tau_m`` axis should be logarithmic.
+
+    True when the largest finite ``tau_m`` of one modulator is ``spread`` times (or more)
+    that of another: on a linear axis the smaller would be a flat line at 0 (one modulator
+    near saturation reaches minutes, the others stay below seconds).
+
+    Examples
+    --------
+    >>> f = pd.DataFrame({"modulator": ["pwm", "pwm", "lpwm"], "tau_m": [0.5, 2.0, 600.0]})
+    >>> tau_log_scale(f), tau_log_scale(f[f["modulator"] == "pwm"])
+    (True, False)
+    """
+    tau = pd.to_numeric(curves["tau_m"], errors="coerce")
+    ok = np.isfinite(tau) & (tau > 0)
+    peaks = tau[ok].groupby(curves.loc[ok, "modulator"]).max()
+    return bool(len(peaks) > 1 and peaks.max() >= spread * peaks.min())
+
+
 def plot_equilibrium(curves: pd.DataFrame) -> Figure:
     """Fig. 5: equilibrium pressure and time constant against the input fraction.
 
@@ -151,7 +216,9 @@ def plot_equilibrium(curves: pd.DataFrame) -> Figure:
     matplotlib.figure.Figure
         Two rows by one column per modulator, in the paper's order (PWM, IPFM, ΔΣM, IIPFM):
         top, ``P_eq`` (Eq. 5) with the linear target ``k2*xi`` dashed; bottom, ``tau_m``
-        (Eq. 9; gaps where it is undefined: dead-zone and past saturation).
+        (Eq. 9; gaps where it is undefined: dead-zone and past saturation), on a shared
+        axis, logarithmic when the modulators' largest ``tau_m`` lie an order of magnitude
+        or more apart (:func:`tau_log_scale`).
 
     Raises
     ------
@@ -188,6 +255,10 @@ def plot_equilibrium(curves: pd.DataFrame) -> Figure:
             ax.grid(True, lw=0.3, alpha=0.5)
             ax.set_xlim(0.0, 1.0)
     axes[0, 0].set_ylabel("equilibrium pressure (bar)")
-    axes[1, 0].set_ylabel("time constant τ_m (s)")
+    if tau_log_scale(curves):  # one modulator's tau_m would flatten the others' at 0
+        axes[1, 0].set_yscale("log")
+        axes[1, 0].set_ylabel("time constant τ_m (s, log scale)")
+    else:
+        axes[1, 0].set_ylabel("time constant τ_m (s)")
     axes[0, 0].legend(fontsize=8, loc="upper left")
     return fig

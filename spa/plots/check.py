@@ -13,7 +13,11 @@ what is wrong; an empty list is a pass. :func:`figure_problems` runs them all.
 * :func:`small_axis_labels`: an axis label's font is smaller than its tick labels';
 * :func:`shared_styles`: two series of one axes share colour, line style and marker;
 * :func:`cut_off`: a title, label, annotation or legend reaches past the figure's edge (the
-  saved image would cut it).
+  saved image would cut it);
+* :func:`legend_over_titles`: a legend's box covers an axes' title or the figure's title.
+
+:func:`caption_problems` reads a caption against the figure: each colour, line style and
+marker it names (in the words of :mod:`spa.plots.words`) must be drawn by some artist.
 
 Examples
 --------
@@ -28,6 +32,7 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -39,8 +44,10 @@ if TYPE_CHECKING:
     from matplotlib.transforms import Bbox
 
 __all__ = [
+    "caption_problems",
     "cut_off",
     "figure_problems",
+    "legend_over_titles",
     "legend_overlaps",
     "missing_tick_labels",
     "shared_styles",
@@ -62,8 +69,8 @@ def figure_problems(fig: Figure) -> list[str]:
     -------
     list of str
         :func:`legend_overlaps`, :func:`missing_tick_labels`, :func:`small_axis_labels`,
-        :func:`shared_styles` and :func:`cut_off`, in that order; empty when the figure
-        passes.
+        :func:`shared_styles`, :func:`cut_off` and :func:`legend_over_titles`, in that
+        order; empty when the figure passes.
 
     Examples
     --------
@@ -85,6 +92,7 @@ def figure_problems(fig: Figure) -> list[str]:
         *small_axis_labels(fig, drawn=True),
         *shared_styles(fig),
         *_cut_off(fig, renderer),
+        *_legend_over_titles(fig, renderer),
     ]
 
 
@@ -479,3 +487,169 @@ def _labels_for(ax: Axes, other: Axes, name: str, box: Any) -> bool:
     if name == "x":
         return o.x0 < box.x1 and box.x0 < o.x1 and o.y0 <= box.y0 + eps
     return o.y0 < box.y1 and box.y0 < o.y1 and o.x0 <= box.x0 + eps
+
+
+def legend_over_titles(fig: Figure) -> list[str]:
+    """Legends whose box covers a title (an axes' or the figure's).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+
+    Returns
+    -------
+    list of str
+        One sentence per legend and title it covers.
+    """
+    return _legend_over_titles(fig, _draw(fig))
+
+
+def _legend_over_titles(fig: Figure, renderer: RendererBase) -> list[str]:
+    titles = [
+        t
+        for ax in fig.axes
+        if ax.get_visible()
+        for t in (ax.title, ax._left_title, ax._right_title)
+    ]
+    if fig._suptitle is not None:
+        titles.append(fig._suptitle)
+    titles = list({id(t): t for t in titles}.values())
+    legends = [ax.get_legend() for ax in fig.axes] + list(fig.legends)
+    legends = list({id(leg): leg for leg in legends if leg is not None}.values())
+    problems = []
+    for legend in legends:
+        if legend is None or not legend.get_visible():
+            continue
+        box = legend.get_window_extent(renderer)
+        for title in titles:
+            if not (title.get_visible() and title.get_text().strip()):
+                continue
+            t = title.get_window_extent(renderer)
+            if box.x0 < t.x1 and t.x0 < box.x1 and box.y0 < t.y1 and t.y0 < box.y1:
+                first = legend.get_texts()[0].get_text() if legend.get_texts() else ""
+                problems.append(
+                    f"the legend with {first!r} covers the title {title.get_text().strip()!r}"
+                )
+    return problems
+
+
+# --- a caption read against the figure -------------------------------------------------------
+
+
+def caption_problems(fig: Figure, caption: str, conditional: Iterable[str] = ()) -> list[str]:
+    """The style words of ``caption`` that no artist of ``fig`` draws.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    caption : str
+        The figure's caption.
+    conditional : iterable of str, optional
+        Style words the caption names for what is drawn only when the data has it (Fig. O1's
+        trend and ring: :data:`spa.plots.words.O1_CONDITIONAL`): not a problem when absent.
+
+    Returns
+    -------
+    list of str
+        One sentence per word (a colour, line style or marker of :mod:`spa.plots.words`,
+        or ``filled``/``hollow`` markers) that the caption names and no line, collection or
+        patch of the figure's axes has; empty when every word is drawn, or when the figure
+        draws no data (it says why there is nothing to draw).
+
+    Notes
+    -----
+    A colour word matches an artist of exactly that colour (``grey``: any grey strictly
+    between black and white); ``triangle`` matches any triangle marker. Longer words are
+    read first (``sky blue`` is not ``blue``), whole words only (``bluish`` is not ``blue``).
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure()
+    >>> _ = fig.add_subplot().plot([0, 1], [0, 1], "o--", color="#0072B2")
+    >>> caption_problems(fig, "one setting (blue, dashed, circles)")
+    []
+    >>> for problem in caption_problems(fig, "fixed PI (black), down triangles"):
+    ...     print(problem)
+    the caption says 'black' but nothing is drawn black
+    the caption says 'triangle' but no marker is a triangle
+    """
+    import re
+
+    from spa.plots.words import COLOUR_WORDS, LINE_STYLE_WORDS, MARKER_WORDS
+
+    if not any(ax.get_visible() and _has_data(ax) for ax in fig.axes):
+        return []  # a figure that says why there is nothing to draw
+    text = caption.lower()
+    drawn = _drawn_styles(fig)
+    problems: list[str] = []
+    maybe = {str(w).lower() for w in conditional}
+
+    def said(word: str) -> bool:
+        nonlocal text
+        # whole words: "bluish" is not "blue", "least-squares" is no marker
+        pattern = re.compile(rf"(?<![\w-]){re.escape(word)}(s|es)?(?![\w-])")
+        if not pattern.search(text):
+            return False
+        text = pattern.sub(" ", text)  # read once: "sky blue" is not "blue" too
+        return word not in maybe
+
+    for word in sorted(COLOUR_WORDS, key=len, reverse=True):
+        if said(word) and not _has_colour(drawn["colours"], COLOUR_WORDS[word]):
+            problems.append(f"the caption says {word!r} but nothing is drawn {word}")
+    for style, word in LINE_STYLE_WORDS.items():
+        if said(word) and style not in drawn["line styles"]:
+            problems.append(f"the caption says {word!r} but no line is {word}")
+    markers = sorted(MARKER_WORDS.items(), key=lambda kv: len(kv[1]), reverse=True)
+    for marker, word in markers:
+        if said(word) and marker not in drawn["markers"]:
+            problems.append(f"the caption says {word!r} but no marker is a {word}")
+    if said("triangle") and not drawn["markers"] & {"^", "v", "<", ">"}:
+        problems.append("the caption says 'triangle' but no marker is a triangle")
+    for word in ("filled", "hollow"):
+        if said(word) and word not in drawn["faces"]:
+            problems.append(f"the caption says {word!r} but no marker is {word}")
+    return problems
+
+
+def _drawn_styles(fig: Figure) -> dict[str, set[str]]:
+    """Colours (hex), line styles, markers and marker faces (filled, hollow) of the lines,
+    collections and patches of every visible axes of ``fig``."""
+    from matplotlib.colors import to_hex
+
+    out: dict[str, set[str]] = {"colours": set(), "line styles": set(), "markers": set()}
+    out["faces"] = set()
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        for line in ax.get_lines():
+            if not _shows(line):
+                continue
+            ls, mk = line.get_linestyle(), str(line.get_marker())
+            if ls not in _NO_LINE:
+                out["line styles"].add(str(ls))
+                out["colours"].add(to_hex(line.get_color()))
+            if mk not in _NO_LINE:
+                out["markers"].add(mk)
+                face, edge = line.get_markerfacecolor(), line.get_markeredgecolor()
+                hollow = str(face).lower() == "none" or to_hex(face) in {"#ffffff"}
+                out["faces"].add("hollow" if hollow else "filled")
+                out["colours"].add(to_hex(edge))
+                if not hollow:
+                    out["colours"].add(to_hex(face))
+        for coll in ax.collections:
+            if coll.get_visible():
+                for rgba in (*coll.get_edgecolor(), *coll.get_facecolor()):
+                    if rgba[3] > 0:
+                        out["colours"].add(to_hex(rgba))
+        for patch in ax.patches:
+            if patch.get_visible():
+                out["colours"].add(to_hex(patch.get_facecolor()))
+    return out
+
+
+def _has_colour(colours: set[str], want: str) -> bool:
+    """Whether ``want`` (hex, or ``"grey"``: any grey between black and white) is drawn."""
+    if want != "grey":
+        return want.lower() in colours
+    return any(c[1:3] == c[3:5] == c[5:7] and c not in ("#000000", "#ffffff") for c in colours)

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from spa.plots.reduce import plot_reduced
 from spa.plots.style import (
     MODULATOR_COLOURS,
     new_figure,
@@ -16,19 +17,12 @@ from spa.plots.style import (
     setting_styles,
     shade,
 )
+from spa.plots.words import CONTROLLER_STYLES, LINE_STYLE_WORDS, SET_POINT_STYLE, STEP_STYLES
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["CONTROLLER_STYLES", "fig10", "fig11", "no_design"]
-
-#: Line style, lightness (:func:`spa.plots.style.shade` of the setting's colour) and name of
-#: each controller in Fig. 10, where the three share a panel of one setting.
-CONTROLLER_STYLES: dict[str, tuple[str, float, str]] = {
-    "fixed": ("-", -0.45, "fixed PI"),
-    "scheduled": ("--", 0.0, "scheduled PI"),
-    "scheduled_ff": ("-.", 0.4, "scheduled PI + feed-forward"),
-}
 
 
 def _colour(label: str) -> str:
@@ -81,12 +75,13 @@ def fig10(traces: pd.DataFrame) -> Figure:
         sel = traces[traces["modulator"] == label]
         first = sel[sel["controller"] == sel["controller"].iloc[0]]
         colour = _colour(label)
-        ax.plot(first["t"], first["r"], color="0.6", lw=1.0, ls=":", label="set-point")
-        for name, (ls, amount, text) in CONTROLLER_STYLES.items():
+        grey, dots = SET_POINT_STYLE
+        plot_reduced(ax, first["t"], first["r"], color=grey, lw=1.0, ls=dots, label="set-point")
+        for name, (ls, amount, text, _) in CONTROLLER_STYLES.items():
             rows = sel[sel["controller"] == name]
             if len(rows):
-                ax.plot(
-                    rows["t"], rows["p_mean"], ls=ls, color=shade(colour, amount), lw=1.1,
+                plot_reduced(
+                    ax, rows["t"], rows["p_mean"], ls=ls, color=shade(colour, amount), lw=1.1,
                     label=text,
                 )  # fmt: skip
         ax.set_title(label, fontsize=10, color=colour)
@@ -101,9 +96,9 @@ def fig10(traces: pd.DataFrame) -> Figure:
         ax.set_ylabel("cycle-mean P (bar)")
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], color="0.6", lw=1.0, ls=":")]
+    handles = [Line2D([], [], color=SET_POINT_STYLE[0], lw=1.0, ls=SET_POINT_STYLE[1])]
     texts = ["set-point"]
-    for name, (ls, amount, text) in CONTROLLER_STYLES.items():
+    for name, (ls, amount, text, _) in CONTROLLER_STYLES.items():
         if (traces["controller"] == name).any():
             handles.append(Line2D([], [], ls=ls, color=shade("#808080", amount), lw=1.1))
             texts.append(text)
@@ -136,6 +131,7 @@ def fig11(steps: pd.DataFrame) -> Figure:
 
     rows = steps[steps["experiment"] == "staircase"]
     styles = setting_styles(rows["modulator"])
+    up_ls, down_ls = STEP_STYLES["up"][0], STEP_STYLES["down"][0]
     names = [n for n in CONTROLLER_STYLES if (rows["controller"] == n).any()]
     metrics = (("rise_time", "rise time 10–90 % (s)"), ("overshoot", "overshoot (%)"))
     fig = new_figure(figsize=(11.0, 5.6), layout="constrained")
@@ -148,8 +144,8 @@ def fig11(steps: pd.DataFrame) -> Figure:
             for label, style in styles.items():
                 c = sel[sel["modulator"] == label]
                 up, down = c[c["r1"] > c["r0"]], c[c["r1"] < c["r0"]]
-                ax.plot(up["r1"], up[metric], ls="-", ms=5, lw=1.1, label=label, **style)
-                ax.plot(down["r1"], down[metric], ls=":", ms=5, lw=1.0, mfc="white", **style)
+                ax.plot(up["r1"], up[metric], ls=up_ls, ms=5, lw=1.1, label=label, **style)
+                ax.plot(down["r1"], down[metric], ls=down_ls, ms=5, lw=1.0, mfc="white", **style)
             ax.grid(alpha=0.3)
             if j == 0:
                 ax.set_ylabel(text)
@@ -158,10 +154,12 @@ def fig11(steps: pd.DataFrame) -> Figure:
     handles = [Line2D([], [], ls="-", lw=1.1, ms=5, **style) for style in styles.values()]
     texts = list(styles)
     handles += [
-        Line2D([], [], ls="-", marker="o", color="0.3", lw=1.1, ms=5),
-        Line2D([], [], ls=":", marker="o", mfc="white", color="0.3", lw=1.0, ms=5),
+        Line2D([], [], ls=up_ls, marker="o", color="0.3", lw=1.1, ms=5),
+        Line2D([], [], ls=down_ls, marker="o", mfc="white", color="0.3", lw=1.0, ms=5),
     ]
-    texts += ["step up (solid, filled)", "step down (dotted, hollow)"]
+    texts += [
+        f"step {way} ({LINE_STYLE_WORDS[ls]}, {face})" for way, (ls, face) in STEP_STYLES.items()
+    ]
     fig.legend(handles, texts, loc="outside right upper", fontsize=9)
     fig.suptitle("Fig. 11: closed-loop step metrics against the operating point", fontsize=11)
     return fig

@@ -18,7 +18,8 @@ import numpy.typing as npt
 import pandas as pd
 
 from spa.identification import ChargeFit, DischargeFit
-from spa.plots.style import OKABE_ITO, legend_beside, minmax_indices, new_figure
+from spa.plots.reduce import plot_reduced
+from spa.plots.style import OKABE_ITO, legend_beside, new_figure
 from spa.validation import ValidationResult
 
 if TYPE_CHECKING:
@@ -249,20 +250,23 @@ def fig2c(
     ax, az = fig.subplots(2, 1, height_ratios=[3, 2])
     margin = zoom_span[1] - zoom_span[0]  # the zoom draws every sample near its window
     window = data["t"].between(at + zoom_span[0] - margin, at + zoom_span[1] + margin)
-    whole = data.iloc[minmax_indices(data["t"], [data["p"], data["p_model"], data["valve"]])]
-    for a, marker, part in ((ax, "", whole), (az, ".", data[window])):
-        a.plot(part["t"], part["p"], color=_MEASURED, lw=1.0, marker=marker, ms=4, label="measured")
-        a.plot(part["t"], part["p_model"], color=_MODEL, lw=1.5, ls="--", label="model")
+    for a, marker, part in ((ax, "", data), (az, ".", data[window])):
+        t = part["t"]
+        plot_reduced(
+            a, t, part["p"], color=_MEASURED, lw=1.0, marker=marker, ms=4, label="measured"
+        )
+        plot_reduced(a, t, part["p_model"], color=_MODEL, lw=1.5, ls="--", label="model")
         a.set_ylabel("P (bar)")
         a.grid(True, lw=0.3, alpha=0.5)
         cmd = a.twinx()
-        cmd.step(part["t"], part["valve"], where="post", color="0.35", lw=0.8)
+        plot_reduced(cmd, t, part["valve"], drawstyle="steps-post", color="0.35", lw=0.8)
         cmd.set_ylim(-0.05, 3.0)
         cmd.set_yticks([0, 1])
         cmd.set_ylabel("valve command")
-    # above the axes, left of the title: the pulse train fills the panel
-    ax.legend(frameon=False, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncols=2, borderaxespad=0)
-    ax.set_title("(c) pulse response")
+    # above the axes, right of the title (which is on the left): the pulse train fills the
+    # panel, and neither covers the other
+    ax.legend(frameon=False, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=2, borderaxespad=0)
+    ax.set_title("(c) pulse response", loc="left")
     ax.axvspan(at + zoom_span[0], at + zoom_span[1], color="0.8")
     ax.set_xlabel("t (s)")
     sel = (data["t"] >= at + zoom_span[0]) & (data["t"] <= at + zoom_span[1])
@@ -325,15 +329,13 @@ def validation_figure(data: pd.DataFrame, title: str = "") -> Figure:
     fig = new_figure(figsize=(7.0, 4.5), layout="constrained")
     ax, ae = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
     err = data["error"] if "error" in data.columns else data["p"] - data["p_model"]
-    keep = minmax_indices(data["t"], [data["p"], data["p_model"], err])  # every peak
-    data, err = data.iloc[keep], err.iloc[keep]
-    ax.plot(data["t"], data["p"], color=_MEASURED, lw=0.8, label="measured")
-    ax.plot(data["t"], data["p_model"], color=_MODEL, lw=1.0, ls="--", label="model")
+    plot_reduced(ax, data["t"], data["p"], color=_MEASURED, lw=0.8, label="measured")
+    plot_reduced(ax, data["t"], data["p_model"], color=_MODEL, lw=1.0, ls="--", label="model")
     ax.set_ylabel("P (bar)")
     legend_beside(ax, frameon=False)
     if title:
         ax.set_title(textwrap.fill(title, 70), fontsize=11)
-    ae.plot(data["t"], err, color="k", lw=0.6)
+    plot_reduced(ae, data["t"], err, color="k", lw=0.6)
     ae.axhline(0.0, color="0.5", lw=0.6)
     ae.set_ylabel("error (bar)")
     ae.set_xlabel("t (s)")

@@ -24,6 +24,7 @@ from spa.openloop.paper import PAPER_TIME_CONSTANTS
 from spa.openloop.reference import REFERENCE
 from spa.openloop.spectra import principal_domain_mask
 from spa.plots.analytic import _COLOURS, _LABELS, _require
+from spa.plots.reduce import plot_reduced
 from spa.plots.style import (
     legend_beside,
     minmax_indices,
@@ -137,8 +138,7 @@ def fig6(traces: pd.DataFrame) -> Figure:
     for ax, kind in zip(axes, kinds, strict=True):
         groups = list(_groups(traces[traces["modulator"] == kind]))
         for (setting, g), colour in zip(groups, setting_colours(len(groups)), strict=True):
-            shown = g.iloc[minmax_indices(g["t"], [g["p"]])]  # every peak, fewer points
-            ax.plot(shown["t"], shown["p"], lw=0.8, color=colour, label=setting)
+            plot_reduced(ax, g["t"], g["p"], lw=0.8, color=colour, label=setting)
         ax.set_title(_LABELS[kind], fontsize=9, loc="left")
         ax.set_ylabel("P (bar)")
         ax.grid(True, lw=0.3, alpha=0.5)

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from spa.plots.style import new_figure, setting_colours
+from spa.plots.words import CHANGED_RING
 from spa.report.overview import UNDATED, session_days, trend
 from spa.report.params import PARAM_NAMES
 
@@ -39,9 +40,11 @@ def plot_overview(table: pd.DataFrame) -> Figure:
         dated, else the session's position in the table's order (dated sessions by date,
         then the undated ones by name; the axis says so); one colour per rig, the rigs in
         sorted order (the same rigs, the same colours, whatever the order of the datasets);
-        error bars the 95 % intervals; the least-squares trend dashed; a red ring on each
-        session whose interval excludes the previous one's of its rig. The legend, below the
-        panels, names only the rigs with a point.
+        error bars the 95 % intervals; the least-squares trend of each valve (column
+        ``valve``, :func:`spa.report.overview.valve_identity`; the rig where absent) with two
+        sessions or more dashed; a red ring on each session whose interval excludes the
+        previous one's of its valve (``changed_<p>``). The legend, below the panels, names
+        only the rigs with a point.
     """
     fig = new_figure(figsize=(7.0, 8.0), layout="constrained")
     axes = fig.subplots(len(PARAM_NAMES), 1, sharex=True)
@@ -50,6 +53,7 @@ def plot_overview(table: pd.DataFrame) -> Figure:
     dated = bool(len(recorded)) and UNDATED not in recorded
     rig_of = table.get("rig", pd.Series(dtype=str)).fillna("").astype(str).to_numpy()
     rigs = sorted(set(rig_of))
+    valve_of = table["valve"].fillna("").astype(str).to_numpy() if "valve" in table else rig_of
     colours = dict(zip(rigs, setting_colours(len(rigs)), strict=True))
     for ax, p in zip(axes, PARAM_NAMES, strict=True):
         scale, label = _SCALE[p]
@@ -71,10 +75,12 @@ def plot_overview(table: pd.DataFrame) -> Figure:
                 color=colours[rig],
                 label=rig,
             )
-            a, b = trend(x[m], value[m])  # one trend per rig: one valve
-            if np.isfinite(b):
-                ends = x[m][[0, -1]]
-                ax.plot(ends, a + b * ends, "--", color=colours[rig], lw=1)
+            for valve in sorted(set(valve_of[m])):  # one trend per valve, never across valves
+                v = m & (valve_of == valve)
+                a, b = trend(x[v], value[v])
+                if np.isfinite(b):
+                    ends = x[v][[0, -1]]
+                    ax.plot(ends, a + b * ends, "--", color=colours[rig], lw=1, label="_trend")
         changed = table[f"changed_{p}"].to_numpy(bool) if len(table) else np.zeros(0, bool)
         if changed.any():
             ax.plot(
@@ -83,7 +89,7 @@ def plot_overview(table: pd.DataFrame) -> Figure:
                 "o",
                 ms=11,
                 mfc="none",
-                mec="#c0392b",
+                mec=CHANGED_RING,
                 mew=1.5,
                 label="changed",
             )

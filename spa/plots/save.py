@@ -1,7 +1,10 @@
-"""Saving a figure for a paper: a PNG and its SVG copy, byte for byte the same on every run.
+"""Saving a figure: a PNG and, where asked, its SVG copy, byte for byte the same on every run.
 
 Every figure of the pipeline goes through :func:`save_figure`. The caller writes the plotted
-data beside it as CSV (:func:`spa.io.write_csv`).
+data beside it as CSV (:func:`spa.io.write_csv`): the full data, whatever the drawing reduced
+(:mod:`spa.plots.reduce`). Which formats a job writes is :data:`FIGURE_FORMATS`
+(:func:`set_figure_formats`: the pipeline's per-dataset jobs set it from the config key
+``figure_formats``, default PNG alone; the analytic figures keep their SVG).
 """
 
 from __future__ import annotations
@@ -14,12 +17,16 @@ from typing import Any, Final
 from spa.io import PNG_DPI
 
 __all__ = [
+    "FIGURE_FORMATS",
+    "FORMATS",
     "MIN_WIDTH_PX",
     "PNG_COMPRESS_LEVEL",
     "PNG_DPI",
     "SVG_HASHSALT",
     "draw",
+    "png_dpi",
     "save_figure",
+    "set_figure_formats",
     "vector_path",
 ]
 
@@ -32,6 +39,63 @@ SVG_HASHSALT: Final = "spa"
 """Salt of the SVG's element ids (matplotlib draws them at random otherwise)."""
 
 
+FORMATS: Final = ("png", "svg")
+"""The formats a figure can be saved in: the PNG always, the SVG copy optionally."""
+
+FIGURE_FORMATS: list[str] = ["png", "svg"]
+"""The formats :func:`save_figure` writes when not told (:func:`set_figure_formats`)."""
+
+
+def set_figure_formats(formats: Any) -> list[str]:
+    """Set the formats :func:`save_figure` writes by default (config ``figure_formats``).
+
+    Parameters
+    ----------
+    formats : sequence of str
+        A subset of :data:`FORMATS` that holds ``"png"`` (the report embeds it).
+
+    Returns
+    -------
+    list of str
+        The formats set, in :data:`FORMATS` order.
+
+    Raises
+    ------
+    ValueError
+        Naming the config key, if a format is unknown or ``png`` is missing.
+
+    Examples
+    --------
+    >>> set_figure_formats(["svg", "png"])
+    ['png', 'svg']
+    >>> set_figure_formats(["png"])
+    ['png']
+    """
+    given = [str(f).lower() for f in (formats or [])]
+    unknown = sorted(set(given) - set(FORMATS))
+    if unknown or "png" not in given:
+        raise ValueError(
+            f"figure_formats: expected a list of {list(FORMATS)} that holds 'png', got {formats!r}"
+        )
+    FIGURE_FORMATS[:] = [f for f in FORMATS if f in given]
+    return list(FIGURE_FORMATS)
+
+
+def png_dpi(fig: Any, dpi: int = PNG_DPI, min_width: int = MIN_WIDTH_PX) -> int:
+    """The resolution a figure's PNG is saved at: ``dpi``, raised so that the PNG is at least
+    ``min_width`` pixels wide.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> png_dpi(Figure(figsize=(10, 3))), png_dpi(Figure(figsize=(4, 3)))
+    (200, 250)
+    """
+    if dpi <= 0:
+        raise ValueError(f"dpi must be positive, got {dpi}")
+    return max(int(dpi), math.ceil(min_width / fig.get_figwidth()))
+
+
 def vector_path(png: str | Path) -> Path:
     """The SVG copy's path beside a PNG: ``fig4.png`` -> ``fig4.svg``."""
     return Path(png).with_suffix(".svg")
@@ -42,7 +106,7 @@ def save_figure(
     path: str | Path,
     dpi: int = PNG_DPI,
     min_width: int = MIN_WIDTH_PX,
-    vector: bool = True,
+    vector: bool | None = None,
 ) -> None:
     """Save a matplotlib figure as PNG and SVG, without time stamps or version strings.
 
@@ -58,7 +122,7 @@ def save_figure(
     min_width : int, optional
         Smallest PNG width in pixels (default :data:`MIN_WIDTH_PX`; 0: none).
     vector : bool, optional
-        Write the SVG copy (default True).
+        Write the SVG copy; default: when :data:`FIGURE_FORMATS` holds ``"svg"``.
 
     Raises
     ------
@@ -81,9 +145,9 @@ def save_figure(
     png = Path(path)
     if png.suffix != ".png":
         raise ValueError(f"{png}: a figure is saved as .png (its SVG copy beside it)")
-    if dpi <= 0:
-        raise ValueError(f"dpi must be positive, got {dpi}")
-    dpi = max(int(dpi), math.ceil(min_width / fig.get_figwidth()))
+    dpi = png_dpi(fig, dpi, min_width)
+    if vector is None:
+        vector = "svg" in FIGURE_FORMATS
     png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(
         png,

@@ -17,6 +17,7 @@ from collections.abc import Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING, Any, Final
 
 from spa.model.modulators import MODULATOR_ORDER, REGISTRY, Modulator, get_kind
+from spa.plots.words import SETTING_MARKERS
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -114,9 +115,6 @@ def ordered_settings(labels: Iterable[str]) -> list[str]:
     """The distinct labels in numeric order (:func:`setting_sort_key`)."""
     return sorted(dict.fromkeys(labels), key=setting_sort_key)
 
-
-#: Markers of the settings of one modulator type, in numeric order (:func:`setting_styles`).
-SETTING_MARKERS: Final = ("o", "s", "D", "^", "v", "P", "X", "h")
 
 #: Lightness of the settings of one modulator type, in numeric order: the type's colour, then
 #: darker, then lighter (:func:`shade`).

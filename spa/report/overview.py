@@ -56,6 +56,44 @@ def rig_label(rig: Mapping[str, Any] | None) -> str:
     return "unnamed rig"
 
 
+def valve_identity(rig: Mapping[str, Any] | None, dataset: str, simulated: bool = False) -> str:
+    """The valve a session measured, for comparing sessions: the rig and the dataset's own
+    valve name (``rig.valve``); a simulated dataset is a valve of its own.
+
+    Sessions of one valve share a trend in Fig. O1 and are compared for a change; sessions
+    of different valves never are, whatever rig label they share.
+
+    Examples
+    --------
+    >>> valve_identity({"name": "bench 2", "valve": "V1"}, "s1")
+    'bench 2 / V1'
+    >>> valve_identity({"valve": "V1"}, "s1"), valve_identity({}, "s1")
+    ('V1', 'unnamed rig')
+    >>> valve_identity(None, "large-slow", simulated=True)
+    'simulated: large-slow'
+    """
+    if simulated:
+        return f"simulated: {dataset}"
+    label = rig_label(rig)
+    valve = str((rig or {}).get("valve") or "")
+    return f"{label} / {valve}" if valve and valve != label else label
+
+
+def dataset_valve(raw_dir: str | Path, dataset: str) -> str:
+    """:func:`valve_identity` of ``raw_dir/<dataset>``: a dataset without ``dataset.yaml``
+    is simulated; one whose ``dataset.yaml`` does not parse is its own unnamed valve."""
+    from spa.datasets import DatasetError, load_spec
+
+    folder = Path(raw_dir) / dataset
+    if not (folder / "dataset.yaml").is_file():
+        return valve_identity(None, dataset, simulated=True)
+    try:
+        spec = load_spec(folder)
+    except DatasetError:
+        return f"unnamed rig: {dataset}"
+    return valve_identity(spec.rig, dataset)
+
+
 def dataset_session(raw_dir: str | Path, dataset: str) -> tuple[str | None, str]:
     """The session's date (``recorded:``) and rig label of ``raw_dir/<dataset>/dataset.yaml``.
 
@@ -100,6 +138,7 @@ def overview_row(
     recorded: str | None,
     rig: str,
     failed: str | None = None,
+    valve: str | None = None,
 ) -> dict[str, Any]:
     """A dataset's row of the overview, from its results folder.
 
@@ -119,11 +158,14 @@ def overview_row(
         worked are kept: the parameters when identification worked, whatever failed after
         it; a stage that failed or was skipped (its status file, ``<folder>/status``) leaves
         its numbers empty.
+    valve : str, optional
+        Its valve (:func:`valve_identity`); default the rig.
 
     Returns
     -------
     dict
-        ``dataset``, ``recorded`` (ISO date or :data:`UNDATED`), ``rig``, ``status`` (``ok``
+        ``dataset``, ``recorded`` (ISO date or :data:`UNDATED`), ``rig``, ``valve``,
+        ``status`` (``ok``
         or ``failed: <stage>``), ``<p>``, ``<p>_lo``, ``<p>_hi`` for each parameter (SI units,
         NaN when missing), ``fit_median``, ``fit_min`` (%), ``recommended``, ``J``, ``J_exact``.
     """
@@ -132,6 +174,7 @@ def overview_row(
         "dataset": name,
         "recorded": recorded or UNDATED,
         "rig": rig,
+        "valve": valve or rig,
         "status": f"failed: {failed}" if failed else "ok",
     }
     lost = _lost_stages(folder) if failed else set()
@@ -175,14 +218,15 @@ def read_rows(paths: Iterable[str | Path]) -> list[dict[str, Any]]:
 
 
 def interval_changes(lo: Sequence[float], hi: Sequence[float], groups: Sequence[str]) -> np.ndarray:
-    """Where a session's interval excludes the previous session's of its group (rig).
+    """Where a session's interval excludes the previous session's of its group (valve).
 
     Parameters
     ----------
     lo, hi : sequence of float
         Each session's interval, in session order (NaN: none, never flagged, skipped).
     groups : sequence of str
-        Each session's rig: a session is compared with the previous one of its rig.
+        Each session's group (its valve, :func:`valve_identity`): a session is compared
+        with the previous one of its group.
 
     Returns
     -------
@@ -242,7 +286,7 @@ def trend(x: Sequence[float], y: Sequence[float]) -> tuple[float, float]:
 
 
 _COLUMNS = (
-    ["session", "dataset", "recorded", "rig", "status"]
+    ["session", "dataset", "recorded", "rig", "valve", "status"]
     + [p + s for p in PARAM_NAMES for s in ("", "_lo", "_hi")]
     + ["fit_median", "fit_min", "recommended", "J", "J_exact"]
 )
@@ -261,7 +305,8 @@ def overview_table(rows: Iterable[Mapping[str, Any]]) -> pd.DataFrame:
     pandas.DataFrame
         Dated sessions by date (then name), then the undated ones by name; columns
         ``session`` (1, 2, ...), the row's columns, and ``changed_<p>`` for each parameter
-        (:func:`interval_changes` within each rig).
+        (:func:`interval_changes` within each valve: column ``valve``, the rig for rows
+        written without one).
     """
     table = pd.DataFrame(list(rows))
     if table.empty:
@@ -274,6 +319,9 @@ def overview_table(rows: Iterable[Mapping[str, Any]]) -> pd.DataFrame:
     table = table.drop(columns="_undated").reset_index(drop=True)
     table.insert(0, "session", np.arange(1, len(table) + 1))
     table = table[[c for c in _COLUMNS if c in table] + [c for c in table if c not in _COLUMNS]]
+    if "valve" not in table:
+        table.insert(table.columns.get_loc("rig") + 1, "valve", table["rig"])
+    table["valve"] = table["valve"].where(table["valve"].notna(), table["rig"])
     for p in PARAM_NAMES:
-        table[f"changed_{p}"] = interval_changes(table[f"{p}_lo"], table[f"{p}_hi"], table["rig"])
+        table[f"changed_{p}"] = interval_changes(table[f"{p}_lo"], table[f"{p}_hi"], table["valve"])
     return table

@@ -63,15 +63,27 @@ def _mean_sd(mean: str, sd: str) -> Callable[[pd.Series], str]:
 _TEXT = ("setting", "paper_case")  # columns of words, left-aligned
 
 
+def _text(value: object) -> str:
+    """A cell of words: empty for a missing value (None, NaN: a bench run has no paper's
+    case), never ``"nan"``.
+
+    >>> _text(float("nan")), _text(None), _text("PWM")
+    ('', '', 'PWM')
+    """
+    if value is None or (isinstance(value, float | np.floating) and not np.isfinite(value)):
+        return ""
+    return str(value)
+
+
 def _setting(row: pd.Series) -> str:
-    return str(row.get("setting") or row.get("run") or "")
+    return _text(row.get("setting")) or _text(row.get("run"))
 
 
 # (group heading or "" for a single column, [(header, needed column, cell, is the paper's)])
 TABLE3_VIEW: tuple[tuple[str, tuple[tuple[str, str, Callable[[pd.Series], str], bool], ...]], ...]
 TABLE3_VIEW = (
     ("", (("setting", "setting", _setting, False),)),
-    ("", (("paper's case", "paper_case", lambda r: str(r.get("paper_case") or ""), True),)),
+    ("", (("paper's case", "paper_case", lambda r: _text(r.get("paper_case")), True),)),
     ("Line P = m ξ + n", (("m (bar)", "m", _num("m"), False), ("n (bar)", "n", _num("n"), False))),
     (
         "MSE (10⁻³ bar²)",

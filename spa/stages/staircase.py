@@ -23,7 +23,7 @@ from spa.openloop import (
 )
 from spa.openloop.shapes import check_input_shape
 from spa.pipeline.status import naming_run
-from spa.plots.openloop import fig6, fig7a, fig7b, tau_outliers, thin, write_no_runs
+from spa.plots.openloop import fig6, fig7a, fig7b, tau_outliers, write_no_runs
 from spa.plots.save import draw
 
 __all__ = ["StaircaseResult", "run_staircase", "write_staircase"]
@@ -43,7 +43,7 @@ class StaircaseResult:
     levels, steps : pandas.DataFrame
         Per run and level (equilibrium, ripple, switching rate) and per step (time constant).
     traces : pandas.DataFrame
-        Pressure traces thinned for Fig. 6.
+        Pressure traces of Fig. 6, every sample (the figure reduces its drawing).
     fig7a, fig7b : pandas.DataFrame
         The levels and steps of the settings Figs. 7a and 7b show (the paper's, or fallbacks).
     sweep : pandas.DataFrame
@@ -120,7 +120,7 @@ def run_staircase(
         rows.append({**summary, **tag})
         levels.append(lv.assign(**tag))
         steps.append(st.assign(**tag))
-        traces.append(thin(runs[rid][["t", "p"]], 6000).assign(**tag))
+        traces.append(runs[rid][["t", "p"]].assign(**tag))  # whole: Fig. 6 reduces its drawing
         log.info(
             "[%d/%d] %s: FIT %.2f %%, MSE %.3g bar², tau %.3f ± %.3f s, ripple %.1f mbar "
             "(noise %.1f mbar subtracted: %.1f; noise-free %.1f)",

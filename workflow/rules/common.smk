@@ -55,6 +55,8 @@ for _name in undecodable_datasets(RAW_DIR):
 DATASETS = SIM_DATASETS + RAW_DATASETS
 # The datasets whose figures are drawn (config `figures`: all, none or a list).
 FIGURE_DATASETS = figure_datasets(config, DATASETS)
+# Whether a dataset's figures get SVG copies beside their PNGs (config `figure_formats`).
+FIGURE_VECTORS = "svg" in config.get("figure_formats", ["png"])
 
 
 def outputs(stage, figures=True):
@@ -62,7 +64,13 @@ def outputs(stage, figures=True):
     and figures marked for `snakemake --report` with their captions (spa.pipeline.workflow_report);
     without its figures when `figures` is False.
     """
-    paths = stage_outputs(stage, RESULTS, mark_directory=directory, figures=figures)
+    paths = stage_outputs(
+        stage,
+        RESULTS,
+        mark_directory=directory,
+        figures=figures,
+        vectors=FIGURE_VECTORS,
+    )
     for key, flags in report_flags(stage, CAPTIONS).items():
         if key in paths:
             paths[key] = report(paths[key], **flags)
@@ -102,5 +110,11 @@ for _path, _why in {
 # Every output of the run, and those of them that are missing: reproduce-all asks for the
 # missing ones by name, since Snakemake does not rebuild a missing file whose downstream
 # outputs are up to date (its issue 1978). Their jobs rerun, then everything downstream.
-ALL_OUTPUTS = all_targets(RESULTS, DATASETS, exclude=["check"], figures=FIGURE_DATASETS)
+ALL_OUTPUTS = all_targets(
+    RESULTS,
+    DATASETS,
+    exclude=["check"],
+    figures=FIGURE_DATASETS,
+    vectors=FIGURE_VECTORS,
+)
 MISSING_OUTPUTS = missing_outputs(ALL_OUTPUTS)

@@ -28,7 +28,11 @@ rule overview:
 rule report:
     input:
         all_targets(
-            RESULTS, DATASETS, exclude=["report", "check"], figures=FIGURE_DATASETS
+            RESULTS,
+            DATASETS,
+            exclude=["report", "check"],
+            figures=FIGURE_DATASETS,
+            vectors=FIGURE_VECTORS,
         ),
     output:
         **outputs("report"),

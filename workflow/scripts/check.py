@@ -17,7 +17,8 @@ log = get_logger("check", snakemake.log[0], console=logging.INFO)  # the run's s
 guard_environment(log, "the check")  # a full disk: one line saying so
 out = Path(snakemake.output.status)
 datasets, figures = snakemake.params.datasets, snakemake.params.figures
-targets = all_targets(out.parent, datasets, exclude=["check"], figures=figures)
+vectors = "svg" in snakemake.config.get("figure_formats", ["png"])
+targets = all_targets(out.parent, datasets, exclude=["check"], figures=figures, vectors=vectors)
 record_outputs(targets, snakemake.params.ledger)
 failures = dataset_failures(out.parent, snakemake.params.datasets)
 if failures:

@@ -5,7 +5,7 @@ from pathlib import Path
 import spa
 from spa.io import get_logger, peak_rss_mib
 from spa.pipeline.status import dataset_failures, run_stage
-from spa.report.overview import dataset_session, overview_row, write_row
+from spa.report.overview import dataset_session, dataset_valve, overview_row, write_row
 from spa.report.site import build_dataset_page
 
 log = get_logger("page", snakemake.log[0])
@@ -26,7 +26,9 @@ def main() -> None:
         (r["stage"] for r in failed if r["stage"] != "page" and not r.get("upstream")), None
     )
     recorded, rig = dataset_session(snakemake.params.raw_dir, dataset)
-    write_row(snakemake.output.row, overview_row(results / dataset, dataset, recorded, rig, first))
+    valve = dataset_valve(snakemake.params.raw_dir, dataset)
+    row = overview_row(results / dataset, dataset, recorded, rig, first, valve=valve)
+    write_row(snakemake.output.row, row)
     size = len(text.encode()) / 1024
     log.info("wrote %s (%.0f KB); peak RSS of the job so far %.0f MiB", page, size, peak_rss_mib())
 
