@@ -30,10 +30,11 @@ PAGES = [
     "getting-started/index", "getting-started/install", "getting-started/first-run",
     "getting-started/your-lab", "getting-started/notebook",
     "howto/index", "howto/add-dataset", "howto/bench-formats", "howto/relax-tuning",
-    "howto/figures-and-formats", "howto/cluster", "howto/export-controller",
+    "howto/figures", "howto/cluster", "howto/controller-on-bench",
     "howto/cite-reproduce",
     "explanation/index", "explanation/model", "explanation/modulators", "explanation/tuning",
-    "explanation/closed-loop-pi", "explanation/figures", "explanation/dependencies",
+    "explanation/closed-loop-pi", "explanation/closed-loop",
+    "explanation/physical-plant", "explanation/figures", "explanation/dependencies",
     "reference/index", "reference/configuration", "reference/raw-contract", "reference/cli",
     "reference/api", "reference/outputs", "reference/benchmarks",
 ]  # fmt: skip
