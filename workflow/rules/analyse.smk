@@ -6,9 +6,11 @@
 # overview (page: it reads the dataset's date and rig from raw/<dataset>/dataset.yaml). Each
 # stage is a second or two of work and a job costs about a second of imports and Snakemake's
 # own bookkeeping, so they share one (benchmarks/README.md, "Growth"); each
-# stage keeps its own outputs, log, status and script. The price: a change to one stage's
-# settings (tuning:, linearity:) reruns the whole job. A dataset without runs of a kind gets
-# empty tables and a figure saying so, so that every dataset has the same outputs.
+# stage keeps its own outputs, log, status and script. A change to one stage's settings
+# (tuning:, linearity:) reruns the job, but inside it every stage whose inputs, settings and
+# code are unchanged is restored from results/.store (spa.pipeline.reuse, `store`); its
+# status says "reused". A dataset without runs of a kind gets empty tables and a figure
+# saying so, so that every dataset has the same outputs.
 # The stages of the job, in order, from the stage table (spa/pipeline/stages.py: job "analyse"):
 # identify, tune, validate_model, staircase, sine, chirp, closed_loop, page.
 ANALYSE = job_stages("analyse")
@@ -40,6 +42,7 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
         params:
             code=SPA_CODE,
             stages=ANALYSE,
+            store=True,
             cfg=stage_settings(config, ANALYSE),
             nominal=config["nominal"],
             seed=config["seed"],
