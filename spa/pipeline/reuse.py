@@ -33,7 +33,7 @@ running it, a rerun of a shared job must restore the stages it does not recomput
 beside new ones with nothing to tell them apart; a store entry is written completely (in a
 temporary folder, then renamed) or not at all, and the outputs are always the job's own.
 
-Config ``reuse: false`` (``snakemake --forceall --config reuse=false``) recomputes every stage
+Config ``reuse: false`` (``snakemake --forceall --config reuse=False``) recomputes every stage
 and refreshes the store; deleting ``results/.store`` loses nothing but the reuse.
 """
 
@@ -235,6 +235,8 @@ def stage_digest(
         return p.relative_to(root).as_posix() if inside else str(path)
 
     record = {
+        # outputs may name the results folder (tune's recommendation names its source)
+        "results": str(root.resolve()) if root is not None else None,
         "stage": stage,
         "code": code,
         "wildcards": _canonical(dict(view.wildcards.items())),

@@ -103,4 +103,11 @@ for _path, _why in {
 # missing ones by name, since Snakemake does not rebuild a missing file whose downstream
 # outputs are up to date (its issue 1978). Their jobs rerun, then everything downstream.
 ALL_OUTPUTS = all_targets(RESULTS, DATASETS, exclude=["check"], figures=FIGURE_DATASETS)
-MISSING_OUTPUTS = missing_outputs(ALL_OUTPUTS)
+# Not needed when the report and the check are missing too: they run and ask for every file.
+MISSING_OUTPUTS = missing_outputs(
+    ALL_OUTPUTS,
+    downstream=[
+        *stage_outputs("report", RESULTS).values(),
+        *stage_outputs("check", RESULTS).values(),
+    ],
+)
