@@ -265,7 +265,7 @@ def test_digest_is_relative_to_the_results_folder(tmp_path) -> None:
 def _snakemake(cfg: Path, results: Path, *extra: str, reuse: bool = True) -> None:
     cmd = [sys.executable, "-m", "snakemake", "reproduce-all", "-c2", "--configfile",
            "config/small.yaml", str(cfg), *extra, "--config", f"results={results}",
-           f"reuse={str(reuse).lower()}"]  # fmt: skip
+           f"reuse={reuse}"]  # fmt: skip
     res = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert res.returncode == 0, res.stderr[-3000:]
 
