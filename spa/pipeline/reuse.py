@@ -56,6 +56,7 @@ __all__ = [
     "code_digest",
     "file_digest",
     "read_stages",
+    "run_job",
     "run_or_reuse",
     "stage_digest",
 ]
@@ -435,4 +436,59 @@ def run_or_reuse(
         store.save(stage, key, outputs, log)
     if _STATUS_KEY in outputs:
         _mark(outputs[_STATUS_KEY], how)
+    return how
+
+
+def run_job(smk: Any, scriptdir: str | Path) -> dict[str, str]:
+    """Run a shared job's stages in turn (``params.stages``: stage -> script name), each its
+    own script seeing :func:`spa.pipeline.jobs.stage_job`'s view as ``snakemake``; with
+    ``params.store`` (the analysis job), through :func:`run_or_reuse`, unless config
+    ``reuse`` is false.
+
+    Returns
+    -------
+    dict
+        Stage -> ``"reused"``, ``"computed"`` or, without a store, ``"run"``.
+    """
+    import runpy
+
+    from spa.pipeline.jobs import read_files, stage_job
+    from spa.pipeline.outputs import dataset_folder, get_stage
+
+    store = bool(smk.params.get("store"))
+    enabled = bool((getattr(smk, "config", None) or {}).get("reuse", True))
+    memo: dict[tuple[str, bool], str] = {}
+
+    def digest(path: str | Path, status: bool = False) -> str:
+        """:func:`file_digest`, once per file and job (earlier stages' outputs stay put)."""
+        key = (str(path), status)
+        if key not in memo:
+            memo[key] = file_digest(path, status)
+        return memo[key]
+
+    how = {}
+    for stage, script in smk.params.stages.items():
+        view = stage_job(smk, stage)
+        path = Path(scriptdir) / f"{script}.py"
+
+        def run(path: Path = path, view: Any = view) -> None:
+            runpy.run_path(str(path), init_globals={"snakemake": view}, run_name="__main__")
+
+        if not store:
+            run()
+            how[stage] = "run"
+            continue
+        folder = dataset_folder(stage, dict(view.output.items()))
+        raw = Path(str(smk.params.get("raw_dir", ""))) / str(smk.wildcards.dataset)
+        how[stage] = run_or_reuse(
+            view,
+            stage,
+            path,
+            run,
+            results=folder.parent,
+            reads=read_files(smk, stage),
+            raw={name: raw / name for name in get_stage(stage).raw_files},
+            enabled=enabled,
+            digest=digest,
+        )
     return how
