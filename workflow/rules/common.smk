@@ -74,6 +74,12 @@ def inputs_from(stage):
     return stage_outputs(stage, RESULTS)
 
 
+def without(paths, drop):
+    """``paths`` less those in ``drop``, in order."""
+    drop = {str(p) for p in drop}
+    return [p for p in paths if p not in drop]
+
+
 def logfile(rule):
     """The log file of a rule (spa.pipeline.outputs.STAGES)."""
     return log_path(rule, RESULTS)
