@@ -140,6 +140,8 @@ def main() -> None:
     parser.add_argument("--dry-count", type=int, default=101)
     parser.add_argument("--repeat", type=int, default=3, help="dry runs per tree")
     parser.add_argument("--keep", type=Path, help="work here and keep the results (empty)")
+    parser.add_argument("--no-figures-runs", action="store_true",
+                        help="skip the two runs with figures (a busy machine)")  # fmt: skip
     args = parser.parse_args()
     trees = {"old": args.old.resolve(), "new": args.new.resolve()}
     wall: dict[str, dict[str, float]] = {name: {} for name in trees}
@@ -166,6 +168,8 @@ def main() -> None:
             ("processed", added, none),
             ("tuning", added, none + TUNING_CHANGE),
         ]
+        if args.no_figures_runs:
+            steps = steps[2:]
         for step, raw, extra in steps:
             for name, tree in trees.items():
                 loads.append(os.getloadavg()[0])
@@ -178,11 +182,16 @@ def main() -> None:
             for name, tree in trees.items():
                 cfg = config(tmp, dry_raw, tmp / f"dry_{name}")
                 dry[name].append(run(tree, ["--configfile", *cfg, "--dry-run", "--quiet"])[0])
-        old_tables, new_tables = (digests(tmp / f"base_{name}") for name in trees)
+        first = "base" if not args.no_figures_runs else "base_none"
+        old_tables, new_tables = (digests(tmp / f"{first}_{name}") for name in trees)
         names = [f"bench{i:03d}" for i in range(args.copies)]
         stages = {n: stage_cpu(tmp / f"prof_added_{n}", names) for n in trees}
         stages_none = {n: stage_cpu(tmp / f"prof_processed_{n}", names) for n in trees}
     n_none = max(args.copies, args.processed - 2)
+    nan = float("nan")
+    for table in (*wall.values(), *cpu.values()):
+        table.setdefault("base", nan)
+        table.setdefault("added", nan)
     per = {n: (t["added"] - t["base"]) / args.copies for n, t in wall.items()}
     per_cpu = {n: (t["added"] - t["base"]) / args.copies for n, t in cpu.items()}
     per_none = {n: (t["processed"] - t["base_none"]) / n_none for n, t in wall.items()}
