@@ -60,9 +60,14 @@ def fill(view: SimpleNamespace, stage: str, calls: list[str], salt: str = "") ->
     """A stage's work: every output from what it reads (its inputs' bytes, its settings)."""
     calls.append(stage)
     seen = json.dumps(dict(view.params.items()), sort_keys=True, default=str)
-    text = seen + salt + "".join(
-        Path(p).read_text(errors="replace") for k, p in sorted(view.input.items())
-        if Path(p).is_file() and k != "status"
+    text = (
+        seen
+        + salt
+        + "".join(
+            Path(p).read_text(errors="replace")
+            for k, p in sorted(view.input.items())
+            if Path(p).is_file() and k != "status"
+        )
     )
     for key, path in view.output.items():
         out = Path(path)
