@@ -39,6 +39,7 @@ and refreshes the store; deleting ``results/.store`` loses nothing but the reuse
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -164,20 +165,28 @@ def code_digest(script: str | Path | None = None) -> str:
     >>> len(code_digest())
     64
     """
-    from importlib.metadata import PackageNotFoundError, version
-
     from spa.io import package_digest
 
     h = hashlib.sha256()
     h.update(package_digest().encode() + b"\0" + sys.version.encode() + b"\0")
-    for name in LIBRARIES:
-        try:
-            h.update(f"{name}=={version(name)}\0".encode())
-        except PackageNotFoundError:
-            h.update(f"{name} absent\0".encode())
+    h.update(_versions(LIBRARIES).encode())
     if script is not None:
         h.update(Path(script).read_bytes())
     return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=4)
+def _versions(names: tuple[str, ...]) -> str:
+    """``name==version`` of each distribution (``absent`` when not installed), once a job."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = []
+    for name in names:
+        try:
+            out.append(f"{name}=={version(name)}")
+        except PackageNotFoundError:
+            out.append(f"{name} absent")
+    return "\0".join(out)
 
 
 def _canonical(value: Any) -> Any:
