@@ -51,7 +51,8 @@ TUNING_CHANGE = "tuning:\n  max_chattering: 0.04\n"
 def run(tree: Path, args: list[str], profile: Path | None = None) -> tuple[float, float, float]:
     """Wall time, CPU time (user + system of Snakemake and every job it waited for) and peak
     RSS (MiB, the largest process) of `snakemake reproduce-all -c2` (small config) with
-    ``args`` in ``tree``; with ``profile``, each stage records its CPU time there."""
+    ``args`` in ``tree`` (first, more config files: they follow config/small.yaml); with
+    ``profile``, each stage records its CPU time there."""
     cmd = [sys.executable, "-m", "snakemake", "reproduce-all", "-c2", "--configfile",
            "config/small.yaml", *args]  # fmt: skip
     env = {**os.environ, "PYTHONPATH": str(tree)}
@@ -175,13 +176,13 @@ def main() -> None:
                 loads.append(os.getloadavg()[0])
                 out = tmp / f"{'processed' if step == 'tuning' else step}_{name}"
                 cfg = config(tmp, raw, out, extra)
-                w, c, m = run(tree, ["--configfile", *cfg], tmp / f"prof_{step}_{name}")
+                w, c, m = run(tree, cfg, tmp / f"prof_{step}_{name}")
                 wall[name][step], cpu[name][step] = w, c
                 peak[name] = max(peak[name], m)
         for _ in range(args.repeat):
             for name, tree in trees.items():
                 cfg = config(tmp, dry_raw, tmp / f"dry_{name}")
-                dry[name].append(run(tree, ["--configfile", *cfg, "--dry-run", "--quiet"])[0])
+                dry[name].append(run(tree, [*cfg, "--dry-run", "--quiet"])[0])
         first = "base" if not args.no_figures_runs else "base_none"
         old_tables, new_tables = (digests(tmp / f"{first}_{name}") for name in trees)
         names = [f"bench{i:03d}" for i in range(args.copies)]
