@@ -37,7 +37,7 @@ def floor_snakefile(folder: Path, results: Path, raw_names: list[str]) -> Path:
     """A trivial Snakefile with the jobs and files of `reproduce-all` for ``sim`` and
     ``raw_names``, nothing processed yet."""
     from spa.pipeline.jobs import joined_outputs
-    from spa.pipeline.outputs import STAGES, all_targets, job_stages, stage_outputs
+    from spa.pipeline.outputs import STAGES, all_targets, job_stages, log_path, stage_outputs
 
     res = str(results)
 
@@ -52,40 +52,56 @@ def floor_snakefile(folder: Path, results: Path, raw_names: list[str]) -> Path:
                          f"{')' if directory else ''},")  # fmt: skip
         return "\n".join(lines)
 
+    def logs(*rules: str) -> str:
+        return "    log:\n" + "\n".join(f"        {r}={log_path(r, res)!r}," for r in rules) + "\n"
+
     datasets = ["sim", *raw_names]
     analyse = joined_outputs(job_stages("analyse"), outs)
     ingest = joined_outputs(job_stages("ingest"), outs)
     text = [f"RAW = {raw_names!r}", "SIM = ['sim']", f"DATASETS = {datasets!r}", ""]
     text.append("rule all:\n    input:\n" + block(outs("check")) + "\n")
     for stage in [s.name for s in STAGES if s.name.startswith("analytic_")]:
-        text.append(f"rule {stage}:\n    output:\n{block(outs(stage))}\n"
+        text.append(f"rule {stage}:\n    output:\n{block(outs(stage))}\n{logs(stage)}"
                     "    shell: 'touch {output}'\n")  # fmt: skip
     text.append(
-        "rule simulate:\n    output:\n" + block(outs("runs")) + "\n"
-        "    wildcard_constraints: dataset='|'.join(SIM)\n    shell: 'touch {output}'\n"
+        "rule simulate:\n    output:\n"
+        + block(outs("runs"))
+        + "\n"
+        + logs("simulate_dataset")
+        + "    wildcard_constraints: dataset='|'.join(SIM)\n    shell: 'touch {output}'\n"
     )
     text.append(
-        "rule ingest:\n    output:\n" + block(ingest) + "\n"
-        "    wildcard_constraints: dataset='|'.join(RAW)\n    shell: 'touch {output}'\n"
+        "rule ingest:\n    output:\n"
+        + block(ingest)
+        + "\n"
+        + logs("raw_manifest", "ingest_dataset")
+        + "    wildcard_constraints: dataset='|'.join(RAW)\n    shell: 'touch {output}'\n"
     )
     runs = outs("runs")
     text.append(
-        "rule analyse:\n    input:\n" + block(runs) + "\n    output:\n" + block(analyse) + "\n"
-        "    shell: 'touch {output}'\n"
+        "rule analyse:\n    input:\n"
+        + block(runs)
+        + "\n    output:\n"
+        + block(analyse)
+        + "\n"
+        + logs(*job_stages("analyse"))
+        + "    shell: 'touch {output}'\n"
     )
     rows = stage_outputs("page", res)["row"]
     text.append(
         f"rule overview:\n    input: expand({str(rows)!r}, dataset=DATASETS)\n"
-        f"    output:\n{block(outs('overview'))}\n    shell: 'touch {{output}}'\n"
+        f"    output:\n{block(outs('overview'))}\n{logs('overview')}    shell: 'touch {{output}}'\n"
     )
     report_inputs = all_targets(res, datasets, exclude=["report", "check"])
     text.append(
         f"rule report:\n    input: {report_inputs!r}\n    output:\n{block(outs('report'))}\n"
-        "    shell: 'touch {output}'\n"
+        + logs("report")
+        + "    shell: 'touch {output}'\n"
     )
     text.append(
         f"rule check:\n    input:\n{block(outs('report'))}\n    output:\n{block(outs('check'))}\n"
-        "    shell: 'touch {output}'\n"
+        + logs("check")
+        + "    shell: 'touch {output}'\n"
     )
     path = folder / "Snakefile"
     path.write_text("\n".join(text))
