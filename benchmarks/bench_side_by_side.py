@@ -143,6 +143,8 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, help="work here and keep the results (empty)")
     parser.add_argument("--no-figures-runs", action="store_true",
                         help="skip the two runs with figures (a busy machine)")  # fmt: skip
+    parser.add_argument("--figures-runs-only", action="store_true",
+                        help="only the two runs with figures (and the dry runs)")  # fmt: skip
     args = parser.parse_args()
     trees = {"old": args.old.resolve(), "new": args.new.resolve()}
     wall: dict[str, dict[str, float]] = {name: {} for name in trees}
@@ -171,6 +173,8 @@ def main() -> None:
         ]
         if args.no_figures_runs:
             steps = steps[2:]
+        if args.figures_runs_only:
+            steps = steps[:2]
         for step, raw, extra in steps:
             for name, tree in trees.items():
                 loads.append(os.getloadavg()[0])
@@ -183,16 +187,19 @@ def main() -> None:
             for name, tree in trees.items():
                 cfg = config(tmp, dry_raw, tmp / f"dry_{name}")
                 dry[name].append(run(tree, [*cfg, "--dry-run", "--quiet"])[0])
-        first = "base" if not args.no_figures_runs else "base_none"
+        first = "base_none" if args.no_figures_runs else "base"
         old_tables, new_tables = (digests(tmp / f"{first}_{name}") for name in trees)
         names = [f"bench{i:03d}" for i in range(args.copies)]
         stages = {n: stage_cpu(tmp / f"prof_added_{n}", names) for n in trees}
         stages_none = {n: stage_cpu(tmp / f"prof_processed_{n}", names) for n in trees}
+        for n in trees:  # steps left out
+            stages_none[n] = stages_none[n] if (tmp / f"prof_processed_{n}").exists() else {}
+            stages[n] = stages[n] if (tmp / f"prof_added_{n}").exists() else {}
     n_none = max(args.copies, args.processed - 2)
     nan = float("nan")
     for table in (*wall.values(), *cpu.values()):
-        table.setdefault("base", nan)
-        table.setdefault("added", nan)
+        for step in ("base", "added", "base_none", "processed", "tuning"):
+            table.setdefault(step, nan)
     per = {n: (t["added"] - t["base"]) / args.copies for n, t in wall.items()}
     per_cpu = {n: (t["added"] - t["base"]) / args.copies for n, t in cpu.items()}
     per_none = {n: (t["processed"] - t["base_none"]) / n_none for n, t in wall.items()}
