@@ -347,15 +347,23 @@ def test_staleness_follows_content_not_modification_times(tmp_path):
 
 
 def _files(folder: Path) -> dict[str, bytes]:
-    """Every file of a results folder but logs, the report's pages and the recommendation's
-    `source:` line (it names the results folder), by relative path."""
+    """Every file of a results folder but logs, the report's pages, the store of stage
+    results and the recommendation's `source:` line (it names the results folder), by
+    relative path; a status file without its `reuse` field (how it came: reused or computed,
+    spa.pipeline.reuse)."""
     found = {}
     for path in sorted(folder.rglob("*")):
         rel = str(path.relative_to(folder))
-        if path.is_file() and not rel.startswith(("logs/", "report")):
+        if path.is_file() and not rel.startswith(("logs/", "report", ".store/")):
             data = path.read_bytes()
             if path.name == "recommendation.yaml":
                 data = data.split(b"\n", 1)[1]
+            if path.parent.name == "status" and path.suffix == ".json":
+                record = json.loads(data)
+                record.pop("reuse", None)
+                data = json.dumps(record).encode()
+            if rel == "status.yaml":
+                data = data.split(b"stages:", 1)[0]
             found[rel] = data
     return found
 

@@ -20,7 +20,15 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-__all__ = ["JOIN", "Names", "joined_outputs", "remove_undrawn_figures", "stage_job"]
+__all__ = [
+    "JOIN",
+    "Names",
+    "joined_outputs",
+    "read_files",
+    "remove_undrawn_figures",
+    "stage_job",
+    "stage_params",
+]
 
 JOIN = "__"
 """Between a stage's name and an output key in a shared job's outputs."""
@@ -99,11 +107,13 @@ def stage_job(smk: Any, stage: str) -> SimpleNamespace:
     -------
     types.SimpleNamespace
         ``wildcards`` and ``config`` as the job's; ``input`` the job's inputs and, under
-        their own keys, the outputs of the stages that run before this one (a key the job's
-        inputs or an earlier stage already use is not overwritten: identify's ``params`` is
-        tune's ``input.params``); ``output`` the stage's outputs under their own keys;
-        ``log`` the stage's log alone; ``params`` the job's, with ``cfg`` the stage's
-        settings.
+        their own keys, the outputs of the earlier stages it reads (:attr:`Stage.reads
+        <spa.pipeline.stage_types.Stage.reads>`, :func:`spa.pipeline.reuse.read_stages`; a
+        key the job's inputs or an earlier stage already use is not overwritten:
+        identify's ``params`` is tune's ``input.params``); ``output`` the stage's outputs
+        under their own keys; ``log`` the stage's log alone; ``params``
+        (:func:`stage_params`) ``cfg``, the stage's settings, and the job's parameters it
+        declares it reads.
 
     Raises
     ------
@@ -111,11 +121,9 @@ def stage_job(smk: Any, stage: str) -> SimpleNamespace:
         If the job has no outputs of ``stage``.
     """
     output = _stage_outputs(smk, stage)
-    params = dict(smk.params.items())
-    params["cfg"] = (params.get("cfg") or {}).get(stage, {})
-    order = list(params.get("stages") or ())
+    params = stage_params(smk, stage)
     inputs = dict(smk.input.items())
-    for before in order[: order.index(stage)] if stage in order else ():
+    for before in _read_stages(smk, stage):
         for key, path in _stage_outputs(smk, before).items():
             inputs.setdefault(key, path)
     return SimpleNamespace(
@@ -127,6 +135,52 @@ def stage_job(smk: Any, stage: str) -> SimpleNamespace:
         config=getattr(smk, "config", {}),
         rule=stage,
     )
+
+
+def stage_params(smk: Any, stage: str) -> dict[str, Any]:
+    """The parameters one stage of a shared job sees: ``cfg`` (its settings), ``code`` and
+    ``stages`` (the job's), and those the stage table says it reads (:attr:`Stage.params
+    <spa.pipeline.stage_types.Stage.params>`), so that every setting it can read is one its
+    digest covers (:mod:`spa.pipeline.reuse`). A stage not in the table sees them all.
+
+    Examples
+    --------
+    >>> job = SimpleNamespace(params=Names({"cfg": {"tune": {"a": 1}}, "seed": 1, "n_xi": 5}))
+    >>> stage_params(job, "tune")
+    {'cfg': {'a': 1}, 'n_xi': 5}
+    """
+    from spa.pipeline.outputs import get_stage
+
+    params = dict(smk.params.items())
+    params["cfg"] = (params.get("cfg") or {}).get(stage, {})
+    try:
+        declared = set(get_stage(stage).params)
+    except KeyError:
+        return params
+    return {k: v for k, v in params.items() if k in declared or k in ("cfg", "code", "stages")}
+
+
+def _read_stages(smk: Any, stage: str) -> list[str]:
+    """The stages of the job before ``stage`` whose outputs it reads."""
+    from spa.pipeline.outputs import get_stage
+    from spa.pipeline.reuse import read_stages
+
+    order = list(smk.params.get("stages") or ())
+    try:
+        get_stage(stage)
+    except KeyError:
+        return order[: order.index(stage)] if stage in order else []
+    return read_stages(stage, order)
+
+
+def read_files(smk: Any, stage: str) -> dict[str, Any]:
+    """Every file or folder one stage of a shared job reads, keyed ``<stage>__<key>`` for
+    the outputs of the earlier stages it reads (:func:`_read_stages`) and by their own keys
+    for the job's inputs (a status file's key ends in ``status``)."""
+    files = {f"input{JOIN}{k}": v for k, v in smk.input.items()}
+    for before in _read_stages(smk, stage):
+        files.update({f"{before}{JOIN}{k}": v for k, v in _stage_outputs(smk, before).items()})
+    return files
 
 
 def _stage_outputs(smk: Any, stage: str) -> dict[str, Any]:

@@ -61,14 +61,28 @@ def _stat_key(st: os.stat_result) -> list[int]:
     return [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
 
 
+_MEMO: dict[str, tuple[list[int], dict[str, Any]]] = {}
+"""Caches read or written by this process, by path, with the ``stat`` they had: the DAG build
+digests every dataset against one cache, which is parsed once, not once per dataset."""
+
+
 def _load_cache(cache: Path | None) -> dict[str, Any]:
-    if cache is None or not cache.is_file():
+    if cache is None:
         return {}
+    try:
+        stat = _stat_key(cache.stat())
+    except OSError:
+        return {}
+    memo = _MEMO.get(str(cache))
+    if memo is not None and memo[0] == stat:
+        return memo[1]
     try:
         data = json.loads(cache.read_text())
     except (OSError, ValueError):
         return {}
-    return data if isinstance(data, dict) else {}
+    data = data if isinstance(data, dict) else {}
+    _MEMO[str(cache)] = (stat, data)
+    return data
 
 
 def _save_cache(cache: Path, data: Mapping[str, Any], prune: bool = False) -> None:
@@ -82,6 +96,7 @@ def _save_cache(cache: Path, data: Mapping[str, Any], prune: bool = False) -> No
         cache.parent.mkdir(parents=True, exist_ok=True)
         tmp.write_text(json.dumps(data, sort_keys=True))
         os.replace(tmp, cache)
+        _MEMO[str(cache)] = (_stat_key(cache.stat()), dict(data))
     except OSError:
         tmp.unlink(missing_ok=True)
 
@@ -450,11 +465,26 @@ def remove_altered_outputs(
     return removed
 
 
-def missing_outputs(paths: Iterable[str | os.PathLike[str]]) -> list[str]:
-    """Those of ``paths`` that do not exist.
+def missing_outputs(
+    paths: Iterable[str | os.PathLike[str]], downstream: Iterable[str | os.PathLike[str]] = ()
+) -> list[str]:
+    """Those of ``paths`` that do not exist; none when every one of ``downstream`` is missing.
 
     Snakemake does not rebuild a missing output whose downstream files are up to date (its
     issue 1978); the workflow names these as targets of ``reproduce-all`` so that their jobs
-    rerun, and, their outputs being newer, every job downstream of them.
+    rerun, and, their outputs being newer, every job downstream of them. When the files
+    downstream of all of them (the report's and the check's) are all missing, their jobs run
+    and ask for every missing file themselves: naming them again would only double the files
+    the DAG resolves (a first run of 100 datasets: 5,000 files).
+
+    Examples
+    --------
+    >>> missing_outputs(["no/a", "no/b"])
+    ['no/a', 'no/b']
+    >>> missing_outputs(["no/a", "no/b"], downstream=["no/report.html"])
+    []
     """
+    after = [str(p) for p in downstream]
+    if after and not any(os.path.exists(p) for p in after):
+        return []
     return [str(p) for p in paths if not os.path.exists(p)]

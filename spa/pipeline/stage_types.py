@@ -132,6 +132,18 @@ class Stage:
         job, the stage's script gets it as ``params.cfg``; None: none of its own.
     function : str
         The ``spa`` function that does its work, dotted (``"spa.stages.staircase.run_staircase"``).
+    reads : tuple of str or None
+        In a shared job, the earlier stages whose outputs its script reads (their outputs are
+        its inputs, and their content is part of its digest, :mod:`spa.pipeline.reuse`);
+        ``("*",)``: every stage before it; None: its ``upstream`` (every stage before it when
+        that is None too). The job's own inputs are always read.
+    params : tuple of str
+        In a shared job, the job's parameters its script reads besides ``cfg`` (the names of
+        ``params:`` in ``workflow/rules/analyse.smk``): the stage sees these alone, and their
+        values are part of its digest.
+    raw_files : tuple of str
+        Files of the dataset's raw folder (``<raw_dir>/<dataset>/``) the script reads itself
+        (the page reads ``dataset.yaml``'s date and rig): part of its digest.
     """
 
     name: str
@@ -146,6 +158,9 @@ class Stage:
     script: str | None = None
     config: str | None = None
     function: str = ""
+    reads: tuple[str, ...] | None = None
+    params: tuple[str, ...] = ()
+    raw_files: tuple[str, ...] = ()
 
 
 def _with_vectors(outputs: tuple[Output, ...]) -> tuple[Output, ...]:
@@ -171,11 +186,12 @@ def _per_dataset(
     logs: dict[str, str] | None = None,
     upstream: tuple[str, ...] = ("runs", "identify"),
     category: str = "",
-    **declared: str | None,
+    **declared: object,
 ) -> Stage:
     """A per-dataset step, after ``upstream``: by default written by the rule ``name``, which
     logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file);
-    ``declared``: the :class:`Stage`'s ``job``, ``script``, ``config`` and ``function``."""
+    ``declared``: the :class:`Stage`'s ``job``, ``script``, ``config``, ``function``,
+    ``reads``, ``params`` and ``raw_files``."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     status = Output("status", f"status/{name}.json", DATA)  # spa.pipeline.status: worked or failed
     outputs = _with_vectors((*outputs, status))

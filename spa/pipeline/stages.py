@@ -88,6 +88,7 @@ STAGES: tuple[Stage, ...] = (
         target=False,
         job="ingest",
         function="spa.pipeline.provenance.write_manifest",
+        params=("folder", "cache", "digest"),
     ),
     _per_dataset(
         "runs",
@@ -100,6 +101,7 @@ STAGES: tuple[Stage, ...] = (
         job="ingest",
         script="ingest_dataset",
         function="spa.datasets.ingest_dataset",
+        params=("folder", "supply", "digest"),
     ),
     _per_dataset(
         "identify",
@@ -141,6 +143,7 @@ STAGES: tuple[Stage, ...] = (
         job="analyse",
         config="identification",
         function="spa.identification.identify_with_config",
+        params=("nominal", "seed", "supply"),
     ),
     _per_dataset(
         "tune",
@@ -205,6 +208,8 @@ STAGES: tuple[Stage, ...] = (
         job="analyse",
         config="tuning",
         function="spa.tuning.tune",
+        reads=("identify",),
+        params=("tuning", "sweeps", "n_xi", "selected", "linearity"),
     ),
     _per_dataset(
         "validate_model",
@@ -451,6 +456,8 @@ STAGES: tuple[Stage, ...] = (
         job="analyse",
         config="closed_loop",
         function="spa.closedloop.stage.closed_loop",
+        reads=("identify", "tune"),
+        params=("selected",),
     ),
     # Its dataset's page of the report and its row of the overview, in the dataset's own job.
     _per_dataset(
@@ -460,6 +467,9 @@ STAGES: tuple[Stage, ...] = (
         upstream=(),
         job="analyse",
         function="spa.report.site.build_dataset_page",
+        reads=("*",),
+        params=("seed", "raw_dir"),
+        raw_files=("dataset.yaml",),
     ),
     Stage(
         "overview",

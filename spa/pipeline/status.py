@@ -58,6 +58,7 @@ __all__ = [
     "guard_environment",
     "naming_run",
     "read_status",
+    "reuse_summary",
     "run_stage",
     "write_placeholder",
     "write_status",
@@ -522,3 +523,24 @@ def failure_summary(failures: Mapping[str, list[dict[str, Any]]]) -> str:
         if skipped:
             lines.append(f"  (skipped for it: {', '.join(skipped)})")
     return "\n".join(lines)
+
+
+def reuse_summary(results: str | Path, datasets: Iterable[str]) -> dict[str, dict[str, str]]:
+    """How each dataset stage of the last run came: ``"reused"`` (restored from the results'
+    store, :mod:`spa.pipeline.reuse`) or ``"computed"``, from the status files; stages
+    whose status says neither (a stage of a job that keeps no store) are left out.
+
+    Examples
+    --------
+    >>> reuse_summary("nowhere", ["d1"])
+    {'d1': {}}
+    """
+    out: dict[str, dict[str, str]] = {}
+    for name in datasets:
+        records = dataset_statuses(results, name)
+        out[name] = {
+            stage: str(record["reuse"])
+            for stage, record in records.items()
+            if record is not None and record.get("reuse") in ("reused", "computed")
+        }
+    return out

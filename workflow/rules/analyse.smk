@@ -6,9 +6,11 @@
 # overview (page: it reads the dataset's date and rig from raw/<dataset>/dataset.yaml). Each
 # stage is a second or two of work and a job costs about a second of imports and Snakemake's
 # own bookkeeping, so they share one (benchmarks/README.md, "Growth"); each
-# stage keeps its own outputs, log, status and script. The price: a change to one stage's
-# settings (tuning:, linearity:) reruns the whole job. A dataset without runs of a kind gets
-# empty tables and a figure saying so, so that every dataset has the same outputs.
+# stage keeps its own outputs, log, status and script. A change to one stage's settings
+# (tuning:, linearity:) reruns the job, but inside it every stage whose inputs, settings and
+# code are unchanged is restored from results/.store (spa.pipeline.reuse, `store`); its
+# status says "reused". A dataset without runs of a kind gets empty tables and a figure
+# saying so, so that every dataset has the same outputs.
 # The stages of the job, in order, from the stage table (spa/pipeline/stages.py: job "analyse"):
 # identify, tune, validate_model, staircase, sine, chirp, closed_loop, page.
 ANALYSE = job_stages("analyse")
@@ -18,7 +20,10 @@ ANALYSE = job_stages("analyse")
 # datasets left out by config `figures`) writes the tables and the figures' data alone and
 # removes figures an earlier run drew there. Their parameters are the same, so moving a
 # dataset out of `figures` reruns nothing; moving it in draws its figures (they are missing).
+# A rule no dataset needs is left out (every file of the DAG is matched against each rule).
 for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
+    if not any((d in FIGURE_DATASETS) == _drawn for d in DATASETS):
+        continue
 
     rule:
         name:
@@ -40,6 +45,7 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
         params:
             code=SPA_CODE,
             stages=ANALYSE,
+            store=True,
             cfg=stage_settings(config, ANALYSE),
             nominal=config["nominal"],
             seed=config["seed"],

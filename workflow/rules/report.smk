@@ -27,13 +27,8 @@ rule overview:
 
 rule report:
     input:
-        all_targets(
-            RESULTS,
-            DATASETS,
-            exclude=["report", "check"],
-            figures=FIGURE_DATASETS,
-            vectors=FIGURE_VECTORS,
-        ),
+        # every output but the report's and the check's (ALL_OUTPUTS less the report's)
+        without(ALL_OUTPUTS, stage_outputs("report", RESULTS).values()),
     output:
         **outputs("report"),
     log:
