@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from spa.identification.delays import _FALLBACK_PRIOR_REL_SD, fit_delays
@@ -19,7 +22,7 @@ from spa.identification.results import (
 )
 from spa.model.params import ValveParams
 
-__all__ = ["identify", "identify_runs", "identify_with_config"]
+__all__ = ["identify", "identify_runs", "identify_with_config", "refine_result"]
 
 # --------------------------------------------------------------------------------------------
 # The whole identification
@@ -192,6 +195,9 @@ def identify_with_config(
     kinds: Mapping[str, str],
     config: Mapping[str, Any] | None = None,
     seed: int | None = None,
+    *,
+    modulators: Mapping[str, str] | None = None,
+    command_dt: Mapping[str, float] | None = None,
 ) -> IdentificationResult:
     """:func:`identify_runs` with the sections of a pipeline configuration, as the workflow's
     identify rule runs it (and ``spa identify``).
@@ -207,6 +213,11 @@ def identify_with_config(
     seed : int, optional
         Recorded in ``settings`` (not used by the fits); default the configuration's
         ``seed``, else 0.
+    modulators, command_dt : mapping, optional
+        Run id → modulator type and → the command's own step (s), for
+        :func:`refine_result`, which runs after the three fits unless
+        ``identification.refine`` is false (``identification.adequacy_threshold``: its
+        threshold).
 
     Returns
     -------
@@ -219,6 +230,8 @@ def identify_with_config(
     """
     config = config or {}
     cfg = dict(config.get("identification") or {})
+    threshold = float(cfg.pop("adequacy_threshold", 80.0))
+    do_refine = bool(cfg.pop("refine", True))
     use_fallback = bool(cfg.pop("use_fallback", False))
     savgol = dict(cfg.pop("savgol", None) or {})
     fallback = None
@@ -227,4 +240,191 @@ def identify_with_config(
             raise ValueError("identification.use_fallback needs the config's nominal: section")
         fallback = ValveParams(**config["nominal"])
     seed = int(config.get("seed", 0) if seed is None else seed)
-    return identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=fallback)
+    result = identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=fallback)
+    if not do_refine:
+        return result
+    return refine_result(
+        result,
+        runs,
+        kinds,
+        modulators=modulators,
+        command_dt=command_dt,
+        threshold=threshold,
+        max_delay=float(cfg.get("max_delay", 0.05)),
+    )
+
+
+def _hz(x: float) -> str:
+    return f"{x:.0f} Hz" if x >= 10 else f"{x:.2g} Hz"
+
+
+def refine_result(
+    result: IdentificationResult,
+    runs: Mapping[str, pd.DataFrame],
+    kinds: Mapping[str, str],
+    *,
+    modulators: Mapping[str, str] | None = None,
+    command_dt: Mapping[str, float] | None = None,
+    threshold: float = 80.0,
+    max_delay: float = 0.05,
+) -> IdentificationResult:
+    """Refine ``result`` on every run with a valve command; conventions, adequacy, warnings.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        The charge, discharge and pulse fits' result (the refinement's start).
+    runs, kinds : mapping
+        All runs of the dataset and their kinds.
+    modulators : mapping, optional
+        Run id → modulator type (``""`` or absent for none).
+    command_dt : mapping, optional
+        Run id → the command's own step, s (when known, e.g. a simulated controller's).
+    threshold : float, optional
+        ``identification.adequacy_threshold``, % of the noise ceiling.
+    max_delay : float, optional
+        Largest delay, s.
+
+    Returns
+    -------
+    IdentificationResult
+        The five top-level parameters from the hold convention's refinement (the logging-step
+        rule applied to the delays), ``refinement``, ``delay_convention``, ``adequacy`` and
+        ``warnings`` filled in. When no run carries a valve command, ``result`` unchanged but
+        for a warning.
+
+    Notes
+    -----
+    *Delays and the logging step.* A logged edge lies somewhere within the logging step
+    before the sample that shows it (less the command's own step when that is known): its
+    time is taken as uniform over that width ``w``, so ``w/2`` is added to each delay and
+    ``w**2/12`` to its variance. A delay the data cannot resolve (no command edge in its
+    direction, or an estimate within two logging steps of 0) is reported as the interval
+    ``[0, k*dt]`` (``[0, max_delay]`` without edges) with a warning that says what to record.
+    """
+    from spa.identification.adequacy import assess
+    from spa.identification.refine import NAMES, prepare_runs, refine
+
+    prepared = prepare_runs(runs, kinds, modulators, command_dt)
+    if not prepared:
+        note = "no run carries the valve command: the refinement and the adequacy were skipped"
+        return replace(result, warnings=(*result.warnings, note))
+    start = result.to_valve_params()
+    fits = {d: refine(prepared, start, delay=d, max_delay=max_delay) for d in ("hold", "transport")}
+    hold = fits["hold"]
+    held_median = {d: f.heldout_median() for d, f in fits.items()}
+    chosen = max(
+        ("hold", "transport"),
+        key=lambda d: held_median[d] if math.isfinite(held_median[d]) else -math.inf,
+    )
+    dt = float(np.median([r.dt for r in prepared]))
+    width = float(np.median([r.edge_width for r in prepared]))
+    n_on = sum(r.n_on for r in prepared)
+    n_off = sum(r.n_off for r in prepared)
+    warnings = list(result.warnings)
+    ests = {}
+    runs_all = tuple(r.rid for r in prepared)
+    for name in NAMES:
+        value = float(getattr(hold.params, name))
+        se = float(hold.se[name])
+        method = (
+            "output-error refinement of the exact model (hold convention) on the cycle means "
+            f"of {len(prepared)} run(s) with a valve command, from the charge/discharge/pulse "
+            "estimates; 95% from the sandwich covariance (Newey-West, bandwidth from the "
+            "data), widened to the leave-one-run-out spread and by the gap to the start"
+        )
+        # Two estimators of one parameter (the experiment's own fit and the refinement on
+        # every run) that disagree by more than their errors show model error: it is added.
+        gap = value - float(getattr(start, name))
+        se = math.sqrt(se * se + gap * gap)
+        if name in ("t_on", "t_off"):
+            value += width / 2.0
+            se = math.sqrt(se * se + width * width / 12.0)
+            method += (
+                f"; logged edges uniform within {1e3 * width:.3g} ms (bias corrected, w^2/12 added)"
+            )
+        lo, hi = max(value - _Z95 * se, 0.0), value + _Z95 * se
+        if name in ("t_on", "t_off"):
+            edges = n_on if name == "t_on" else n_off
+            what = "rising" if name == "t_on" else "falling"
+            if edges == 0:
+                lo, hi = 0.0, max_delay
+                warnings.append(
+                    f"{name} is not resolved: no {what} valve edge in any run; record runs "
+                    f"with {what} edges (e.g. a pulse train) to identify it. Designs use "
+                    f"the interval [0, {1e3 * max_delay:g}] ms."
+                )
+                method += f"; unresolved (no {what} edge): interval [0, max_delay]"
+            elif value < 2.0 * dt:
+                lo, hi = 0.0, max(hi, 2.0 * dt)
+                warnings.append(
+                    f"{name} is not resolved: {1e3 * value:.2g} ms is within two logging "
+                    f"steps ({1e3 * dt:.3g} ms) of 0; log pressure and valve command at "
+                    f">= {_hz(4.0 / max(value + dt, dt))} to resolve it. Designs use the "
+                    f"interval [0, {1e3 * hi:.3g}] ms."
+                )
+                method += f"; unresolved (within two logging steps of 0): interval [0, {hi:.4g}] s"
+            hi = min(hi, max_delay) if edges else hi
+            hi = max(hi, value)
+        old = getattr(result, name)
+        ests[name] = Estimate(
+            value,
+            lo,
+            hi,
+            UNITS[name],
+            tuple(hold.informed[name]) or runs_all,
+            method,
+            spread=old.spread,
+        )
+    adequacy = assess(
+        hold.fit_heldout if chosen == "hold" else fits[chosen].fit_heldout,
+        hold.fit_after if chosen == "hold" else fits[chosen].fit_after,
+        hold.noise_ceiling,
+        {r.rid: r.modulator for r in prepared},
+        threshold,
+    )
+
+    def clean(d: Mapping[str, float]) -> dict[str, float | None]:
+        return {k: (round(float(v), 3) if math.isfinite(v) else None) for k, v in d.items()}
+
+    refinement = {
+        "start": {n: float(getattr(start, n)) for n in NAMES},
+        "informed_by": {n: list(hold.informed[n]) for n in NAMES},
+        "fit_before": clean(hold.fit_before),
+        "fit_after": clean(hold.fit_after),
+        "fit_heldout": clean(hold.fit_heldout),
+        "noise_ceiling": clean(hold.noise_ceiling),
+        "bandwidth_blocks": {k: int(v) for k, v in hold.bandwidth.items()},
+        "block_samples": {r.rid: int(r.block * r.stride) for r in prepared},
+        "edge_width": width,
+        "n_edges_on": int(n_on),
+        "n_edges_off": int(n_off),
+        "simulations": int(sum(f.nfev for f in fits.values())),
+        "converged": bool(hold.converged),
+    }
+    convention = {
+        "chosen": chosen,
+        **{
+            d: {
+                "t_on": float(f.params.t_on + width / 2.0),
+                "t_off": float(f.params.t_off + width / 2.0),
+            }
+            for d, f in fits.items()
+        },
+        "heldout_fit": {
+            d: (round(v, 3) if math.isfinite(v) else None) for d, v in held_median.items()
+        },
+    }
+    if n_on == 0 or n_off == 0:
+        convention["note"] = "a delay is unresolved; the conventions differ only in it"
+    if result.fallback:
+        refinement["started_from_fallback"] = dict(result.fallback)
+    return replace(
+        result,
+        **ests,
+        fallback={},
+        refinement=refinement,
+        delay_convention=convention,
+        adequacy=adequacy.to_dict(),
+        warnings=tuple(warnings),
+    )
