@@ -110,7 +110,7 @@ def test_500_hz_log_of_a_slow_exhaust_covers_or_warns() -> None:
 
 def test_no_falling_edge_is_never_silent() -> None:
     truth = ValveParams()
-    runs, kinds, mods = _dataset(truth, 1000.0)
+    runs, kinds, _mods = _dataset(truth, 1000.0)
     base = identify_with_config(runs, kinds, {**CONFIG, "identification": {"refine": False}})
     from spa.identification.identify import refine_result
 
