@@ -124,6 +124,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for i, params in enumerate(draw_valves(args.n, args.seed)):
         rows.append(one_valve(params, i, config, args.seed, args.fs))
+        if args.csv:  # as it goes, so that an interrupted run keeps its valves
+            Path(args.csv).parent.mkdir(parents=True, exist_ok=True)
+            pd.DataFrame(rows).to_csv(args.csv, index=False)
         print(
             f"valve {i}: {rows[-1]['error'] or 'ok'} ({rows[-1]['seconds']:.1f} s)", file=sys.stderr
         )
