@@ -22,7 +22,7 @@ from spa.identification.results import (
 )
 from spa.model.params import ValveParams
 
-__all__ = ["identify", "identify_runs", "identify_with_config", "refine_result"]
+__all__ = ["identify", "identify_runs", "identify_with_config", "refine_result", "run_context"]
 
 # --------------------------------------------------------------------------------------------
 # The whole identification
@@ -254,6 +254,37 @@ def identify_with_config(
     )
 
 
+def run_context(
+    metas: Mapping[str, Mapping[str, Any]],
+) -> tuple[dict[str, str], dict[str, float]]:
+    """Each run's modulator type and command step from its metadata (:func:`spa.io.read_runs`).
+
+    Returns
+    -------
+    modulators : dict
+        Run id → modulator type (``""`` for none).
+    command_dt : dict
+        Run id → ``controller_dt`` (s), for the runs whose metadata give it.
+
+    Examples
+    --------
+    >>> run_context({"a": {"modulator": {"type": "pwm", "f_w": 20}, "controller_dt": 0.001},
+    ...              "b": {}})
+    ({'a': 'pwm', 'b': ''}, {'a': 0.001})
+    """
+    modulators = {}
+    for rid, meta in metas.items():
+        mod = meta.get("modulator")
+        kind = getattr(mod, "kind", None) or (mod.get("type") if isinstance(mod, Mapping) else "")
+        modulators[rid] = str(kind or "")
+    command_dt = {
+        rid: float(meta["controller_dt"])
+        for rid, meta in metas.items()
+        if meta.get("controller_dt")
+    }
+    return modulators, command_dt
+
+
 def _hz(x: float) -> str:
     return f"{x:.0f} Hz" if x >= 10 else f"{x:.2g} Hz"
 
@@ -423,6 +454,7 @@ def refine_result(
         result,
         **ests,
         fallback={},
+        settings={**result.settings, "refine": True, "adequacy_threshold": float(threshold)},
         refinement=refinement,
         delay_convention=convention,
         adequacy=adequacy.to_dict(),

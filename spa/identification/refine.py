@@ -39,7 +39,6 @@ from spa.model.plant import edge_indices, segment_pressure, transport_runs
 from spa.validation import fit_percent, initial_pressure
 
 __all__ = [
-    "NAMES",
     "RefineFit",
     "RefineRun",
     "andrews_bandwidth",
