@@ -184,3 +184,18 @@ def test_poor_fit_dataset_gets_an_unverified_recommendation() -> None:
     rec = tune({**params, "adequacy": {**measured, "measured_modulators": []}}, n_xi=20)
     assert "not measured with this modulator" in rec.recommendation["sentence"]
     assert math.isfinite(len(rec.sentence))
+
+
+def test_without_a_pulse_run_the_delays_come_from_the_other_runs() -> None:
+    truth = ValveParams(0.533, 0.837, 0.826, 0.006, 0.020)
+    runs, kinds, mods = _dataset(truth, 1000.0, seed=7)
+    del runs["pulse"], kinds["pulse"], mods["pulse"]
+    res = identify_with_config(
+        runs, kinds, CONFIG, modulators=mods, command_dt=dict.fromkeys(runs, 1e-3)
+    )
+    assert any(w.startswith("the pulse fit gave no delays (no pulse run") for w in res.warnings)
+    assert not res.fallback
+    for name in ("t_on", "t_off"):
+        assert getattr(res, name).contains(getattr(truth, name)), name
+    with pytest.raises(Exception, match="no pulse run"):
+        identify_with_config(runs, kinds, {"identification": {"refine": False}})

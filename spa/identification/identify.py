@@ -240,7 +240,18 @@ def identify_with_config(
             raise ValueError("identification.use_fallback needs the config's nominal: section")
         fallback = ValveParams(**config["nominal"])
     seed = int(config.get("seed", 0) if seed is None else seed)
-    result = identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=fallback)
+    search = False
+    try:
+        result = identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=fallback)
+    except IdentificationError as err:
+        # Without a usable pulse run the refinement can still find the delays from the other
+        # runs' edges: it then searches them itself (no nominal value is kept).
+        if not do_refine or fallback is not None or not str(err).startswith(_DELAY_ERRORS):
+            raise
+        result = identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=ValveParams())
+        if set(result.fallback) - {"t_on", "t_off"}:
+            raise
+        search = True
     if not do_refine:
         return result
     return refine_result(
@@ -251,6 +262,7 @@ def identify_with_config(
         command_dt=command_dt,
         threshold=threshold,
         max_delay=float(cfg.get("max_delay", 0.05)),
+        search_delays=search,
     )
 
 
@@ -285,6 +297,10 @@ def run_context(
     return modulators, command_dt
 
 
+# How the pulse fit's errors start (spa.identification.delays): the delays alone are missing.
+_DELAY_ERRORS = ("no pulse run", "pulse run")
+
+
 def _hz(x: float) -> str:
     return f"{x:.0f} Hz" if x >= 10 else f"{x:.2g} Hz"
 
@@ -298,6 +314,7 @@ def refine_result(
     command_dt: Mapping[str, float] | None = None,
     threshold: float = 80.0,
     max_delay: float = 0.05,
+    search_delays: bool = False,
 ) -> IdentificationResult:
     """Refine ``result`` on every run with a valve command; conventions, adequacy, warnings.
 
@@ -315,6 +332,9 @@ def refine_result(
         ``identification.adequacy_threshold``, % of the noise ceiling.
     max_delay : float, optional
         Largest delay, s.
+    search_delays : bool, optional
+        The pulse fit gave no delays: start from a coarse search of each delay over
+        ``[0, max_delay]`` on the runs' cycle means instead of ``result``'s values.
 
     Returns
     -------
@@ -334,13 +354,22 @@ def refine_result(
     ``[0, k*dt]`` (``[0, max_delay]`` without edges) with a warning that says what to record.
     """
     from spa.identification.adequacy import assess
-    from spa.identification.refine import NAMES, prepare_runs, refine
+    from spa.identification.refine import NAMES, delay_search, prepare_runs, refine
 
     prepared = prepare_runs(runs, kinds, modulators, command_dt)
     if not prepared:
         note = "no run carries the valve command: the refinement and the adequacy were skipped"
         return replace(result, warnings=(*result.warnings, note))
     start = result.to_valve_params()
+    if search_delays:
+        start = delay_search(prepared, start, max_delay)
+        warnings_start = [
+            "the pulse fit gave no delays ("
+            + "; ".join(sorted(set(result.fallback.values())))
+            + "): t_on and t_off come from the refinement on the other runs' edges"
+        ]
+    else:
+        warnings_start = []
     fits = {d: refine(prepared, start, delay=d, max_delay=max_delay) for d in ("hold", "transport")}
     hold = fits["hold"]
     held_median = {d: f.heldout_median() for d, f in fits.items()}
@@ -352,7 +381,7 @@ def refine_result(
     width = float(np.median([r.edge_width for r in prepared]))
     n_on = sum(r.n_on for r in prepared)
     n_off = sum(r.n_off for r in prepared)
-    warnings = list(result.warnings)
+    warnings = [*result.warnings, *warnings_start]
     ests = {}
     runs_all = tuple(r.rid for r in prepared)
     for name in NAMES:
@@ -386,6 +415,16 @@ def refine_result(
                     f"the interval [0, {1e3 * max_delay:g}] ms."
                 )
                 method += f"; unresolved (no {what} edge): interval [0, max_delay]"
+            elif _Z95 * se > max_delay / 4.0:
+                lo, hi = 0.0, max_delay
+                warnings.append(
+                    f"{name} is not resolved: the runs' {what} edges do not show it (95 % "
+                    f"half-width {1e3 * _Z95 * se:.3g} ms); record {what} edges followed by a "
+                    "visible response (e.g. a pulse train from a well-filled actuator with "
+                    f"pulses longer than the delay). Designs use the interval "
+                    f"[0, {1e3 * max_delay:g}] ms."
+                )
+                method += f"; unresolved (the {what} edges do not show it): [0, max_delay]"
             elif value < 2.0 * dt:
                 lo, hi = 0.0, max(hi, 2.0 * dt)
                 warnings.append(
@@ -407,6 +446,18 @@ def refine_result(
             method,
             spread=old.spread,
         )
+    if result.delays is not None:
+        pulse = result.delays.summary()
+        for key, name, what in (
+            ("n_edges_on", "t_on", "rising"),
+            ("n_edges_off", "t_off", "falling"),
+        ):
+            if int(pulse.get(key, 1)) == 0:
+                warnings.append(
+                    f"the pulse runs have no {what} edge with a visible response "
+                    f"({key}: 0): {name} comes from the other runs' edges only; record a "
+                    f"pulse train whose {what} edges move the pressure"
+                )
     adequacy = assess(
         hold.fit_heldout if chosen == "hold" else fits[chosen].fit_heldout,
         hold.fit_after if chosen == "hold" else fits[chosen].fit_after,

@@ -43,6 +43,7 @@ __all__ = [
     "RefineRun",
     "andrews_bandwidth",
     "block_means",
+    "delay_search",
     "newey_west",
     "prepare_runs",
     "refine",
@@ -528,6 +529,30 @@ def refine(
         converged=bool(sol.status > 0),
         runs=tuple(runs),
     )
+
+
+def delay_search(
+    runs: Sequence[RefineRun], start: ValveParams, max_delay: float, points: int = 11
+) -> ValveParams:
+    """``start`` with ``t_on`` then ``t_off`` set by a coarse search on the runs' cycle means.
+
+    Each delay in turn takes the best of ``points`` values over ``[0, max_delay]`` (the
+    other held), by the summed squared block residual, each run normalised by its own
+    spread: ``2*points`` simulations of the runs.
+    """
+    grid = np.linspace(0.0, max_delay, points)
+    scale = [max(float(np.std(r.y)), _NOISE_FLOOR) for r in runs]
+
+    def cost(prm: ValveParams) -> float:
+        return sum(
+            float(np.sum(((r.model(prm) - r.y) / s) ** 2)) for r, s in zip(runs, scale, strict=True)
+        )
+
+    best = start
+    for name in ("t_on", "t_off"):
+        trials = [ValveParams(**{**best.as_dict(), name: float(g)}) for g in grid]
+        best = min(trials, key=cost)
+    return best
 
 
 def interval(value: float, se: float, lo_bound: float = 0.0) -> tuple[float, float]:
