@@ -231,6 +231,10 @@ def identify_with_config(
     config = config or {}
     cfg = dict(config.get("identification") or {})
     threshold = float(cfg.pop("adequacy_threshold", 80.0))
+    if not (math.isfinite(threshold) and 0.0 < threshold <= 100.0):
+        raise ValueError(
+            f"identification.adequacy_threshold must be in (0, 100] %, got {threshold!r}"
+        )
     do_refine = bool(cfg.pop("refine", True))
     use_fallback = bool(cfg.pop("use_fallback", False))
     savgol = dict(cfg.pop("savgol", None) or {})
@@ -254,16 +258,22 @@ def identify_with_config(
         search = True
     if not do_refine:
         return result
-    return refine_result(
-        result,
-        runs,
-        kinds,
-        modulators=modulators,
-        command_dt=command_dt,
-        threshold=threshold,
-        max_delay=float(cfg.get("max_delay", 0.05)),
-        search_delays=search,
-    )
+    try:
+        return refine_result(
+            result,
+            runs,
+            kinds,
+            modulators=modulators,
+            command_dt=command_dt,
+            threshold=threshold,
+            max_delay=float(cfg.get("max_delay", 0.05)),
+            search_delays=search,
+        )
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as err:
+        if search:  # no estimate of the delays at all: nothing to fall back on
+            raise IdentificationError(f"the refinement failed ({err}) and no pulse fit") from err
+        note = f"the refinement failed ({err}): the charge, discharge and pulse fits are kept"
+        return replace(result, warnings=(*result.warnings, note))
 
 
 def run_context(
