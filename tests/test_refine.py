@@ -10,10 +10,16 @@ import pytest
 
 from spa.identification import identify_with_config
 from spa.identification.adequacy import Adequacy, adequacy_clause, assess
-from spa.identification.refine import andrews_bandwidth, block_means, chain_runs, newey_west
+from spa.identification.refine import (
+    andrews_bandwidth,
+    block_means,
+    chain_runs,
+    newey_west,
+    replay_kernel,
+)
 from spa.model.modulators import modulate
 from spa.model.params import ValveParams
-from spa.model.plant import run_start_pressures, simulate
+from spa.model.plant import replay, run_start_pressures, simulate
 from spa.synthetic import Sensor, identification_runs
 from spa.synthetic.runs import run_seed, simulate_run
 from spa.tuning.stage import tune
@@ -62,6 +68,23 @@ def test_chain_runs_equals_the_plain_python_recurrence() -> None:
         run_start_pressures(level, active, 0.2, prm),
         rtol=0,
         atol=1e-15,
+    )
+
+
+def test_replay_kernel_equals_the_vectorised_replay() -> None:
+    rng = np.random.default_rng(8)
+    starts = np.r_[0.0, np.sort(rng.uniform(0, 5, 300))]
+    level = np.arange(starts.size) % 2 == 1
+    prm = ValveParams(t_on=0.004, t_off=0.012)
+    hold = np.where(level, prm.t_on, prm.t_off)
+    hold[0] = 0.0
+    t = np.sort(rng.uniform(0, 6, 4000))
+    t[0] = 0.0
+    np.testing.assert_allclose(
+        replay_kernel(starts, level, hold, 0.3, prm.c1, prm.k2, prm.tau2, t),
+        replay(t, starts, level, hold, 0.3, prm),
+        rtol=0,
+        atol=1e-14,
     )
 
 

@@ -35,7 +35,7 @@ from scipy.optimize import least_squares
 from spa.identification.rates import _arrays
 from spa.identification.results import _Z95, FloatArray
 from spa.model.params import ValveParams
-from spa.model.plant import edge_indices, segment_pressure, transport_runs
+from spa.model.plant import edge_indices, transport_runs
 from spa.validation import fit_percent, initial_pressure
 
 __all__ = [
@@ -117,13 +117,7 @@ class RefineRun:
         if delay == "transport":
             starts, level = transport_runs(starts, level, hold)
             hold = np.zeros(starts.size)
-        ends = np.append(starts[1:], np.inf)
-        active = np.maximum(ends - starts - hold, 0.0)
-        p_start = chain_runs(level, active, self.p0, prm.c1, prm.k2, prm.tau2)
-        j = np.searchsorted(starts, self.t, side="right") - 1
-        counts = np.bincount(np.maximum(j, 0), minlength=starts.size)
-        elapsed = self.t - np.repeat(starts + hold, counts)
-        p = segment_pressure(level, p_start, elapsed, prm, repeats=counts)
+        p = replay_kernel(starts, level, hold, self.p0, prm.c1, prm.k2, prm.tau2, self.t)
         return block_means(p, self.block)
 
     @property
@@ -133,6 +127,49 @@ class RefineRun:
         if den == 0.0:
             return math.nan
         return 100.0 * (1.0 - self.noise * math.sqrt(self.y.size / self.block) / den)
+
+
+@njit(cache=True)
+def replay_kernel(
+    starts: np.ndarray,
+    level: np.ndarray,
+    hold: np.ndarray,
+    p0: float,
+    c1: float,
+    k2: float,
+    tau2: float,
+    t: np.ndarray,
+) -> np.ndarray:  # pragma: no cover (compiled; checked against spa.model.plant.replay)
+    """:func:`spa.model.plant.replay` (hold convention) at sorted times ``t`` in one pass:
+    the runs chained and each sample's closed form, O(runs + samples)."""
+    n = t.size
+    m = starts.size
+    out = np.empty(n)
+    p = p0
+    i = 0
+    for j in range(m):
+        end = starts[j + 1] if j + 1 < m else np.inf
+        on = level[j]
+        while i < n and t[i] < end:
+            e = t[i] - starts[j] - hold[j]
+            if e < 0.0:
+                e = 0.0
+            if on:
+                out[i] = k2 + (p - k2) * math.exp(-e / tau2)
+            else:
+                r = math.sqrt(p) - e / (2.0 * c1)
+                out[i] = r * r if r > 0.0 else 0.0
+            i += 1
+        if j + 1 < m:
+            a = end - starts[j] - hold[j]
+            if a < 0.0:
+                a = 0.0
+            if on:
+                p = k2 + (p - k2) * math.exp(-a / tau2)
+            else:
+                r = math.sqrt(p) - a / (2.0 * c1)
+                p = r * r if r > 0.0 else 0.0
+    return out
 
 
 @njit(cache=True)
@@ -182,6 +219,7 @@ def prepare_runs(
     command_dt: Mapping[str, float] | None = None,
     window: float = 0.01,
     max_samples: int = 5000,
+    total_samples: int = 150_000,
 ) -> list[RefineRun]:
     """The runs with a ``valve`` column, with their blocks, noise and edge uncertainty.
 
@@ -200,6 +238,9 @@ def prepare_runs(
     max_samples : int, optional
         Longest run kept whole; a longer one is thinned to every ``stride``-th sample (the
         model is evaluated at the same samples, so the comparison stays exact).
+    total_samples : int, optional
+        Samples over all runs: with many runs each keeps ``total_samples / runs`` (at least
+        1 000, at most ``max_samples``).
 
     Returns
     -------
@@ -208,10 +249,10 @@ def prepare_runs(
         median spacing of its rising edges (at least ``window``).
     """
     out = []
-    for rid in sorted(runs):
+    usable = [r for r in sorted(runs) if "valve" in runs[r].columns and len(runs[r]) >= 10]
+    cap = max(1000, min(max_samples, total_samples // max(len(usable), 1)))
+    for rid in usable:
         table = runs[rid]
-        if "valve" not in table.columns or len(table) < 10:
-            continue
         t, p, valve = _arrays(table, rid)
         assert valve is not None
         tt = t - t[0]
@@ -223,7 +264,7 @@ def prepare_runs(
         span = window
         if mod and rises.size >= 3:
             span = max(window, float(np.median(np.diff(rises))))
-        stride = max(1, math.ceil(tt.size / max_samples))
+        stride = max(1, math.ceil(tt.size / cap))
         block = max(1, round(span / (dt * stride)))
         ts, ps = tt[::stride], p[::stride]
         cdt = (command_dt or {}).get(rid)
@@ -241,7 +282,7 @@ def prepare_runs(
                 block=block,
                 stride=stride,
                 y=block_means(ps, block),
-                noise=_noise_sd(p),
+                noise=_noise_sd(p[:50_000]),
                 dt=dt,
                 edge_width=width,
                 n_on=int(np.sum(level[1:])),
@@ -525,7 +566,7 @@ def refine(
         fit_heldout=heldout,
         noise_ceiling={r.rid: r.noise_ceiling for r in runs},
         bandwidth=bandwidth,
-        nfev=nfev + len(runs),
+        nfev=nfev + 1,  # the held-out runs: one simulation of each
         converged=bool(sol.status > 0),
         runs=tuple(runs),
     )
