@@ -360,8 +360,9 @@ def refine_result(
     before the sample that shows it (less the command's own step when that is known): its
     time is taken as uniform over that width ``w``, so ``w/2`` is added to each delay and
     ``w**2/12`` to its variance. A delay the data cannot resolve (no command edge in its
-    direction, or an estimate within two logging steps of 0) is reported as the interval
-    ``[0, k*dt]`` (``[0, max_delay]`` without edges) with a warning that says what to record.
+    direction, an estimate within a logging step of 0 or an interval reaching 0) is reported
+    as the interval ``[0, k*dt]`` with ``k >= 2`` (``[0, max_delay]`` when the edges do not
+    show it) with a warning that says what to record.
     """
     from spa.identification.adequacy import assess
     from spa.identification.refine import NAMES, delay_search, prepare_runs, refine
@@ -435,15 +436,15 @@ def refine_result(
                     f"[0, {1e3 * max_delay:g}] ms."
                 )
                 method += f"; unresolved (the {what} edges do not show it): [0, max_delay]"
-            elif value < 2.0 * dt:
+            elif value < dt or value - _Z95 * se <= 0.0:
                 lo, hi = 0.0, max(hi, 2.0 * dt)
                 warnings.append(
-                    f"{name} is not resolved: {1e3 * value:.2g} ms is within two logging "
-                    f"steps ({1e3 * dt:.3g} ms) of 0; log pressure and valve command at "
+                    f"{name} is not resolved: {1e3 * value:.2g} ms is within a logging step "
+                    f"({1e3 * dt:.3g} ms) or its interval of 0; log pressure and valve command at "
                     f">= {_hz(4.0 / max(value + dt, dt))} to resolve it. Designs use the "
                     f"interval [0, {1e3 * hi:.3g}] ms."
                 )
-                method += f"; unresolved (within two logging steps of 0): interval [0, {hi:.4g}] s"
+                method += f"; unresolved (within a logging step of 0): interval [0, {hi:.4g}] s"
             hi = min(hi, max_delay) if edges else hi
             hi = max(hi, value)
         old = getattr(result, name)
