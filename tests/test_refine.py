@@ -129,6 +129,9 @@ def test_500_hz_log_of_a_slow_exhaust_covers_or_warns() -> None:
         unresolved = any(w.startswith(f"{name} is not resolved") for w in res.warnings)
         assert est.contains(getattr(truth, name)) or unresolved, (name, est)
     assert d["refinement"]["edge_width"] == pytest.approx(0.002)
+    for key in ("n_edges_on", "n_edges_off"):  # a pulse fit without edges is never silent
+        if d["fits"]["pulse"][key] == 0:
+            assert any(f"({key}: 0)" in w for w in d["warnings"])
 
 
 def test_no_falling_edge_is_never_silent() -> None:
@@ -222,3 +225,27 @@ def test_without_a_pulse_run_the_delays_come_from_the_other_runs() -> None:
         assert getattr(res, name).contains(getattr(truth, name)), name
     with pytest.raises(Exception, match="no pulse run"):
         identify_with_config(runs, kinds, {"identification": {"refine": False}})
+
+
+def test_a_poorly_described_valve_gets_sentences_that_say_so() -> None:
+    """End to end: a plant that is not the model (its sensor lags by 0.4 s and saturates)
+    is identified as inadequate, and the tuning's sentence says so and names the worst run."""
+    from scipy.signal import lfilter
+
+    truth = ValveParams()
+    runs, kinds, mods = _dataset(truth, 1000.0, seed=9)
+    a = 1e-3 / 0.4
+    for table in runs.values():
+        p = np.clip(table["p"].to_numpy(), 0.0, None)
+        lagged = lfilter([a], [1.0, a - 1.0], p, zi=[p[0] * (1.0 - a)])[0]
+        table["p"] = truth.k2 * np.tanh(2.5 * lagged / truth.k2)
+    res = identify_with_config(
+        runs, kinds, CONFIG, modulators=mods, command_dt=dict.fromkeys(runs, 1e-3)
+    )
+    d = res.to_dict()
+    assert d["adequacy"]["adequate"] is False
+    worst = d["adequacy"]["worst_run"]["run"]
+    rec = tune(d, n_xi=20).recommendation
+    assert rec["verified"] is False
+    assert "does not describe this valve well enough" in rec["sentence"]
+    assert worst in rec["sentence"]
