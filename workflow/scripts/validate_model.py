@@ -6,7 +6,7 @@ from spa.io import get_logger, read_params, read_runs, write_csv
 from spa.pipeline.status import run_stage
 from spa.plots.identification import validation_data, validation_figure
 from spa.plots.save import draw
-from spa.validation import validate_run, validate_runs
+from spa.validation import validate_run, validate_runs, with_fit_before_refinement
 
 log = get_logger("validate_model", snakemake.log[0])
 
@@ -18,6 +18,8 @@ def main() -> None:
     table = validate_runs(
         runs, params, modulators, {rid: meta["kind"] for rid, meta in metas.items()}
     )
+    kinds = {rid: meta["kind"] for rid, meta in metas.items()}
+    table = with_fit_before_refinement(table, runs, snakemake.input.params, modulators, kinds)
     write_csv(table.drop(columns="p0"), snakemake.output.fit)
     for row in table.itertuples():
         log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
