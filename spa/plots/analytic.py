@@ -193,7 +193,7 @@ def tau_log_scale(curves: pd.DataFrame, spread: float = TAU_SPREAD) -> bool:
     Examples
     --------
     >>> f = pd.DataFrame({"modulator": ["pwm", "pwm", "lpwm"], "tau_m": [0.5, 2.0, 600.0]})
-    >>> tau_log_scale(f), tau_log_scale(f[f["modulator"] == "pwm"])
+    >>> tau_log_scale(f), tau_log_scale(f[f["modulator"].isin(["pwm"])])
     (True, False)
     """
     tau = pd.to_numeric(curves["tau_m"], errors="coerce")
