@@ -16,8 +16,10 @@ what is wrong; an empty list is a pass. :func:`figure_problems` runs them all.
   saved image would cut it);
 * :func:`legend_over_titles`: a legend's box covers an axes' title or the figure's title.
 
-:func:`caption_problems` reads a caption against the figure: each colour, line style and
-marker it names (in the words of :mod:`spa.plots.words`) must be drawn by some artist.
+:func:`caption_problems` (of :mod:`spa.plots.caption_check`, exported here too) reads a
+caption against the figure: each colour, line style and marker it names (in the words of
+:mod:`spa.plots.words`) must be drawn by some artist. What an axes draws, in display
+coordinates, is read by the helpers of :mod:`spa.plots.drawn`.
 
 Examples
 --------
@@ -32,10 +34,22 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from spa.plots.caption_check import caption_problems
+from spa.plots.drawn import (
+    _NO_LINE,
+    _boxes,
+    _draw,
+    _has_data,
+    _name,
+    _points,
+    _segments,
+    _shows,
+    _tick_labels,
+)
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -53,8 +67,6 @@ __all__ = [
     "shared_styles",
     "small_axis_labels",
 ]
-
-_NO_LINE = {"None", "none", "", " "}
 
 
 def figure_problems(fig: Figure) -> list[str]:
@@ -271,114 +283,7 @@ def _past(box: Bbox, page: Bbox) -> bool:
     )
 
 
-# --- drawing and the data of an axes ---------------------------------------------------------
-
-
-def _draw(fig: Figure) -> RendererBase:
-    """Draw ``fig`` on an Agg canvas (made if it has none) and return the renderer."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
-    canvas.draw()
-    return canvas.get_renderer()
-
-
-def _name(ax: Axes, i: int) -> str:
-    title = ax.get_title() or ax.get_title("left") or ax.get_ylabel()
-    return f"axes {i}" + (f" ({title.splitlines()[0]!r})" if title else "")
-
-
-def _tick_labels(axis: Any) -> list[Any]:
-    return [
-        t for t in axis.get_ticklabels(which="both") if t.get_visible() and t.get_text().strip()
-    ]
-
-
-def _shows(line: Any) -> bool:
-    """Whether a line draws anything: visible, a line or a marker, a finite point."""
-    if not line.get_visible():
-        return False
-    if line.get_linestyle() in _NO_LINE and str(line.get_marker()) in _NO_LINE:
-        return False
-    xy = np.asarray(line.get_xydata(), dtype=float)
-    return bool(xy.size and np.isfinite(xy).all(axis=1).any())
-
-
-def _has_data(ax: Axes) -> bool:
-    return (
-        any(_shows(line) for line in ax.get_lines())
-        or any(c.get_visible() for c in ax.collections)
-        or any(im.get_visible() for im in ax.images)
-        or any(p.get_visible() for p in ax.patches)
-    )
-
-
-def _segments(ax: Axes) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """Display-coordinate segments ``(start, end)`` of the lines and line collections of
-    ``ax``, with half their width in pixels."""
-    from matplotlib.cbook import STEP_LOOKUP_MAP
-    from matplotlib.collections import LineCollection
-
-    px = ax.figure.dpi / 72.0
-    out = []
-    for line in ax.get_lines():
-        if not _shows(line) or line.get_linestyle() in _NO_LINE:
-            continue
-        x, y = (np.asarray(v, dtype=float) for v in line.get_data())
-        x, y = STEP_LOOKUP_MAP[line.get_drawstyle()](x, y)
-        xy = line.get_transform().transform(np.column_stack([x, y]))
-        out.append((xy[:-1], xy[1:], 0.5 * line.get_linewidth() * px))
-    for coll in ax.collections:
-        if not (isinstance(coll, LineCollection) and coll.get_visible()):
-            continue
-        width = 0.5 * float(np.max(coll.get_linewidth(), initial=1.0)) * px
-        for seg in coll.get_segments():
-            xy = coll.get_transform().transform(np.asarray(seg, dtype=float))
-            if len(xy) > 1:
-                out.append((xy[:-1], xy[1:], width))
-    return out
-
-
-def _points(ax: Axes) -> list[tuple[np.ndarray, float]]:
-    """Display-coordinate markers and scatter points of ``ax``, with their radius in pixels."""
-    from matplotlib.collections import PathCollection
-
-    px = ax.figure.dpi / 72.0
-    out = []
-    for line in ax.get_lines():
-        if _shows(line) and str(line.get_marker()) not in _NO_LINE:
-            xy = line.get_transform().transform(np.asarray(line.get_xydata(), dtype=float))
-            out.append((xy, 0.5 * line.get_markersize() * px))
-    for coll in ax.collections:
-        if isinstance(coll, PathCollection) and coll.get_visible():
-            xy = coll.get_offset_transform().transform(np.asarray(coll.get_offsets(), float))
-            size = float(np.sqrt(np.max(coll.get_sizes(), initial=36.0)))
-            out.append((xy, 0.5 * size * px))
-    return out
-
-
-def _boxes(ax: Axes, renderer: RendererBase) -> list[Bbox]:
-    """Display-coordinate boxes of the bars, images and colour meshes of ``ax``."""
-    from matplotlib.collections import QuadMesh
-    from matplotlib.container import BarContainer
-
-    out = [
-        p.get_window_extent(renderer)
-        for c in ax.containers
-        if isinstance(c, BarContainer)
-        for p in c.patches
-        if p.get_visible()
-    ]
-    out += [im.get_window_extent(renderer) for im in ax.images if im.get_visible()]
-    for coll in ax.collections:
-        if isinstance(coll, QuadMesh) and coll.get_visible():
-            values = np.ma.masked_invalid(np.ma.asarray(coll.get_array()))
-            if values.count():
-                out.append(coll.get_window_extent(renderer))
-    return out
-
-
-# --- the checks ------------------------------------------------------------------------------
+# --- what a legend covers, and the checks on a drawn figure ----------------------------------
 
 
 def _inside(xy: np.ndarray, box: tuple[float, float, float, float], pad: float) -> np.ndarray:
@@ -531,125 +436,3 @@ def _legend_over_titles(fig: Figure, renderer: RendererBase) -> list[str]:
                     f"the legend with {first!r} covers the title {title.get_text().strip()!r}"
                 )
     return problems
-
-
-# --- a caption read against the figure -------------------------------------------------------
-
-
-def caption_problems(fig: Figure, caption: str, conditional: Iterable[str] = ()) -> list[str]:
-    """The style words of ``caption`` that no artist of ``fig`` draws.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-    caption : str
-        The figure's caption.
-    conditional : iterable of str, optional
-        Style words the caption names for what is drawn only when the data has it (Fig. O1's
-        trend and ring: :data:`spa.plots.words.O1_CONDITIONAL`): not a problem when absent.
-
-    Returns
-    -------
-    list of str
-        One sentence per word (a colour, line style or marker of :mod:`spa.plots.words`,
-        or ``filled``/``hollow`` markers) that the caption names and no line, collection or
-        patch of the figure's axes has; empty when every word is drawn, or when the figure
-        draws no data (it says why there is nothing to draw).
-
-    Notes
-    -----
-    A colour word matches an artist of exactly that colour (``grey``: any grey strictly
-    between black and white); ``triangle`` matches any triangle marker. Longer words are
-    read first (``sky blue`` is not ``blue``), whole words only (``bluish`` is not ``blue``).
-
-    Examples
-    --------
-    >>> from matplotlib.figure import Figure
-    >>> fig = Figure()
-    >>> _ = fig.add_subplot().plot([0, 1], [0, 1], "o--", color="#0072B2")
-    >>> caption_problems(fig, "one setting (blue, dashed, circles)")
-    []
-    >>> for problem in caption_problems(fig, "fixed PI (black), down triangles"):
-    ...     print(problem)
-    the caption says 'black' but nothing is drawn black
-    the caption says 'triangle' but no marker is a triangle
-    """
-    import re
-
-    from spa.plots.words import COLOUR_WORDS, LINE_STYLE_WORDS, MARKER_WORDS
-
-    if not any(ax.get_visible() and _has_data(ax) for ax in fig.axes):
-        return []  # a figure that says why there is nothing to draw
-    text = caption.lower()
-    drawn = _drawn_styles(fig)
-    problems: list[str] = []
-    maybe = {str(w).lower() for w in conditional}
-
-    def said(word: str) -> bool:
-        nonlocal text
-        # whole words: "bluish" is not "blue", "least-squares" is no marker
-        pattern = re.compile(rf"(?<![\w-]){re.escape(word)}(s|es)?(?![\w-])")
-        if not pattern.search(text):
-            return False
-        text = pattern.sub(" ", text)  # read once: "sky blue" is not "blue" too
-        return word not in maybe
-
-    for word in sorted(COLOUR_WORDS, key=len, reverse=True):
-        if said(word) and not _has_colour(drawn["colours"], COLOUR_WORDS[word]):
-            problems.append(f"the caption says {word!r} but nothing is drawn {word}")
-    for style, word in LINE_STYLE_WORDS.items():
-        if said(word) and style not in drawn["line styles"]:
-            problems.append(f"the caption says {word!r} but no line is {word}")
-    markers = sorted(MARKER_WORDS.items(), key=lambda kv: len(kv[1]), reverse=True)
-    for marker, word in markers:
-        if said(word) and marker not in drawn["markers"]:
-            problems.append(f"the caption says {word!r} but no marker is a {word}")
-    if said("triangle") and not drawn["markers"] & {"^", "v", "<", ">"}:
-        problems.append("the caption says 'triangle' but no marker is a triangle")
-    for word in ("filled", "hollow"):
-        if said(word) and word not in drawn["faces"]:
-            problems.append(f"the caption says {word!r} but no marker is {word}")
-    return problems
-
-
-def _drawn_styles(fig: Figure) -> dict[str, set[str]]:
-    """Colours (hex), line styles, markers and marker faces (filled, hollow) of the lines,
-    collections and patches of every visible axes of ``fig``."""
-    from matplotlib.colors import to_hex
-
-    out: dict[str, set[str]] = {"colours": set(), "line styles": set(), "markers": set()}
-    out["faces"] = set()
-    for ax in fig.axes:
-        if not ax.get_visible():
-            continue
-        for line in ax.get_lines():
-            if not _shows(line):
-                continue
-            ls, mk = line.get_linestyle(), str(line.get_marker())
-            if ls not in _NO_LINE:
-                out["line styles"].add(str(ls))
-                out["colours"].add(to_hex(line.get_color()))
-            if mk not in _NO_LINE:
-                out["markers"].add(mk)
-                face, edge = line.get_markerfacecolor(), line.get_markeredgecolor()
-                hollow = str(face).lower() == "none" or to_hex(face) in {"#ffffff"}
-                out["faces"].add("hollow" if hollow else "filled")
-                out["colours"].add(to_hex(edge))
-                if not hollow:
-                    out["colours"].add(to_hex(face))
-        for coll in ax.collections:
-            if coll.get_visible():
-                for rgba in (*coll.get_edgecolor(), *coll.get_facecolor()):
-                    if rgba[3] > 0:
-                        out["colours"].add(to_hex(rgba))
-        for patch in ax.patches:
-            if patch.get_visible():
-                out["colours"].add(to_hex(patch.get_facecolor()))
-    return out
-
-
-def _has_colour(colours: set[str], want: str) -> bool:
-    """Whether ``want`` (hex, or ``"grey"``: any grey between black and white) is drawn."""
-    if want != "grey":
-        return want.lower() in colours
-    return any(c[1:3] == c[3:5] == c[5:7] and c not in ("#000000", "#ffffff") for c in colours)
