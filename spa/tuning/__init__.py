@@ -9,7 +9,11 @@ One concept per module, all re-exported here:
 * :mod:`spa.tuning.intervals` – the identification's 95 % intervals propagated by the corners
   of their box;
 * :mod:`spa.tuning.tables` – the tidy tables of Fig. 4, Table 2 and Fig. 5;
-* :mod:`spa.tuning.recommend` – candidates, constraints and the recommended setting;
+* :mod:`spa.tuning.constraints` – the options, the user's constraints and how far a setting
+  is from meeting them;
+* :mod:`spa.tuning.candidates` – every setting of the sweeps with its costs and what a user
+  must live with;
+* :mod:`spa.tuning.recommend` – the recommended setting and what it will do;
 * :mod:`spa.tuning.sentence` – the recommendation in one sentence;
 * :mod:`spa.tuning.stage` – :func:`tune`, the whole stage for one valve.
 """
@@ -17,7 +21,17 @@ One concept per module, all re-exported here:
 from spa._lazy import lazy_exports
 
 #: Submodules whose ``__all__`` the package re-exports (imported on first use).
-_MODULES = ("cost", "exact", "intervals", "recommend", "sentence", "stage", "tables")
+_MODULES = (
+    "cost",
+    "exact",
+    "intervals",
+    "constraints",
+    "candidates",
+    "recommend",
+    "sentence",
+    "stage",
+    "tables",
+)
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
 #: What a notebook user calls (the API reference lists these); every other name of the
