@@ -15,8 +15,9 @@ units), ``problems`` (what is wrong, with suggestions), ``spec`` (``dataset.yaml
 ``options`` (``columns:``, ``units:`` and ``csv:``, which a run may override key by key),
 ``readers`` (one module per file family, each a ``Source``, in one table ``READERS``, and ``sniff``,
 which guesses how a delimited file is written, for messages), ``checks``
-(the data of one run, chunk by chunk), ``runtable`` (the canonical Parquet table) and
-``ingest`` (validate and convert a whole folder).
+(the data of one run, chunk by chunk), ``kind_check`` (a run's kind against its valve trace),
+``supply`` (a supply pressure against the unit declared), ``runtable`` (the canonical Parquet
+table) and ``ingest`` (validate and convert a whole folder).
 
 Recordings are read in chunks (delimited text in line-aligned blocks, normalised as its
 ``csv:`` options say and parsed by ``pyarrow.csv``; Parquet by record batches), checked
