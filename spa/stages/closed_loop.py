@@ -3,18 +3,84 @@ recorded runs against their replay (docs/model.md section 8)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+import yaml
 
-from spa.closedloop.bench import BenchOutputs
-from spa.closedloop.stage import ClosedLoopResult, write_controllers
-from spa.io import write_csv
+from spa.closedloop.bench import (
+    BenchOutputs,
+    adequacy_of,
+    apply_bench,
+    bench_outputs,
+    sensor_noise,
+)
+from spa.closedloop.model_error import dataset_error
+from spa.closedloop.stage import ClosedLoopResult, closed_loop, recorded_runs, write_controllers
+from spa.io import read_runs, write_csv
 from spa.plots.closedloop import fig10, fig11, no_design
 from spa.plots.save import draw
+from spa.tuning.stage import read_identified
 
-__all__ = ["write_closed_loop"]
+__all__ = ["close_dataset_loop", "write_closed_loop"]
+
+
+def close_dataset_loop(
+    params_path: str | Path,
+    recommendation_path: str | Path,
+    run_paths: Sequence[str | Path],
+    selected: Sequence[Mapping[str, Any]],
+    cfg: Mapping[str, Any],
+) -> tuple[ClosedLoopResult, pd.DataFrame, BenchOutputs]:
+    """The closed_loop stage's work for one dataset, from its files.
+
+    Designs the PIs for the identified valve (:func:`spa.closedloop.stage.closed_loop`),
+    measures the model's error on the dataset's runs
+    (:func:`spa.closedloop.model_error.dataset_error`), checks the chosen loop over the 95 %
+    box merged with that error and exports it (:func:`spa.closedloop.bench.bench_outputs`),
+    and replays the recorded closed-loop runs.
+
+    Parameters
+    ----------
+    params_path : str or pathlib.Path
+        The identification's ``params.yaml``.
+    recommendation_path : str or pathlib.Path
+        The tuning's ``recommendation.yaml`` (may be missing: no recommendation).
+    run_paths : sequence of path
+        The dataset's run tables (Parquet).
+    selected, cfg
+        The settings compared and the ``closed_loop:`` section of the config.
+
+    Returns
+    -------
+    result : ClosedLoopResult
+        With the bench outputs applied.
+    recorded : pandas.DataFrame
+        Each recorded closed-loop run against its replay.
+    bench : BenchOutputs
+    """
+    valve = read_identified(params_path)
+    rec_path = Path(recommendation_path)
+    recommendation = yaml.safe_load(rec_path.read_text()) if rec_path.is_file() else None
+    result = closed_loop(valve.params, selected, recommendation, cfg)
+    identified = yaml.safe_load(Path(params_path).read_text())
+    runs, metas = read_runs(run_paths)
+    # a loop with the averaged model's feed-forward also meets the equilibrium error
+    with_ff = result.controllers.get("controller") == "scheduled_ff"
+    error = dataset_error(runs, metas, valve.params, identified, equilibrium=with_ff)
+    bench = bench_outputs(
+        result,
+        valve.params,
+        valve.intervals,
+        cfg,
+        sensor_noise(identified),
+        model_error=error,
+        adequacy=adequacy_of(identified),
+    )
+    apply_bench(result, bench)
+    return result, recorded_runs(runs, metas, valve.params), bench
 
 
 def write_closed_loop(

@@ -169,7 +169,7 @@ int main(void)
 
 def _header_prefix(text: str) -> tuple[str, float]:
     """The prefix and the step ``dt`` of an exported controller header."""
-    m = re.search(r"static\s+(\w+)_output\s+(\w+)_step\s*\(", text)
+    m = re.search(r"static\s+(?:inline\s+)?(\w+)_output\s+(\w+)_step\s*\(", text)
     if m is None or m.group(1) != m.group(2):
         raise ValueError("not a spa controller header: no '<prefix>_output <prefix>_step(' in it")
     prefix = m.group(1)
