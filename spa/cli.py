@@ -122,16 +122,19 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
 
     from spa.datasets import DatasetError
     from spa.datasets.checks import k2_warning
-    from spa.identification import identify_with_config
+    from spa.identification import identify_with_config, run_context
     from spa.io import read_runs
-    from spa.report.params import fits_note, params_table
+    from spa.report.params import fits_note, identification_notes, params_table
 
     try:
         config = yaml.safe_load(Path(args.config).read_text()) if args.config else None
         with tempfile.TemporaryDirectory(prefix="spa-identify-") as tmp:
             runs, metas = read_runs(_run_folder(Path(args.dataset), Path(tmp)))
         kinds = {rid: m["kind"] for rid, m in metas.items()}
-        result = identify_with_config(runs, kinds, config, seed=args.seed).to_dict()
+        modulators, command_dt = run_context(metas)
+        result = identify_with_config(
+            runs, kinds, config, seed=args.seed, modulators=modulators, command_dt=command_dt
+        ).to_dict()
     except DatasetError as exc:
         for p in exc.problems:
             print(p, file=out)
@@ -155,6 +158,8 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
     note = fits_note(result).strip()
     if note:
         print(note, file=out)
+    for line in identification_notes(result):
+        print(line, file=out)
     return 0
 
 

@@ -31,7 +31,16 @@ from __future__ import annotations
 from spa._lazy import lazy_exports
 
 #: Submodules whose ``__all__`` the package re-exports (imported on first use).
-_MODULES = ("delays", "experiments", "identify", "rate_fits", "rates", "results")
+_MODULES = (
+    "adequacy",
+    "delays",
+    "experiments",
+    "identify",
+    "rate_fits",
+    "rates",
+    "refine",
+    "results",
+)
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 
 #: What a notebook user calls (the API reference lists these); every other name of the

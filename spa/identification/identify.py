@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from spa.identification.delays import _FALLBACK_PRIOR_REL_SD, fit_delays
@@ -19,7 +22,7 @@ from spa.identification.results import (
 )
 from spa.model.params import ValveParams
 
-__all__ = ["identify", "identify_runs", "identify_with_config"]
+__all__ = ["identify", "identify_runs", "identify_with_config", "refine_result", "run_context"]
 
 # --------------------------------------------------------------------------------------------
 # The whole identification
@@ -192,6 +195,9 @@ def identify_with_config(
     kinds: Mapping[str, str],
     config: Mapping[str, Any] | None = None,
     seed: int | None = None,
+    *,
+    modulators: Mapping[str, str] | None = None,
+    command_dt: Mapping[str, float] | None = None,
 ) -> IdentificationResult:
     """:func:`identify_runs` with the sections of a pipeline configuration, as the workflow's
     identify rule runs it (and ``spa identify``).
@@ -207,6 +213,11 @@ def identify_with_config(
     seed : int, optional
         Recorded in ``settings`` (not used by the fits); default the configuration's
         ``seed``, else 0.
+    modulators, command_dt : mapping, optional
+        Run id → modulator type and → the command's own step (s), for
+        :func:`refine_result`, which runs after the three fits unless
+        ``identification.refine`` is false (``identification.adequacy_threshold``: its
+        threshold).
 
     Returns
     -------
@@ -219,6 +230,12 @@ def identify_with_config(
     """
     config = config or {}
     cfg = dict(config.get("identification") or {})
+    threshold = float(cfg.pop("adequacy_threshold", 80.0))
+    if not (math.isfinite(threshold) and 0.0 < threshold <= 100.0):
+        raise ValueError(
+            f"identification.adequacy_threshold must be in (0, 100] %, got {threshold!r}"
+        )
+    do_refine = bool(cfg.pop("refine", True))
     use_fallback = bool(cfg.pop("use_fallback", False))
     savgol = dict(cfg.pop("savgol", None) or {})
     fallback = None
@@ -227,4 +244,281 @@ def identify_with_config(
             raise ValueError("identification.use_fallback needs the config's nominal: section")
         fallback = ValveParams(**config["nominal"])
     seed = int(config.get("seed", 0) if seed is None else seed)
-    return identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=fallback)
+    search = False
+    try:
+        result = identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=fallback)
+    except IdentificationError as err:
+        # Without a usable pulse run the refinement can still find the delays from the other
+        # runs' edges: it then searches them itself (no nominal value is kept).
+        if not do_refine or fallback is not None or not str(err).startswith(_DELAY_ERRORS):
+            raise
+        result = identify_runs(runs, kinds, **savgol, **cfg, seed=seed, fallback=ValveParams())
+        if set(result.fallback) - {"t_on", "t_off"}:
+            raise
+        search = True
+    if not do_refine:
+        return result
+    try:
+        return refine_result(
+            result,
+            runs,
+            kinds,
+            modulators=modulators,
+            command_dt=command_dt,
+            threshold=threshold,
+            max_delay=float(cfg.get("max_delay", 0.05)),
+            search_delays=search,
+        )
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as err:
+        if search:  # no estimate of the delays at all: nothing to fall back on
+            raise IdentificationError(f"the refinement failed ({err}) and no pulse fit") from err
+        note = f"the refinement failed ({err}): the charge, discharge and pulse fits are kept"
+        return replace(result, warnings=(*result.warnings, note))
+
+
+def run_context(
+    metas: Mapping[str, Mapping[str, Any]],
+) -> tuple[dict[str, str], dict[str, float]]:
+    """Each run's modulator type and command step from its metadata (:func:`spa.io.read_runs`).
+
+    Returns
+    -------
+    modulators : dict
+        Run id → modulator type (``""`` for none).
+    command_dt : dict
+        Run id → ``controller_dt`` (s), for the runs whose metadata give it.
+
+    Examples
+    --------
+    >>> run_context({"a": {"modulator": {"type": "pwm", "f_w": 20}, "controller_dt": 0.001},
+    ...              "b": {}})
+    ({'a': 'pwm', 'b': ''}, {'a': 0.001})
+    """
+    modulators = {}
+    for rid, meta in metas.items():
+        mod = meta.get("modulator")
+        kind = getattr(mod, "kind", None) or (mod.get("type") if isinstance(mod, Mapping) else "")
+        modulators[rid] = str(kind or "")
+    command_dt = {
+        rid: float(meta["controller_dt"])
+        for rid, meta in metas.items()
+        if meta.get("controller_dt")
+    }
+    return modulators, command_dt
+
+
+# How the pulse fit's errors start (spa.identification.delays): the delays alone are missing.
+_DELAY_ERRORS = ("no pulse run", "pulse run")
+
+
+def _hz(x: float) -> str:
+    return f"{x:.0f} Hz" if x >= 10 else f"{x:.2g} Hz"
+
+
+def refine_result(
+    result: IdentificationResult,
+    runs: Mapping[str, pd.DataFrame],
+    kinds: Mapping[str, str],
+    *,
+    modulators: Mapping[str, str] | None = None,
+    command_dt: Mapping[str, float] | None = None,
+    threshold: float = 80.0,
+    max_delay: float = 0.05,
+    search_delays: bool = False,
+) -> IdentificationResult:
+    """Refine ``result`` on every run with a valve command; conventions, adequacy, warnings.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        The charge, discharge and pulse fits' result (the refinement's start).
+    runs, kinds : mapping
+        All runs of the dataset and their kinds.
+    modulators : mapping, optional
+        Run id → modulator type (``""`` or absent for none).
+    command_dt : mapping, optional
+        Run id → the command's own step, s (when known, e.g. a simulated controller's).
+    threshold : float, optional
+        ``identification.adequacy_threshold``, % of the noise ceiling.
+    max_delay : float, optional
+        Largest delay, s.
+    search_delays : bool, optional
+        The pulse fit gave no delays: start from a coarse search of each delay over
+        ``[0, max_delay]`` on the runs' cycle means instead of ``result``'s values.
+
+    Returns
+    -------
+    IdentificationResult
+        The five top-level parameters from the hold convention's refinement (the logging-step
+        rule applied to the delays), ``refinement``, ``delay_convention``, ``adequacy`` and
+        ``warnings`` filled in. When no run carries a valve command, ``result`` unchanged but
+        for a warning.
+
+    Notes
+    -----
+    *Delays and the logging step.* A logged edge lies somewhere within the logging step
+    before the sample that shows it (less the command's own step when that is known): its
+    time is taken as uniform over that width ``w``, so ``w/2`` is added to each delay and
+    ``w**2/12`` to its variance. A delay the data cannot resolve (no command edge in its
+    direction, an estimate within a logging step of 0 or an interval reaching 0) is reported
+    as the interval ``[0, k*dt]`` with ``k >= 2`` (``[0, max_delay]`` when the edges do not
+    show it) with a warning that says what to record.
+    """
+    from spa.identification.adequacy import assess
+    from spa.identification.refine import NAMES, delay_search, prepare_runs, refine
+
+    prepared = prepare_runs(runs, kinds, modulators, command_dt)
+    if not prepared:
+        note = "no run carries the valve command: the refinement and the adequacy were skipped"
+        return replace(result, warnings=(*result.warnings, note))
+    start = result.to_valve_params()
+    if search_delays:
+        start = delay_search(prepared, start, max_delay)
+        warnings_start = [
+            "the pulse fit gave no delays ("
+            + "; ".join(sorted(set(result.fallback.values())))
+            + "): t_on and t_off come from the refinement on the other runs' edges"
+        ]
+    else:
+        warnings_start = []
+    fits = {d: refine(prepared, start, delay=d, max_delay=max_delay) for d in ("hold", "transport")}
+    hold = fits["hold"]
+    held_median = {d: f.heldout_median() for d, f in fits.items()}
+    chosen = max(
+        ("hold", "transport"),
+        key=lambda d: held_median[d] if math.isfinite(held_median[d]) else -math.inf,
+    )
+    dt = float(np.median([r.dt for r in prepared]))
+    width = float(np.median([r.edge_width for r in prepared]))
+    n_on = sum(r.n_on for r in prepared)
+    n_off = sum(r.n_off for r in prepared)
+    warnings = [*result.warnings, *warnings_start]
+    ests = {}
+    runs_all = tuple(r.rid for r in prepared)
+    for name in NAMES:
+        value = float(getattr(hold.params, name))
+        se = float(hold.se[name])
+        method = (
+            "output-error refinement of the exact model (hold convention) on the cycle means "
+            f"of {len(prepared)} run(s) with a valve command, from the charge/discharge/pulse "
+            "estimates; 95% from the sandwich covariance (Newey-West, bandwidth from the "
+            "data), widened to the leave-one-run-out spread and by the gap to the start"
+        )
+        # Two estimators of one parameter (the experiment's own fit and the refinement on
+        # every run) that disagree by more than their errors show model error: it is added.
+        gap = value - float(getattr(start, name))
+        se = math.sqrt(se * se + gap * gap)
+        if name in ("t_on", "t_off"):
+            value += width / 2.0
+            se = math.sqrt(se * se + width * width / 12.0)
+            method += (
+                f"; logged edges uniform within {1e3 * width:.3g} ms (bias corrected, w^2/12 added)"
+            )
+        lo, hi = max(value - _Z95 * se, 0.0), value + _Z95 * se
+        if name in ("t_on", "t_off"):
+            edges = n_on if name == "t_on" else n_off
+            what = "rising" if name == "t_on" else "falling"
+            if edges == 0:
+                lo, hi = 0.0, max_delay
+                warnings.append(
+                    f"{name} is not resolved: no {what} valve edge in any run; record runs "
+                    f"with {what} edges (e.g. a pulse train) to identify it. Designs use "
+                    f"the interval [0, {1e3 * max_delay:g}] ms."
+                )
+                method += f"; unresolved (no {what} edge): interval [0, max_delay]"
+            elif _Z95 * se > max_delay / 4.0:
+                lo, hi = 0.0, max_delay
+                warnings.append(
+                    f"{name} is not resolved: the runs' {what} edges do not show it (95 % "
+                    f"half-width {1e3 * _Z95 * se:.3g} ms); record {what} edges followed by a "
+                    "visible response (e.g. a pulse train from a well-filled actuator with "
+                    f"pulses longer than the delay). Designs use the interval "
+                    f"[0, {1e3 * max_delay:g}] ms."
+                )
+                method += f"; unresolved (the {what} edges do not show it): [0, max_delay]"
+            elif value < dt or value - _Z95 * se <= 0.0:
+                lo, hi = 0.0, max(hi, 2.0 * dt)
+                warnings.append(
+                    f"{name} is not resolved: {1e3 * value:.2g} ms is within a logging step "
+                    f"({1e3 * dt:.3g} ms) or its interval of 0; log pressure and valve command at "
+                    f">= {_hz(4.0 / max(value + dt, dt))} to resolve it. Designs use the "
+                    f"interval [0, {1e3 * hi:.3g}] ms."
+                )
+                method += f"; unresolved (within a logging step of 0): interval [0, {hi:.4g}] s"
+            hi = min(hi, max_delay) if edges else hi
+            hi = max(hi, value)
+        old = getattr(result, name)
+        ests[name] = Estimate(
+            value,
+            lo,
+            hi,
+            UNITS[name],
+            tuple(hold.informed[name]) or runs_all,
+            method,
+            spread=old.spread,
+        )
+    if result.delays is not None:
+        pulse = result.delays.summary()
+        for key, name, what in (
+            ("n_edges_on", "t_on", "rising"),
+            ("n_edges_off", "t_off", "falling"),
+        ):
+            if int(pulse.get(key, 1)) == 0:
+                warnings.append(
+                    f"the pulse runs have no {what} edge with a visible response "
+                    f"({key}: 0): {name} comes from the other runs' edges only; record a "
+                    f"pulse train whose {what} edges move the pressure"
+                )
+    adequacy = assess(
+        hold.fit_heldout if chosen == "hold" else fits[chosen].fit_heldout,
+        hold.fit_after if chosen == "hold" else fits[chosen].fit_after,
+        hold.noise_ceiling,
+        {r.rid: r.modulator for r in prepared},
+        threshold,
+    )
+
+    def clean(d: Mapping[str, float]) -> dict[str, float | None]:
+        return {k: (round(float(v), 3) if math.isfinite(v) else None) for k, v in d.items()}
+
+    refinement = {
+        "start": {n: float(getattr(start, n)) for n in NAMES},
+        "informed_by": {n: list(hold.informed[n]) for n in NAMES},
+        "fit_before": clean(hold.fit_before),
+        "fit_after": clean(hold.fit_after),
+        "fit_heldout": clean(hold.fit_heldout),
+        "noise_ceiling": clean(hold.noise_ceiling),
+        "bandwidth_blocks": {k: int(v) for k, v in hold.bandwidth.items()},
+        "block_samples": {r.rid: int(r.block * r.stride) for r in prepared},
+        "edge_width": width,
+        "n_edges_on": int(n_on),
+        "n_edges_off": int(n_off),
+        "simulations": int(sum(f.nfev for f in fits.values())),
+        "converged": bool(hold.converged),
+    }
+    convention = {
+        "chosen": chosen,
+        **{
+            d: {
+                "t_on": float(f.params.t_on + width / 2.0),
+                "t_off": float(f.params.t_off + width / 2.0),
+            }
+            for d, f in fits.items()
+        },
+        "heldout_fit": {
+            d: (round(v, 3) if math.isfinite(v) else None) for d, v in held_median.items()
+        },
+    }
+    if n_on == 0 or n_off == 0:
+        convention["note"] = "a delay is unresolved; the conventions differ only in it"
+    if result.fallback:
+        refinement["started_from_fallback"] = dict(result.fallback)
+    return replace(
+        result,
+        **ests,
+        fallback={},
+        settings={**result.settings, "refine": True, "adequacy_threshold": float(threshold)},
+        refinement=refinement,
+        delay_convention=convention,
+        adequacy=adequacy.to_dict(),
+        warnings=tuple(warnings),
+    )

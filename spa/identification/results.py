@@ -250,6 +250,16 @@ class IdentificationResult:
         identified from data.
     settings : dict
         The settings of the identification (window, polyorder, ...), for the record.
+    refinement : dict or None
+        The output-error refinement on every run with a valve command
+        (:mod:`spa.identification.refine`): where it started, each run's FIT before and after,
+        which runs informed which parameter.
+    delay_convention : dict or None
+        ``chosen``, each convention's delays and held-out FIT.
+    adequacy : dict or None
+        :class:`spa.identification.adequacy.Adequacy` as a mapping.
+    warnings : tuple of str
+        What the data could not resolve and what to record to resolve it.
     """
 
     c1: Estimate
@@ -262,6 +272,10 @@ class IdentificationResult:
     delays: DelayFit | None = field(default=None, repr=False)
     fallback: Mapping[str, str] = field(default_factory=dict)
     settings: Mapping[str, Any] = field(default_factory=dict)
+    refinement: Mapping[str, Any] | None = field(default=None, repr=False)
+    delay_convention: Mapping[str, Any] | None = None
+    adequacy: Mapping[str, Any] | None = None
+    warnings: tuple[str, ...] = ()
 
     def to_valve_params(self) -> ValveParams:
         """The point estimates as :class:`~spa.model.params.ValveParams`."""
@@ -297,6 +311,13 @@ class IdentificationResult:
         }
         out["fallback"] = dict(self.fallback)
         out["settings"] = dict(self.settings)
+        if self.refinement is not None:
+            out["refinement"] = dict(self.refinement)
+        if self.delay_convention is not None:
+            out["delay_convention"] = dict(self.delay_convention)
+        if self.adequacy is not None:
+            out["adequacy"] = dict(self.adequacy)
+        out["warnings"] = list(self.warnings)
         return out
 
 

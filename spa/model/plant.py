@@ -24,7 +24,17 @@ __all__ = [
     "run_start_pressures",
     "segment_pressure",
     "simulate",
+    "transport_runs",
 ]
+
+#: The two delay conventions of the exact simulator (docs/model.md section 1).
+DELAY_CONVENTIONS = ("hold", "transport")
+
+
+def _check_delay(delay: str) -> str:
+    if delay not in DELAY_CONVENTIONS:
+        raise ValueError(f"delay must be one of {DELAY_CONVENTIONS}, got {delay!r}")
+    return delay
 
 
 def segment_pressure(
@@ -183,7 +193,12 @@ def _check_command(u: npt.ArrayLike) -> np.ndarray:
 
 
 def simulate(
-    u: npt.ArrayLike, dt: float, params: ValveParams | None = None, p0: float = 0.0
+    u: npt.ArrayLike,
+    dt: float,
+    params: ValveParams | None = None,
+    p0: float = 0.0,
+    *,
+    delay: str = "hold",
 ) -> npt.NDArray[np.float64]:
     """Exact pressure response of the valve + actuator to a sampled 0/1 command.
 
@@ -199,6 +214,11 @@ def simulate(
     p0 : float, optional
         Pressure at ``t = 0``, bar (>= 0). At ``t = 0`` the valve is settled in state
         ``u[0]``: no transition is running.
+    delay : {"hold", "transport"}, optional
+        Delay convention. ``"hold"`` (default, the paper's): the pressure holds still for
+        ``t_on``/``t_off`` after an edge. ``"transport"``: the command reaches the plant
+        ``t_on`` after a rising and ``t_off`` after a falling edge, the previous connection
+        persisting meanwhile (see :func:`transport_runs`).
 
     Returns
     -------
@@ -232,10 +252,18 @@ def simulate(
     params = valve_params(params)
     dt = checks.positive("dt", dt, "s")
     p0 = checks.nonnegative("p0", p0, "bar")
+    _check_delay(delay)
     cmd = _check_command(u)
     n = cmd.size
     if n == 0:
         return np.zeros(0, dtype=np.float64)
+    if delay == "transport":
+        k = np.concatenate(([0], edge_indices(cmd)))
+        level = cmd[k].astype(bool)
+        hold = np.where(level, params.t_on, params.t_off)
+        hold[0] = 0.0
+        t = np.arange(n, dtype=np.float64) * dt
+        return replay(t, k * dt, level, hold, p0, params, delay="transport")
 
     # Runs of constant command: starts[j] is the first sample of run j.
     starts = np.concatenate(([0], np.flatnonzero(cmd[1:] != cmd[:-1]) + 1))
@@ -263,6 +291,8 @@ def replay(
     hold: npt.NDArray[np.float64],
     p0: float,
     params: ValveParams,
+    *,
+    delay: str = "hold",
 ) -> npt.NDArray[np.float64]:
     """Exact pressure at any times ``t`` for a sequence of runs of constant command.
 
@@ -281,6 +311,11 @@ def replay(
         Pressure at ``starts[0]``, bar.
     params : ValveParams
         Model parameters.
+    delay : {"hold", "transport"}, optional
+        ``"hold"`` (default): ``hold`` is how long each run holds the pressure still.
+        ``"transport"``: ``hold`` is the transport delay after which each run's command
+        reaches the plant (:func:`transport_runs`); the plant keeps its previous connection
+        meanwhile.
 
     Returns
     -------
@@ -288,11 +323,21 @@ def replay(
         The pressure at ``t``: :func:`run_start_pressures` chains the runs, then
         :func:`segment_pressure` evaluates each sample's run.
     """
+    if _check_delay(delay) == "transport":
+        starts, level = transport_runs(starts, level, hold)
+        hold = np.zeros(starts.size)
     ends = np.append(starts[1:], np.inf)
     active = np.maximum(ends - starts - hold, 0.0)
     p_start = run_start_pressures(level, active, p0, params)
     j = np.searchsorted(starts, t, side="right") - 1
     np.maximum(j, 0, out=j)
+    if j.size > 1 and np.all(j[1:] >= j[:-1]):
+        # Sorted times: each run's samples are contiguous, so the per-run terms are computed
+        # once per run (the same bits as the per-sample path).
+        counts = np.bincount(j, minlength=starts.size)
+        elapsed = t - np.repeat(starts, counts)
+        elapsed -= np.repeat(hold, counts)
+        return segment_pressure(level, p_start, elapsed, params, repeats=counts)
     return segment_pressure(level[j], p_start[j], t - starts[j] - hold[j], params)
 
 
@@ -331,3 +376,66 @@ def run_start_pressures(
             r = sqrt(p) - drop[j]
             p = r * r if r > 0.0 else 0.0
     return np.asarray(out, dtype=np.float64)
+
+
+def transport_runs(
+    starts: npt.ArrayLike, level: npt.ArrayLike, delay: npt.ArrayLike
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+    """The plant's runs of constant connection under the transport-delay convention.
+
+    Parameters
+    ----------
+    starts : array_like of float
+        Start of each command run, s, increasing (the first sample, then every edge).
+    level : array_like of bool
+        Command of each run.
+    delay : array_like of float
+        Transport delay of each run's starting edge, s (>= 0; the first run's is ignored:
+        the valve is settled in it).
+
+    Returns
+    -------
+    starts : numpy.ndarray of float
+        Times at which the plant's connection changes (the first run's start, then every
+        delayed edge that survives), increasing.
+    level : numpy.ndarray of bool
+        Connection of each plant run (True: supply, charging).
+
+    Notes
+    -----
+    The plant follows the most recent command whose delay has elapsed: at time ``t`` its
+    connection is the level after edge ``J(t) = max{j : starts[j] + delay[j] <= t}``. A
+    delayed edge that reaches the plant no later than the one before it (a pulse shorter
+    than the difference of the two delays) cancels that one: the pair is removed and the
+    previous connection persists. With two delays ``t_on >= t_off`` this is
+    ``u_plant(t) = u(t - t_on) and u(t - t_off)``; with ``t_off > t_on``,
+    ``u(t - t_on) or u(t - t_off)``.
+
+    Examples
+    --------
+    >>> s, lv = transport_runs([0.0, 1.0, 1.002], [False, True, False], [0.0, 0.005, 0.001])
+    >>> s.tolist(), lv.tolist()      # a 2 ms high pulse with t_on - t_off = 4 ms: cancelled
+    ([0.0], [False])
+    """
+    st = np.asarray(starts, dtype=np.float64)
+    lv = np.asarray(level, dtype=bool)
+    d = np.asarray(delay, dtype=np.float64)
+    if st.size <= 1:
+        return st.copy(), lv.copy()
+    s = st + d
+    s[0] = st[0]
+    keep = np.ones(s.size, dtype=bool)
+    idx = np.arange(s.size)
+    while True:
+        alive = idx[keep]
+        cross = np.flatnonzero(s[alive[1:]] <= s[alive[:-1]])  # pair (cross, cross+1) in alive
+        cross = cross[cross > 0]  # the first run is the settled state, never an edge
+        if cross.size == 0:
+            break
+        first = cross[np.r_[True, np.diff(cross) > 1]]  # the first pair of each chain
+        keep[alive[first]] = False
+        keep[alive[first + 1]] = False
+    out_s, out_l = s[keep], lv[keep]
+    # Two successive plant runs with the same connection (after a cancellation) merge.
+    same = np.r_[False, out_l[1:] == out_l[:-1]]
+    return out_s[~same], out_l[~same]

@@ -33,7 +33,7 @@ from spa.report.html import (
     png_size,
     unique_anchor,
 )
-from spa.report.params import fits_note, params_table
+from spa.report.params import fits_note, identification_notes, params_table
 from spa.report.summary import summary_html
 from spa.report.table3 import csv_download, table3_html
 
@@ -143,6 +143,9 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
     elif item.kind == PARAMS:
         params = yaml.safe_load(path.read_text(encoding="utf-8"))
         body = f'<div class="scroll">{html_table(params_table(params))}</div>'
+        body += "".join(
+            f'<p class="note">{html.escape(n)}</p>' for n in identification_notes(params)
+        )
         caption += fits_note(params)
     elif item.path == _TABLE3:
         table = pd.read_csv(path)

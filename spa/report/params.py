@@ -10,7 +10,7 @@ import pandas as pd
 
 from spa.report.html import format_value
 
-__all__ = ["PARAM_NAMES", "fits_note", "params_table"]
+__all__ = ["PARAM_NAMES", "fits_note", "identification_notes", "params_table"]
 
 PARAM_NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
 """The identified valve parameters, in the order of the paper (Section 3.2)."""
@@ -81,3 +81,34 @@ def fits_note(params: Mapping[str, Any]) -> str:
         if isinstance(fit, Mapping) and "r2" in fit
     ]
     return f" R² of the fits: {', '.join(parts)}." if parts else ""
+
+
+def identification_notes(params: Mapping[str, Any]) -> list[str]:
+    """The adequacy verdict, the delay convention and every warning of ``params.yaml``.
+
+    Returns
+    -------
+    list of str
+        Plain sentences (no NaN: missing numbers are left out), in that order.
+
+    Examples
+    --------
+    >>> identification_notes({"delay_convention": {"chosen": "hold", "heldout_fit":
+    ...     {"hold": 98.0, "transport": None}}, "warnings": ["t_off is not resolved"]})
+    ['Delay convention: hold (held-out FIT hold 98.0 %, transport n/a).', \
+'Warning: t_off is not resolved']
+    """
+    out = []
+    adequacy = params.get("adequacy") or {}
+    if adequacy.get("sentence"):
+        out.append(str(adequacy["sentence"]))
+    conv = params.get("delay_convention") or {}
+    if conv.get("chosen"):
+        fits = conv.get("heldout_fit") or {}
+        said = ", ".join(
+            f"{k} {v:.1f} %" if isinstance(v, int | float) and math.isfinite(v) else f"{k} n/a"
+            for k, v in fits.items()
+        )
+        out.append(f"Delay convention: {conv['chosen']} (held-out FIT {said}).")
+    out += [f"Warning: {w}" for w in params.get("warnings") or []]
+    return out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -38,6 +39,7 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
             f"relax {them} in the tuning: section of the config."
         )
     pred = best["predicted"]
+    n = _fmt
     setting = ", ".join(
         f"{k}: {v:.6g}" if isinstance(v, float) else f"{k}: {v}" for k, v in best["setting"].items()
     )
@@ -46,19 +48,46 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
     other_name = "J_exact" if score == "J" else "J"
     return (
         f"Use {best['description']} (dataset.yaml modulator: {{{setting}}}): "
-        f"{score} = {j:.2f} bar ({other_name} = {other:.2f}), dead-zone up to "
-        f"xi = {pred['dead_zone']:.2f}, saturation from xi = {pred['saturation']:.2f}, "
-        f"at most {pred['switching_rate']:.0f} valve switchings/s and "
-        f"{pred['chattering'] * 1e3:.1f} mbar chattering, time constant up to "
-        f"{_fmt_tau(pred)}; a simulated staircase fits its line to FIT = {pred['fit']:.1f} %."
+        f"{score} = {n(j, '.2f', ' bar')} ({other_name} = {n(other, '.2f')}), dead-zone up to "
+        f"xi = {n(pred['dead_zone'], '.2f')}, saturation from xi = "
+        f"{n(pred['saturation'], '.2f')}, at most {n(pred['switching_rate'], '.0f')} valve "
+        f"switchings/s and {n(_scaled(pred['chattering'], 1e3), '.1f', ' mbar')} chattering, "
+        f"time constant up to {_fmt_tau(pred)}; a simulated staircase fits its line to FIT = "
+        f"{n(pred['fit'], '.1f', ' %')}."
         + _edge_note(best)
         + _passed_note(rec)
+        + _adequacy_note(rec, best)
     )
+
+
+def _scaled(x: Any, factor: float) -> Any:
+    return x * factor if isinstance(x, int | float) else x
+
+
+def _fmt(x: Any, spec: str, unit: str = "") -> str:
+    """``x`` formatted with ``spec`` and ``unit``; "n/a" for a missing, NaN or infinite value
+    (no NaN or inf ever reaches a sentence)."""
+    if not isinstance(x, int | float) or not math.isfinite(x):
+        return "n/a"
+    return f"{x:{spec}}{unit}"
 
 
 def _fmt_tau(pred: Mapping[str, Any]) -> str:
     tau = (pred.get("tau_m") or {}).get("max")
-    return "n/a" if tau is None else f"{tau:.2f} s"
+    return _fmt(tau, ".2f", " s")
+
+
+def _adequacy_note(rec: Mapping[str, Any], best: Mapping[str, Any]) -> str:
+    """The identification's adequacy clause for the recommended modulator, as a sentence."""
+    if rec.get("adequacy") is None:
+        return ""
+    from spa.identification.adequacy import adequacy_clause
+
+    kind = str((best.get("setting") or {}).get("type", ""))
+    clause = adequacy_clause(rec["adequacy"], kind)
+    if not clause:
+        return ""
+    return f" Not verified: {clause}."
 
 
 def _edge_note(best: Mapping[str, Any]) -> str:

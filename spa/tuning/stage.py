@@ -66,6 +66,8 @@ class Identified:
     clipped : dict
         ``name -> note`` for intervals clipped to the parameter's domain
         (:func:`spa.tuning.intervals.read_intervals`).
+    adequacy : dict or None
+        The identification's ``adequacy:`` (None: not assessed).
     """
 
     params: ValveParams
@@ -73,6 +75,7 @@ class Identified:
     fallback: Mapping[str, str] = field(default_factory=dict)
     source: str = "arguments"
     clipped: Mapping[str, str] = field(default_factory=dict)
+    adequacy: Mapping[str, Any] | None = None
 
 
 def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
@@ -138,7 +141,9 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     except ValueError as exc:
         raise TuningError(f"{where}: {exc}") from None
     fallback = source.get("fallback") or {}
-    return Identified(params, intervals, dict(fallback), where, clipped)
+    adequacy = source.get("adequacy")
+    adequacy = dict(adequacy) if isinstance(adequacy, Mapping) else None
+    return Identified(params, intervals, dict(fallback), where, clipped, adequacy)
 
 
 @dataclass(frozen=True)
@@ -284,6 +289,12 @@ def tune(
         "n_xi": n,
         **rec,
     }
+    if ident.adequacy is not None:
+        from spa.identification.adequacy import adequacy_clause
+
+        kind = str(best["setting"].get("type", "")) if best else ""
+        rec["adequacy"] = dict(ident.adequacy)
+        rec["verified"] = bool(best) and not adequacy_clause(ident.adequacy, kind)
     rec["sentence"] = recommendation_sentence(rec)
     return TuningResult(ident, table1, data, table2, curves, candidates, rec)
 

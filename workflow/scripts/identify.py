@@ -14,12 +14,25 @@ def main() -> list[str]:
     runs, metas = read_runs(snakemake.input.runs)
     kinds = {rid: m["kind"] for rid, m in metas.items()}
     config = {"identification": snakemake.params.cfg, "nominal": snakemake.params.nominal}
-    result = identify_with_config(runs, kinds, {**config, "seed": snakemake.params.seed})
+    modulators = {
+        rid: m["modulator"].kind if m.get("modulator") else "" for rid, m in metas.items()
+    }
+    command_dt = {rid: m["controller_dt"] for rid, m in metas.items() if m.get("controller_dt")}
+    result = identify_with_config(
+        runs,
+        kinds,
+        {**config, "seed": snakemake.params.seed},
+        modulators=modulators,
+        command_dt=command_dt,
+    )
     for name, reason in result.fallback.items():
         log.warning("%s: FALLBACK to the nominal value for %s: %s", dataset, name, reason)
+    if result.adequacy:
+        log.info("%s: %s", dataset, result.adequacy["sentence"])
     write_identification(result, runs, kinds, snakemake.output, dataset, log)
     supply = snakemake.params.get("supply")
     notes = [w for w in [k2_warning(result.to_valve_params().k2, metas, supply)] if w]
+    notes += list(result.warnings)
     for note in notes:
         log.warning("%s: %s", dataset, note)
     return notes
