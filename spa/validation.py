@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,6 +34,7 @@ __all__ = [
     "model_response",
     "validate_run",
     "validate_runs",
+    "with_fit_before_refinement",
 ]
 
 
@@ -394,3 +396,44 @@ def validate_runs(
         )
     columns = ["run", "kind", "modulator", "setting", "fit_percent", "rmse", "max_abs_error"]
     return pd.DataFrame(rows, columns=[*columns, "n", "p0"])
+
+
+def with_fit_before_refinement(
+    table: pd.DataFrame,
+    runs: Mapping[str, pd.DataFrame],
+    params_file: str | Path,
+    modulators: Mapping[str, Mapping[str, Any] | None] | None = None,
+    kinds: Mapping[str, str] | None = None,
+) -> pd.DataFrame:
+    """``table`` (:func:`validate_runs`) with each run's FIT before the refinement beside it.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`validate_runs` with the identified (refined) parameters.
+    runs, modulators, kinds
+        As :func:`validate_runs`.
+    params_file : str or Path
+        The identification's ``params.yaml``; its ``refinement: start:`` holds the charge,
+        discharge and pulse fits' parameters.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with ``fit_before_refinement`` (%) before ``fit_percent``; ``table`` itself
+        when the file records no refinement.
+    """
+    import yaml
+
+    with open(params_file) as fh:
+        start = ((yaml.safe_load(fh) or {}).get("refinement") or {}).get("start")
+    if not start:
+        return table
+    before = validate_runs(runs, ValveParams(**start), modulators, kinds)
+    out = table.copy()
+    out.insert(
+        out.columns.get_loc("fit_percent"),
+        "fit_before_refinement",
+        before["fit_percent"].to_numpy(),
+    )
+    return out

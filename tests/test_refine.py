@@ -249,3 +249,27 @@ def test_a_poorly_described_valve_gets_sentences_that_say_so() -> None:
     assert rec["verified"] is False
     assert "does not describe this valve well enough" in rec["sentence"]
     assert worst in rec["sentence"]
+
+
+def test_fit_csv_shows_the_fit_before_the_refinement(tmp_path) -> None:
+    import yaml
+
+    from spa.validation import validate_runs, with_fit_before_refinement
+
+    truth = ValveParams(t_on=0.004, t_off=0.025)
+    runs, kinds, mods = _dataset(truth, 1000.0, delay="transport", seed=5)
+    res = identify_with_config(
+        runs, kinds, CONFIG, modulators=mods, command_dt=dict.fromkeys(runs, 1e-3)
+    )
+    path = tmp_path / "params.yaml"
+    path.write_text(yaml.safe_dump(res.to_dict()))
+    table = validate_runs(runs, res.to_valve_params(), None, kinds)
+    out = with_fit_before_refinement(table, runs, path, None, kinds)
+    assert (
+        list(out.columns).index("fit_before_refinement")
+        == list(out.columns).index("fit_percent") - 1
+    )
+    stair = out.set_index("run").loc["staircase_pwm20"]
+    assert stair["fit_percent"] > stair["fit_before_refinement"]
+    path.write_text(yaml.safe_dump({k: v for k, v in res.to_dict().items() if k != "refinement"}))
+    assert "fit_before_refinement" not in with_fit_before_refinement(table, runs, path, None, kinds)

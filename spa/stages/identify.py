@@ -47,6 +47,8 @@ def write_identification(
     with open(out.get("params"), "w") as fh:
         dump_yaml(result.to_dict(), fh, sort_keys=False)
     (log or _LOG).info("identified %s", result.to_valve_params())
+    if result.adequacy:
+        (log or _LOG).info("%s", result.adequacy["sentence"])
     fallback = "; ".join(f"{k} from the fallback" for k in result.fallback)
     for data_fn, fig_fn, fit, key, kind in (
         (fig2a_data, fig2a, result.charge, "fig2a", "charge"),

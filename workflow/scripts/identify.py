@@ -1,7 +1,7 @@
 """Identify c1, k2, tau2, t_on, t_off of one dataset; write params.yaml and Fig. 2."""
 
 from spa.datasets.checks import k2_warning
-from spa.identification import identify_with_config
+from spa.identification import identify_with_config, run_context
 from spa.io import get_logger, read_runs
 from spa.pipeline.status import run_stage
 from spa.stages.identify import write_identification
@@ -14,21 +14,13 @@ def main() -> list[str]:
     runs, metas = read_runs(snakemake.input.runs)
     kinds = {rid: m["kind"] for rid, m in metas.items()}
     config = {"identification": snakemake.params.cfg, "nominal": snakemake.params.nominal}
-    modulators = {
-        rid: m["modulator"].kind if m.get("modulator") else "" for rid, m in metas.items()
-    }
-    command_dt = {rid: m["controller_dt"] for rid, m in metas.items() if m.get("controller_dt")}
+    modulators, command_dt = run_context(metas)
+    settings = {**config, "seed": snakemake.params.seed}
     result = identify_with_config(
-        runs,
-        kinds,
-        {**config, "seed": snakemake.params.seed},
-        modulators=modulators,
-        command_dt=command_dt,
+        runs, kinds, settings, modulators=modulators, command_dt=command_dt
     )
     for name, reason in result.fallback.items():
         log.warning("%s: FALLBACK to the nominal value for %s: %s", dataset, name, reason)
-    if result.adequacy:
-        log.info("%s: %s", dataset, result.adequacy["sentence"])
     write_identification(result, runs, kinds, snakemake.output, dataset, log)
     supply = snakemake.params.get("supply")
     notes = [w for w in [k2_warning(result.to_valve_params().k2, metas, supply)] if w]

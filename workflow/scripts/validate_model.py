@@ -2,14 +2,11 @@
 
 from pathlib import Path
 
-import yaml
-
 from spa.io import get_logger, read_params, read_runs, write_csv
-from spa.model.params import ValveParams
 from spa.pipeline.status import run_stage
 from spa.plots.identification import validation_data, validation_figure
 from spa.plots.save import draw
-from spa.validation import validate_run, validate_runs
+from spa.validation import validate_run, validate_runs, with_fit_before_refinement
 
 log = get_logger("validate_model", snakemake.log[0])
 
@@ -21,16 +18,8 @@ def main() -> None:
     table = validate_runs(
         runs, params, modulators, {rid: meta["kind"] for rid, meta in metas.items()}
     )
-    with open(snakemake.input.params) as fh:
-        start = ((yaml.safe_load(fh) or {}).get("refinement") or {}).get("start")
-    if start:  # each run's FIT with the estimates before the refinement, beside the refined
-        kinds = {rid: meta["kind"] for rid, meta in metas.items()}
-        before = validate_runs(runs, ValveParams(**start), modulators, kinds)
-        table.insert(
-            table.columns.get_loc("fit_percent"),
-            "fit_before_refinement",
-            before["fit_percent"].to_numpy(),
-        )
+    kinds = {rid: meta["kind"] for rid, meta in metas.items()}
+    table = with_fit_before_refinement(table, runs, snakemake.input.params, modulators, kinds)
     write_csv(table.drop(columns="p0"), snakemake.output.fit)
     for row in table.itertuples():
         log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
