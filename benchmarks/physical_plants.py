@@ -8,10 +8,10 @@ sensor lag up to 5 ms; seeded), and for each:
    ``spa.synthetic.identification_experiment_for`` on the plant's equivalent model) and a
    staircase of the input fraction (0 -> 1 by 0.1, each level held ``max(3 s, 5 tau2)``)
    through PWM 20 Hz, IIPFM 20 ms G 1.15 and DSM 20 ms, logged at 1 kHz;
-2. identifies the valve with today's identification (``config/config.yaml``'s
-   ``identification:``) from the charge, discharge and pulse runs;
-3. scores the identified model on each staircase (held out: identification never sees
-   them) with the FIT of ``validation/fit.csv``;
+2. identifies the valve with the configuration's ``identification:`` (the charge, discharge
+   and pulse fits, then the refinement on every run with a valve command);
+3. scores the identified model on each staircase: held out (leave one run out) and with the
+   FIT of ``validation/fit.csv``;
 4. with ``--closed-loop``: designs a fixed PI at the identified valve for PWM (20 Hz, slower
    when the identified delays need it; ``spa.closedloop.export.export_designed``, levels at
    20/40/60 % of the identified supply that it holds, each held as long as a staircase
@@ -20,14 +20,22 @@ sensor lag up to 5 ms; seeded), and for each:
    as spa measures its own (``measure_staircase``): worst overshoot, unsettled steps, worst
    error and ripple.
 
-One CSV row per plant (its settings, its equivalent model, the identified parameters, each
-staircase's FIT and their median, the closed-loop outcome); a summary on stdout. Later it will
-also run the adequacy verdict, the closed-loop stage's promise and compare them with the
-outcome (issue targets: held-out median staircase FIT >= 85 %, promise kept on >= 90 % of
-plants, at most 10 % unverified).
+5. with ``--promise``: reads the adequacy verdict, runs the ``closed_loop`` stage's design
+   for the dataset (``spa.closedloop.promise.design_for_dataset``: the config's
+   ``analytic.selected``, its ``closed_loop:``, the model error of the staircases, the promise
+   over the merged box), closes the exported header on the plant in C over the promise's
+   levels and hold (settled at the first level) and checks the promise
+   (``spa.closedloop.promise.promise_kept``).
+
+Identification gets the runs' modulators and the command's step, as the pipeline does; the
+held-out staircase FIT is each staircase's leave-one-run-out FIT of the cycle means
+(``refinement.fit_heldout``); ``fit_<run>`` is the identified model's FIT on the raw pressure
+(``validation/fit.csv``'s, in-sample since the refinement sees every run). One CSV row per
+plant; a summary on stdout (targets: held-out median staircase FIT >= 85 %, promise kept on
+>= 90 % of plants, at most 10 % unverified).
 
 Run:  nice .venv/bin/python benchmarks/physical_plants.py [--n 20] [--seed 1]
-      [--closed-loop] [--csv /tmp/physplant/plants.csv]
+      [--closed-loop] [--promise] [--csv /tmp/physplant/plants.csv]
 """
 
 from __future__ import annotations
@@ -65,7 +73,9 @@ DT = 1e-3
 NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
 
 
-def one_plant(index: int, seed: int, config: dict, closed_loop: bool) -> dict:
+def one_plant(
+    index: int, seed: int, config: dict, closed_loop: bool, promise: bool = False
+) -> dict:
     """Generate, identify and score one plant; a row of the table."""
     rng = np.random.default_rng([seed, index])
     plant = random_plant(rng)
@@ -94,8 +104,15 @@ def one_plant(index: int, seed: int, config: dict, closed_loop: bool) -> dict:
     mods = {s.id: s.modulator for s in specs}
     row["generate_s"] = time.perf_counter() - start
     start = time.perf_counter()
+    metas = {s.id: {"kind": s.kind} for s in specs}
     try:
-        res = identify_with_config(runs, kinds, config, seed=seed)
+        res = identify_with_config(
+            runs,
+            kinds,
+            {**config, "seed": seed},
+            modulators={rid: (m["type"] if m else "") for rid, m in mods.items()},
+            command_dt=dict.fromkeys(runs, DT),
+        )
     except Exception as err:  # the benchmark reports every failure
         row["error"] = f"{type(err).__name__}: {err}"
         return row
@@ -109,10 +126,84 @@ def one_plant(index: int, seed: int, config: dict, closed_loop: bool) -> dict:
             fit = validate_run(runs[rid], ident, mods[rid]).fit_percent
             row[f"fit_{rid}"] = fit
             fits.append(fit)
-    row["heldout_median_fit"] = float(np.median(fits))
+    row["insample_median_fit"] = float(np.median(fits))
+    identified = res.to_dict()
+    ref = identified.get("refinement") or {}
+    held = {k: v for k, v in (ref.get("fit_heldout") or {}).items() if kinds.get(k) == "staircase"}
+    for rid, fit in held.items():
+        row[f"heldout_{rid}"] = fit
+    vals = [v for v in held.values() if v is not None and math.isfinite(v)]
+    row["heldout_median_fit"] = float(np.median(vals)) if vals else math.nan
+    adequacy = identified.get("adequacy") or {}
+    row["adequate"] = bool(adequacy.get("adequate", False))
+    row["adequacy_heldout_median"] = (adequacy.get("heldout_fit") or {}).get("median")
     if closed_loop:
         row.update(_closed_loop(plant, ident, rng, float(hold)))
+    if promise:
+        row.update(_promise(plant, identified, runs, metas, config, rng))
     return row
+
+
+def _promise(plant, identified, runs, metas, config, rng) -> dict:
+    """The closed-loop stage's design for this dataset (its choice, the promise over the box
+    merged with the measured model error, the header), then the header closed on the plant
+    in C over the promise's staircase, settled at its first level, measured as spa measures
+    (``spa.closedloop.promise.promise_kept``)."""
+    from spa.closedloop.experiments import cycle_period
+    from spa.closedloop.promise import design_for_dataset, promise_kept
+    from spa.model.modulators import Modulator
+
+    start = time.perf_counter()
+    cfg = config.get("closed_loop") or {}
+    try:
+        result, bench = design_for_dataset(
+            identified, runs, metas, config["analytic"]["selected"], cfg
+        )
+    except Exception as err:
+        return {"promise_error": f"{type(err).__name__}: {err}"}
+    summary = bench.summary or {}
+    promise = summary.get("promise") or {}
+    out: dict = {
+        "design_s": time.perf_counter() - start,
+        "promise_error": "",
+        "chosen": Modulator.from_mapping(result.controllers["setting"]).label
+        if result.controllers.get("setting")
+        else "",
+        "verified": bool(summary.get("verified", False)),
+        "adequacy_clause": summary.get("adequacy_clause", ""),
+        "promise_made": bool(promise.get("kept", False)),
+        "promise_tau_c": promise.get("tau_c"),
+        "promise_overshoot": promise.get("overshoot"),
+        "promise_ripple_pp": promise.get("ripple_pp"),
+        "promise_hold": promise.get("hold"),
+    }
+    if not promise or not result.controllers.get("setting"):
+        return {**out, "kept": False}
+    levels, hold = [float(v) for v in promise["levels"]], float(promise["hold"])
+    mod = Modulator.from_mapping(result.controllers["setting"])
+    period = cycle_period(mod, res_params(identified), float(np.median(levels)), DT)
+    with tempfile.TemporaryDirectory(prefix="spa-bench-") as tmp:
+        header = Path(tmp) / "controller.h"
+        header.write_text(bench.header)
+        try:
+            run = close_loop_in_c(header, plant, levels, hold, lead=hold, rng=rng)
+        except Exception as err:
+            return {**out, "kept": False, "promise_error": f"{type(err).__name__}: {err}"}
+    _, measured = measure_staircase(run, period, skip=hold, r_initial=levels[0])
+    verdict = promise_kept(measured, promise, float(cfg.get("max_overshoot", 10.0)))
+    return {
+        **out,
+        **{f"plant_{k}": v for k, v in measured.items()},
+        **{f"check_{k}": v for k, v in verdict.items()},
+        "kept": verdict["kept"] and out["verified"],
+    }
+
+
+def res_params(identified: dict):
+    """The identified valve of a ``params.yaml`` mapping."""
+    from spa.tuning.stage import read_identified
+
+    return read_identified(identified).params
 
 
 def _closed_loop(plant, ident, rng, hold: float) -> dict:
@@ -147,12 +238,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--n", type=int, default=20, help="plants drawn")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--closed-loop", action="store_true", help="also close a designed PI in C")
+    ap.add_argument(
+        "--promise",
+        action="store_true",
+        help="the closed-loop stage's design and promise, its header closed on the plant in C",
+    )
     ap.add_argument("--csv", type=Path, default=None, help="per-plant table")
     args = ap.parse_args(argv)
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     rows = []
     for i in range(args.n):
-        row = one_plant(i, args.seed, config, args.closed_loop)
+        row = one_plant(i, args.seed, config, args.closed_loop, args.promise)
         rows.append(row)
         fit = row.get("heldout_median_fit", float("nan"))
         print(
@@ -163,7 +259,13 @@ def main(argv: list[str] | None = None) -> int:
             + (f"; loop overshoot {row['loop_worst_overshoot']:.1f} %, "
                f"{row['loop_unsettled']} unsettled" if "loop_worst_overshoot" in row else "")
             + (f"; loop: {row['loop_error']}" if row.get("loop_error") else "")
-            + (f"; {row['error']}" if row.get("error") else ""),
+            + (f"; {row['error']}" if row.get("error") else "")
+            + (f"; chose {row.get('chosen')}, verified {row.get('verified')}, promised "
+               f"{row.get('promise_overshoot')} % (made {row.get('promise_made')}), on plant "
+               f"{row.get('plant_worst_overshoot', math.nan):.1f} %, end error "
+               f"{row.get('plant_worst_error', math.nan):.2f} %, ripple "
+               f"{1e3 * row.get('plant_worst_ripple_pp', math.nan):.1f} mbar, kept "
+               f"{row.get('kept')} {row.get('promise_error') or ''}" if "kept" in row else ""),
             flush=True,
         )  # fmt: skip
     table = pd.DataFrame(rows)
@@ -177,6 +279,20 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"held-out staircase FIT, median over plants of each plant's median: "
             f"{fits.median():.1f} % (>= 85 %: {100 * (fits >= 85).mean():.0f} % of plants)"
+        )
+    if "kept" in table:
+        n = len(table)
+        made = table.get("promise_made", pd.Series(dtype=bool)).fillna(False).astype(bool)
+        unver = ~table.get("verified", pd.Series(False, index=table.index)).fillna(False).astype(
+            bool
+        )
+        kept = table["kept"].fillna(False).astype(bool)
+        print(
+            f"adequate: {int(table['adequate'].fillna(False).astype(bool).sum())} of {n}; "
+            f"promise made (kept over the box, meets max_overshoot): {int(made.sum())} of {n}; "
+            f"unverified: {int(unver.sum())} of {n} ({100 * unver.mean():.0f} %); "
+            f"promise kept on the plant in C (verified, overshoot within 5 points, every level "
+            f"within 2 %, ripple within 2x): {int(kept.sum())} of {n} ({100 * kept.mean():.0f} %)"
         )
     if "loop_worst_overshoot" in table:
         loop = table[table.get("loop_error", "") == ""]

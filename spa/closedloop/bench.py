@@ -257,7 +257,6 @@ def bench_outputs(
     """
     from spa.closedloop.design import design_pi
     from spa.closedloop.model_error import widen
-    from spa.closedloop.stage import level_hold
 
     c = {**DEFAULTS, **dict(cfg or {})}
     ctl = result.controllers
@@ -290,6 +289,12 @@ def bench_outputs(
     own = [float(v) for v in entry.get("levels", levels)]
     tau_c = float(ctl.get("tau_c", c["tau_c"]))
     box = widen(intervals, model_error or {})
+    # Set-points in each plant's own scale: at most the highest fraction of its supply the
+    # stage asks for (levels_fraction), or max_level_fraction when the levels are absolute.
+    top = float(c["max_level_fraction"])
+    if c.get("levels") is None and c.get("levels_fraction"):
+        top = min(top, max(float(v) for v in c["levels_fraction"]))
+    own = box_levels(mod, params, box, own, top)
     rd = robust_design(
         mod,
         name,
@@ -300,7 +305,7 @@ def bench_outputs(
         dt=dt,
         tau_c=tau_c,
         limit=limit,
-        hold_of=lambda tau: level_hold(mod, params, own, tau, c),
+        hold_of=lambda tau: box_hold(mod, params, box, own, tau, c),
     )
     shipped_tau = rd.tau_c_robust if rd.tau_c_robust is not None else tau_c
     worst = rd.worst_robust if rd.tau_c_robust is not None else rd.worst
@@ -333,7 +338,7 @@ def bench_outputs(
         "tau_c": shipped_tau,
         "controller": ctrl.to_mapping(),
         "levels": own,
-        "hold": level_hold(mod, params, own, shipped_tau, c),
+        "hold": box_hold(mod, params, box, own, shipped_tau, c),
         "overshoot": worst.get("overshoot", math.nan),
         "settling_time": worst.get("settling_time", math.nan),
         "end_error": worst.get("end_error", math.nan),
@@ -386,6 +391,82 @@ def bench_outputs(
         plain,
         bench_sentence(plain),
     )
+
+
+def box_hold(
+    mod: Modulator,
+    params: ValveParams,
+    box: Mapping[str, tuple[float, float]],
+    levels: list[float],
+    tau_c: float,
+    cfg: Mapping[str, Any],
+) -> float:
+    """Each level's hold for the promise: the longest
+    :func:`spa.closedloop.stage.level_hold` over the estimate and every corner of the box,
+    so that the slowest plant the promise covers gets its transit plus five closed-loop time
+    constants too. A PI designed at the estimate closes a slower loop on a plant whose local
+    gain ``K = dP_eq/dxi`` is lower by ``g < 1`` (its crossover, and so its closed-loop
+    time constant, scale by ``1/g``): such a corner's hold is taken at ``tau_c/g``.
+
+    Examples
+    --------
+    >>> m = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
+    >>> c = {**DEFAULTS, "hold": None}
+    >>> box_hold(m, ValveParams(), {"tau2": (0.5, 1.5)}, [0.2, 0.3], 0.2, c) > box_hold(
+    ...     m, ValveParams(), {}, [0.2, 0.3], 0.2, c)
+    True
+    """
+    from spa.closedloop.design import local_models
+    from spa.closedloop.levels import held_range
+    from spa.closedloop.robust import corners
+    from spa.closedloop.stage import level_hold
+
+    k_est = local_models(levels, mod, params).gain
+    out = level_hold(mod, params, levels, tau_c, cfg)
+    for v in corners(params, box):
+        if held_range(mod, v) is None:
+            continue  # the setting cannot work on this corner: no hold makes it
+        k = local_models(levels, mod, v).gain
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = k / k_est
+        finite = ratio[np.isfinite(ratio) & (ratio > 0)]
+        g = min(1.0, float(finite.min())) if finite.size else 1.0
+        out = max(out, level_hold(mod, v, levels, tau_c / max(g, 0.1), cfg))
+    return out
+
+
+def box_levels(
+    mod: Modulator,
+    params: ValveParams,
+    box: Mapping[str, tuple[float, float]],
+    levels: list[float],
+    max_fraction: float = 0.95,
+) -> list[float]:
+    """The set-points that every valve of the box holds with ``mod``.
+
+    A plant of the box whose supply is lower than a set-point cannot hold it, whatever the
+    controller: the promise can only be about the set-points every plant holds
+    (:func:`spa.closedloop.levels.held_range` at the estimate and each corner). When fewer
+    than two are left, ``levels`` is returned unchanged (the promise then fails on them and
+    says so).
+
+    Examples
+    --------
+    >>> m = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
+    >>> box_levels(m, ValveParams(), {"k2": (0.6, 1.0)}, [0.2, 0.4, 0.6, 0.8])
+    [0.2, 0.4]
+    """
+    from spa.closedloop.levels import held_range
+    from spa.closedloop.robust import corners
+
+    lo, hi = -math.inf, math.inf
+    for valve in (params, *corners(params, box)):
+        held = held_range(mod, valve, max_fraction)
+        if held is None:
+            return list(levels)
+        lo, hi = max(lo, held[0]), min(hi, held[1])
+    kept = [v for v in levels if lo <= v <= hi]
+    return kept if len(kept) >= 2 else list(levels)
 
 
 def _plain(summary: dict[str, Any]) -> dict[str, Any]:

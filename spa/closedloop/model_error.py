@@ -119,7 +119,12 @@ def level_errors(
     with np.errstate(divide="ignore", invalid="ignore"):
         level_floor = MIN_LEVEL_FRACTION * params.k2
         out["rel_error"] = np.where(pp >= level_floor, pm / pp - 1.0, np.nan)
-    out["gain_error"] = same_pressure_gain_error(out["xi"].to_numpy(np.float64), pm, pp, floor)
+    gain = same_pressure_gain_error(out["xi"].to_numpy(np.float64), pm, pp, floor)
+    # Only steps between two levels the model holds above MIN_LEVEL_FRACTION*k2: below it the
+    # modulator's own dead zone (IIPFM, a delay longer than the pulse) dominates the slope, a
+    # ratio of two small differences, and the loop's set-points do not go there.
+    held = np.concatenate(([False], (pp[1:] >= level_floor) & (pp[:-1] >= level_floor)))
+    out["gain_error"] = np.where(held, gain, np.nan)
     return out[list(LEVEL_COLUMNS)]
 
 

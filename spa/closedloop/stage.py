@@ -362,6 +362,7 @@ def closed_loop(
     dt, tau_c = float(c["dt"]), float(c["tau_c"])
     limit = float(c["max_overshoot"])
     mods, rec = _settings(selected, recommendation, params)
+    measured = _measured(recommendation)
     levels_of, unheld, info = setting_levels(mods, params, c)
     tried: list[dict[str, Any]] = []
     first = None
@@ -371,7 +372,7 @@ def closed_loop(
             mods, params, c, used, levels_of, unheld
         )
         table = pd.DataFrame(rows)
-        choice = _choice(table, rec, limit)
+        choice = _choice(table, rec, limit, measured)
         met = choice is not None and _meets(table, *choice, limit)
         tried.append(
             {
@@ -513,14 +514,42 @@ def _meets(table: pd.DataFrame, label: str, controller: str, limit: float) -> bo
     return bool(math.isfinite(over) and over <= limit and _settled(table, label, controller))
 
 
+def _measured(recommendation: Mapping[str, Any] | None) -> frozenset[str] | None:
+    """The modulator types a loop can be verified with: run on this bench and described by
+    the model there (the recommendation's ``adequacy``,
+    :meth:`spa.identification.adequacy.Adequacy.modulator_adequate`); None when not assessed.
+
+    Examples
+    --------
+    >>> sorted(_measured({"adequacy": {"measured_modulators": ["pwm", "dsm"]}}))
+    ['dsm', 'pwm']
+    >>> _measured({}) is None
+    True
+    """
+    from spa.identification.adequacy import Adequacy
+
+    adequacy = (recommendation or {}).get("adequacy")
+    kinds = adequacy.get("measured_modulators") if isinstance(adequacy, Mapping) else None
+    if not kinds:
+        return None
+    a = Adequacy.from_mapping(adequacy)
+    return frozenset(str(k) for k in kinds if a.modulator_adequate(str(k)))
+
+
 def _choice(
-    table: pd.DataFrame, rec: Modulator | None, limit: float = 10.0
+    table: pd.DataFrame,
+    rec: Modulator | None,
+    limit: float = 10.0,
+    measured: frozenset[str] | None = None,
 ) -> tuple[str, str] | None:
     """The setting and controller to use: over every designed setting and controller, the
     smallest worst-case rise time among those overshooting at most ``limit`` % over the
     staircase with every step settled (:func:`_meets`); else, among those that settle, the
     smallest worst-case overshoot; else the smallest worst-case overshoot. Ties go to the
-    tuning's recommended setting, then to the order of the table.
+    tuning's recommended setting, then to the order of the table. When ``measured`` (the
+    modulator types run on this bench and described there by the model, :func:`_measured`)
+    is given, a loop of such a modulator goes before one of another, among those that meet
+    the design: only such a loop can be verified.
 
     The open-loop recommendation ranks linearity; a loop also needs speed without overshoot,
     so the closed loop chooses on its own metrics (its sentence names the setting).
@@ -539,11 +568,15 @@ def _choice(
             ok = _meets(table, label, name, limit)
             settled = _settled(table, label, name)
             key = rise if ok else over
-            scores.append((not ok, not settled, key, label != recommended, order, label, name))
+            kind = label.split("-", 1)[0]  # Modulator.label: "<type>-<setting>"
+            unmeasured = measured is not None and kind not in measured
+            scores.append(
+                (not ok, not settled, unmeasured, key, label != recommended, order, label, name)
+            )
     if not scores:
         return None
     best = min(scores)
-    return best[5], best[6]
+    return best[6], best[7]
 
 
 def closed_loop_sentence(

@@ -71,9 +71,20 @@ class Adequacy:
         return self.threshold / 100.0 * ceiling
 
     def modulator_adequate(self, modulator_type: str) -> bool:
-        """Whether the model is adequate overall and on ``modulator_type``'s runs."""
+        """Whether the model describes ``modulator_type``'s runs: its held-out median over all
+        runs and over that modulator's runs reach the required FIT.
+
+        A loop or a setting of one modulator is judged on that modulator's runs (and the
+        dataset's median), not on another modulator's: ``adequate`` (every modulator) is the
+        dataset's verdict, this one the setting's.
+        """
         fit = _num(self.heldout_per_modulator.get(modulator_type, math.nan))
-        return self.adequate and (not math.isfinite(fit) or fit >= self.required_fit)
+        if not math.isfinite(fit):
+            return self.adequate
+        overall = self.heldout_median
+        return (not math.isfinite(overall) or overall >= self.required_fit) and (
+            fit >= self.required_fit
+        )
 
     @classmethod
     def from_mapping(cls, m: Mapping[str, Any] | None) -> Adequacy:

@@ -469,9 +469,11 @@ def refine_result(
                     f"({key}: 0): {name} comes from the other runs' edges only; record a "
                     f"pulse train whose {what} edges move the pressure"
                 )
+    # The verdict is about the model the downstream stages use: the five top-level (hold
+    # convention) parameters, whichever convention describes the runs better.
     adequacy = assess(
-        hold.fit_heldout if chosen == "hold" else fits[chosen].fit_heldout,
-        hold.fit_after if chosen == "hold" else fits[chosen].fit_after,
+        hold.fit_heldout,
+        hold.fit_after,
         hold.noise_ceiling,
         {r.rid: r.modulator for r in prepared},
         threshold,

@@ -420,7 +420,7 @@ def refine(
     *,
     delay: str = "hold",
     max_delay: float = 0.05,
-    max_nfev: int = 6,
+    max_nfev: int = 30,
 ) -> RefineFit:
     """Fit the exact model's five parameters to the cycle means of ``runs``.
 

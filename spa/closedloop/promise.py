@@ -1,0 +1,137 @@
+"""The closed-loop stage's promise, made for a dataset and checked on a plant.
+
+:func:`design_for_dataset` runs what the ``closed_loop`` stage runs for one dataset (the
+designs, the model error measured on its staircases, the promise over the merged box and the
+header), from an identification's ``params.yaml`` content and the dataset's runs, so that a
+test or a benchmark makes the same controller as the pipeline. :func:`promise_kept` compares
+a staircase measured on a plant (``spa.synthetic.physical.measure_staircase``) with the
+promise in ``controllers.yaml`` (``bench.promise``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import pandas as pd
+
+from spa.closedloop.bench import BenchOutputs
+
+__all__ = ["OVERSHOOT_MARGIN", "RIPPLE_FACTOR", "SETTLE_BAND", "design_for_dataset", "promise_kept"]
+
+#: Percentage points by which the overshoot on the plant may exceed the promised one.
+OVERSHOOT_MARGIN = 5.0
+#: %: every level must end within this share of its step (the mean over the last quarter).
+SETTLE_BAND = 2.0
+#: A ripple beyond this many times the promised one is a limit cycle the promise did not make.
+RIPPLE_FACTOR = 2.0
+
+
+def design_for_dataset(
+    identified: Mapping[str, Any],
+    runs: Mapping[str, pd.DataFrame],
+    metas: Mapping[str, Mapping[str, Any]],
+    selected: Iterable[Mapping[str, Any]],
+    cfg: Mapping[str, Any] | None = None,
+    recommendation: Mapping[str, Any] | None = None,
+) -> tuple[Any, BenchOutputs]:
+    """The ``closed_loop`` stage of one dataset, in memory.
+
+    Parameters
+    ----------
+    identified : mapping
+        ``params.yaml``'s content (``IdentificationResult.to_dict()``).
+    runs, metas : mapping
+        Run id -> run table and metadata (``kind``; staircases give the model error).
+    selected : iterable of mapping
+        The settings compared (the config's ``analytic.selected``).
+    cfg : mapping, optional
+        The config's ``closed_loop:`` section.
+    recommendation : mapping, optional
+        The tuning's ``recommendation.yaml``; without one, ``identified``'s ``adequacy`` is
+        used so that the choice knows which modulators the bench ran.
+
+    Returns
+    -------
+    result : spa.closedloop.stage.ClosedLoopResult
+    bench : BenchOutputs
+        ``bench.header`` is ``controller.h``; ``bench.summary["promise"]`` the promise.
+    """
+    from spa.closedloop.bench import adequacy_of, apply_bench, bench_outputs, sensor_noise
+    from spa.closedloop.model_error import dataset_error
+    from spa.closedloop.stage import closed_loop
+    from spa.tuning.stage import read_identified
+
+    valve = read_identified(identified)
+    if recommendation is None and isinstance(identified.get("adequacy"), Mapping):
+        recommendation = {"adequacy": identified["adequacy"]}
+    result = closed_loop(valve.params, list(selected), recommendation, cfg)
+    with_ff = result.controllers.get("controller") == "scheduled_ff"
+    error = dataset_error(runs, metas, valve.params, identified, equilibrium=with_ff)
+    bench = bench_outputs(
+        result,
+        valve.params,
+        valve.intervals,
+        cfg,
+        sensor_noise(identified),
+        model_error=error,
+        adequacy=adequacy_of(identified),
+    )
+    apply_bench(result, bench)
+    return result, bench
+
+
+def promise_kept(
+    measured: Mapping[str, float],
+    promise: Mapping[str, Any],
+    max_overshoot: float,
+) -> dict[str, Any]:
+    """Whether a staircase measured on a plant keeps the promise.
+
+    Parameters
+    ----------
+    measured : mapping
+        ``measure_staircase``'s summary: ``worst_overshoot`` (%), ``worst_error`` (largest
+        end error, % of its step), ``worst_ripple_pp`` (bar).
+    promise : mapping
+        ``controllers.yaml: bench.promise`` (``kept``, ``overshoot``, ``ripple_pp``).
+    max_overshoot : float
+        ``closed_loop.max_overshoot``, %: the promise itself must meet it.
+
+    Returns
+    -------
+    dict
+        ``promised`` (a promise was made and meets ``max_overshoot``), ``overshoot_ok``
+        (within :data:`OVERSHOOT_MARGIN` points of it), ``settled_ok`` (every level within
+        :data:`SETTLE_BAND` % of its step at the end of its hold), ``ripple_ok`` (at most
+        :data:`RIPPLE_FACTOR` times the promised ripple) and ``kept`` (all four).
+
+    Examples
+    --------
+    >>> promise_kept({"worst_overshoot": 12.0, "worst_error": 0.5, "worst_ripple_pp": 0.01},
+    ...              {"kept": True, "overshoot": 8.0, "ripple_pp": 0.008}, 10.0)["kept"]
+    True
+    >>> promise_kept({"worst_overshoot": 14.0, "worst_error": 0.5, "worst_ripple_pp": 0.01},
+    ...              {"kept": True, "overshoot": 8.0, "ripple_pp": 0.008}, 10.0)["overshoot_ok"]
+    False
+    """
+
+    def num(v: Any) -> float:
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return math.nan
+
+    over, ripple = num(promise.get("overshoot")), num(promise.get("ripple_pp"))
+    promised = bool(promise.get("kept")) and math.isfinite(over) and over <= max_overshoot
+    out = {
+        "promised": promised,
+        "overshoot_ok": promised
+        and num(measured.get("worst_overshoot")) <= over + OVERSHOOT_MARGIN,
+        "settled_ok": num(measured.get("worst_error")) <= SETTLE_BAND,
+        "ripple_ok": math.isfinite(ripple)
+        and num(measured.get("worst_ripple_pp")) <= RIPPLE_FACTOR * ripple,
+    }
+    out["kept"] = all(out.values())
+    return out

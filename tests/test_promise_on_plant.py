@@ -1,0 +1,148 @@
+"""The closed-loop promise, checked on physical plants that are not the model.
+
+For the full config's physical-plant datasets (shortened experiments), the dataset is made
+by the plant, identified, the closed-loop stage designs and exports its controller
+(``spa.closedloop.promise.design_for_dataset``), the exported header is compiled with the
+plant in C and closed on it over the promise's staircase, and the sentence's promise is
+checked on what the plant did (``spa.closedloop.promise.promise_kept``). A missing C
+compiler FAILS these tests: the plant in C is what they check. And a poorly described
+valve gets a closed-loop sentence that says so.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from spa.closedloop.experiments import cycle_period
+from spa.closedloop.promise import design_for_dataset, promise_kept
+from spa.identification import identify_with_config
+from spa.model.modulators import Modulator
+from spa.synthetic import Sensor, identification_experiment_for
+from spa.synthetic.physical import (
+    PhysicalPlant,
+    close_loop_in_c,
+    equivalent_params,
+    measure_staircase,
+)
+from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
+from spa.tuning.stage import read_identified
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+DT = 1e-3
+# Shortened: three set-points, the stage's own rules for everything else.
+CLOSED_LOOP = {**CONFIG["closed_loop"], "levels_fraction": [0.2, 0.4, 0.6]}
+
+
+def _compiler() -> None:
+    assert shutil.which("cc"), "no C compiler 'cc' on the PATH: these tests need one"
+
+
+def _dataset(name: str, seed: int = 3):
+    """The dataset's runs made by its plant: identification experiments and one staircase
+    of each of its modulators (each level held max(3 s, 5 tau2))."""
+    entry = CONFIG["simulated"][name]
+    plant = PhysicalPlant.from_mapping(entry["plant"])
+    eq = equivalent_params(plant, DT)
+    cfg = {
+        "controller_dt": DT,
+        "sensor": {"fs": 1000.0},
+        "plant": plant.to_mapping(),
+        "modulators": entry["modulators"],
+    }
+    hold = float(np.ceil(max(3.0, 5.0 * eq.tau2)))
+    experiments = {
+        "identification": identification_experiment_for(eq),
+        "staircase": {"step": 0.1, "hold": hold},
+    }
+    specs = [s for s in dataset_runs(cfg, experiments) if s.kind != "closed_loop"]
+    runs = {
+        s.id: simulate_run(s, eq, DT, Sensor(fs=1000.0), run_seed(seed, name, s.id), plant)
+        for s in specs
+    }
+    metas = {s.id: {"kind": s.kind} for s in specs}
+    mods = {s.id: (s.modulator or {}).get("type", "") for s in specs}
+    return plant, runs, metas, mods, entry["modulators"]
+
+
+def _identify(runs, metas, mods):
+    kinds = {rid: m["kind"] for rid, m in metas.items()}
+    res = identify_with_config(
+        runs,
+        kinds,
+        {**CONFIG, "seed": 1},
+        modulators=mods,
+        command_dt=dict.fromkeys(runs, DT),
+    )
+    return res.to_dict()
+
+
+def test_a_c_compiler_is_present() -> None:
+    _compiler()
+
+
+@pytest.mark.parametrize("name", ["phys-finger", "phys-choked", "phys-balloon"])
+def test_the_exported_controller_keeps_its_promise_on_the_plant(name, tmp_path) -> None:
+    """The header compiles with the plant and runs the promise's staircase on it; a promise
+    that is made and verified holds on the plant. The full target (a verified promise within
+    ``max_overshoot`` on every dataset) is reported as an expected failure, with the
+    numbers, while it is not met."""
+    _compiler()
+    plant, runs, metas, mods, settings = _dataset(name)
+    identified = _identify(runs, metas, mods)
+    result, bench = design_for_dataset(identified, runs, metas, settings, CLOSED_LOOP)
+    assert result.controllers.get("setting"), result.sentence
+    summary = bench.summary
+    promise = summary["promise"]
+    for number in ("nan", "inf"):
+        assert number not in bench.sentence.lower()
+    header = tmp_path / "controller.h"
+    header.write_text(bench.header)
+    levels, hold = [float(v) for v in promise["levels"]], float(promise["hold"])
+    run = close_loop_in_c(header, plant, levels, hold, lead=hold, rng=np.random.default_rng(7))
+    assert len(run) == round((hold * (2 * len(levels) - 1) + hold) / DT)
+    mod = Modulator.from_mapping(result.controllers["setting"])
+    valve = read_identified(identified).params
+    period = cycle_period(mod, valve, float(np.median(levels)), DT)
+    _, measured = measure_staircase(run, period, skip=hold, r_initial=levels[0])
+    verdict = promise_kept(measured, promise, CLOSED_LOOP["max_overshoot"])
+    if summary["verified"] and verdict["promised"]:
+        assert verdict["kept"], (verdict, measured, promise)
+    else:
+        pytest.xfail(
+            f"{name}: verified {summary['verified']}, promise made {verdict['promised']} "
+            f"(promised overshoot {promise.get('overshoot')}); on the plant "
+            f"{measured['worst_overshoot']:.1f} % overshoot, end error "
+            f"{measured['worst_error']:.2f} %: {bench.sentence}"
+        )
+
+
+def test_promise_kept_fails_each_way() -> None:
+    promise = {"kept": True, "overshoot": 8.0, "ripple_pp": 0.01}
+    good = {"worst_overshoot": 12.9, "worst_error": 1.9, "worst_ripple_pp": 0.019}
+    assert promise_kept(good, promise, 10.0)["kept"]
+    for key, bad in (("worst_overshoot", 13.1), ("worst_error", 2.1), ("worst_ripple_pp", 0.021)):
+        assert not promise_kept({**good, key: bad}, promise, 10.0)["kept"], key
+    assert not promise_kept(good, {**promise, "overshoot": 11.0}, 10.0)["promised"]
+    assert not promise_kept(good, {**promise, "kept": False}, 10.0)["kept"]
+
+
+def test_a_poorly_described_valve_gets_a_closed_loop_sentence_that_says_so() -> None:
+    """The finger's dataset with a sensor that saturates (tanh at half its supply): the model
+    cannot describe it; the controller is unverified and its sentence says why."""
+    _, runs, metas, mods, _ = _dataset("phys-finger")
+    for table in runs.values():
+        p = np.clip(table["p"].to_numpy(), 0.0, None)
+        table["p"] = 0.4 * np.tanh(p / 0.4)
+    identified = _identify(runs, metas, mods)
+    assert identified["adequacy"]["adequate"] is False
+    # slow settings, so that a loop is designed at all on what the model makes of it
+    slow = [{"type": "pwm", "f_w": 5.0}, {"type": "dsm", "period": 0.1}]
+    _, bench = design_for_dataset(identified, runs, metas, slow, CLOSED_LOOP)
+    assert bench.summary["verified"] is False
+    assert "does not describe this valve well enough" in bench.sentence
