@@ -79,8 +79,9 @@ def main(argv: list[str] | None = None) -> int:
     own = tracemalloc.get_traced_memory()[1] / 2**20
     tracemalloc.stop()
     samples = sum(len(t) for t in runs.values())
+    name = args.runs.parent.name if args.runs else args.dataset
     print(
-        f"{args.runs.parent.name if args.runs else args.dataset}: {len(runs)} runs, {samples:,} samples; refinement (both conventions, "
+        f"{name}: {len(runs)} runs, {samples:,} samples; refinement (both conventions, "
         f"adequacy) {cpu:.2f} CPU-s, {res.refinement['simulations']} dataset simulations; "
         f"peak RSS of the process (data included) {peak:.0f} MB, allocated by the refinement "
         f"at its peak {own:.0f} MB"
