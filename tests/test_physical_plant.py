@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from spa.synthetic import physical
+from spa.synthetic import _physical_core, physical
 from spa.synthetic.physical import (
     PHYSICAL_KEYS,
     RHO0,
@@ -80,7 +80,7 @@ def test_schema_declares_every_setting_with_the_dataclass_ranges():
     schema = yaml.safe_load(open("workflow/schemas/config.schema.yaml", encoding="utf-8"))
     props = schema["$defs"]["physical_plant"]["properties"]
     assert set(props) - {"kind"} == set(PHYSICAL_KEYS)
-    for key, (lo, hi, lo_open, _) in physical._RANGES.items():
+    for key, (lo, hi, lo_open, _) in _physical_core._RANGES.items():
         assert props[key]["maximum"] == pytest.approx(hi), key
         bound = props[key]["exclusiveMinimum" if lo_open else "minimum"]
         assert bound == pytest.approx(lo), key

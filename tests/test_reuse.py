@@ -13,9 +13,16 @@ from types import SimpleNamespace
 import pytest
 
 from spa.pipeline import reuse
-from spa.pipeline.jobs import Names, joined_outputs, read_files, stage_job, stage_params
+from spa.pipeline.jobs import (
+    Names,
+    joined_outputs,
+    read_files,
+    read_stages,
+    stage_job,
+    stage_params,
+)
 from spa.pipeline.outputs import stage_outputs
-from spa.pipeline.reuse import Store, file_digest, read_stages, run_or_reuse, stage_digest
+from spa.pipeline.reuse import Store, file_digest, run_or_reuse, stage_digest
 
 ROOT = Path(__file__).resolve().parents[1]
 STAGES = {"identify": "identify", "tune": "tune", "sine": "sine", "closed_loop": "closed_loop"}

@@ -25,6 +25,7 @@ __all__ = [
     "Names",
     "joined_outputs",
     "read_files",
+    "read_stages",
     "remove_undrawn_figures",
     "stage_job",
     "stage_params",
@@ -108,7 +109,7 @@ def stage_job(smk: Any, stage: str) -> SimpleNamespace:
     types.SimpleNamespace
         ``wildcards`` and ``config`` as the job's; ``input`` the job's inputs and, under
         their own keys, the outputs of the earlier stages it reads (:attr:`Stage.reads
-        <spa.pipeline.stage_types.Stage.reads>`, :func:`spa.pipeline.reuse.read_stages`; a
+        <spa.pipeline.stage_types.Stage.reads>`, :func:`read_stages`; a
         key the job's inputs or an earlier stage already use is not overwritten:
         identify's ``params`` is tune's ``input.params``); ``output`` the stage's outputs
         under their own keys; ``log`` the stage's log alone; ``params``
@@ -160,10 +161,46 @@ def stage_params(smk: Any, stage: str) -> dict[str, Any]:
     return {k: v for k, v in params.items() if k in declared or k in ("cfg", "code", "stages")}
 
 
+def read_stages(stage: str, order: Iterable[str]) -> list[str]:
+    """The stages of a shared job whose outputs ``stage`` reads.
+
+    Parameters
+    ----------
+    stage : str
+        A stage of :data:`spa.pipeline.stages.STAGES`.
+    order : iterable of str
+        The stages of the job, in the order they run.
+
+    Returns
+    -------
+    list of str
+        Those before ``stage`` that it reads (:attr:`Stage.reads
+        <spa.pipeline.stage_types.Stage.reads>`, else its ``upstream``, else all), in order.
+
+    Examples
+    --------
+    >>> read_stages("tune", ["identify", "tune", "sine"])
+    ['identify']
+    >>> read_stages("sine", ["identify", "tune", "sine"])
+    ['identify']
+    >>> read_stages("page", ["identify", "tune", "page"])
+    ['identify', 'tune']
+    """
+    from spa.pipeline.outputs import get_stage
+
+    order = list(order)
+    before = order[: order.index(stage)] if stage in order else []
+    declared = get_stage(stage).reads
+    if declared is None:
+        declared = get_stage(stage).upstream
+    if declared is None or "*" in declared:
+        return before
+    return [s for s in before if s in declared]
+
+
 def _read_stages(smk: Any, stage: str) -> list[str]:
     """The stages of the job before ``stage`` whose outputs it reads."""
     from spa.pipeline.outputs import get_stage
-    from spa.pipeline.reuse import read_stages
 
     order = list(smk.params.get("stages") or ())
     try:

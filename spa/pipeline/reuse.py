@@ -46,7 +46,7 @@ import os
 import shutil
 import sys
 import tempfile
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -56,7 +56,6 @@ __all__ = [
     "Store",
     "code_digest",
     "file_digest",
-    "read_stages",
     "run_job",
     "run_or_reuse",
     "stage_digest",
@@ -73,43 +72,6 @@ _STATUS_KEY = "status"
 
 _REUSE = "reuse"
 """The status field saying whether the stage was ``"reused"`` or ``"computed"``."""
-
-
-def read_stages(stage: str, order: Iterable[str]) -> list[str]:
-    """The stages of a shared job whose outputs ``stage`` reads.
-
-    Parameters
-    ----------
-    stage : str
-        A stage of :data:`spa.pipeline.stages.STAGES`.
-    order : iterable of str
-        The stages of the job, in the order they run.
-
-    Returns
-    -------
-    list of str
-        Those before ``stage`` that it reads (:attr:`Stage.reads
-        <spa.pipeline.stage_types.Stage.reads>`, else its ``upstream``, else all), in order.
-
-    Examples
-    --------
-    >>> read_stages("tune", ["identify", "tune", "sine"])
-    ['identify']
-    >>> read_stages("sine", ["identify", "tune", "sine"])
-    ['identify']
-    >>> read_stages("page", ["identify", "tune", "page"])
-    ['identify', 'tune']
-    """
-    from spa.pipeline.outputs import get_stage
-
-    order = list(order)
-    before = order[: order.index(stage)] if stage in order else []
-    declared = get_stage(stage).reads
-    if declared is None:
-        declared = get_stage(stage).upstream
-    if declared is None or "*" in declared:
-        return before
-    return [s for s in before if s in declared]
 
 
 def file_digest(path: str | Path, status: bool = False) -> str:
@@ -418,8 +380,8 @@ def run_or_reuse(
     results : path-like
         The results folder; the store is ``<results>/.store``.
     reads : mapping of str to path
-        Every file or folder the stage reads (:func:`read_stages`' outputs and the job's
-        inputs), by key.
+        Every file or folder the stage reads (the outputs of
+        :func:`spa.pipeline.jobs.read_stages` and the job's inputs), by key.
     raw : mapping of str to path
         Raw files the stage reads itself.
     enabled : bool

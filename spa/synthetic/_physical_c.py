@@ -73,7 +73,7 @@ def _build(folder: Path, main: str, cc: str, include: Sequence[Path] = ()) -> Pa
 
 
 def _constants_line(plant: Any, dt: float) -> str:
-    from spa.synthetic.physical import _constants, substeps
+    from spa.synthetic._physical_core import _constants, substeps
 
     return " ".join(repr(float(v)) for v in _constants(plant)) + f" {substeps(plant, dt)}"
 
@@ -113,7 +113,7 @@ def run_plant_in_c(
     FileNotFoundError
         If the compiler ``cc`` is not on PATH.
     """
-    from spa.synthetic.physical import _check_dt
+    from spa.synthetic._physical_core import _check_dt
 
     dt = _check_dt(plant, dt)
     u = np.asarray(valve).astype(np.int8)
@@ -265,7 +265,7 @@ def close_loop_in_c(
         If compiling fails.
     """
     from spa.closedloop.experiments import staircase_reference
-    from spa.synthetic.physical import _check_dt
+    from spa.synthetic._physical_core import _check_dt
 
     header = Path(header_path)
     if not header.is_file():
