@@ -10,15 +10,9 @@ from typing import Any
 import pandas as pd
 import yaml
 
-from spa.closedloop.bench import (
-    BenchOutputs,
-    adequacy_of,
-    apply_bench,
-    bench_outputs,
-    sensor_noise,
-)
-from spa.closedloop.model_error import dataset_error
-from spa.closedloop.stage import ClosedLoopResult, closed_loop, recorded_runs, write_controllers
+from spa.closedloop.bench import BenchOutputs
+from spa.closedloop.promise import design_for_dataset
+from spa.closedloop.stage import ClosedLoopResult, recorded_runs, write_controllers
 from spa.io import read_runs, write_csv
 from spa.plots.closedloop import fig10, fig11, no_design
 from spa.plots.save import draw
@@ -34,7 +28,8 @@ def close_dataset_loop(
     selected: Sequence[Mapping[str, Any]],
     cfg: Mapping[str, Any],
 ) -> tuple[ClosedLoopResult, pd.DataFrame, BenchOutputs]:
-    """The closed_loop stage's work for one dataset, from its files.
+    """The closed_loop stage's work for one dataset, from its files
+    (:func:`spa.closedloop.promise.design_for_dataset` on them).
 
     Designs the PIs for the identified valve (:func:`spa.closedloop.stage.closed_loop`),
     measures the model's error on the dataset's runs
@@ -61,26 +56,16 @@ def close_dataset_loop(
         Each recorded closed-loop run against its replay.
     bench : BenchOutputs
     """
-    valve = read_identified(params_path)
     rec_path = Path(recommendation_path)
-    recommendation = yaml.safe_load(rec_path.read_text()) if rec_path.is_file() else None
-    result = closed_loop(valve.params, selected, recommendation, cfg)
+    # {} rather than None: without a recommendation the stage compares the selected settings
+    # alone (design_for_dataset reads None as "take the adequacy from params.yaml")
+    recommendation = yaml.safe_load(rec_path.read_text()) if rec_path.is_file() else {}
     identified = yaml.safe_load(Path(params_path).read_text())
     runs, metas = read_runs(run_paths)
-    # a loop with the averaged model's feed-forward also meets the equilibrium error
-    with_ff = result.controllers.get("controller") == "scheduled_ff"
-    error = dataset_error(runs, metas, valve.params, identified, equilibrium=with_ff)
-    bench = bench_outputs(
-        result,
-        valve.params,
-        valve.intervals,
-        cfg,
-        sensor_noise(identified),
-        model_error=error,
-        adequacy=adequacy_of(identified),
+    result, bench = design_for_dataset(
+        identified, runs, metas, selected, cfg, recommendation=recommendation
     )
-    apply_bench(result, bench)
-    return result, recorded_runs(runs, metas, valve.params), bench
+    return result, recorded_runs(runs, metas, read_identified(identified).params), bench
 
 
 def write_closed_loop(
