@@ -145,6 +145,24 @@ def _loop_many(  # pragma: no cover  (compiled; its Python body is run by the te
         )  # fmt: skip
 
 
+def _checked_loop(
+    modulator: Any, controller: PIController, dt: float, reference: npt.ArrayLike
+) -> tuple[float, Modulator, dict[str, Any], np.ndarray]:
+    """The closed loop's arguments, checked once: ``dt``, the setting (a kind with a
+    closed-loop kernel, its settings valid at ``dt``) and the reference."""
+    dt = checks.positive("dt", dt, "s")
+    if not isinstance(controller, PIController):
+        raise ValueError(f"controller must be a PIController, got {controller!r}")
+    mod = Modulator.from_mapping(modulator)
+    if mod.kind not in KERNELS:
+        raise ValueError(f"no closed-loop kernel for modulator kind {mod.kind!r}")
+    settings = dict(mod.settings)
+    from spa.model.modulators import check_settings
+
+    check_settings(mod.kind, dt, **settings)
+    return dt, mod, settings, checks.finite_array("reference", reference, ndim=1)
+
+
 def closed_loop_many(
     reference: npt.ArrayLike,
     dt: float,
@@ -173,17 +191,7 @@ def closed_loop_many(
     p, xi, valve : numpy.ndarray, shape (len(valves), n)
         Row ``j`` equals ``closed_loop_arrays(..., valves[j], p0[j], integral0=integral0[j])``.
     """
-    dt = checks.positive("dt", dt, "s")
-    if not isinstance(controller, PIController):
-        raise ValueError(f"controller must be a PIController, got {controller!r}")
-    mod = Modulator.from_mapping(modulator)
-    if mod.kind not in KERNELS:
-        raise ValueError(f"no closed-loop kernel for modulator kind {mod.kind!r}")
-    settings = dict(mod.settings)
-    from spa.model.modulators import check_settings
-
-    check_settings(mod.kind, dt, **settings)
-    r = checks.finite_array("reference", reference, ndim=1)
+    dt, mod, settings, r = _checked_loop(modulator, controller, dt, reference)
     m = len(valves)
     p0s = np.asarray(p0, dtype=np.float64).reshape(m)
     i0s = np.asarray(integral0, dtype=np.float64).reshape(m)
@@ -230,18 +238,8 @@ def closed_loop_arrays(
     ``compiled=False`` runs the same loop as plain Python (slow; for the tests).
     """
     params = valve_params(params)
-    dt = checks.positive("dt", dt, "s")
     p0 = checks.nonnegative("p0", p0, "bar")
-    if not isinstance(controller, PIController):
-        raise ValueError(f"controller must be a PIController, got {controller!r}")
-    mod = Modulator.from_mapping(modulator)
-    if mod.kind not in KERNELS:
-        raise ValueError(f"no closed-loop kernel for modulator kind {mod.kind!r}")
-    settings = dict(mod.settings)
-    from spa.model.modulators import check_settings
-
-    check_settings(mod.kind, dt, **settings)
-    r = checks.finite_array("reference", reference, ndim=1)
+    dt, mod, settings, r = _checked_loop(modulator, controller, dt, reference)
     kernel = KERNELS[mod.kind]
     n = r.size
     p, xi, u = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
