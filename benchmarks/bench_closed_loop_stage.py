@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     t1 = time.process_time()
     runs, metas = read_runs(d / "runs")
     with_ff = result.controllers.get("controller") == "scheduled_ff"
-    error = dataset_error(runs, metas, valve.params, identified, equilibrium=with_ff)
+    error = dataset_error(runs, metas, valve.params, equilibrium=with_ff)
     t2 = time.process_time()
     bench_outputs(
         result,

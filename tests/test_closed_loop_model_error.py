@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from spa.closedloop.model_error import (
     dataset_error,
@@ -13,7 +12,7 @@ from spa.closedloop.model_error import (
     same_pressure_gain_error,
     widen,
 )
-from spa.model.modulators import modulate
+from spa.model.modulators import Modulator, modulate
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 
@@ -41,26 +40,28 @@ def test_a_plant_with_a_higher_supply_shows_its_gain_error():
     e = level_errors(_staircase(plant, est), est)
     assert (e["error"].iloc[1:] > 0).all()  # it charges higher at every level
     iv = error_intervals(e, est)
-    lo, hi = iv["k2"]
-    assert lo <= est.k2 and hi > 1.05 * est.k2  # the box reaches towards the plant's supply
+    lo, hi = iv["gain"]
+    assert lo == 1.0 and hi > 1.05  # the loop gain reaches towards the steeper plant's
+    assert "k2" not in iv  # a loop without feed-forward: its integrator takes the offset
+    lo, hi = error_intervals(e, est, equilibrium=True)["k2"]
+    assert lo == est.k2 and hi > 1.05 * est.k2  # the feed-forward's plants: a higher supply
 
 
-def test_gain_error_is_compared_at_the_same_pressure():
-    xi = np.array([0.2, 0.4, 0.6, 0.8])
-    # an equilibrium offset alone is no gain error; a steeper curve is
-    assert np.allclose(same_pressure_gain_error(xi, xi + 0.1, xi, 0.01)[1:3], 0.0)
-    steep = same_pressure_gain_error(xi, 0.5 * xi + 0.2, xi, 0.01)
-    assert np.allclose(steep[1:], -0.5)
+def test_a_steeper_plant_is_a_loop_gain_factor_in_the_box():
+    """The promise over a gain error: every corner is run with the PI's gains scaled by the
+    factor's ends, so a plant twice as steep is one of the plants the promise covers."""
+    from spa.closedloop.controller import PIController
+    from spa.closedloop.robust import box_worst_case
 
-
-def test_delay_conventions_and_the_box_merge():
-    p = ValveParams(t_on=0.004, t_off=0.01)
-    conv = {"delay_convention": {"chosen": "transport", "hold": {"t_on": 0.004, "t_off": 0.01},
-                                 "transport": {"t_on": 0.009, "t_off": 0.002}}}  # fmt: skip
-    iv = error_intervals(pd.DataFrame(), p, conv)
-    assert iv == {"t_on": (0.004, 0.009), "t_off": (0.002, 0.01)}
-    box = widen({"t_on": (0.0035, 0.0045), "c1": (0.5, 0.56)}, iv)
-    assert box == {"t_on": (0.0035, 0.009), "c1": (0.5, 0.56), "t_off": (0.002, 0.01)}
+    mod = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
+    p = ValveParams()
+    ctrl = PIController(kp=2.0, ki=10.0)
+    alone, _ = box_worst_case(mod, ctrl, p, None, [0.3, 0.5], 3.0, DT)
+    steep, _ = box_worst_case(mod, ctrl.scaled(3.0), p, None, [0.3, 0.5], 3.0, DT)
+    both, _ = box_worst_case(mod, ctrl, p, None, [0.3, 0.5], 3.0, DT, (1.0, 3.0))
+    assert steep["overshoot"] != alone["overshoot"]  # a different loop
+    for metric in ("overshoot", "rise_time", "end_error"):
+        assert both[metric] == max(alone[metric], steep[metric]), metric
 
 
 def test_dataset_error_reads_only_staircases():
@@ -68,6 +69,5 @@ def test_dataset_error_reads_only_staircases():
     run = _staircase(ValveParams(k2=1.2 * p.k2), p)
     metas = {"s": {"kind": "staircase"}, "c": {"kind": "closed_loop"}}
     iv = dataset_error({"s": run, "c": run}, metas, p)
-    assert set(iv) == {"k2"}
-    with pytest.raises(KeyError):
-        iv["t_on"]
+    assert set(iv) == {"gain"}
+    assert set(dataset_error({"c": run}, metas, p)) == set()

@@ -168,7 +168,7 @@ def test_tau_c_is_lengthened_until_a_loop_meets_the_overshoot_limit() -> None:
         t0 = first.table
         stair = t0[(t0.experiment == "staircase") & (t0.metric == "overshoot")]
         least = float(stair["max"].min())
-    assert least > 0.5
+    assert least > 0.0  # the loop overshoots at all: half of it is a limit it misses
     limit = 0.5 * least
     res = closed_loop(ValveParams(), SELECTED[:1], None, {**CFG, "max_overshoot": limit})
     tried = res.controllers["tau_c_tried"]

@@ -216,6 +216,7 @@ def bench_outputs(
     *,
     model_error: Mapping[str, tuple[float, float]] | None = None,
     adequacy: Mapping[str, Any] | None = None,
+    choice: tuple[str, str] | None = None,
 ) -> BenchOutputs:
     """The header of the chosen loop, its promise over the box and the model error, and the
     disturbances.
@@ -238,6 +239,9 @@ def bench_outputs(
         (:func:`spa.closedloop.model_error.widen`): the promise is the worst over both.
     adequacy : mapping, optional
         ``params.yaml``'s ``adequacy`` (None: not assessed).
+    choice : (str, str), optional
+        The (setting label, controller) to check and export instead of the stage's choice
+        (one of the designed loops, :func:`spa.closedloop.promise.design_for_dataset`).
 
     Returns
     -------
@@ -263,7 +267,7 @@ def bench_outputs(
     dt = float(ctl.get("dt", c["dt"]))
     levels = [float(v) for v in ctl.get("levels", [])]
     limit = float(ctl.get("max_overshoot", c.get("max_overshoot", MAX_OVERSHOOT)))
-    chosen = _chosen(ctl)
+    chosen = choice if choice is not None else _chosen(ctl)
     rows: list[dict[str, Any]] = []
     if chosen is None:
         return BenchOutputs(pd.DataFrame(columns=list(ROBUST_COLUMNS)), _NO_DESIGN, _NO_DESIGN)
@@ -288,7 +292,10 @@ def bench_outputs(
     mod = Modulator.from_mapping(entry["setting"])
     own = [float(v) for v in entry.get("levels", levels)]
     tau_c = float(ctl.get("tau_c", c["tau_c"]))
-    box = widen(intervals, model_error or {})
+    error = dict(model_error or {})
+    gain = error.pop("gain", None)
+    gains = (1.0,) if gain is None else (1.0, float(gain[0]), float(gain[1]))
+    box = widen(intervals, error)
     # Set-points in each plant's own scale: at most the highest fraction of its supply the
     # stage asks for (levels_fraction), or max_level_fraction when the levels are absolute.
     top = float(c["max_level_fraction"])
@@ -305,7 +312,8 @@ def bench_outputs(
         dt=dt,
         tau_c=tau_c,
         limit=limit,
-        hold_of=lambda tau: box_hold(mod, params, box, own, tau, c),
+        hold_of=lambda tau: box_hold(mod, params, box, own, tau, c, min(gains)),
+        gains=gains,
     )
     shipped_tau = rd.tau_c_robust if rd.tau_c_robust is not None else tau_c
     worst = rd.worst_robust if rd.tau_c_robust is not None else rd.worst
@@ -338,7 +346,7 @@ def bench_outputs(
         "tau_c": shipped_tau,
         "controller": ctrl.to_mapping(),
         "levels": own,
-        "hold": box_hold(mod, params, box, own, shipped_tau, c),
+        "hold": box_hold(mod, params, box, own, shipped_tau, c, min(gains)),
         "overshoot": worst.get("overshoot", math.nan),
         "settling_time": worst.get("settling_time", math.nan),
         "end_error": worst.get("end_error", math.nan),
@@ -400,13 +408,15 @@ def box_hold(
     levels: list[float],
     tau_c: float,
     cfg: Mapping[str, Any],
+    gain: float = 1.0,
 ) -> float:
     """Each level's hold for the promise: the longest
     :func:`spa.closedloop.stage.level_hold` over the estimate and every corner of the box,
     so that the slowest plant the promise covers gets its transit plus five closed-loop time
     constants too. A PI designed at the estimate closes a slower loop on a plant whose local
     gain ``K = dP_eq/dxi`` is lower by ``g < 1`` (its crossover, and so its closed-loop
-    time constant, scale by ``1/g``): such a corner's hold is taken at ``tau_c/g``.
+    time constant, scale by ``1/g``): such a corner's hold is taken at ``tau_c/g``, and at
+    ``tau_c/(g*gain)`` with the measured model error's smallest loop-gain factor ``gain``.
 
     Examples
     --------
@@ -422,7 +432,8 @@ def box_hold(
     from spa.closedloop.stage import level_hold
 
     k_est = local_models(levels, mod, params).gain
-    out = level_hold(mod, params, levels, tau_c, cfg)
+    gain = min(1.0, max(float(gain), 0.1))
+    out = level_hold(mod, params, levels, tau_c / gain, cfg)
     for v in corners(params, box):
         if held_range(mod, v) is None:
             continue  # the setting cannot work on this corner: no hold makes it
@@ -431,7 +442,7 @@ def box_hold(
             ratio = k / k_est
         finite = ratio[np.isfinite(ratio) & (ratio > 0)]
         g = min(1.0, float(finite.min())) if finite.size else 1.0
-        out = max(out, level_hold(mod, v, levels, tau_c / max(g, 0.1), cfg))
+        out = max(out, level_hold(mod, v, levels, tau_c / max(g * gain, 0.1), cfg))
     return out
 
 

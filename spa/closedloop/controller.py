@@ -115,6 +115,26 @@ class PIController:
         r, xi = self.feedforward if self.feedforward is not None else ((0.0,), (0.0,))
         return grid, kp, ki, np.asarray(r, np.float64), np.asarray(xi, np.float64)
 
+    def scaled(self, factor: float) -> PIController:
+        """The same PI with ``kp`` and ``ki`` times ``factor`` (schedule and feed-forward
+        unchanged): the loop this PI closes on a plant ``factor`` times steeper.
+
+        Examples
+        --------
+        >>> PIController(kp=1.0, ki=2.0).scaled(1.5).gains(0.3)
+        (1.5, 3.0, 0.0)
+        """
+
+        def times(v: float | tuple[float, ...]) -> float | tuple[float, ...]:
+            return tuple(factor * x for x in v) if isinstance(v, tuple) else factor * v
+
+        return PIController(
+            kp=times(self.kp),
+            ki=times(self.ki),
+            schedule=self.schedule,
+            feedforward=self.feedforward,
+        )
+
     def gains(self, r: float) -> tuple[float, float, float]:
         """``(kp, ki, xi_ff)`` at set-point ``r`` (as the loop interpolates them)."""
         grid, kp, ki, fr, fx = self.arrays()

@@ -6,17 +6,15 @@ by the recorded valve command): the *equilibrium error* ``p_meas/p_model - 1`` p
 the *gain error* per step between levels, the measured slope ``dp/dxi`` over the model's at
 the same pressure, less 1 (:func:`level_errors`). The equilibrium error shifts the input
 that holds a pressure, which the PI's integrator removes; the gain error changes the loop
-gain. :func:`error_intervals` turns the gain errors, with the spread of the valve delays
-between delay conventions (``params.yaml``'s ``delay_convention``), into intervals of the
-valve parameters: the supply ``k2`` scaled by the extreme gain errors (the slope of ``P_eq``
-scales with ``k2``), ``t_on`` and ``t_off`` over every convention's value. :func:`widen`
-merges them with the identification's 95 % box, so that the closed loop's promise is the
-worst over both.
+gain. :func:`error_intervals` turns them into ranges: the extreme gain errors into a factor
+on the loop gain (``gain``), and, for a loop with the averaged model's feed-forward, the
+extreme equilibrium errors into a range of the supply ``k2``. :func:`widen` merges the
+latter with the identification's 95 % box; the closed loop's promise is the worst over the
+merged box and the gain factor's ends.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -179,34 +177,14 @@ def same_pressure_gain_error(
     return out
 
 
-def _delays(identified: Mapping[str, Any] | None) -> dict[str, list[float]]:
-    """Every delay value ``params.yaml`` gives: each convention's effective delays."""
-    out: dict[str, list[float]] = {"t_on": [], "t_off": []}
-    conv = (identified or {}).get("delay_convention")
-    if not isinstance(conv, Mapping):
-        return out
-    for key in ("hold", "transport"):
-        entry = conv.get(key)
-        if not isinstance(entry, Mapping):
-            continue
-        for name in out:
-            try:
-                v = float(entry[name])
-            except (KeyError, TypeError, ValueError):
-                continue
-            if math.isfinite(v) and v >= 0.0:
-                out[name].append(v)
-    return out
-
-
 def error_intervals(
     levels: pd.DataFrame,
     params: ValveParams,
-    identified: Mapping[str, Any] | None = None,
     *,
     equilibrium: bool = False,
 ) -> dict[str, tuple[float, float]]:
-    """The valve parameters' ranges that cover the measured model error.
+    """The measured model error as ranges: the loop gain's factor and, for a feed-forward
+    loop, the supply ``k2``.
 
     Parameters
     ----------
@@ -214,9 +192,6 @@ def error_intervals(
         :func:`level_errors` of every staircase run (concatenated; may be empty).
     params : ValveParams
         The identified valve.
-    identified : mapping, optional
-        ``params.yaml``'s content; its ``delay_convention`` (``hold`` and ``transport``
-        ``t_on``/``t_off``) widens the delays.
     equilibrium : bool, default False
         Also widen ``k2`` by the relative equilibrium errors: for a loop with the averaged
         model's feed-forward, whose input then holds a different pressure.
@@ -224,41 +199,48 @@ def error_intervals(
     Returns
     -------
     dict
-        ``k2 -> (k2*(1 + e_lo), k2*(1 + e_hi))`` with ``e`` over every finite gain error
-        and 0 (clipped to ±:data:`MAX_RELATIVE_ERROR`), and
-        ``t_on``/``t_off -> (min, max)`` over the estimate and the conventions' values, where
-        they differ from the estimate.
+        ``gain -> (1 + g_lo, 1 + g_hi)``, ``g`` over every finite gain error and 0 (clipped
+        to ±:data:`MAX_RELATIVE_ERROR`): the factor on the loop gain of a plant whose slope
+        ``dP_eq/dxi`` differs from the model's where the loop works; with ``equilibrium``,
+        ``k2 -> (k2*(1 + e_lo), k2*(1 + e_hi))``, ``e`` over every finite equilibrium error
+        and 0. Entries without error are left out.
+
+    Notes
+    -----
+    A gain error is a local property: the measured slope differs from the model's at the
+    same pressure while the equilibrium itself may be close. Scaling ``k2`` by it would move
+    the whole equilibrium curve (and the set-points each plant holds) by the extreme slope
+    error; it is carried instead as a factor on the loop gain, which is what a slope error
+    does to the loop (the PI's gains times ``1 + g`` close the same linear loop as a plant
+    ``1 + g`` times steeper). The delays' uncertainty is the identification's interval (the
+    refinement on every run, widened to the spread between runs).
 
     Examples
     --------
     >>> lv = pd.DataFrame({"rel_error": [0.05, -0.02], "gain_error": [np.nan, 0.1]})
-    >>> iv = error_intervals(lv, ValveParams(k2=1.0), {"delay_convention": {
-    ...     "hold": {"t_on": 0.003, "t_off": 0.01}, "transport": {"t_on": 0.005, "t_off": 0.0}}})
-    >>> [(k, tuple(round(x, 4) for x in v)) for k, v in iv.items()]
-    [('k2', (1.0, 1.1)), ('t_on', (0.003, 0.005)), ('t_off', (0.0, 0.01))]
+    >>> error_intervals(lv, ValveParams(k2=1.0))
+    {'gain': (1.0, 1.1)}
     >>> error_intervals(lv, ValveParams(k2=1.0), equilibrium=True)["k2"]
-    (0.98, 1.1)
+    (0.98, 1.05)
     """
-    out: dict[str, tuple[float, float]] = {}
-    errs = np.concatenate(
-        [
-            levels[c].to_numpy(np.float64)
-            for c in (("gain_error", "rel_error") if equilibrium else ("gain_error",))
-            if c in levels.columns
-        ]
-        or [np.empty(0)]
-    )
-    errs = np.clip(errs[np.isfinite(errs)], -MAX_RELATIVE_ERROR, MAX_RELATIVE_ERROR)
-    errs = np.where(np.abs(errs) < 1e-6, 0.0, errs)  # rounding, not model error
-    if errs.size:
+
+    def extremes(column: str) -> tuple[float, float] | None:
+        if column not in levels.columns:
+            return None
+        errs = levels[column].to_numpy(np.float64)
+        errs = np.clip(errs[np.isfinite(errs)], -MAX_RELATIVE_ERROR, MAX_RELATIVE_ERROR)
+        errs = np.where(np.abs(errs) < 1e-6, 0.0, errs)  # rounding, not model error
+        if not errs.size:
+            return None
         lo, hi = min(float(errs.min()), 0.0), max(float(errs.max()), 0.0)
-        if hi > lo:
-            out["k2"] = (params.k2 * (1.0 + lo), params.k2 * (1.0 + hi))
-    for name, values in _delays(identified).items():
-        est = float(getattr(params, name))
-        allv = [est, *values]
-        if max(allv) > min(allv):
-            out[name] = (min(allv), max(allv))
+        return (lo, hi) if hi > lo else None
+
+    out: dict[str, tuple[float, float]] = {}
+    gain = extremes("gain_error")
+    if gain is not None:
+        out["gain"] = (1.0 + gain[0], 1.0 + gain[1])
+    if equilibrium and (eq := extremes("rel_error")) is not None:
+        out["k2"] = (params.k2 * (1.0 + eq[0]), params.k2 * (1.0 + eq[1]))
     return out
 
 
@@ -285,7 +267,6 @@ def dataset_error(
     runs: Mapping[str, pd.DataFrame],
     metas: Mapping[str, Mapping[str, Any]],
     params: ValveParams,
-    identified: Mapping[str, Any] | None = None,
     *,
     equilibrium: bool = False,
 ) -> dict[str, tuple[float, float]]:
@@ -297,8 +278,6 @@ def dataset_error(
         Run id -> run table and metadata (:func:`spa.io.read_runs`).
     params : ValveParams
         The identified valve.
-    identified : mapping, optional
-        ``params.yaml``'s content (its ``delay_convention``).
     equilibrium : bool, default False
         As :func:`error_intervals`.
 
@@ -313,4 +292,4 @@ def dataset_error(
         if meta.get("kind") == "staircase" and rid in runs
     ]
     frame = pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
-    return error_intervals(frame, params, identified, equilibrium=equilibrium)
+    return error_intervals(frame, params, equilibrium=equilibrium)

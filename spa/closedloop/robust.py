@@ -105,6 +105,7 @@ def box_worst_case(
     levels: Sequence[float],
     hold: float,
     dt: float,
+    gains: Sequence[float] = (1.0,),
 ) -> tuple[dict[str, float], int]:
     """The staircase's worst metrics with the plant at the estimate and the box's corners.
 
@@ -119,11 +120,15 @@ def box_worst_case(
     intervals : mapping or None
         ``name -> (lo, hi)``, the 95 % intervals (:func:`spa.tuning.intervals.read_intervals`).
     levels, hold, dt : as :func:`spa.closedloop.experiments.run_staircase`
+    gains : sequence of float, default (1.0,)
+        Factors on the loop gain (the measured model error's ``gain``,
+        :func:`spa.closedloop.model_error.error_intervals`): every valve is run with the
+        controller's gains times each factor (:meth:`PIController.scaled`).
 
     Returns
     -------
     worst : dict
-        :func:`worst_of_steps` over the estimate and every corner.
+        :func:`worst_of_steps` over the estimate and every corner, at every gain factor.
     n_corners : int
         Corners evaluated (0 without intervals: the estimate alone).
 
@@ -142,14 +147,17 @@ def box_worst_case(
     r0 = float(levels[0])
     period = cycle_period(modulator, params, float(np.median(levels)), dt)
     frames = []
-    i0 = [_settled(modulator, controller, valve, r0) for valve in valves]
-    ps, _, us = closed_loop_many(r, dt, modulator, controller, valves, [r0] * len(valves), i0)
-    for p, u in zip(ps, us, strict=True):
-        rows = step_rows(t, r, p, u, period, r_initial=r0)
-        for row in rows:
-            size = abs(row["r1"] - row["r0"])
-            row["end_error"] = 100.0 * abs(row["steady_state_error"]) / size if size else math.nan
-        frames.append({m: [row[m] for row in rows] for m in WORST_METRICS})
+    for factor in dict.fromkeys(float(g) for g in gains):
+        ctrl = controller if factor == 1.0 else controller.scaled(factor)
+        i0 = [_settled(modulator, ctrl, valve, r0) for valve in valves]
+        ps, _, us = closed_loop_many(r, dt, modulator, ctrl, valves, [r0] * len(valves), i0)
+        for p, u in zip(ps, us, strict=True):
+            rows = step_rows(t, r, p, u, period, r_initial=r0)
+            for row in rows:
+                size = abs(row["r1"] - row["r0"])
+                error = abs(row["steady_state_error"])
+                row["end_error"] = 100.0 * error / size if size else math.nan
+            frames.append({m: [row[m] for row in rows] for m in WORST_METRICS})
     return worst_of_steps(frames), len(valves) - 1
 
 
@@ -247,6 +255,7 @@ def robust_design(
     limit: float,
     max_tau_c: float | None = None,
     hold_of: Callable[[float], float] | None = None,
+    gains: Sequence[float] = (1.0,),
 ) -> RobustDesign:
     """Worst case over the box of the controller ``controller`` designed at the estimate,
     and the robust ``tau_c`` (:func:`lengthen_tau_c`).
@@ -269,6 +278,8 @@ def robust_design(
         ``tau_c -> hold`` (s): the staircase's hold for a lengthened ``tau_c`` (each level
         held for several closed-loop time constants); ``hold`` for every ``tau_c`` when
         omitted.
+    gains : sequence of float, default (1.0,)
+        Factors on the loop gain, as :func:`box_worst_case`.
 
     Returns
     -------
@@ -286,7 +297,7 @@ def robust_design(
     def evaluate(tau: float) -> float:
         ctrl = design_pi(modulator, params, levels=levels, tau_c=tau)[controller]
         h = hold if hold_of is None else float(hold_of(tau))
-        results[tau] = box_worst_case(modulator, ctrl, params, intervals, levels, h, dt)
+        results[tau] = box_worst_case(modulator, ctrl, params, intervals, levels, h, dt, gains)
         worst = results[tau][0]
         settled = math.isfinite(worst["end_error"]) and worst["end_error"] <= SETTLED
         return worst["overshoot"] if settled else math.inf

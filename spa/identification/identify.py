@@ -407,7 +407,8 @@ def refine_result(
         # Two estimators of one parameter (the experiment's own fit and the refinement on
         # every run) that disagree by more than their errors show model error: it is added.
         gap = value - float(getattr(start, name))
-        se = math.sqrt(se * se + gap * gap)
+        if name not in ("t_on", "t_off"):
+            se = math.sqrt(se * se + gap * gap)
         if name in ("t_on", "t_off"):
             value += width / 2.0
             se = math.sqrt(se * se + width * width / 12.0)
