@@ -71,3 +71,16 @@ def test_dataset_error_reads_only_staircases():
     iv = dataset_error({"s": run, "c": run}, metas, p)
     assert set(iv) == {"gain"}
     assert set(dataset_error({"c": run}, metas, p)) == set()
+
+
+def test_gain_error_is_compared_at_the_same_pressure():
+    xi = np.array([0.2, 0.4, 0.6, 0.8])
+    # an equilibrium offset alone is no gain error; a steeper curve is
+    assert np.allclose(same_pressure_gain_error(xi, xi + 0.1, xi, 0.01)[1:3], 0.0)
+    steep = same_pressure_gain_error(xi, 0.5 * xi + 0.2, xi, 0.01)
+    assert np.allclose(steep[1:], -0.5)
+
+
+def test_the_box_merge_keeps_both():
+    box = widen({"k2": (0.9, 1.1), "c1": (0.5, 0.56)}, {"k2": (0.8, 1.0), "t_on": (0.0, 0.01)})
+    assert box == {"k2": (0.8, 1.1), "c1": (0.5, 0.56), "t_on": (0.0, 0.01)}
