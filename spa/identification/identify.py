@@ -402,14 +402,20 @@ def refine_result(
             "output-error refinement of the exact model (hold convention) on the cycle means "
             f"of {len(prepared)} run(s) with a valve command, from the charge/discharge/pulse "
             "estimates; 95% from the sandwich covariance (Newey-West, bandwidth from the "
-            "data), widened to the leave-one-run-out spread and by the gap to the start"
+            "data), widened to the leave-one-run-out spread"
         )
-        # Two estimators of one parameter (the experiment's own fit and the refinement on
-        # every run) that disagree by more than their errors show model error: it is added.
-        gap = value - float(getattr(start, name))
         if name not in ("t_on", "t_off"):
+            # Two estimators of one parameter (the experiment's own fit and the refinement
+            # on every run) that disagree by more than their errors show model error: it is
+            # added. Not for the delays: the pulse fit's delay is the time to a visible
+            # response, which a valve that keeps its connection during its dead time, or a
+            # lagging sensor, moves away from the effective delay of modulated operation;
+            # the refinement fits the pulse runs too, and their disagreement with the other
+            # runs is the leave-one-run-out spread already.
+            gap = value - float(getattr(start, name))
             se = math.sqrt(se * se + gap * gap)
-        if name in ("t_on", "t_off"):
+            method += " and by the gap to the start"
+        else:
             value += width / 2.0
             se = math.sqrt(se * se + width * width / 12.0)
             method += (
