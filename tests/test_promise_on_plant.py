@@ -146,3 +146,39 @@ def test_a_poorly_described_valve_gets_a_closed_loop_sentence_that_says_so() -> 
     _, bench = design_for_dataset(identified, runs, metas, slow, CLOSED_LOOP)
     assert bench.summary["verified"] is False
     assert "does not describe this valve well enough" in bench.sentence
+
+
+def test_a_valve_the_hold_convention_misses_is_told_which_describes_it() -> None:
+    """A plant whose valve keeps its connection through dead times of about 20 ms (drawn by
+    ``random_plant``): the paper's hold convention misses its staircases, the transport
+    convention describes them; the verdict says both, and that the designs are unverified."""
+    from spa.synthetic.physical import random_plant
+
+    plant = random_plant(np.random.default_rng([1, 6]))
+    assert min(plant.t_open, plant.t_close) > 0.015
+    eq = equivalent_params(plant, DT)
+    cfg = {
+        "controller_dt": DT,
+        "sensor": {"fs": 1000.0},
+        "plant": plant.to_mapping(),
+        "modulators": [{"type": "pwm", "f_w": 20.0}, {"type": "dsm", "period": 0.02}],
+    }
+    hold = float(np.ceil(max(3.0, 5.0 * eq.tau2)))
+    experiments = {
+        "identification": identification_experiment_for(eq),
+        "staircase": {"step": 0.1, "hold": hold},
+    }
+    specs = [s for s in dataset_runs(cfg, experiments) if s.kind != "closed_loop"]
+    runs = {
+        s.id: simulate_run(s, eq, DT, Sensor(fs=1000.0), run_seed(3, "p6", s.id), plant)
+        for s in specs
+    }
+    metas = {s.id: {"kind": s.kind} for s in specs}
+    mods = {s.id: (s.modulator or {}).get("type", "") for s in specs}
+    identified = _identify(runs, metas, mods)
+    conv = identified["delay_convention"]
+    assert conv["chosen"] == "transport"
+    assert conv["heldout_fit_modulated"]["transport"] > conv["heldout_fit_modulated"]["hold"] + 20
+    assert identified["adequacy"]["adequate"] is False
+    assert "transport-delay convention" in identified["adequacy"]["sentence"]
+    assert any("transport-delay convention" in w for w in identified["warnings"])

@@ -478,13 +478,25 @@ def refine_result(
                 )
     # The verdict is about the model the downstream stages use: the five top-level (hold
     # convention) parameters, whichever convention describes the runs better.
-    adequacy = assess(
-        hold.fit_heldout,
-        hold.fit_after,
-        hold.noise_ceiling,
-        {r.rid: r.modulator for r in prepared},
+    mods_of = {r.rid: r.modulator for r in prepared}
+    adequacy = assess(hold.fit_heldout, hold.fit_after, hold.noise_ceiling, mods_of, threshold)
+    other = assess(
+        fits["transport"].fit_heldout,
+        fits["transport"].fit_after,
+        fits["transport"].noise_ceiling,
+        mods_of,
         threshold,
     )
+    if not adequacy.adequate and other.adequate:
+        better = (
+            "the transport-delay convention (the valve keeps its previous connection during "
+            "its dead time) describes the runs the designs are for: held-out FIT "
+            f"{other.heldout_median:.0f} % against {adequacy.heldout_median:.0f} % for the "
+            "paper's hold convention, which the tuning and the closed loop use; their "
+            "results on this valve are not verified"
+        )
+        adequacy = replace(adequacy, sentence=f"{adequacy.sentence} But {better}.")
+        warnings.append(better)
 
     def clean(d: Mapping[str, float]) -> dict[str, float | None]:
         return {k: (round(float(v), 3) if math.isfinite(v) else None) for k, v in d.items()}
@@ -515,6 +527,10 @@ def refine_result(
         },
         "heldout_fit": {
             d: (round(v, 3) if math.isfinite(v) else None) for d, v in held_median.items()
+        },
+        "heldout_fit_modulated": {
+            d: (round(a.heldout_median, 3) if math.isfinite(a.heldout_median) else None)
+            for d, a in (("hold", adequacy), ("transport", other))
         },
     }
     if n_on == 0 or n_off == 0:
