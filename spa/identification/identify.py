@@ -407,15 +407,19 @@ def refine_result(
         if name not in ("t_on", "t_off"):
             # Two estimators of one parameter (the experiment's own fit and the refinement
             # on every run) that disagree by more than their errors show model error: it is
-            # added. Not for the delays: the pulse fit's delay is the time to a visible
-            # response, which a valve that keeps its connection during its dead time, or a
-            # lagging sensor, moves away from the effective delay of modulated operation;
-            # the refinement fits the pulse runs too, and their disagreement with the other
-            # runs is the leave-one-run-out spread already.
+            # added. Not for the delays beyond a sample step: the pulse fit's delay is the
+            # time to a visible response, which a valve that keeps its connection during
+            # its dead time, or a lagging sensor, moves away from the effective delay of
+            # modulated operation; the refinement fits the pulse runs too, and their
+            # disagreement with the other runs is the leave-one-run-out spread already.
             gap = value - float(getattr(start, name))
             se = math.sqrt(se * se + gap * gap)
             method += " and by the gap to the start"
         else:
+            # Within one sample step, the gap is the edges' timing resolution, and counts.
+            gap = min(abs(value - float(getattr(start, name))), dt)
+            se = math.sqrt(se * se + gap * gap)
+            method += "; by the gap to the start up to one sample step"
             value += width / 2.0
             se = math.sqrt(se * se + width * width / 12.0)
             method += (
