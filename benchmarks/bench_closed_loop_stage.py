@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     from spa.closedloop.bench import adequacy_of, bench_outputs, sensor_noise
     from spa.closedloop.model_error import dataset_error
     from spa.closedloop.stage import closed_loop
-    from spa.io import read_runs
+    from spa.datasets import read_runs
     from spa.tuning.stage import read_identified
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

@@ -120,10 +120,9 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
 
     import yaml
 
-    from spa.datasets import DatasetError
+    from spa.datasets import DatasetError, read_runs
     from spa.datasets.checks import k2_warning
     from spa.identification import identify_with_config, run_context
-    from spa.io import read_runs
     from spa.report.params import fits_note, identification_notes, params_table
 
     try:

@@ -206,7 +206,8 @@ def pipeline_figures(results: Path, config: dict, out: Path) -> dict[str, Figure
 def _draw_all(
     results: Path, config: dict, out: Path, figures: dict[str, Figure], drawn: dict[str, str]
 ) -> None:
-    from spa.io import read_params, read_runs
+    from spa.datasets import read_runs
+    from spa.io import read_params
     from spa.model.params import ValveParams
     from spa.pipeline.outputs import stage_outputs, stage_settings
     from spa.plots.analytic import plot_cost_sweeps, plot_equilibrium

@@ -678,7 +678,7 @@ def recorded_runs(
     Parameters
     ----------
     runs, metas : mapping
-        Run id -> run table and metadata (:func:`spa.io.read_runs`); runs of other kinds
+        Run id -> run table and metadata (:func:`spa.datasets.read_runs`); runs of other kinds
         are ignored.
     params : ValveParams
         The identified valve.

@@ -13,7 +13,8 @@ import yaml
 from spa.closedloop.bench import BenchOutputs
 from spa.closedloop.promise import design_for_dataset
 from spa.closedloop.stage import ClosedLoopResult, recorded_runs, write_controllers
-from spa.io import read_runs, write_csv
+from spa.datasets import read_runs
+from spa.io import write_csv
 from spa.plots.closedloop import fig10, fig11, no_design
 from spa.plots.save import draw
 from spa.tuning.stage import read_identified
