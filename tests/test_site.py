@@ -298,7 +298,7 @@ def _config_error() -> Exception:
 
 
 def _tuning_error() -> Exception:
-    from spa.tuning.stage import TuningError
+    from spa.identification.identified import TuningError
 
     return TuningError("t_on: the 95 % interval [0.0, 0.00068] leaves the physical domain")
 

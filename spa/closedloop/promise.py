@@ -61,7 +61,7 @@ def design_for_dataset(
     from spa.closedloop.bench import adequacy_of, apply_bench, bench_outputs, sensor_noise
     from spa.closedloop.model_error import dataset_error
     from spa.closedloop.stage import closed_loop
-    from spa.tuning.stage import read_identified
+    from spa.identification.identified import read_identified
 
     valve = read_identified(identified)
     if recommendation is None and isinstance(identified.get("adequacy"), Mapping):

@@ -3,7 +3,7 @@
 The PI is designed at the point estimate (:func:`spa.closedloop.design.design_pi`); the
 plant it meets may be any valve of the box. :func:`box_worst_case` runs the set-point
 staircase with the plant at the estimate and at every corner of the box
-(:func:`spa.tuning.intervals.corners`: ``2**k`` valves for ``k`` parameters with an
+(:func:`spa.identification.identified.corners`: ``2**k`` valves for ``k`` parameters with an
 interval) and keeps the worst value of each metric: the largest rise time, overshoot,
 ``|steady-state error|`` and ripple over the steps and the valves. :func:`lengthen_tau_c`
 lengthens SIMC's closed-loop time constant by a factor (1.5) while the worst-case overshoot
@@ -25,9 +25,9 @@ from spa.closedloop.design import design_pi
 from spa.closedloop.experiments import _settled, cycle_period, staircase_reference
 from spa.closedloop.loop import closed_loop_many
 from spa.closedloop.metrics import step_rows
+from spa.identification.identified import corners
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
-from spa.tuning.intervals import corners
 
 __all__ = [
     "WORST_METRICS",
@@ -117,7 +117,8 @@ def box_worst_case(
     params : ValveParams
         The point estimate.
     intervals : mapping or None
-        ``name -> (lo, hi)``, the 95 % intervals (:func:`spa.tuning.intervals.read_intervals`).
+        ``name -> (lo, hi)``, the 95 % intervals
+        (:func:`~spa.identification.identified.read_intervals`).
     levels, hold, dt : as :func:`spa.closedloop.experiments.run_staircase`
 
     Returns

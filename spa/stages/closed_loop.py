@@ -14,10 +14,10 @@ from spa.closedloop.bench import BenchOutputs
 from spa.closedloop.promise import design_for_dataset
 from spa.closedloop.stage import ClosedLoopResult, recorded_runs, write_controllers
 from spa.datasets import read_runs
+from spa.identification.identified import read_identified
 from spa.io import write_csv
 from spa.plots.closedloop import fig10, fig11, no_design
 from spa.plots.save import draw
-from spa.tuning.stage import read_identified
 
 __all__ = ["close_dataset_loop", "write_closed_loop"]
 
