@@ -7,7 +7,7 @@ staircase with the plant at the estimate and at every corner of the box
 interval) and keeps the worst value of each metric: the largest rise time, overshoot,
 ``|steady-state error|`` and ripple over the steps and the valves. :func:`lengthen_tau_c`
 lengthens SIMC's closed-loop time constant by a factor (1.5) while the worst-case overshoot
-exceeds the limit (:data:`spa.closedloop.stage.MAX_OVERSHOOT`, 10 %), up to a bound; the
+exceeds the limit (:data:`spa.closedloop.choice.MAX_OVERSHOOT`, 10 %), up to a bound; the
 first ``tau_c`` that holds is the robust one, and none may hold (docs/model.md section 8).
 """
 
