@@ -30,8 +30,8 @@ def main(argv: list[str] | None = None) -> int:
     from spa.closedloop.bench import adequacy_of, bench_outputs, sensor_noise
     from spa.closedloop.model_error import dataset_error
     from spa.closedloop.stage import closed_loop
-    from spa.io import read_runs
-    from spa.tuning.stage import read_identified
+    from spa.datasets import read_runs
+    from spa.identification.identified import read_identified
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("dataset", type=Path, help="results/<dataset> of a processed dataset")

@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     if Path(args.config).resolve() != (ROOT / "config" / "config.yaml").resolve():
         cfg = _merge(cfg, yaml.safe_load(Path(args.config).read_text()))
     if args.runs is not None:
-        from spa.io import read_runs
+        from spa.datasets import read_runs
 
         runs, metas = read_runs(args.runs)
         kinds = {r: m["kind"] for r, m in metas.items()}

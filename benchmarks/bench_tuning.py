@@ -29,10 +29,11 @@ from pathlib import Path
 
 import yaml
 
+from spa.identification.identified import read_identified
 from spa.io import write_csv
 from spa.plots.save import save_figure
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
-from spa.tuning import DEFAULT_SWEEPS, read_identified, tune
+from spa.tuning import DEFAULT_SWEEPS, tune
 
 #: raw/example as the full config identifies it (results/example/identification/params.yaml).
 EXAMPLE = {

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import yaml
 
+from spa.closedloop.choice import CONTROLLERS
 from spa.closedloop.design import design_pi
 from spa.closedloop.experiments import staircase_reference
 from spa.closedloop.precision import precision_agreement
-from spa.closedloop.stage import CONTROLLERS
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 

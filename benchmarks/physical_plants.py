@@ -201,7 +201,7 @@ def _promise(plant, identified, runs, metas, config, rng) -> dict:
 
 def res_params(identified: dict):
     """The identified valve of a ``params.yaml`` mapping."""
-    from spa.tuning.stage import read_identified
+    from spa.identification.identified import read_identified
 
     return read_identified(identified).params
 

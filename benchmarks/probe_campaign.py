@@ -250,7 +250,7 @@ PROBES["table2_exact_optimum_meets_the_constraints"] = numbers(
 PROBES["chirp_reference_through_the_runs_sensor"] = numbers(
     "from spa.openloop import chirp_reference, no_ringing_spread\n"
     "from spa.synthetic import generate_dataset\n"
-    "from spa.io import read_runs\n"
+    "from spa.datasets import read_runs\n"
     "cfg = {'params': spa.ValveParams().as_dict(), 'controller_dt': 1e-3,\n"
     "       'sensor': {'fs': 1e3, 'noise': 0.005, 'quantum': 0.001,\n"
     "                  'ringing': {'amplitude': 0.01, 'frequency': 60.0, 'damping': 60.0}},\n"

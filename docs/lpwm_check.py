@@ -20,12 +20,12 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
+from spa.identification.identified import read_identified
 from spa.model.params import ValveParams
 from spa.tuning.cost import linearity_cost
 from spa.tuning.exact import exact_cost
 from spa.tuning.recommend import setting_metrics
 from spa.tuning.sensitivity import valve_sensitivity
-from spa.tuning.stage import read_identified
 from spa.tuning.tables import tuning_table
 
 INVERSE, REFERENCE = "lpwm", "iipfm"  # the kind checked and the paper's best

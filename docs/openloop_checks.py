@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from spa.io import read_runs
+from spa.datasets import read_runs
 from spa.model.averaging import time_constant, time_fractions
 from spa.model.params import ValveParams
 from spa.openloop import (

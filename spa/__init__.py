@@ -45,7 +45,7 @@ _EXPORTS: dict[str, str] = {
     # Datasets: the raw/ contract, the canonical run tables.
     **dict.fromkeys(("DatasetError", "ingest_dataset", "validate_dataset"), "spa.datasets"),
     "read_run_table": "spa.datasets",
-    "read_runs": "spa.io",
+    "read_runs": "spa.datasets",
     # Identification (Section 3.2) and the model's validation on every run.
     **dict.fromkeys(
         ("IdentificationError", "IdentificationResult", "identify", "identify_runs"),

@@ -120,10 +120,9 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
 
     import yaml
 
-    from spa.datasets import DatasetError
+    from spa.datasets import DatasetError, read_runs
     from spa.datasets.checks import k2_warning
     from spa.identification import identify_with_config, run_context
-    from spa.io import read_runs
     from spa.report.params import fits_note, identification_notes, params_table
 
     try:
@@ -199,7 +198,7 @@ def _tune(args: argparse.Namespace, out: TextIO) -> int:
 
 def _design_pi(args: argparse.Namespace, out: TextIO) -> int:
     from spa.closedloop.describe import design_summary, format_design, parse_modulator_spec
-    from spa.tuning.stage import read_identified
+    from spa.identification.identified import read_identified
 
     try:
         mod = parse_modulator_spec(args.modulator)
@@ -232,8 +231,8 @@ def stage_choice(params_path: str | Path) -> dict[str, Any] | None:
 def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
     from spa.closedloop.describe import parse_modulator_spec
     from spa.closedloop.export import export_designed
+    from spa.identification.identified import read_identified
     from spa.model.modulators import Modulator
-    from spa.tuning.stage import read_identified
 
     try:
         valve = read_identified(str(args.params)).params

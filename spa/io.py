@@ -18,7 +18,6 @@ __all__ = [
     "package_digest",
     "peak_rss_mib",
     "read_params",
-    "read_runs",
     "read_yaml",
     "write_csv",
 ]
@@ -129,33 +128,6 @@ def write_csv(df: pd.DataFrame, path: str | Path) -> None:
     """Write a table as CSV with full float precision and no index (byte-stable)."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(path, index=False, float_format="%.10g", lineterminator="\n")
-
-
-def read_runs(run_dir: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, dict[str, Any]]]:
-    """Read every run table of a dataset's ``runs/`` folder, in run-id order.
-
-    Returns
-    -------
-    runs : dict
-        Run id → canonical table (``t``, ``p``, ``valve``, ``u``).
-    metas : dict
-        Run id → the run's metadata (``kind``, ``modulator``, ...); ``modulator`` is a
-        :class:`~spa.model.modulators.Modulator` (parsed here, once) or None.
-    """
-    from spa.datasets import read_run_table
-    from spa.model.modulators import Modulator
-
-    runs: dict[str, pd.DataFrame] = {}
-    metas: dict[str, dict[str, Any]] = {}
-    for path in sorted(Path(run_dir).glob("*.parquet")):
-        table, meta = read_run_table(path)
-        if meta.get("modulator") is not None:
-            meta["modulator"] = Modulator.from_mapping(meta["modulator"])
-        runs[meta["run"]] = table
-        metas[meta["run"]] = meta
-    if not runs:
-        raise ValueError(f"{run_dir}: no run tables (*.parquet) found")
-    return runs, metas
 
 
 def read_params(path: str | Path) -> ValveParams:

@@ -7,12 +7,12 @@ import pytest
 
 import spa
 from spa.closedloop.controller import PIController, interp
-from spa.closedloop.loop import closed_loop_arrays, segment_pressure_scalar
+from spa.closedloop.loop import _segment, closed_loop_arrays
 from spa.closedloop.reference import closed_loop_reference
 from spa.model.modulators import MODULATORS, Modulator
 from spa.model.modulators.kernels import KERNELS
 from spa.model.params import ValveParams
-from spa.model.plant import segment_pressure
+from spa.model.plant import segment_pressure, segment_pressure_scalar
 
 DT = 1e-3
 SETTINGS = {
@@ -147,8 +147,10 @@ def test_compiled_segment_is_the_plant_formula(on: bool) -> None:
     e = rng.uniform(-0.01, 2.0, 200)
     expected = segment_pressure(on, p0, e, PARAMS)
     prm = (PARAMS.c1, PARAMS.k2, PARAMS.tau2)
-    got = [segment_pressure_scalar(on, a, b, *prm) for a, b in zip(p0, e, strict=True)]
-    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-15)
+    plain = [segment_pressure_scalar(on, a, b, *prm) for a, b in zip(p0, e, strict=True)]
+    compiled = [_segment(on, a, b, *prm) for a, b in zip(p0, e, strict=True)]
+    np.testing.assert_allclose(plain, expected, rtol=0, atol=1e-15)  # math.exp vs np.exp
+    np.testing.assert_allclose(compiled, plain, rtol=0, atol=1e-15)
 
 
 def test_interp_is_exact_at_nodes_and_held_outside() -> None:

@@ -9,9 +9,9 @@ import pytest
 from spa.closedloop.design import design_pi
 from spa.closedloop.experiments import staircase_reference
 from spa.closedloop.loop import closed_loop_arrays, closed_loop_many
+from spa.identification.identified import corners
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
-from spa.tuning.intervals import corners
 
 BOX = {"k2": (0.8, 0.9), "t_on": (0.002, 0.006), "c1": (0.5, 0.56)}
 

@@ -11,9 +11,8 @@ import yaml
 from spa.closedloop.controller import PIController
 from spa.closedloop.experiments import staircase_reference
 from spa.closedloop.loop import simulate_closed_loop
-from spa.closedloop.stage import RUN_COLUMNS, recorded_runs
-from spa.datasets import check_dataset, ingest_dataset
-from spa.io import read_runs
+from spa.closedloop.replay import RUN_COLUMNS, recorded_runs
+from spa.datasets import check_dataset, ingest_dataset, read_runs
 from spa.model.params import ValveParams
 from spa.synthetic.runs import closed_loop_runs, simulate_run
 from spa.synthetic.sensor import Sensor

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 import yaml
 
+from spa.closedloop.choice import CONTROLLERS
 from spa.closedloop.controller import PIController
-from spa.closedloop.stage import CONTROLLERS, closed_loop, write_controllers
+from spa.closedloop.stage import closed_loop, write_controllers
 from spa.model.params import ValveParams
 
 SELECTED = [

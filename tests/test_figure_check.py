@@ -206,14 +206,15 @@ def pipeline_figures(results: Path, config: dict, out: Path) -> dict[str, Figure
 def _draw_all(
     results: Path, config: dict, out: Path, figures: dict[str, Figure], drawn: dict[str, str]
 ) -> None:
-    from spa.io import read_params, read_runs
+    from spa.datasets import read_runs
+    from spa.io import read_params
     from spa.model.params import ValveParams
     from spa.pipeline.outputs import stage_outputs, stage_settings
     from spa.plots.analytic import plot_cost_sweeps, plot_equilibrium
     from spa.plots.closedloop import fig10, fig11
     from spa.plots.identification import fig2a, fig2b, fig2c, validation_figure
-    from spa.plots.overview import plot_overview
     from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
+    from spa.report.overview_figure import plot_overview
     from spa.stages.chirp import run_chirp, write_chirp
     from spa.stages.sine import run_sine, write_sine
     from spa.stages.staircase import run_staircase, write_staircase
@@ -458,8 +459,8 @@ def test_fig2c_legend_does_not_cover_its_title():
 
 
 def test_overview_groups_by_valve_never_by_the_word_simulated():
-    from spa.plots.overview import plot_overview
     from spa.report.overview import overview_table, valve_identity
+    from spa.report.overview_figure import plot_overview
     from spa.report.params import PARAM_NAMES
 
     rows = []

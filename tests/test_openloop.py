@@ -506,7 +506,7 @@ def test_thin_keeps_at_most_max_points():
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
     """A small simulated dataset (one setting: staircase and chirp), read back."""
-    from spa.io import read_runs
+    from spa.datasets import read_runs
     from spa.synthetic import generate_dataset
 
     cfg = {
@@ -589,7 +589,7 @@ def test_an_input_of_another_shape_is_named_with_its_kind():
 @pytest.fixture(scope="module")
 def pwm_chirp(tmp_path_factory):
     """A simulated PWM 20 Hz chirp, 30 s, logged with noise and the ringing after each edge."""
-    from spa.io import read_runs
+    from spa.datasets import read_runs
     from spa.synthetic import generate_dataset
 
     cfg = {

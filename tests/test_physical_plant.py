@@ -312,7 +312,7 @@ def test_harness_refuses_a_header_that_is_not_spas_or_another_step(tmp_path, fin
 
 
 def test_a_physical_dataset_is_made_by_the_plant_and_carries_no_model_truth(tmp_path):
-    from spa.io import read_runs
+    from spa.datasets import read_runs
     from spa.openloop.replicas import is_simulated
     from spa.synthetic import generate_dataset
 

@@ -191,7 +191,7 @@ def test_every_kth_sample_differs_from_every_sample(tmp_path):
 
 def test_the_csv_beside_fig6_keeps_every_sample(small_run):
     """Only the drawing is reduced: Fig. 6's CSV holds every sample of each staircase run."""
-    from spa.io import read_runs
+    from spa.datasets import read_runs
 
     for ds in ("sim", "example"):
         csv = pd.read_csv(small_run / ds / "staircase" / "fig6.csv")

@@ -399,7 +399,7 @@ def _overview(order: list[int], empty_rig: bool = False) -> pd.DataFrame:
 
 
 def test_overview_colours_rigs_in_sorted_order_and_names_only_rigs_with_points():
-    from spa.plots.overview import plot_overview
+    from spa.report.overview_figure import plot_overview
 
     def colours(fig) -> dict[str, str]:
         legend = fig.legends[0]

@@ -21,6 +21,7 @@ import yaml
 from spa.closedloop.experiments import cycle_period
 from spa.closedloop.promise import design_for_dataset, promise_kept
 from spa.identification import identify_with_config
+from spa.identification.identified import read_identified
 from spa.model.modulators import Modulator
 from spa.synthetic import Sensor, identification_experiment_for
 from spa.synthetic.physical import (
@@ -30,7 +31,6 @@ from spa.synthetic.physical import (
     measure_staircase,
 )
 from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
-from spa.tuning.stage import read_identified
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())

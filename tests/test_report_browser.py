@@ -247,9 +247,9 @@ def test_a_dataset_with_a_failed_stage_in_the_browser(browser, fake_results, tmp
     from test_site import _run_dataset_stages
 
     from spa.io import write_csv
-    from spa.plots.overview import plot_overview
     from spa.plots.save import save_figure
     from spa.report.overview import overview_row, overview_table
+    from spa.report.overview_figure import plot_overview
     from spa.report.site import build_dataset_page, build_index
 
     root = tmp_path / "results"

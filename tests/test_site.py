@@ -31,8 +31,8 @@ ROOT = Path(__file__).resolve().parents[1]
 def site(fake_results, tmp_path_factory):
     """The fabricated results with each dataset's overview row and the overview written."""
     from spa.io import write_csv
-    from spa.plots.overview import plot_overview
     from spa.plots.save import save_figure
+    from spa.report.overview_figure import plot_overview
 
     root = tmp_path_factory.mktemp("site") / "results"
     shutil.copytree(fake_results.root, root)
@@ -125,7 +125,7 @@ def test_drift_figure_flags_the_valve_change_at_the_right_session(tmp_path):
     and no other parameter anywhere."""
     from spa.identification import identify, simulate_identification
     from spa.model.params import ValveParams
-    from spa.plots.overview import plot_overview
+    from spa.report.overview_figure import plot_overview
 
     names = ["f", "c", "e", "a", "d", "b"]  # in date order
     rows = []
@@ -298,7 +298,7 @@ def _config_error() -> Exception:
 
 
 def _tuning_error() -> Exception:
-    from spa.tuning.stage import TuningError
+    from spa.identification.identified import TuningError
 
     return TuningError("t_on: the 95 % interval [0.0, 0.00068] leaves the physical domain")
 

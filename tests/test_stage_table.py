@@ -11,7 +11,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from spa.io import read_params, read_runs
+from spa.datasets import read_runs
+from spa.io import read_params
 from spa.pipeline.outputs import STAGES, job_stages, stage_outputs, stage_settings
 from spa.stages.chirp import run_chirp, write_chirp
 from spa.stages.sine import run_sine, write_sine

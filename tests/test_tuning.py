@@ -12,13 +12,13 @@ from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 from spa import ValveParams
+from spa.identification.identified import corners, read_intervals
 from spa.model.averaging import equilibrium
 from spa.plots.analytic import plot_cost_sweeps, plot_equilibrium
 from spa.tuning import (
     PAPER_SETTING,
     PAPER_TABLE2,
     check_sweeps,
-    corners,
     equilibrium_frame,
     exact_cost,
     feasible,
@@ -28,7 +28,6 @@ from spa.tuning import (
     optimum,
     optimum_table,
     propagate,
-    read_intervals,
     sweep,
     sweep_frame,
     sweep_grid,
@@ -489,9 +488,9 @@ def test_intervals_touching_a_physical_bound_are_accepted_and_clipped() -> None:
     """Issue 29: an identification's own output is a valid tuning input. A valve that opens
     at once (t_on = 0, its interval [0, 0.68 ms]) is tuned, not refused; an interval reaching
     past a bound (k2's lower end -0.1) is clipped to the domain and the clipping is said."""
+    from spa.identification.identified import read_identified
     from spa.model.thresholds import thresholds
     from spa.tuning.cost import DEFAULT_SWEEPS
-    from spa.tuning.stage import read_identified
 
     flat = {"c1": 0.5, "k2": 0.8, "tau2": 0.8, "t_on": 0.0, "t_off": 0.01}
     assert read_identified(flat).params.t_on == 0.0

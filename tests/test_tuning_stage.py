@@ -12,6 +12,7 @@ from matplotlib.figure import Figure
 
 from spa import ValveParams
 from spa.cli import main
+from spa.identification.identified import read_identified
 from spa.model.modulators import Modulator
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
 from spa.tuning import (
@@ -20,7 +21,6 @@ from spa.tuning import (
     TuningError,
     TuningOptions,
     candidate_frame,
-    read_identified,
     recommendation_sentence,
     setting_metrics,
     tune,

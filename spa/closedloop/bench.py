@@ -25,11 +25,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.controller import PIController
 from spa.closedloop.disturbance import DROP, disturbances
 from spa.closedloop.export import arduino_sketch, controller_header
 from spa.closedloop.robust import robust_design
-from spa.closedloop.stage import DEFAULTS, MAX_OVERSHOOT, ClosedLoopResult
+from spa.closedloop.stage import DEFAULTS, ClosedLoopResult
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 

@@ -423,8 +423,9 @@ def export_designed(
     ValueError
         For an unknown controller name, fewer than two levels, or a design that fails.
     """
+    from spa.closedloop.choice import CONTROLLERS
     from spa.closedloop.design import design_pi
-    from spa.closedloop.stage import CONTROLLERS, DEFAULTS
+    from spa.closedloop.stage import DEFAULTS
 
     if controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {list(CONTROLLERS)}, got {controller!r}")

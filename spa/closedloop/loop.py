@@ -2,7 +2,7 @@
 
 The loop is sequential (the controller reads the pressure the previous commands produced), so
 it runs as one numba-compiled loop over the samples; per step it evaluates the plant's closed
-form once (:func:`spa.model.plant.segment_pressure`, the same formula), the controller's law
+form once (:func:`spa.model.plant.segment_pressure_scalar`, compiled), the controller's law
 and the modulator's per-step kernel (:mod:`spa.model.modulators.kernels`). Convention in
 docs/model.md section 8; checked against the open-loop functions and a plain-Python loop in
 tests/test_closed_loop.py.
@@ -23,40 +23,20 @@ from spa.closedloop.controller import PIController, interp
 from spa.model.modulators import Modulator, kernels
 from spa.model.modulators.kernels import KERNELS
 from spa.model.params import ValveParams, valve_params
+from spa.model.plant import segment_pressure_scalar
 
 __all__ = [
     "closed_loop_arrays",
     "closed_loop_many",
-    "segment_pressure_scalar",
     "simulate_closed_loop",
 ]
 
 _interp = njit(cache=True)(interp)
 
 
-@njit(cache=True)
-def segment_pressure_scalar(  # pragma: no cover
-    on: bool, p_start: float, elapsed: float, c1: float, k2: float, tau2: float
-) -> float:
-    """:func:`spa.model.plant.segment_pressure` for one sample, compiled: the same formula.
-
-    Charging ``k2 + (p_start - k2)*exp(-e/tau2)``, exhausting
-    ``max(sqrt(p_start) - e/(2*c1), 0)**2``, with ``e = max(elapsed, 0)``.
-    """
-    e = max(elapsed, 0.0)
-    if on:
-        return math.exp(-e / tau2) * (p_start - k2) + k2
-    root = max(math.sqrt(p_start) - e / (2.0 * c1), 0.0)
-    return root * root
-
-
-@njit(cache=True)
-def _run_end(on: bool, p_start: float, active: float, c1: float, k2: float, tau2: float) -> float:
-    # spa.model.plant.run_start_pressures: the pressure a run of `active` s leaves.
-    if on:
-        return k2 + (p_start - k2) * math.exp(-active / tau2)
-    r = math.sqrt(p_start) - active / (2.0 * c1)
-    return r * r if r > 0.0 else 0.0
+#: The plant's closed form for one sample (:func:`spa.model.plant.segment_pressure_scalar`),
+#: compiled for the loop.
+_segment = njit(cache=True)(segment_pressure_scalar)
 
 
 @njit(cache=True)
@@ -95,9 +75,7 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
         if k == 0:
             p = p0
         else:
-            p = segment_pressure_scalar(
-                level == 1, p_start, k * dt - (start * dt + hold), c1, k2, tau2
-            )
+            p = _segment(level == 1, p_start, k * dt - (start * dt + hold), c1, k2, tau2)
         if k == k2_at:
             # The supply changes at t_k: the run in progress restarts from p_k (the closed
             # forms compose), with what is left of its hold.
@@ -122,7 +100,8 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
         if k == 0:
             level = u
         elif u != level:
-            p_start = _run_end(level == 1, p_start, max((k - start) * dt - hold, 0.0), c1, k2, tau2)
+            # The pressure the run of (k - start)*dt - hold active seconds leaves.
+            p_start = _segment(level == 1, p_start, max((k - start) * dt - hold, 0.0), c1, k2, tau2)
             level = u
             start = k
             hold = t_on if u == 1 else t_off

@@ -275,7 +275,7 @@ def dataset_error(
     Parameters
     ----------
     runs, metas : mapping
-        Run id -> run table and metadata (:func:`spa.io.read_runs`).
+        Run id -> run table and metadata (:func:`spa.datasets.read_runs`).
     params : ValveParams
         The identified valve.
     equilibrium : bool, default False

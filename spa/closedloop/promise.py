@@ -62,7 +62,7 @@ def design_for_dataset(
     from spa.closedloop.bench import adequacy_of, apply_bench, bench_outputs, sensor_noise
     from spa.closedloop.model_error import dataset_error
     from spa.closedloop.stage import DEFAULTS, closed_loop
-    from spa.tuning.stage import read_identified
+    from spa.identification.identified import read_identified
 
     valve = read_identified(identified)
     if recommendation is None and isinstance(identified.get("adequacy"), Mapping):
@@ -112,7 +112,7 @@ def _ship_instead(
 ) -> None:
     """Make ``choice`` the stage's choice in ``result`` (its sentence rewritten), saying why
     the stage's first choice ``first`` is not shipped."""
-    from spa.closedloop.stage import closed_loop_sentence, held_clause
+    from spa.closedloop.choice import closed_loop_sentence, held_clause
 
     ctl = result.controllers
     gains = ctl["controllers"]

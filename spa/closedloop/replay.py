@@ -17,6 +17,7 @@ k2 = 0.7 bar and tau2 = 0.5 s still to 93.9 %. Compare the RMS error with the se
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -31,7 +32,7 @@ from spa.closedloop.metrics import step_metrics
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
-__all__ = ["ClosedLoopReplay", "replay_closed_loop"]
+__all__ = ["RUN_COLUMNS", "ClosedLoopReplay", "recorded_runs", "replay_closed_loop"]
 
 
 @dataclass(frozen=True)
@@ -132,3 +133,84 @@ def replay_closed_loop(
         predicted=predicted,
         model=pd.DataFrame({"t": t, "r": r, "p": p, "p_model": p_model}),
     )
+
+
+#: Columns of ``runs.csv`` (recorded closed-loop runs against their replay).
+RUN_COLUMNS = (
+    "run",
+    "origin",
+    "modulator",
+    "kp",
+    "ki",
+    "dt",
+    "n_steps",
+    "fit",
+    "rmse",
+    "max_error",
+    "rise_time_max",
+    "rise_time_max_model",
+    "overshoot_max",
+    "overshoot_max_model",
+    "steady_state_error_max",
+    "steady_state_error_max_model",
+)
+
+
+def recorded_runs(
+    runs: Mapping[str, pd.DataFrame], metas: Mapping[str, Mapping[str, Any]], params: ValveParams
+) -> pd.DataFrame:
+    """The dataset's ``closed_loop`` runs: measured metrics and the replay on the model.
+
+    Parameters
+    ----------
+    runs, metas : mapping
+        Run id -> run table and metadata (:func:`spa.datasets.read_runs`); runs of other kinds
+        are ignored.
+    params : ValveParams
+        The identified valve.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run, :data:`RUN_COLUMNS`: the recording's worst rise time, overshoot and
+        steady-state error over its set-point steps beside the replay's (``*_model``), and
+        the replay's FIT %, RMSE and largest error (bar). The replay starts from the recorded
+        first pressure with the integrator at 0 (a run that starts from rest).
+    """
+    rows = []
+    for rid, meta in metas.items():
+        if meta.get("kind") != "closed_loop":
+            continue
+        spec = dict(meta["controller"])
+        ctrl = PIController.from_mapping(spec)
+        res = replay_closed_loop(runs[rid], meta["modulator"], ctrl, params, float(spec["dt"]))
+        worst = {}
+        for metric in ("rise_time", "overshoot", "steady_state_error"):
+            for suffix, frame in (("", res.measured), ("_model", res.predicted)):
+                v = frame[metric].abs().to_numpy(np.float64)
+                worst[f"{metric}_max{suffix}"] = (
+                    float(np.nanmax(v)) if np.isfinite(v).any() else math.nan
+                )
+        rows.append(
+            {
+                "run": rid,
+                "origin": meta.get("origin", ""),
+                "modulator": Modulator.from_mapping(meta["modulator"]).label,
+                "kp": fmt_gain(spec["kp"]),
+                "ki": fmt_gain(spec.get("ki", 0.0)),
+                "dt": float(spec["dt"]),
+                "n_steps": len(res.measured),
+                "fit": res.fit,
+                "rmse": res.rmse,
+                "max_error": res.max_error,
+                **worst,
+            }
+        )
+    return pd.DataFrame(rows, columns=list(RUN_COLUMNS))
+
+
+def fmt_gain(value: Any) -> str:
+    """A gain or a schedule of gains as text (``4.1`` or ``3.9-4.5``)."""
+    if isinstance(value, list | tuple):
+        return f"{min(value):.4g}-{max(value):.4g}"
+    return f"{float(value):.4g}"

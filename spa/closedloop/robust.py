@@ -3,11 +3,11 @@
 The PI is designed at the point estimate (:func:`spa.closedloop.design.design_pi`); the
 plant it meets may be any valve of the box. :func:`box_worst_case` runs the set-point
 staircase with the plant at the estimate and at every corner of the box
-(:func:`spa.tuning.intervals.corners`: ``2**k`` valves for ``k`` parameters with an
+(:func:`spa.identification.identified.corners`: ``2**k`` valves for ``k`` parameters with an
 interval) and keeps the worst value of each metric: the largest rise time, overshoot,
 ``|steady-state error|`` and ripple over the steps and the valves. :func:`lengthen_tau_c`
 lengthens SIMC's closed-loop time constant by a factor (1.5) while the worst-case overshoot
-exceeds the limit (:data:`spa.closedloop.stage.MAX_OVERSHOOT`, 10 %), up to a bound; the
+exceeds the limit (:data:`spa.closedloop.choice.MAX_OVERSHOOT`, 10 %), up to a bound; the
 first ``tau_c`` that holds is the robust one, and none may hold (docs/model.md section 8).
 """
 
@@ -25,9 +25,9 @@ from spa.closedloop.design import design_pi
 from spa.closedloop.experiments import _settled, cycle_period, staircase_reference
 from spa.closedloop.loop import closed_loop_many
 from spa.closedloop.metrics import step_rows
+from spa.identification.identified import corners
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
-from spa.tuning.intervals import corners
 
 __all__ = [
     "WORST_METRICS",
@@ -118,7 +118,8 @@ def box_worst_case(
     params : ValveParams
         The point estimate.
     intervals : mapping or None
-        ``name -> (lo, hi)``, the 95 % intervals (:func:`spa.tuning.intervals.read_intervals`).
+        ``name -> (lo, hi)``, the 95 % intervals
+        (:func:`~spa.identification.identified.read_intervals`).
     levels, hold, dt : as :func:`spa.closedloop.experiments.run_staircase`
     gains : sequence of float, default (1.0,)
         Factors on the loop gain (the measured model error's ``gain``,

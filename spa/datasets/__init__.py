@@ -51,7 +51,7 @@ from spa.datasets.contract import _to_seconds as _to_seconds
 from spa.datasets.ingest import check_dataset, ingest_dataset, validate_dataset
 from spa.datasets.problems import DatasetError, Problem
 from spa.datasets.readers.sniff import sniff_delimited
-from spa.datasets.runtable import read_run_meta, read_run_table, write_run_table
+from spa.datasets.runtable import read_run_meta, read_run_table, read_runs, write_run_table
 from spa.datasets.spec import DatasetSpec, RunEntry, find_datasets, load_spec
 
 #: What a notebook user calls (the API reference lists these); the other names imported
@@ -71,6 +71,7 @@ __all__ = [
     "load_spec",
     "read_run_meta",
     "read_run_table",
+    "read_runs",
     "validate_dataset",
     "write_run_table",
 ]

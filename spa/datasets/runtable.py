@@ -295,3 +295,29 @@ def read_run_table(path: str | Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     meta = read_run_meta(path)
     table = pq.read_table(path)
     return table.to_pandas(), meta
+
+
+def read_runs(run_dir: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, dict[str, Any]]]:
+    """Read every run table of a dataset's ``runs/`` folder, in run-id order.
+
+    Returns
+    -------
+    runs : dict
+        Run id → canonical table (``t``, ``p``, ``valve``, ``u``).
+    metas : dict
+        Run id → the run's metadata (``kind``, ``modulator``, ...); ``modulator`` is a
+        :class:`~spa.model.modulators.Modulator` (parsed here, once) or None.
+    """
+    from spa.model.modulators import Modulator
+
+    runs: dict[str, pd.DataFrame] = {}
+    metas: dict[str, dict[str, Any]] = {}
+    for path in sorted(Path(run_dir).glob("*.parquet")):
+        table, meta = read_run_table(path)
+        if meta.get("modulator") is not None:
+            meta["modulator"] = Modulator.from_mapping(meta["modulator"])
+        runs[meta["run"]] = table
+        metas[meta["run"]] = meta
+    if not runs:
+        raise ValueError(f"{run_dir}: no run tables (*.parquet) found")
+    return runs, metas

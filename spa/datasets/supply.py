@@ -205,7 +205,7 @@ def k2_warning(
     k2 : float
         The identified supply pressure, bar.
     metas : mapping
-        Run id -> run table metadata (:func:`spa.io.read_runs`): ``kind``, ``units`` and
+        Run id -> run table metadata (:func:`spa.datasets.read_runs`): ``kind``, ``units`` and
         ``origin`` (a simulated dataset, every run ``synthetic``, is only checked against
         ``bounds``: its unit is known; so is a pressure column whose name states the unit
         declared, ``source.columns.p``).

@@ -18,7 +18,9 @@ to the content of ``params.yaml``; :func:`identification_commands` and
 
 The modules follow the stages of that work: ``results`` (what is returned), ``rates`` (dP/dt
 and segments), ``rate_fits`` (experiments 1 and 2), ``delays`` (experiment 3), ``identify``
-(the three chained) and ``experiments`` (the experiment design, for the simulator and a bench).
+(the three chained), ``experiments`` (the experiment design, for the simulator and a bench)
+and ``identified`` (a ``params.yaml`` read back for the stages that use the valve, with the
+corners of its 95 % box).
 
 Run tables follow the project's contract: a DataFrame with ``t`` (s), ``p`` (bar), and
 optionally ``valve`` (0/1, the command over ``[t_k, t_{k+1})``). Time need not start at 0 and
@@ -35,6 +37,7 @@ _MODULES = (
     "adequacy",
     "delays",
     "experiments",
+    "identified",
     "identify",
     "rate_fits",
     "rates",

@@ -279,7 +279,7 @@ def identify_with_config(
 def run_context(
     metas: Mapping[str, Mapping[str, Any]],
 ) -> tuple[dict[str, str], dict[str, float]]:
-    """Each run's modulator type and command step from its metadata (:func:`spa.io.read_runs`).
+    """Each run's modulator type and command step, from :func:`spa.datasets.read_runs`' metadata.
 
     Returns
     -------

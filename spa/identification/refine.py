@@ -35,7 +35,7 @@ from scipy.optimize import least_squares
 from spa.identification.rates import _arrays
 from spa.identification.results import _Z95, FloatArray
 from spa.model.params import ValveParams
-from spa.model.plant import edge_indices, transport_runs
+from spa.model.plant import edge_indices, segment_pressure_scalar, transport_runs
 from spa.validation import fit_percent, initial_pressure
 
 __all__ = [
@@ -129,6 +129,11 @@ class RefineRun:
         return 100.0 * (1.0 - self.noise * math.sqrt(self.y.size / self.block) / den)
 
 
+#: The plant's closed form for one sample (:func:`spa.model.plant.segment_pressure_scalar`),
+#: compiled for the kernels below.
+_segment = njit(cache=True)(segment_pressure_scalar)
+
+
 @njit(cache=True)
 def replay_kernel(
     starts: np.ndarray,
@@ -151,24 +156,10 @@ def replay_kernel(
         end = starts[j + 1] if j + 1 < m else np.inf
         on = level[j]
         while i < n and t[i] < end:
-            e = t[i] - starts[j] - hold[j]
-            if e < 0.0:
-                e = 0.0
-            if on:
-                out[i] = k2 + (p - k2) * math.exp(-e / tau2)
-            else:
-                r = math.sqrt(p) - e / (2.0 * c1)
-                out[i] = r * r if r > 0.0 else 0.0
+            out[i] = _segment(on, p, t[i] - starts[j] - hold[j], c1, k2, tau2)
             i += 1
         if j + 1 < m:
-            a = end - starts[j] - hold[j]
-            if a < 0.0:
-                a = 0.0
-            if on:
-                p = k2 + (p - k2) * math.exp(-a / tau2)
-            else:
-                r = math.sqrt(p) - a / (2.0 * c1)
-                p = r * r if r > 0.0 else 0.0
+            p = _segment(on, p, end - starts[j] - hold[j], c1, k2, tau2)
     return out
 
 
@@ -182,11 +173,7 @@ def chain_runs(
     p = p0
     for j in range(level.size):
         out[j] = p
-        if level[j]:
-            p = k2 + (p - k2) * math.exp(-active[j] / tau2)
-        else:
-            r = math.sqrt(p) - active[j] / (2.0 * c1)
-            p = r * r if r > 0.0 else 0.0
+        p = _segment(level[j], p, active[j], c1, k2, tau2)
     return out
 
 

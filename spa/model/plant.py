@@ -23,6 +23,7 @@ __all__ = [
     "replay",
     "run_start_pressures",
     "segment_pressure",
+    "segment_pressure_scalar",
     "simulate",
     "transport_runs",
 ]
@@ -123,6 +124,50 @@ def segment_pressure(
     root *= root
     out += root
     return out
+
+
+def segment_pressure_scalar(
+    on: bool, p_start: float, elapsed: float, c1: float, k2: float, tau2: float
+) -> float:
+    """:func:`segment_pressure` for one sample, on plain floats: the same closed forms.
+
+    Written for numba (``numba.njit(segment_pressure_scalar)``): the closed loop, whose
+    samples follow one another, compiles it into its per-sample loop
+    (:mod:`spa.closedloop.loop`), so the plant's formula is written once, here.
+
+    Parameters
+    ----------
+    on : bool
+        True: charging (valve open); False: exhausting.
+    p_start : float
+        Pressure when the segment's active phase starts, bar (>= 0).
+    elapsed : float
+        Active time since then, s; negative counts as 0.
+    c1, k2, tau2 : float
+        The valve's :class:`~spa.model.params.ValveParams` fields.
+
+    Returns
+    -------
+    float
+        ``k2 + (p_start - k2)*exp(-e/tau2)`` charging, ``max(sqrt(p_start) - e/(2*c1), 0)**2``
+        exhausting, with ``e = max(elapsed, 0)``: :func:`segment_pressure`'s formula (the
+        scalar ``exp`` may differ from numpy's in the last bit).
+
+    Examples
+    --------
+    >>> prm = ValveParams()
+    >>> args = (prm.c1, prm.k2, prm.tau2)
+    >>> abs(segment_pressure_scalar(True, 0.1, 0.05, *args)
+    ...     - float(segment_pressure(True, 0.1, 0.05, prm))) < 1e-15
+    True
+    >>> segment_pressure_scalar(False, 0.25, 2 * prm.c1 * 0.5, *args)
+    0.0
+    """
+    e = max(elapsed, 0.0)
+    if on:
+        return math.exp(-e / tau2) * (p_start - k2) + k2
+    root = max(math.sqrt(p_start) - e / (2.0 * c1), 0.0)
+    return root * root
 
 
 def charge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np.ndarray:

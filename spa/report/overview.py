@@ -6,7 +6,7 @@ status) as ``results/<dataset>/report/overview.json``; the overview job puts the
 session order (:func:`overview_table`), flags every parameter whose interval excludes the
 previous session's of the same rig (:func:`interval_changes`) and fits each parameter's trend
 (:func:`trend`). The table is ``results/overview.csv``, also the data of Fig. O1
-(:func:`spa.plots.overview.plot_overview`).
+(:func:`spa.report.overview_figure.plot_overview`).
 
 >>> interval_changes([1.0, 1.1, 2.0], [1.2, 1.3, 2.2], ["a", "a", "a"]).tolist()
 [False, False, True]

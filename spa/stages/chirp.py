@@ -100,7 +100,7 @@ def run_chirp(
     Parameters
     ----------
     runs, metas : mapping
-        Run id to canonical run table and to its metadata (:func:`spa.io.read_runs`).
+        Run id to canonical run table and to its metadata (:func:`spa.datasets.read_runs`).
     params : ValveParams
         The dataset's identified valve (the linear reference's time constant).
     cfg : mapping

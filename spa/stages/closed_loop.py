@@ -12,11 +12,13 @@ import yaml
 
 from spa.closedloop.bench import BenchOutputs
 from spa.closedloop.promise import design_for_dataset
-from spa.closedloop.stage import ClosedLoopResult, recorded_runs, write_controllers
-from spa.io import read_runs, write_csv
+from spa.closedloop.replay import recorded_runs
+from spa.closedloop.stage import ClosedLoopResult, write_controllers
+from spa.datasets import read_runs
+from spa.identification.identified import read_identified
+from spa.io import write_csv
 from spa.plots.closedloop import fig10, fig11, no_design
 from spa.plots.save import draw
-from spa.tuning.stage import read_identified
 
 __all__ = ["close_dataset_loop", "write_closed_loop"]
 
@@ -81,7 +83,7 @@ def write_closed_loop(
     result : ClosedLoopResult
         The designs and exact simulations.
     recorded : pandas.DataFrame
-        :func:`spa.closedloop.stage.recorded_runs`: each closed_loop run against its replay.
+        :func:`spa.closedloop.replay.recorded_runs`: each closed_loop run against its replay.
     out : mapping-like
         Output key to path (``snakemake.output``, or a dict): ``table``, ``controllers``,
         ``fig10_csv``, ``fig11_csv``, ``recorded`` and ``fig10``, ``fig11`` where drawn;

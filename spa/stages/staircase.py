@@ -82,7 +82,7 @@ def run_staircase(
     Parameters
     ----------
     runs, metas : mapping
-        Run id to canonical run table and to its metadata (:func:`spa.io.read_runs`).
+        Run id to canonical run table and to its metadata (:func:`spa.datasets.read_runs`).
     params : ValveParams
         The dataset's identified valve (the model's lines and time constants).
     cfg : mapping

@@ -7,7 +7,7 @@ One concept per module, all re-exported here:
 * :mod:`spa.tuning.exact` – ``J_exact``, the same cost from the exact periodic steady state
   (:mod:`spa.model.periodic`) instead of the averaged Eq. 5;
 * :mod:`spa.tuning.intervals` – the identification's 95 % intervals propagated by the corners
-  of their box;
+  of their box (:func:`spa.identification.identified.corners`);
 * :mod:`spa.tuning.tables` – the tidy tables of Fig. 4, Table 2 and Fig. 5;
 * :mod:`spa.tuning.constraints` – the options, the user's constraints and how far a setting
   is from meeting them;

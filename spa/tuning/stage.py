@@ -4,8 +4,9 @@
 ones, or any :class:`~spa.model.params.ValveParams`) and returns a :class:`TuningResult`
 holding what the workflow writes to ``results/{dataset}/tuning/``: Table 1 at the selected
 settings, the sweeps of Fig. 4 (``J`` and ``J_exact``), Table 2 with intervals, the curves of
-Fig. 5 and the recommendation. :func:`read_identified` reads an identification's
-``params.yaml`` (with its 95 % intervals) and refuses one that failed.
+Fig. 5 and the recommendation, from the valve that
+:func:`spa.identification.identified.read_identified` reads (it refuses an identification
+that failed with :class:`TuningError`).
 """
 
 from __future__ import annotations
@@ -18,9 +19,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from spa import _checks as checks
+from spa.identification.identified import Identified, TuningError, read_identified
 from spa.io import dump_yaml
 from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
@@ -28,122 +29,18 @@ from spa.model.thresholds import threshold_table
 from spa.model.usable import unusable_reason
 from spa.openloop.paper import paper_case
 from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
-from spa.tuning.intervals import PARAMETERS, read_intervals
 from spa.tuning.recommend import TuningOptions, candidate_frame, recommend, setting_metrics
 from spa.tuning.sentence import recommendation_sentence
 from spa.tuning.tables import equilibrium_frame, sweep_frame, tuning_table
 
 __all__ = [
-    "Identified",
     "TuningError",
     "TuningResult",
     "compact_table",
     "format_result",
-    "read_identified",
     "tune",
     "tune_with_config",
 ]
-
-
-class TuningError(ValueError):
-    """The valve cannot be tuned (no usable identification); the message says why."""
-
-
-@dataclass(frozen=True)
-class Identified:
-    """A valve as an identification left it: parameters, 95 % intervals, fallbacks.
-
-    Attributes
-    ----------
-    params : ValveParams
-        Point estimates.
-    intervals : dict
-        ``name -> (lo, hi)`` for the parameters with an interval.
-    fallback : dict
-        ``name -> reason`` for parameters that took a nominal value instead of a fit.
-    source : str
-        Where they came from (a file name, or ``"arguments"``).
-    clipped : dict
-        ``name -> note`` for intervals clipped to the parameter's domain
-        (:func:`spa.tuning.intervals.read_intervals`).
-    adequacy : dict or None
-        The identification's ``adequacy:`` (None: not assessed).
-    """
-
-    params: ValveParams
-    intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
-    fallback: Mapping[str, str] = field(default_factory=dict)
-    source: str = "arguments"
-    clipped: Mapping[str, str] = field(default_factory=dict)
-    adequacy: Mapping[str, Any] | None = None
-
-
-def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
-    """Read the identified valve from ``params.yaml`` (or its content).
-
-    Parameters
-    ----------
-    source : str, pathlib.Path or mapping
-        A ``params.yaml`` written by the identification
-        (:meth:`spa.identification.IdentificationResult.to_dict`), or its content, or a flat
-        ``{"c1": ..., ...}`` mapping (no intervals).
-
-    Returns
-    -------
-    Identified
-
-    Raises
-    ------
-    TuningError
-        If the file is missing or unreadable (the identification did not run or failed), it
-        records an error, or a parameter is missing or outside the model's domain; the
-        message names the file and the parameter. An interval reaching past a physical
-        bound is not an error: it is clipped to the domain and the note kept in
-        ``clipped``.
-
-    Examples
-    --------
-    >>> v = read_identified({"c1": 0.5, "k2": 0.8, "tau2": 0.8, "t_on": 0.003, "t_off": 0.01})
-    >>> v.params.c1, v.intervals
-    (0.5, {})
-    """
-    where = "arguments"
-    if isinstance(source, str | Path):
-        where = str(source)
-        path = Path(source)
-        if not path.is_file():
-            raise TuningError(
-                f"{where}: no such file; the identification of this dataset did not run or "
-                "failed (see its log), so it gets no tuning"
-            )
-        try:
-            source = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
-    if not isinstance(source, Mapping):
-        raise TuningError(f"{where}: expected a mapping of c1, k2, tau2, t_on, t_off")
-    if source.get("error"):
-        raise TuningError(f"{where}: the identification failed: {source['error']}; no tuning")
-    values = {}
-    for name in PARAMETERS:
-        item = source.get(name)
-        value = item.get("value") if isinstance(item, Mapping) else item
-        if value is None:
-            raise TuningError(
-                f"{where}: no value for {name!r}; the identification failed for it, so the "
-                "valve gets no tuning"
-            )
-        values[name] = value
-    clipped: dict[str, str] = {}
-    try:
-        params = ValveParams(**values)
-        intervals = read_intervals(source, clipped)
-    except ValueError as exc:
-        raise TuningError(f"{where}: {exc}") from None
-    fallback = source.get("fallback") or {}
-    adequacy = source.get("adequacy")
-    adequacy = dict(adequacy) if isinstance(adequacy, Mapping) else None
-    return Identified(params, intervals, dict(fallback), where, clipped, adequacy)
 
 
 @dataclass(frozen=True)

@@ -259,7 +259,8 @@ def tuning_table(
     sweeps, params, n_xi
         As :func:`sweep_frame`.
     intervals : mapping, optional
-        95 % intervals of the valve parameters (:func:`spa.tuning.intervals.read_intervals`);
+        95 % intervals of the valve parameters
+        (:func:`~spa.identification.identified.read_intervals`);
         propagated by :func:`spa.tuning.intervals.propagate` (corners of the box).
     data : pandas.DataFrame, optional
         ``sweep_frame(sweeps, params, n_xi, exact=True)`` when already computed.

@@ -1,6 +1,7 @@
 """Bicoherence of the response to every chirp run of a dataset and of the linear reference."""
 
-from spa.io import get_logger, read_params, read_runs
+from spa.datasets import read_runs
+from spa.io import get_logger, read_params
 from spa.pipeline.status import run_stage
 from spa.stages.chirp import run_chirp, write_chirp
 

@@ -1,8 +1,9 @@
 """Identify c1, k2, tau2, t_on, t_off of one dataset; write params.yaml and Fig. 2."""
 
+from spa.datasets import read_runs
 from spa.datasets.checks import k2_warning
 from spa.identification import identify_with_config, run_context
-from spa.io import get_logger, read_runs
+from spa.io import get_logger
 from spa.pipeline.status import run_stage
 from spa.stages.identify import write_identification
 

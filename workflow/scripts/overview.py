@@ -2,9 +2,9 @@
 
 from spa.io import get_logger, peak_rss_mib, write_csv
 from spa.pipeline.status import guard_environment
-from spa.plots.overview import plot_overview
 from spa.plots.save import draw
 from spa.report.overview import overview_table, read_rows
+from spa.report.overview_figure import plot_overview
 from spa.report.params import PARAM_NAMES
 
 log = get_logger("overview", snakemake.log[0])

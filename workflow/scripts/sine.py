@@ -1,6 +1,7 @@
 """Sine linearity of every sine run of a dataset and of the linear reference: table and Fig. 8."""
 
-from spa.io import get_logger, read_params, read_runs
+from spa.datasets import read_runs
+from spa.io import get_logger, read_params
 from spa.pipeline.status import run_stage
 from spa.stages.sine import run_sine, write_sine
 

@@ -1,6 +1,7 @@
 """Staircase linearity of every staircase run of a dataset: Table 3, Figs. 6, 7a and 7b."""
 
-from spa.io import get_logger, read_params, read_runs
+from spa.datasets import read_runs
+from spa.io import get_logger, read_params
 from spa.pipeline.status import run_stage
 from spa.stages.staircase import run_staircase, write_staircase
 

@@ -2,7 +2,8 @@
 
 from pathlib import Path
 
-from spa.io import get_logger, read_params, read_runs, write_csv
+from spa.datasets import read_runs
+from spa.io import get_logger, read_params, write_csv
 from spa.pipeline.status import run_stage
 from spa.plots.identification import validation_data, validation_figure
 from spa.plots.save import draw

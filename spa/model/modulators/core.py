@@ -181,7 +181,7 @@ class Modulator(Mapping[str, Any]):
     """One modulator setting: the type and its complete, validated settings.
 
     Built once where a setting enters (the config, a ``dataset.yaml``, the command line, a
-    run's metadata in :func:`spa.io.read_runs`, a notebook) with :meth:`from_mapping`; every
+    run's metadata in :func:`spa.datasets.read_runs`, a notebook) with :meth:`from_mapping`; every
     later stage passes this value around and asks it (:meth:`from_mapping` of a Modulator is
     the value itself). It is also a read-only mapping ``{"type": kind, **settings}``, for
     code written for the mapping form. ``label`` is the one name used in run ids, file

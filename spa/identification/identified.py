@@ -1,0 +1,243 @@
+"""The valve as an identification left it: ``params.yaml`` read once, with its 95 % box.
+
+:func:`read_identified` reads an identification's ``params.yaml`` (its point estimates, 95 %
+intervals, fallbacks and adequacy) into an :class:`Identified` and refuses one that failed
+(:class:`TuningError`: nothing to tune or design with); the tuning and the closed-loop design
+both start from it. :func:`read_intervals` reads the intervals alone and :func:`corners` lists
+the valves at the corners of their box (each parameter at its ``lo`` or its ``hi``: ``2**k``
+valves for ``k`` parameters with an interval), which the tuning
+(:func:`spa.tuning.intervals.propagate`) and the closed loop's robust design evaluate.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from spa import _checks as checks
+from spa.model.params import ValveParams
+
+__all__ = [
+    "DELAYS",
+    "PARAMETERS",
+    "Identified",
+    "TuningError",
+    "corners",
+    "read_identified",
+    "read_intervals",
+]
+
+#: The identified parameters, in ``params.yaml`` order.
+PARAMETERS: tuple[str, ...] = ("c1", "k2", "tau2", "t_on", "t_off")
+
+#: The delays: their domain includes 0 (a valve may switch at once).
+DELAYS: tuple[str, ...] = ("t_on", "t_off")
+
+# A lower end at or below 0 (a delay's interval reaching 0) is raised to this, in the unit.
+_FLOOR = 1e-12
+
+
+def read_intervals(
+    mapping: Mapping[str, Any], clipped: dict[str, str] | None = None
+) -> dict[str, tuple[float, float]]:
+    """The 95 % intervals of a ``params.yaml`` (:meth:`IdentificationResult.to_dict`).
+
+    Parameters
+    ----------
+    mapping : mapping
+        ``{"c1": {"value": ..., "lo": ..., "hi": ...}, ...}``; flat entries (a number) and
+        entries whose ``lo`` or ``hi`` is null (a fallback value) have no interval.
+    clipped : dict, optional
+        Filled with ``name -> what was done`` for every interval clipped to the domain.
+
+    Returns
+    -------
+    dict
+        ``name -> (lo, hi)`` for the parameters that have an interval. A lower bound below
+        the parameter's physical domain (a delay's interval reaching below 0, or a rate's at
+        or below 0) is clipped to the domain's edge (0 for a delay, ``hi * 1e-3`` for the
+        others): such an interval is a valid identification result, touching a bound; the
+        corners of the box (:func:`corners`) then start at the bound.
+
+    Raises
+    ------
+    ValueError
+        If an interval is not finite or has ``lo > hi``; the message names the parameter.
+
+    Examples
+    --------
+    >>> read_intervals({"c1": {"value": 0.5, "lo": 0.49, "hi": 0.51}, "k2": 0.8})
+    {'c1': (0.49, 0.51)}
+    >>> notes = {}
+    >>> read_intervals({"t_on": {"value": 1e-6, "lo": -0.0002, "hi": 0.00068}}, notes)
+    {'t_on': (0.0, 0.00068)}
+    >>> notes["t_on"]
+    'lower end -0.0002 clipped to the domain edge 0'
+    """
+    out: dict[str, tuple[float, float]] = {}
+    for name in PARAMETERS:
+        item = mapping.get(name)
+        if not isinstance(item, Mapping) or item.get("lo") is None or item.get("hi") is None:
+            continue
+        lo = checks.number(f"{name}.lo", item["lo"])
+        hi = checks.number(f"{name}.hi", item["hi"])
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
+            raise ValueError(
+                f"{name}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]"
+            )
+        edge = 0.0 if name in DELAYS else (hi * 1e-3 if hi > 0 else _FLOOR)
+        if lo < edge or (lo <= 0 and name not in DELAYS):
+            if clipped is not None:
+                clipped[name] = f"lower end {lo:g} clipped to the domain edge {edge:g}"
+            lo = edge
+            hi = max(hi, edge)
+        out[name] = (lo, hi)
+    return out
+
+
+def corners(
+    params: ValveParams, intervals: Mapping[str, tuple[float, float]] | None
+) -> list[ValveParams]:
+    """The valves at the corners of the box of ``intervals``.
+
+    Parameters
+    ----------
+    params : ValveParams
+        Point estimate; parameters without an interval keep its value.
+    intervals : mapping or None
+        ``name -> (lo, hi)`` (:func:`read_intervals`). A lower end <= 0 is raised to 1e-12.
+
+    Returns
+    -------
+    list of ValveParams
+        ``2**k`` valves (duplicates removed where ``lo == hi``); empty without intervals.
+
+    Raises
+    ------
+    ValueError
+        For an unknown parameter name.
+
+    Examples
+    --------
+    >>> len(corners(ValveParams(), {"c1": (0.5, 0.56), "t_on": (0.002, 0.004)}))
+    4
+    """
+    if not intervals:
+        return []
+    unknown = sorted(set(intervals) - set(PARAMETERS))
+    if unknown:
+        raise ValueError(f"intervals: unknown parameter(s) {unknown}; expected {PARAMETERS}")
+    names = [n for n in PARAMETERS if n in intervals]
+    ends = [tuple(dict.fromkeys(max(v, _FLOOR) for v in intervals[n])) for n in names]
+    base = params.as_dict()
+    return [
+        ValveParams(**{**base, **dict(zip(names, c, strict=True))})
+        for c in itertools.product(*ends)
+    ]
+
+
+class TuningError(ValueError):
+    """The valve cannot be tuned (no usable identification); the message says why."""
+
+
+@dataclass(frozen=True)
+class Identified:
+    """A valve as an identification left it: parameters, 95 % intervals, fallbacks.
+
+    Attributes
+    ----------
+    params : ValveParams
+        Point estimates.
+    intervals : dict
+        ``name -> (lo, hi)`` for the parameters with an interval.
+    fallback : dict
+        ``name -> reason`` for parameters that took a nominal value instead of a fit.
+    source : str
+        Where they came from (a file name, or ``"arguments"``).
+    clipped : dict
+        ``name -> note`` for intervals clipped to the parameter's domain
+        (:func:`read_intervals`).
+    adequacy : dict or None
+        The identification's ``adequacy:`` (None: not assessed).
+    """
+
+    params: ValveParams
+    intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    fallback: Mapping[str, str] = field(default_factory=dict)
+    source: str = "arguments"
+    clipped: Mapping[str, str] = field(default_factory=dict)
+    adequacy: Mapping[str, Any] | None = None
+
+
+def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
+    """Read the identified valve from ``params.yaml`` (or its content).
+
+    Parameters
+    ----------
+    source : str, pathlib.Path or mapping
+        A ``params.yaml`` written by the identification
+        (:meth:`spa.identification.IdentificationResult.to_dict`), or its content, or a flat
+        ``{"c1": ..., ...}`` mapping (no intervals).
+
+    Returns
+    -------
+    Identified
+
+    Raises
+    ------
+    TuningError
+        If the file is missing or unreadable (the identification did not run or failed), it
+        records an error, or a parameter is missing or outside the model's domain; the
+        message names the file and the parameter. An interval reaching past a physical
+        bound is not an error: it is clipped to the domain and the note kept in
+        ``clipped``.
+
+    Examples
+    --------
+    >>> v = read_identified({"c1": 0.5, "k2": 0.8, "tau2": 0.8, "t_on": 0.003, "t_off": 0.01})
+    >>> v.params.c1, v.intervals
+    (0.5, {})
+    """
+    where = "arguments"
+    if isinstance(source, str | Path):
+        where = str(source)
+        path = Path(source)
+        if not path.is_file():
+            raise TuningError(
+                f"{where}: no such file; the identification of this dataset did not run or "
+                "failed (see its log), so it gets no tuning"
+            )
+        try:
+            source = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
+    if not isinstance(source, Mapping):
+        raise TuningError(f"{where}: expected a mapping of c1, k2, tau2, t_on, t_off")
+    if source.get("error"):
+        raise TuningError(f"{where}: the identification failed: {source['error']}; no tuning")
+    values = {}
+    for name in PARAMETERS:
+        item = source.get(name)
+        value = item.get("value") if isinstance(item, Mapping) else item
+        if value is None:
+            raise TuningError(
+                f"{where}: no value for {name!r}; the identification failed for it, so the "
+                "valve gets no tuning"
+            )
+        values[name] = value
+    clipped: dict[str, str] = {}
+    try:
+        params = ValveParams(**values)
+        intervals = read_intervals(source, clipped)
+    except ValueError as exc:
+        raise TuningError(f"{where}: {exc}") from None
+    fallback = source.get("fallback") or {}
+    adequacy = source.get("adequacy")
+    adequacy = dict(adequacy) if isinstance(adequacy, Mapping) else None
+    return Identified(params, intervals, dict(fallback), where, clipped, adequacy)
