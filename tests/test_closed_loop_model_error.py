@@ -84,3 +84,11 @@ def test_gain_error_is_compared_at_the_same_pressure():
 def test_the_box_merge_keeps_both():
     box = widen({"k2": (0.9, 1.1), "c1": (0.5, 0.56)}, {"k2": (0.8, 1.0), "t_on": (0.0, 0.01)})
     assert box == {"k2": (0.8, 1.1), "c1": (0.5, 0.56), "t_on": (0.0, 0.01)}
+
+
+def test_a_gain_error_within_the_tolerance_is_no_model_error():
+    est = ValveParams()
+    e = level_errors(_staircase(ValveParams(k2=1.02 * est.k2), est), est)
+    g = e["gain_error"].dropna()
+    assert 0.0 < g.abs().max() < 0.05  # measured, and small
+    assert "gain" not in error_intervals(e, est)

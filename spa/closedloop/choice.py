@@ -28,6 +28,7 @@ __all__ = [
     "closed_loop_sentence",
     "end_error",
     "held_clause",
+    "ranked_choices",
 ]
 
 #: The controllers designed for every setting, in the order of the tables.
@@ -132,20 +133,31 @@ def _choice(
     limit: float = 10.0,
     measured: frozenset[str] | None = None,
 ) -> tuple[str, str] | None:
-    """The setting and controller to use: over every designed setting and controller, the
-    smallest worst-case rise time among those overshooting at most ``limit`` % over the
-    staircase with every step settled (:func:`_meets`); else, among those that settle, the
-    smallest worst-case overshoot; else the smallest worst-case overshoot. Ties go to the
-    tuning's recommended setting, then to the order of the table. When ``measured`` (the
-    modulator types run on this bench and described there by the model, :func:`_measured`)
-    is given, a loop of such a modulator goes before one of another, among those that meet
-    the design: only such a loop can be verified.
+    """The first of :func:`ranked_choices` (None when nothing was designed)."""
+    ranked = ranked_choices(table, rec, limit, measured)
+    return ranked[0] if ranked else None
+
+
+def ranked_choices(
+    table: pd.DataFrame,
+    rec: Modulator | None,
+    limit: float = 10.0,
+    measured: frozenset[str] | None = None,
+) -> list[tuple[str, str]]:
+    """Every designed (setting, controller), best first. The best: over every designed
+    setting and controller, the smallest worst-case rise time among those overshooting at
+    most ``limit`` % over the staircase with every step settled (:func:`_meets`); else,
+    among those that settle, the smallest worst-case overshoot; else the smallest worst-case
+    overshoot. Ties go to the tuning's recommended setting, then to the order of the table.
+    When ``measured`` (the modulator types run on this bench and described there by the
+    model, :func:`_measured`) is given, a loop of such a modulator goes before one of
+    another, among those that meet the design: only such a loop can be verified.
 
     The open-loop recommendation ranks linearity; a loop also needs speed without overshoot,
     so the closed loop chooses on its own metrics (its sentence names the setting).
     """
     if table.empty:
-        return None
+        return []
     designed = list(dict.fromkeys(table.modulator))
     recommended = rec.label if rec is not None else None
     scores = []
@@ -163,10 +175,7 @@ def _choice(
             scores.append(
                 (not ok, not settled, unmeasured, key, label != recommended, order, label, name)
             )
-    if not scores:
-        return None
-    best = min(scores)
-    return best[6], best[7]
+    return [(label, name) for *_, label, name in sorted(scores)]
 
 
 def closed_loop_sentence(

@@ -24,6 +24,7 @@ import pandas as pd
 from spa.model.params import ValveParams
 
 __all__ = [
+    "GAIN_TOLERANCE",
     "LEVEL_COLUMNS",
     "MAX_RELATIVE_ERROR",
     "dataset_error",
@@ -39,6 +40,11 @@ LEVEL_COLUMNS = ("run", "xi", "p_meas", "p_model", "error", "rel_error", "gain_e
 #: Largest relative error of ``k2`` taken as model error (a model off by more is not a model
 #: of this valve: the adequacy verdict says so).
 MAX_RELATIVE_ERROR = 0.5
+
+#: Gain errors within this share are no model error for the promise: a PI's loop changes
+#: less with them than between the box's corners, and each factor costs a run of every
+#: corner (the slope of a recorded staircase step carries about this much noise).
+GAIN_TOLERANCE = 0.05
 
 #: Levels whose predicted pressure is below this fraction of ``k2`` give no relative error,
 #: steps whose predicted change is below it no gain error (a ratio of two small numbers).
@@ -200,7 +206,8 @@ def error_intervals(
     -------
     dict
         ``gain -> (1 + g_lo, 1 + g_hi)``, ``g`` over every finite gain error and 0 (clipped
-        to ±:data:`MAX_RELATIVE_ERROR`): the factor on the loop gain of a plant whose slope
+        to ±:data:`MAX_RELATIVE_ERROR`; left out when both are within
+        :data:`GAIN_TOLERANCE`): the factor on the loop gain of a plant whose slope
         ``dP_eq/dxi`` differs from the model's where the loop works; with ``equilibrium``,
         ``k2 -> (k2*(1 + e_lo), k2*(1 + e_hi))``, ``e`` over every finite equilibrium error
         and 0. Entries without error are left out.
@@ -237,7 +244,7 @@ def error_intervals(
 
     out: dict[str, tuple[float, float]] = {}
     gain = extremes("gain_error")
-    if gain is not None:
+    if gain is not None and max(-gain[0], gain[1]) >= GAIN_TOLERANCE:
         out["gain"] = (1.0 + gain[0], 1.0 + gain[1])
     if equilibrium and (eq := extremes("rel_error")) is not None:
         out["k2"] = (params.k2 * (1.0 + eq[0]), params.k2 * (1.0 + eq[1]))
