@@ -66,7 +66,7 @@ STAGE = """
 import sys, tempfile, time, yaml
 t0 = time.perf_counter()
 from pathlib import Path
-from spa.closedloop.stage import closed_loop, write_controllers
+from spa.closedloop.comparison import closed_loop, write_controllers
 from spa.io import write_csv
 from spa.model.params import ValveParams
 from spa.plots.closedloop import fig10, fig11

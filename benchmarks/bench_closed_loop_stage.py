@@ -28,8 +28,8 @@ def _merge(a: dict, b: dict) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     from spa.closedloop.bench import adequacy_of, bench_outputs, sensor_noise
+    from spa.closedloop.comparison import closed_loop
     from spa.closedloop.model_error import dataset_error
-    from spa.closedloop.stage import closed_loop
     from spa.datasets import read_runs
     from spa.identification.identified import read_identified
 

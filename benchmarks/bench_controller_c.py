@@ -21,9 +21,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from spa.closedloop.comparison import DEFAULTS
 from spa.closedloop.design import design_pi
 from spa.closedloop.export import write_controller
-from spa.closedloop.stage import DEFAULTS
 
 SETTINGS = {
     "pwm": {"type": "pwm", "f_w": 20.0},

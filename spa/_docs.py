@@ -49,6 +49,14 @@ seed : int, default 0
     Not used (the fits are deterministic); kept likewise.""",
 }
 
+#: Slots that stand for several parameters at once, in signature order.
+_GROUPS = {
+    "modulator_args": ("kind", "xi", "params", "settings"),
+    "kind_xi": ("kind", "xi"),
+    "train_params": ("train", "params"),
+}
+DOCDICT.update({name: "\n".join(DOCDICT[p] for p in parts) for name, parts in _GROUPS.items()})
+
 _SLOT = re.compile(r"^([ \t]*)%\((\w+)\)s[ \t]*$", re.M)
 
 

@@ -105,7 +105,7 @@ def fake_results(tmp_path_factory):
                 yaml.safe_dump(
                     {
                         "sentence": "Use IIPFM with t_l = 19.5 ms and G = 1.154 <best>.",
-                        "recommended": {  # as spa.tuning.stage writes it
+                        "recommended": {  # as spa.tuning.valve writes it
                             "modulator": "iipfm",
                             "description": "IIPFM, t_l = 19.5 ms, G = 1.154",
                             "setting": {"type": "iipfm", "t_l": 0.0195, "gain": 1.154},

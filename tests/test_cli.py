@@ -291,7 +291,7 @@ def test_tune_yaml_is_the_full_data(tune_config, capsys):
     import yaml
 
     from spa.tuning import tune_with_config
-    from spa.tuning.stage import _plain
+    from spa.tuning.valve import _plain
 
     assert main(["tune", *VALVE, "--config", str(tune_config), "--yaml"]) == 0
     text = capsys.readouterr().out

@@ -19,9 +19,9 @@ from spa.closedloop.bench import (
     bench_sentence,
     sensor_noise,
 )
+from spa.closedloop.comparison import ClosedLoopResult, closed_loop
 from spa.closedloop.controller import PIController
 from spa.closedloop.export import controller_header
-from spa.closedloop.stage import ClosedLoopResult, closed_loop
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.stages.closed_loop import write_closed_loop

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from spa.closedloop.comparison import level_hold
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import design_pi
 from spa.closedloop.disturbance import disturbances, noise_ripple, recovery_time, supply_drop
@@ -18,7 +19,6 @@ from spa.closedloop.robust import (
     robust_design,
     worst_of_steps,
 )
-from spa.closedloop.stage import level_hold
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 

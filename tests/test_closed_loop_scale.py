@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from spa.closedloop.choice import held_clause
+from spa.closedloop.comparison import closed_loop, level_hold, transit_time
 from spa.closedloop.design import design_pi
 from spa.closedloop.export import controller_header
 from spa.closedloop.levels import common_levels, held_range, idle_duty, wanted_levels
-from spa.closedloop.stage import closed_loop, level_hold, transit_time
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 

@@ -22,7 +22,7 @@ from spa.model.params import ValveParams
 from spa.model.plant import replay, run_start_pressures, simulate
 from spa.synthetic import Sensor, identification_runs
 from spa.synthetic.runs import run_seed, simulate_run
-from spa.tuning.stage import tune
+from spa.tuning.valve import tune
 
 NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
 CONFIG = {"identification": {"max_delay": 0.06}}

@@ -92,7 +92,7 @@ def fill(view: SimpleNamespace, stage: str, calls: list[str], salt: str = "") ->
 
 def run_job(job: SimpleNamespace, script: Path, calls: list[str], salt: str = "",
             enabled: bool = True, delete: bool = True) -> dict[str, str]:  # fmt: skip
-    """The job as stages.py runs it, after Snakemake deleted every declared output."""
+    """The job as run_job.py runs it, after Snakemake deleted every declared output."""
     if delete:
         for path in job.output:
             p = Path(path)

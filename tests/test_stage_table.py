@@ -1,4 +1,4 @@
-"""The stage table (spa/pipeline/stages.py): declared once, the workflow derived from it; each
+"""The stage table (spa/pipeline/stage_table.py): declared once, the workflow derived from it; each
 stage a function in spa that a notebook can call; the workflow's scripts thin."""
 
 from __future__ import annotations

@@ -15,8 +15,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from spa.closedloop.comparison import closed_loop
 from spa.closedloop.design import operating_levels
-from spa.closedloop.stage import closed_loop
 from spa.model.averaging import equilibrium
 from spa.model.chattering import pseudo_steady_state
 from spa.model.modulators import Modulator

@@ -1,7 +1,7 @@
 """What the ``closed_loop`` stage adds for the bench: the chosen controller as C, its worst
 case over the identification's box and the disturbances a bench has.
 
-:func:`bench_outputs` takes the stage's result (:func:`spa.closedloop.stage.closed_loop`) and
+:func:`bench_outputs` takes the stage's result (:func:`spa.closedloop.comparison.closed_loop`) and
 
 * writes the chosen setting and controller as a C99 header and an Arduino-style sketch
   (:mod:`spa.closedloop.export`);
@@ -26,11 +26,11 @@ import numpy as np
 import pandas as pd
 
 from spa.closedloop.choice import MAX_OVERSHOOT
+from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
 from spa.closedloop.controller import PIController
 from spa.closedloop.disturbance import DROP, disturbances
 from spa.closedloop.export import arduino_sketch, controller_header
 from spa.closedloop.robust import robust_design
-from spa.closedloop.stage import DEFAULTS, ClosedLoopResult
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -412,7 +412,7 @@ def box_hold(
     gain: float = 1.0,
 ) -> float:
     """Each level's hold for the promise: the longest
-    :func:`spa.closedloop.stage.level_hold` over the estimate and every corner of the box,
+    :func:`spa.closedloop.comparison.level_hold` over the estimate and every corner of the box,
     so that the slowest plant the promise covers gets its transit plus five closed-loop time
     constants too. A PI designed at the estimate closes a slower loop on a plant whose local
     gain ``K = dP_eq/dxi`` is lower by ``g < 1`` (its crossover, and so its closed-loop
@@ -427,10 +427,10 @@ def box_hold(
     ...     m, ValveParams(), {}, [0.2, 0.3], 0.2, c)
     True
     """
+    from spa.closedloop.comparison import level_hold
     from spa.closedloop.design import local_models
     from spa.closedloop.levels import held_range
     from spa.closedloop.robust import corners
-    from spa.closedloop.stage import level_hold
 
     k_est = local_models(levels, mod, params).gain
     gain = min(1.0, max(float(gain), 0.1))

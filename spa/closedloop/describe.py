@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa.closedloop.comparison import DEFAULTS
 from spa.closedloop.design import DEFAULT_TAU_C, design_pi, local_models, simc
 from spa.closedloop.experiments import run_staircase
-from spa.closedloop.stage import DEFAULTS
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -65,7 +65,7 @@ def design_summary(
         ``staircase`` (name -> worst and best rise time and overshoot).
     """
     if levels is None:
-        from spa.closedloop.stage import setting_levels
+        from spa.closedloop.comparison import setting_levels
 
         mod = modulator.bind(params)
         found, skipped, _ = setting_levels([mod], params, DEFAULTS)

@@ -424,8 +424,8 @@ def export_designed(
         For an unknown controller name, fewer than two levels, or a design that fails.
     """
     from spa.closedloop.choice import CONTROLLERS
+    from spa.closedloop.comparison import DEFAULTS
     from spa.closedloop.design import design_pi
-    from spa.closedloop.stage import DEFAULTS
 
     if controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {list(CONTROLLERS)}, got {controller!r}")
@@ -433,7 +433,7 @@ def export_designed(
     # An LPWM that omits its valve inverts the identified one, not the nominal valve.
     modulator = Modulator.from_mapping(modulator).bind(params)
     if levels is None:
-        from spa.closedloop.stage import setting_levels
+        from spa.closedloop.comparison import setting_levels
 
         found, skipped, _ = setting_levels([modulator], params, DEFAULTS)
         if modulator.label not in found:

@@ -55,13 +55,13 @@ def design_for_dataset(
 
     Returns
     -------
-    result : spa.closedloop.stage.ClosedLoopResult
+    result : spa.closedloop.comparison.ClosedLoopResult
     bench : BenchOutputs
         ``bench.header`` is ``controller.h``; ``bench.summary["promise"]`` the promise.
     """
     from spa.closedloop.bench import adequacy_of, apply_bench, bench_outputs, sensor_noise
+    from spa.closedloop.comparison import DEFAULTS, closed_loop
     from spa.closedloop.model_error import dataset_error
-    from spa.closedloop.stage import DEFAULTS, closed_loop
     from spa.identification.identified import read_identified
 
     valve = read_identified(identified)

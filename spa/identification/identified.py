@@ -143,7 +143,8 @@ def corners(
 
 
 class TuningError(ValueError):
-    """The valve cannot be tuned (no usable identification); the message says why."""
+    """The valve cannot be tuned or a loop designed for it (no usable identification): the
+    message says why. Its name is the tuning's, the first stage that reads the valve back."""
 
 
 @dataclass(frozen=True)

@@ -67,8 +67,7 @@ def pulse_times(
 
     Parameters
     ----------
-    %(kind)s
-    %(xi)s
+    %(kind_xi)s
     params : ValveParams, optional
         The valve of the context (LPWM inverts it unless its settings name one); nominal
         when omitted. The other kinds do not use it.
@@ -127,8 +126,7 @@ def time_fractions(
 
     Parameters
     ----------
-    %(kind)s
-    %(xi)s
+    %(kind_xi)s
     params : ValveParams, optional
         Valve parameters (``t_on``, ``t_off`` are used); nominal when omitted.
     %(settings)s
@@ -247,10 +245,7 @@ def equilibrium(
 
     Parameters
     ----------
-    %(kind)s
-    %(xi)s
-    %(params)s
-    %(settings)s
+    %(modulator_args)s
 
     Returns
     -------

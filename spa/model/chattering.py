@@ -74,8 +74,7 @@ def pseudo_steady_state(
 
     Parameters
     ----------
-    %(train)s
-    %(params)s
+    %(train_params)s
 
     Returns
     -------

@@ -100,8 +100,7 @@ def train_mean(t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | Non
 
     Parameters
     ----------
-    %(train)s
-    %(params)s
+    %(train_params)s
 
     Returns
     -------

@@ -28,10 +28,7 @@ def periodic_mean(
 
     Parameters
     ----------
-    %(kind)s
-    %(xi)s
-    %(params)s
-    %(settings)s
+    %(modulator_args)s
 
     Returns
     -------

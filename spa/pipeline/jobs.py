@@ -167,7 +167,7 @@ def read_stages(stage: str, order: Iterable[str]) -> list[str]:
     Parameters
     ----------
     stage : str
-        A stage of :data:`spa.pipeline.stages.STAGES`.
+        A stage of :data:`spa.pipeline.stage_table.STAGES`.
     order : iterable of str
         The stages of the job, in the order they run.
 

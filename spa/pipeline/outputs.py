@@ -7,7 +7,7 @@ take their ``output:`` from here (:func:`stage_outputs`), the ``reproduce-all`` 
 report rule their inputs (:func:`all_targets`), and :mod:`spa.report` its sections, in the
 order of :data:`STAGES`. Logs are named here too (:func:`log_path`).
 
-A new stage is one more :class:`Stage` in the stage table, :mod:`spa.pipeline.stages`, at its
+A new stage is one more :class:`Stage` in the stage table, :mod:`spa.pipeline.stage_table`, at its
 place in the pipeline (the report shows a section's items in this order), and a rule whose
 ``output:`` is ``**outputs("<stage>")``.
 
@@ -28,6 +28,7 @@ from collections.abc import Callable, Collection, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from spa.pipeline.stage_table import STAGES
 from spa.pipeline.stage_types import (
     DATA,
     FIGURE,
@@ -41,7 +42,6 @@ from spa.pipeline.stage_types import (
     Output,
     Stage,
 )
-from spa.pipeline.stages import STAGES
 
 __all__ = [
     "DATA",

@@ -58,7 +58,7 @@ def fig10(traces: pd.DataFrame) -> Figure:
     ----------
     traces : pandas.DataFrame
         ``modulator``, ``controller``, ``t``, ``r``, ``p_mean``
-        (:class:`spa.closedloop.stage.ClosedLoopResult`'s ``traces``).
+        (:class:`spa.closedloop.comparison.ClosedLoopResult`'s ``traces``).
 
     Returns
     -------
@@ -116,7 +116,7 @@ def fig11(steps: pd.DataFrame) -> Figure:
     Parameters
     ----------
     steps : pandas.DataFrame
-        One row per step (:class:`spa.closedloop.stage.ClosedLoopResult`'s ``steps``), with
+        One row per step (:class:`spa.closedloop.comparison.ClosedLoopResult`'s ``steps``), with
         ``experiment``, ``modulator``, ``controller``, ``r0``, ``r1`` and the metrics.
 
     Returns

@@ -4,7 +4,7 @@ and the captions written from the tables the figures are drawn with.
 A caption that names a style takes the word from here, and the figure takes the style from
 the same table, so that the two cannot drift; :func:`spa.plots.check.caption_problems`
 checks each style word of a caption against the drawn artists. This module imports nothing
-(the registry of outputs, :mod:`spa.pipeline.stages`, reads its captions when the workflow
+(the registry of outputs, :mod:`spa.pipeline.stage_table`, reads its captions when the workflow
 is parsed).
 
 >>> LINE_STYLE_WORDS["--"], MARKER_WORDS["s"]

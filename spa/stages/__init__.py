@@ -11,5 +11,5 @@ log; a notebook can call the same functions on its own run tables.
 
 The other stages' functions live with their science: :func:`spa.identification.identify`,
 :func:`spa.tuning.tune`, :func:`spa.validation.validate_runs`,
-:func:`spa.closedloop.stage.closed_loop`.
+:func:`spa.closedloop.comparison.closed_loop`.
 """

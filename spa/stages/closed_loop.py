@@ -11,9 +11,9 @@ import pandas as pd
 import yaml
 
 from spa.closedloop.bench import BenchOutputs
+from spa.closedloop.comparison import ClosedLoopResult, write_controllers
 from spa.closedloop.promise import design_for_dataset
 from spa.closedloop.replay import recorded_runs
-from spa.closedloop.stage import ClosedLoopResult, write_controllers
 from spa.datasets import read_runs
 from spa.identification.identified import read_identified
 from spa.io import write_csv
@@ -33,7 +33,7 @@ def close_dataset_loop(
     """The closed_loop stage's work for one dataset, from its files
     (:func:`spa.closedloop.promise.design_for_dataset` on them).
 
-    Designs the PIs for the identified valve (:func:`spa.closedloop.stage.closed_loop`),
+    Designs the PIs for the identified valve (:func:`spa.closedloop.comparison.closed_loop`),
     measures the model's error on the dataset's runs
     (:func:`spa.closedloop.model_error.dataset_error`), checks the chosen loop over the 95 %
     box merged with that error and exports it (:func:`spa.closedloop.bench.bench_outputs`),
@@ -76,7 +76,7 @@ def write_closed_loop(
     out: Any,
     bench: BenchOutputs | None = None,
 ) -> None:
-    """Write :func:`spa.closedloop.stage.closed_loop`'s outputs and the recorded runs' table.
+    """Write :func:`spa.closedloop.comparison.closed_loop`'s outputs and the recorded runs' table.
 
     Parameters
     ----------

@@ -7,7 +7,7 @@ from typing import Any
 from spa.io import dump_yaml, write_csv
 from spa.plots.save import draw
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
-from spa.tuning.stage import TuningResult
+from spa.tuning.valve import TuningResult
 
 __all__ = ["write_tuning"]
 

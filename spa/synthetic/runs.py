@@ -118,17 +118,8 @@ def simulate_run(
         reference = np.asarray(spec.reference, dtype=np.float64)
         ctrl = PIController.from_mapping(dict(spec.controller))
         p, xi, u = closed_loop_arrays(reference, dt, spec.modulator, ctrl, params, spec.p0)
-    elif spec.valve is not None:
-        u = np.asarray(spec.valve, dtype=np.int8)
-        xi = None
-    elif spec.xi is not None and spec.modulator is not None:
-        # A setting that inverts a valve (LPWM) without naming one inverts the simulated one.
-        mod = Modulator.from_mapping(spec.modulator).bind(params)
-        xi = np.asarray(spec.xi, dtype=np.float64)
-        u = modulate(mod.kind, xi, dt, **mod.settings)
     else:
-        raise ValueError(f"run {spec.id!r}: give either valve, or xi and modulator")
-    if reference is None:
+        u, xi = _open_loop_command(spec, params, dt)
         p = simulate(u, dt, params, p0=spec.p0)
     idx = np.arange(0, u.size, every)
     t = idx * dt
@@ -139,6 +130,21 @@ def simulate_run(
     if reference is not None:
         table["r"] = reference[idx]
     return pd.DataFrame(table)
+
+
+def _open_loop_command(
+    spec: RunSpec, params: ValveParams, dt: float
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """An open-loop run's valve command ``u`` (int8) and input fraction ``xi`` (None for a
+    run given as its valve command)."""
+    if spec.valve is not None:
+        return np.asarray(spec.valve, dtype=np.int8), None
+    if spec.xi is not None and spec.modulator is not None:
+        # A setting that inverts a valve (LPWM) without naming one inverts the simulated one.
+        mod = Modulator.from_mapping(spec.modulator).bind(params)
+        xi = np.asarray(spec.xi, dtype=np.float64)
+        return modulate(mod.kind, xi, dt, **mod.settings), xi
+    raise ValueError(f"run {spec.id!r}: give either valve, or xi and modulator")
 
 
 def _physical_run(
@@ -159,15 +165,7 @@ def _physical_run(
         run = closed_loop_physical(plant, spec.reference, dt, spec.modulator, ctrl, rng=rng)
         every = round(1.0 / (fs * dt))
         return run.iloc[::every, :5].reset_index(drop=True)
-    xi = None
-    if spec.valve is not None:
-        u = np.asarray(spec.valve, dtype=np.int8)
-    elif spec.xi is not None and spec.modulator is not None:
-        mod = Modulator.from_mapping(spec.modulator).bind(params)
-        xi = np.asarray(spec.xi, dtype=np.float64)
-        u = modulate(mod.kind, xi, dt, **mod.settings)
-    else:
-        raise ValueError(f"run {spec.id!r}: give either valve, or xi and modulator")
+    u, xi = _open_loop_command(spec, params, dt)
     table = simulate_physical(plant, u, dt, fs=fs, p0=spec.p0, rng=rng, u=xi)
     table.attrs.clear()
     return table

@@ -15,7 +15,7 @@ One concept per module, all re-exported here:
   must live with;
 * :mod:`spa.tuning.recommend` – the recommended setting and what it will do;
 * :mod:`spa.tuning.sentence` – the recommendation in one sentence;
-* :mod:`spa.tuning.stage` – :func:`tune`, the whole stage for one valve.
+* :mod:`spa.tuning.valve` – :func:`tune`, the whole stage for one valve.
 """
 
 from spa._lazy import lazy_exports
@@ -29,7 +29,7 @@ _MODULES = (
     "candidates",
     "recommend",
     "sentence",
-    "stage",
+    "valve",
     "tables",
 )
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -82,12 +82,8 @@ STAIR = {
 }
 
 
-def _case(
-    folder: Path,
-    runs: list[dict[str, Any]] | None = None,
-    df: pd.DataFrame | None = None,
-    **extra: Any,
-) -> None:
+def _case(folder: Path, runs: list[dict[str, Any]] | None = None, df: pd.DataFrame | None = None,
+          **extra: Any) -> None:
     """A dataset with one charge run (or ``runs``) whose CSV holds ``df``."""
     runs = [dict(CHARGE)] if runs is None else runs
     _write_yaml(folder, _spec(folder.name, runs, **extra))
@@ -118,52 +114,24 @@ def _good(folder: Path) -> None:
     valve = (np.arange(n) % 20 < 10).astype(np.int8)
     p_kpa = np.round(60 * (1 - np.exp(-t / 0.08)), 5)
     runs = [
-        {
-            "id": "charge",
-            "kind": "charge",
-            "file": "csv/charge.csv",
-            "notes": "valve opened at t = 0",
-        },
+        {"id": "charge", "kind": "charge", "file": "csv/charge.csv",
+         "notes": "valve opened at t = 0"},
         {"id": "discharge", "kind": "discharge", "file": "csv/discharge.csv"},
         {"id": "pulse-10ms", "kind": "pulse", "file": "csv/pulse.csv"},
-        {
-            "id": "stair_pwm",
-            "kind": "staircase",
-            "file": "stair_pwm.parquet",
-            "modulator": {"type": "pwm", "f_w": 20},
-        },
-        {
-            "id": "sine_ipfm",
-            "kind": "sine",
-            "file": "sine_ipfm.mat",
-            "modulator": {"type": "ipfm", "t_h": 0.02},
-        },
-        {
-            "id": "chirp_iipfm",
-            "kind": "chirp",
-            "file": "chirp_iipfm.csv",
-            "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
-        },
-        {
-            "id": "stair_dsm",
-            "kind": "staircase",
-            "file": "stair_dsm.csv",
-            "modulator": {"type": "dsm", "period": 0.02},
-        },
-        {
-            "id": "loop_iipfm",
-            "kind": "closed_loop",
-            "file": "loop_iipfm.csv",
-            "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
-            "controller": {"kp": 4.0, "ki": 4.5, "dt": 0.001},
-        },
+        {"id": "stair_pwm", "kind": "staircase", "file": "stair_pwm.parquet",
+         "modulator": {"type": "pwm", "f_w": 20}},
+        {"id": "sine_ipfm", "kind": "sine", "file": "sine_ipfm.mat",
+         "modulator": {"type": "ipfm", "t_h": 0.02}},
+        {"id": "chirp_iipfm", "kind": "chirp", "file": "chirp_iipfm.csv",
+         "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15}},
+        {"id": "stair_dsm", "kind": "staircase", "file": "stair_dsm.csv",
+         "modulator": {"type": "dsm", "period": 0.02}},
+        {"id": "loop_iipfm", "kind": "closed_loop", "file": "loop_iipfm.csv",
+         "modulator": {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
+         "controller": {"kp": 4.0, "ki": 4.5, "dt": 0.001}},
     ]
-    doc = _spec(
-        folder.name,
-        runs,
-        units={"time": "ms", "pressure": "kPa"},
-        columns={"t": "time_ms", "p": "P_kPa", "valve": "V", "u": "xi", "r": "R_kPa"},
-    )
+    doc = _spec(folder.name, runs, units={"time": "ms", "pressure": "kPa"},
+                columns={"t": "time_ms", "p": "P_kPa", "valve": "V", "u": "xi", "r": "R_kPa"})
     doc["description"] = "Small valid dataset exercising every kind, modulator and file format."
     _write_yaml(folder, doc)
     (folder / "csv").mkdir()
@@ -174,10 +142,8 @@ def _good(folder: Path) -> None:
     with_u = frame.assign(xi=xi)
     table = pa.Table.from_pandas(with_u, preserve_index=False)
     pq.write_table(table, folder / "stair_pwm.parquet")
-    scipy.io.savemat(
-        folder / "sine_ipfm.mat",
-        {"time_ms": t_ms, "P_kPa": p_kpa, "V": valve.astype(float), "xi": xi},
-    )
+    scipy.io.savemat(folder / "sine_ipfm.mat",
+                     {"time_ms": t_ms, "P_kPa": p_kpa, "V": valve.astype(float), "xi": xi})
     _csv(folder, "chirp_iipfm.csv", with_u)
     _csv(folder, "stair_dsm.csv", with_u)
     _csv(folder, "loop_iipfm.csv", with_u.assign(R_kPa=np.where(t < 0.2, 20.0, 50.0)))
@@ -187,12 +153,8 @@ def _multi(folder: Path) -> None:
     runs = [
         {"id": "charge1", "kind": "charge", "file": "charge1.csv"},
         {"id": "pulse1", "kind": "pulse", "file": "pulse1.csv"},
-        {
-            "id": "sine1",
-            "kind": "sin",
-            "file": "sine1.csv",
-            "modulator": {"type": "pwm", "f_w": 20},
-        },
+        {"id": "sine1", "kind": "sin", "file": "sine1.csv",
+         "modulator": {"type": "pwm", "f_w": 20}},
     ]
     doc = _spec(folder.name, runs)
     doc["orign"] = doc.pop("origin")
@@ -273,19 +235,10 @@ def _eu_file(folder: Path, name: str, df: pd.DataFrame) -> None:
 def _european(folder: Path) -> None:
     """The same pulse as a European CSV and as a plain CSV (the run overrides csv:, columns:)."""
     df = _eu_frame()
-    plain = {
-        "id": "pulse_plain",
-        "kind": "pulse",
-        "file": "pulse_plain.csv",
-        "columns": {"t": "t", "p": "p", "valve": "valve"},
-        "csv": {
-            "sep": ",",
-            "decimal": ".",
-            "encoding": "utf-8",
-            "skip_rows": 0,
-            "units_row": False,
-        },
-    }
+    plain = {"id": "pulse_plain", "kind": "pulse", "file": "pulse_plain.csv",
+             "columns": {"t": "t", "p": "p", "valve": "valve"},
+             "csv": {"sep": ",", "decimal": ".", "encoding": "utf-8", "skip_rows": 0,
+                     "units_row": False}}
     _write_yaml(folder, _spec(folder.name, [EU_RUN, plain], columns=EU_COLUMNS, csv=EU_CSV))
     _eu_file(folder, "pulse_eu.csv", df)
     text = "\n".join(["t,p,valve,oil", *_numbers(df)]) + "\n"
@@ -317,30 +270,15 @@ def _per_run(folder: Path) -> None:
     """Runs whose files name columns and units differently (run-level columns:, units:)."""
     df = _frame(400, u=True)
     runs = [
-        {
-            "id": "stair_ms",
-            "kind": "staircase",
-            "file": "stair_ms.csv",
-            "modulator": {"type": "pwm", "f_w": 20},
-        },
-        {
-            "id": "stair_s",
-            "kind": "staircase",
-            "file": "stair_s.csv",
-            "modulator": {"type": "pwm", "f_w": 20},
-            "columns": {"t": "time", "p": "pressure", "u": "duty"},
-            "units": {"time": "s", "pressure": "bar"},
-        },
+        {"id": "stair_ms", "kind": "staircase", "file": "stair_ms.csv",
+         "modulator": {"type": "pwm", "f_w": 20}},
+        {"id": "stair_s", "kind": "staircase", "file": "stair_s.csv",
+         "modulator": {"type": "pwm", "f_w": 20},
+         "columns": {"t": "time", "p": "pressure", "u": "duty"},
+         "units": {"time": "s", "pressure": "bar"}},
     ]
-    _write_yaml(
-        folder,
-        _spec(
-            folder.name,
-            runs,
-            units={"time": "ms", "pressure": "kPa"},
-            columns={"t": "t_ms", "p": "p_kPa"},
-        ),
-    )
+    _write_yaml(folder, _spec(folder.name, runs, units={"time": "ms", "pressure": "kPa"},
+                              columns={"t": "t_ms", "p": "p_kPa"}))
     ms = df.assign(t=np.round(df["t"] * 1000, 6), p=np.round(df["p"] * 100, 6))
     _csv(folder, "stair_ms.csv", ms.rename(columns={"t": "t_ms", "p": "p_kPa"}))
     _csv(folder, "stair_s.csv", df.rename(columns={"t": "time", "p": "pressure", "u": "duty"}))
@@ -373,11 +311,8 @@ def _lvm_segments_differ(folder: Path) -> None:
     _write_yaml(folder, _spec(folder.name, [{**CHARGE, "id": "r", "file": "r.lvm"}]))
     df = _frame()
     first = {"X_Value": df["t"].to_numpy()[:10], "p": df["p"].to_numpy()[:10]}
-    second = {
-        "X_Value": df["t"].to_numpy()[10:],
-        "p": df["p"].to_numpy()[10:],
-        "valve": df["valve"].to_numpy()[10:],
-    }
+    second = {"X_Value": df["t"].to_numpy()[10:], "p": df["p"].to_numpy()[10:],
+              "valve": df["valve"].to_numpy()[10:]}
     write_lvm(folder / "r.lvm", [[first], [second]])
 
 
@@ -389,31 +324,21 @@ def _good_bench(folder: Path) -> None:
     valve = (np.arange(n) % 20 < 10).astype(float)
     u = np.clip(np.floor(t / 0.1) * 0.25, 0, 1)
     mod = {"type": "pwm", "f_w": 20}
-    runs = [
-        {"id": f, "kind": "staircase", "file": f, "modulator": mod}
-        for f in ("dspace.mat", "v73.mat", "rec.lvm", "rec.tdms")
-    ]
-    doc = _spec(folder.name, runs, units={"time": "s", "pressure": "psi"}, columns={"p": "p_act"})
+    runs = [{"id": f, "kind": "staircase", "file": f, "modulator": mod}
+            for f in ("dspace.mat", "v73.mat", "rec.lvm", "rec.tdms")]
+    doc = _spec(folder.name, runs, units={"time": "s", "pressure": "psi"},
+                columns={"p": "p_act"})
     doc["description"] = "Small valid dataset in the bench formats: dSpace, v7.3, LVM, TDMS."
     _write_yaml(folder, doc)
-    sig = {
-        "Platform/Model Root/Sensors/p_act": p,
-        "Platform/Model Root/Out/valve": valve,
-        "Platform/Model Root/In/u": u,
-    }
+    sig = {"Platform/Model Root/Sensors/p_act": p, "Platform/Model Root/Out/valve": valve,
+           "Platform/Model Root/In/u": u}
     scipy.io.savemat(folder / "dspace.mat", {"rec": to_savemat(dspace_recording("t", t, sig))})
     write_mat73(folder / "v73.mat", {"t": t, "p_act": p, "valve": valve.astype(bool), "u": u})
     cols = {"X_Value": t, "p_act": p, "valve": valve, "u": u}
-    write_lvm(
-        folder / "rec.lvm",
-        [[{k: v[:100] for k, v in cols.items()}], [{k: v[100:] for k, v in cols.items()}]],
-    )
-    write_tdms(
-        folder / "rec.tdms",
-        "Measured",
-        [{"p_act": p, "valve": valve, "u": u}],
-        waveform=(0.0, 0.001),
-    )
+    write_lvm(folder / "rec.lvm", [[{k: v[:100] for k, v in cols.items()}],
+                                   [{k: v[100:] for k, v in cols.items()}]])
+    write_tdms(folder / "rec.tdms", "Measured", [{"p_act": p, "valve": valve, "u": u}],
+               waveform=(0.0, 0.001))
 
 
 F = _frame()
@@ -433,36 +358,21 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
         ["cannot parse YAML", "found duplicate key 'name'"],
     ),
     "unknown_key_typo": (
-        lambda d: (
-            _write_yaml(
-                d,
-                {
-                    ("descripton" if k == "description" else k): v
-                    for k, v in _spec(d.name, [CHARGE]).items()
-                },
-            )
-            or _csv(d, "charge1.csv", F)
-        ),
-        [
-            "unknown key 'descripton' (did you mean 'description'?)",
-            "missing required key 'description'",
-        ],
+        lambda d: _write_yaml(d, {("descripton" if k == "description" else k): v
+                                  for k, v in _spec(d.name, [CHARGE]).items()})
+        or _csv(d, "charge1.csv", F),
+        ["unknown key 'descripton' (did you mean 'description'?)",
+         "missing required key 'description'"],
     ),
     "missing_required_key": (
-        lambda d: (
-            _write_yaml(d, {k: v for k, v in _spec(d.name, [CHARGE]).items() if k != "origin"})
-            or _csv(d, "charge1.csv", F)
-        ),
+        lambda d: _write_yaml(d, {k: v for k, v in _spec(d.name, [CHARGE]).items()
+                                  if k != "origin"}) or _csv(d, "charge1.csv", F),
         ["missing required key 'origin'"],
     ),
-    "name_mismatch": (
-        lambda d: _case(d, name="other_name"),
-        ["name 'other_name' differs from the folder name 'name_mismatch'"],
-    ),
-    "bad_name": (
-        lambda d: _case(d, name="my data!"),
-        ["name 'my data!' must be a string of letters, digits"],
-    ),
+    "name_mismatch": (lambda d: _case(d, name="other_name"),
+                      ["name 'other_name' differs from the folder name 'name_mismatch'"]),
+    "bad_name": (lambda d: _case(d, name="my data!"),
+                 ["name 'my data!' must be a string of letters, digits"]),
     "bad_origin": (
         lambda d: _case(d, origin="synthetc"),
         ["origin 'synthetc' is not one of bench, synthetic (did you mean 'synthetic'?)"],
@@ -470,33 +380,23 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     "bad_rig": (lambda d: _case(d, rig="an Arduino"), ["rig must be a mapping"]),
     "bad_units": (
         lambda d: _case(d, units={"time": "sec", "pressure": "kpa"}),
-        [
-            "units.time: time unit 'sec' is not one of s, ms",
-            "pressure unit 'kpa' is not one of bar, mbar, kPa, psi (did you mean 'kPa'?)",
-        ],
+        ["units.time: time unit 'sec' is not one of s, ms",
+         "pressure unit 'kpa' is not one of bar, mbar, kPa, psi (did you mean 'kPa'?)"],
     ),
-    "unknown_units_key": (
-        lambda d: _case(d, units={"presure": "kPa"}),
-        ["unknown key 'presure' (did you mean 'pressure'?)"],
-    ),
-    "bad_columns_key": (
-        lambda d: _case(d, columns={"valv": "V"}),
-        ["unknown canonical column 'valv' (did you mean 'valve'?)"],
-    ),
-    "columns_duplicate": (
-        lambda d: _case(d, columns={"p": "x", "u": "x"}),
-        ["file column 'x' is used for several canonical columns"],
-    ),
+    "unknown_units_key": (lambda d: _case(d, units={"presure": "kPa"}),
+                          ["unknown key 'presure' (did you mean 'pressure'?)"]),
+    "bad_columns_key": (lambda d: _case(d, columns={"valv": "V"}),
+                        ["unknown canonical column 'valv' (did you mean 'valve'?)"]),
+    "columns_duplicate": (lambda d: _case(d, columns={"p": "x", "u": "x"}),
+                          ["file column 'x' is used for several canonical columns"]),
     "unknown_kind": (
         lambda d: _case(d, runs=[{**CHARGE, "kind": "stair"}]),
         ["runs[0].kind [run 'charge1']: unknown kind 'stair'", "(did you mean 'staircase'?)"],
     ),
     "unknown_modulator_type": (
         lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "pfm", "f_w": 20}}]),
-        [
-            "runs[0].modulator [run 'stair1']: unknown modulator type 'pfm'",
-            "(did you mean 'ipfm'?)",
-        ],
+        ["runs[0].modulator [run 'stair1']: unknown modulator type 'pfm'",
+         "(did you mean 'ipfm'?)"],
     ),
     "bad_modulator_settings": (
         lambda d: _case(d, runs=[{**STAIR, "modulator": {"type": "pwm", "f_w": -5}}]),
@@ -549,50 +449,40 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "path_symlink": (_symlink, ["outside the dataset folder (a symlink pointing out?)"]),
     "missing_file": (
-        lambda d: (
-            _case(d, runs=[{**CHARGE, "file": "nothere.csv"}]) or (d / "nothere.csv").unlink()
-        ),
+        lambda d: _case(d, runs=[{**CHARGE, "file": "nothere.csv"}])
+        or (d / "nothere.csv").unlink(),
         ["runs[0].file [run 'charge1']: file 'nothere.csv' not found"],
     ),
     "unsupported_extension": (
-        lambda d: (
-            _case(d, runs=[{**CHARGE, "file": "charge1.xlsx"}])
-            or (d / "charge1.xlsx").write_bytes(b"PK\x03\x04")
-        ),
+        lambda d: _case(d, runs=[{**CHARGE, "file": "charge1.xlsx"}])
+        or (d / "charge1.xlsx").write_bytes(b"PK\x03\x04"),
         ["unsupported file type '.xlsx'", "expected one of .csv, .parquet, .mat"],
     ),
     "empty_file": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b""),
         ["charge1.csv [run 'charge1']: file is empty (0 bytes)"],
     ),
-    "header_only": (
-        lambda d: _case(d, df=F.iloc[:0]),
-        ["0 data row(s); a run needs at least 2 samples"],
-    ),
-    "one_row": (
-        lambda d: _case(d, df=F.iloc[:1]),
-        ["1 data row(s); a run needs at least 2 samples"],
-    ),
+    "header_only": (lambda d: _case(d, df=F.iloc[:0]),
+                    ["0 data row(s); a run needs at least 2 samples"]),
+    "one_row": (lambda d: _case(d, df=F.iloc[:1]),
+                ["1 data row(s); a run needs at least 2 samples"]),
     "truncated_csv": (
         _truncated_csv,
-        [
-            f"[run 'charge1', line {N + 1}]: malformed line",
-            "expected 3 comma-separated fields, got 2",
-        ],
+        [f"[run 'charge1', line {N + 1}]: malformed line",
+         "expected 3 comma-separated fields, got 2"],
     ),
     "unreadable_csv_header": (
         lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"\xff\xfe\x00t\x00,\n1,2\n"),
         ["are not utf-16 text (truncated data)", "starts with a byte-order mark of that encoding"],
     ),
     "csv_utf16_no_bom": (
-        lambda d: (
-            _case(d)
-            or (d / "charge1.csv").write_bytes("t,p,valve\n0,0,1\n1,1,1\n".encode("utf-16-le"))
-        ),
+        lambda d: _case(d)
+        or (d / "charge1.csv").write_bytes("t,p,valve\n0,0,1\n1,1,1\n".encode("utf-16-le")),
         ["UTF-16 text without a byte-order mark"],
     ),
     "csv_cr_line_ends": (
-        lambda d: _case(d) or (d / "charge1.csv").write_bytes(b"t,p,valve\r0,0,1\r0.001,0.1,1\r"),
+        lambda d: _case(d)
+        or (d / "charge1.csv").write_bytes(b"t,p,valve\r0,0,1\r0.001,0.1,1\r"),
         ["the lines end in CR alone (old Mac OS text)"],
     ),
     "truncated_parquet": (
@@ -617,40 +507,29 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "mat_v73_damaged": (_v73, ["m1.mat [run 'm1']: unreadable MATLAB v7.3 (HDF5) file"]),
     "mat_v73_cell": (
-        lambda d: (
-            _mat_case(d, {}) or write_mat73(d / "m1.mat", {"t": T, "p": {"raw": T}, "u": "x"})
-        ),
-        [
-            "column 'p']: MATLAB variable 'p' is a struct (fields 'raw'); name one of its fields",
-            "column 'u']: MATLAB variable 'u' holds char, not numbers",
-        ],
+        lambda d: _mat_case(d, {})
+        or write_mat73(d / "m1.mat", {"t": T, "p": {"raw": T}, "u": "x"}),
+        ["column 'p']: MATLAB variable 'p' is a struct (fields 'raw'); name one of its fields",
+         "column 'u']: MATLAB variable 'u' holds char, not numbers"],
     ),
     "dspace_ambiguous_signal": (
         _dspace_ambiguous,
-        [
-            "column 'p']: signal name 'p' is ambiguous: it ends 'Model/A/p', 'Model/B/p'; give the "
-            "full signal name under columns: in dataset.yaml",
-            "column 'u']: missing signal 'u': a sine run needs input fraction u (u); the file holds "
-            "the variables 'rec', the dSpace signals 'time', 'Model/A/p', 'Model/B/p', 'Model/A/ux' "
-            "(did you mean 'ux'?)",
-        ],
+        ["column 'p']: signal name 'p' is ambiguous: it ends 'Model/A/p', 'Model/B/p'; give the "
+         "full signal name under columns: in dataset.yaml",
+         "column 'u']: missing signal 'u': a sine run needs input fraction u (u); the file holds "
+         "the variables 'rec', the dSpace signals 'time', 'Model/A/p', 'Model/B/p', 'Model/A/ux' "
+         "(did you mean 'ux'?)"],
     ),
     "lvm_segments_differ": (
         _lvm_segments_differ,
-        [
-            "r.lvm [run 'r']: segment 2 names the columns ['X_Value', 'p', 'valve'], segment 1 "
-            "['X_Value', 'p']; segments are joined and need the same channels"
-        ],
+        ["r.lvm [run 'r']: segment 2 names the columns ['X_Value', 'p', 'valve'], segment 1 "
+         "['X_Value', 'p']; segments are joined and need the same channels"],
     ),
     "tdms_no_timing": (
-        lambda d: (
-            _write_yaml(d, _spec(d.name, [{**CHARGE, "file": "r.tdms"}]))
-            or write_tdms(d / "r.tdms", "G", [{"p": F["p"].to_numpy()}])
-        ),
-        [
-            "r.tdms [run 'charge1', column 't']: missing LabVIEW channel 't': a charge run needs "
-            "time (t); the file has the channels 'G/p' and no waveform timing"
-        ],
+        lambda d: _write_yaml(d, _spec(d.name, [{**CHARGE, "file": "r.tdms"}]))
+        or write_tdms(d / "r.tdms", "G", [{"p": F["p"].to_numpy()}]),
+        ["r.tdms [run 'charge1', column 't']: missing LabVIEW channel 't': a charge run needs "
+         "time (t); the file has the channels 'G/p' and no waveform timing"],
     ),
     "missing_mat_variable": (
         lambda d: _mat_case(d, {"t": T, "p": np.zeros(N)}),
@@ -670,18 +549,12 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "missing_column": (
         lambda d: _case(d, df=F.rename(columns={"p": "pressure"})),
-        [
-            "column 'p']: missing column 'p': a charge run needs pressure (p)",
-            "map names under columns: in dataset.yaml",
-        ],
+        ["column 'p']: missing column 'p': a charge run needs pressure (p)",
+         "map names under columns: in dataset.yaml"],
     ),
     "missing_column_mapped": (
-        lambda d: _case(
-            d,
-            columns={"p": "P_kPa"},
-            units={"pressure": "kPa"},
-            df=F.rename(columns={"p": "P_kpa"}),
-        ),
+        lambda d: _case(d, columns={"p": "P_kPa"}, units={"pressure": "kPa"},
+                        df=F.rename(columns={"p": "P_kpa"})),
         ["missing column 'P_kPa' (mapped from 'p' under columns:)", "(did you mean 'P_kpa'?)"],
     ),
     "duplicate_csv_column": (
@@ -698,11 +571,8 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "staircase_u_left_out": (
         lambda d: _case(d, runs=[STAIR], df=F, columns={"u": None}),
-        [
-            "[run 'stair1']: columns: leaves out u (null), but a staircase run needs input "
-            "fraction u (u)",
-            "kind: pulse",
-        ],
+        ["[run 'stair1']: columns: leaves out u (null), but a staircase run needs input "
+         "fraction u (u)", "kind: pulse"],
     ),
     "non_numeric": (
         lambda d: _case(d, df=_with(F, "p", 5, "abc")),
@@ -710,17 +580,13 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "nan_inf": (
         lambda d: _case(d, df=_with(_with(F, "p", 3, "NaN"), "t", 7, "inf")),
-        [
-            "column 'p', row 3 (line 4)]: missing value (empty cell or NaN)",
-            "column 't', row 7 (line 8)]: infinite value (inf)",
-        ],
+        ["column 'p', row 3 (line 4)]: missing value (empty cell or NaN)",
+         "column 't', row 7 (line 8)]: infinite value (inf)"],
     ),
     "empty_cells": (
         lambda d: _case(d, df=_with(_with(F, "valve", 4, ""), "valve", 9, "")),
-        [
-            "column 'valve', row 4 (line 5)]: missing value (empty cell or NaN)",
-            "(2 rows in all: 4, 9)",
-        ],
+        ["column 'valve', row 4 (line 5)]: missing value (empty cell or NaN)",
+         "(2 rows in all: 4, 9)"],
     ),
     "time_backwards": (
         lambda d: _case(d, df=_with(F, "t", 10, 0.002)),
@@ -740,11 +606,8 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "pressure_looks_kpa": (
         lambda d: _case(d, df=F.assign(p=F["p"] * 100)),
-        [
-            "is outside the plausible gauge range -1.1 to 20 bar",
-            "the values look like kPa (0 to 0.2529 bar); or psi",
-            "set units: {pressure: kPa}",
-        ],
+        ["is outside the plausible gauge range -1.1 to 20 bar",
+         "the values look like kPa (0 to 0.2529 bar); or psi", "set units: {pressure: kPa}"],
     ),
     "pressure_looks_mbar": (
         lambda d: _case(d, units={"pressure": "kPa"}, df=F.assign(p=F["p"] * 10_000)),
@@ -754,7 +617,9 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
         lambda d: _raw(
             d,
             "name: yaml_alias_bomb\na0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n"
-            + "".join(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]\n" for i in range(1, 10))
+            + "".join(
+                f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]\n" for i in range(1, 10)
+            )
             + "runs: *a9\n",
         ),
         ["too complex to be a dataset description", "once its aliases are expanded"],
@@ -765,83 +630,58 @@ BAD: dict[str, tuple[Callable[[Path], None], list[str]]] = {
     ),
     "many_problems": (
         _multi,
-        [
-            "unknown key 'orign' (did you mean 'origin'?)",
-            "unknown kind 'sin'",
-            "charge1.csv [run 'charge1', column 'p', row 5 (line 6)]: non-numeric value",
-            "pulse1.csv [run 'pulse1', column 't', row 10 (line 11)]: time goes backwards",
-            "pulse1.csv [run 'pulse1', column 'valve', row 4 (line 5)]: valve = 3",
-        ],
+        ["unknown key 'orign' (did you mean 'origin'?)",
+         "unknown kind 'sin'",
+         "charge1.csv [run 'charge1', column 'p', row 5 (line 6)]: non-numeric value",
+         "pulse1.csv [run 'pulse1', column 't', row 10 (line 11)]: time goes backwards",
+         "pulse1.csv [run 'pulse1', column 'valve', row 4 (line 5)]: valve = 3"],
     ),
 }
 
-BAD.update(
-    {
-        "european_no_options": (
-            lambda d: _eu_case(d, None),
-            [
-                "it looks `;`-separated with `,` as decimal mark: `csv: {sep: ';', decimal: ','}`",
-                "the file is not UTF-8 (the bytes fit cp1252): `csv: {encoding: cp1252}`",
-                "it has its header on line 4: `csv: {skip_rows: 3}`",
-                "it has units on line 5 (s, bar, -, °C): `csv: {units_row: true}`",
-                "add `csv: {encoding: cp1252, sep: ';', decimal: ',', skip_rows: 3, units_row: true}` "
-                "to the run or the dataset",
-            ],
-        ),
-        "european_no_encoding": (
-            lambda d: _eu_case(d, {k: v for k, v in EU_CSV.items() if k != "encoding"}),
-            [
-                "line 4 (the header) is not UTF-8 text (byte 0xd6)",
-                "the file is not UTF-8 (the bytes fit cp1252): `csv: {encoding: cp1252}`",
-            ],
-        ),
-        "preamble_no_skip_rows": (
-            _preamble,
-            ["missing column 't'", "the file has its header on line 3: `csv: {skip_rows: 2}`"],
-        ),
-        "units_row_missing": (
-            lambda d: _preamble(d, units_row=True),
-            [
-                "row 1 (line 2)]: non-numeric value",
-                "has units on line 2 (s, bar, -): `csv: {units_row: true}`",
-            ],
-        ),
-        "bad_csv_options": (
-            lambda d: _case(
-                d,
-                runs=[{**CHARGE, "csv": {"decimal": ",", "sep": ","}}],
-                csv={
-                    "sep": "::",
-                    "decimal": ";",
-                    "encoding": "utf-9",
-                    "skip_rows": -1,
-                    "comment": "",
-                    "units_row": "yes",
-                    "delim": ",",
-                },
-            ),
-            [
-                "csv.sep: sep '::' is not one character, '\\t' or whitespace",
-                "csv.decimal: decimal ';' is not '.' or ','",
-                "csv.encoding: unknown encoding 'utf-9'",
-                "csv.skip_rows: skip_rows -1 is not an integer >= 0",
-                "csv.comment: comment '' is not a non-empty prefix",
-                "csv.units_row: units_row 'yes' is not true or false",
-                "csv.delim: unknown key 'delim'",
-                "runs[0].csv.decimal [run 'charge1']: decimal ',' needs a sep other than ','",
-            ],
-        ),
-        "bad_run_columns_units": (
-            lambda d: _case(
-                d, runs=[{**CHARGE, "columns": {"valv": "V"}, "units": {"time": "sec"}}]
-            ),
-            [
-                "runs[0].columns.valv [run 'charge1']: unknown canonical column 'valv'",
-                "runs[0].units.time [run 'charge1']: time unit 'sec' is not one of s, ms",
-            ],
-        ),
-    }
-)
+BAD.update({
+    "european_no_options": (
+        lambda d: _eu_case(d, None),
+        ["it looks `;`-separated with `,` as decimal mark: `csv: {sep: ';', decimal: ','}`",
+         "the file is not UTF-8 (the bytes fit cp1252): `csv: {encoding: cp1252}`",
+         "it has its header on line 4: `csv: {skip_rows: 3}`",
+         "it has units on line 5 (s, bar, -, °C): `csv: {units_row: true}`",
+         "add `csv: {encoding: cp1252, sep: ';', decimal: ',', skip_rows: 3, units_row: true}` "
+         "to the run or the dataset"],
+    ),
+    "european_no_encoding": (
+        lambda d: _eu_case(d, {k: v for k, v in EU_CSV.items() if k != "encoding"}),
+        ["line 4 (the header) is not UTF-8 text (byte 0xd6)",
+         "the file is not UTF-8 (the bytes fit cp1252): `csv: {encoding: cp1252}`"],
+    ),
+    "preamble_no_skip_rows": (
+        _preamble,
+        ["missing column 't'", "the file has its header on line 3: `csv: {skip_rows: 2}`"],
+    ),
+    "units_row_missing": (
+        lambda d: _preamble(d, units_row=True),
+        ["row 1 (line 2)]: non-numeric value",
+         "has units on line 2 (s, bar, -): `csv: {units_row: true}`"],
+    ),
+    "bad_csv_options": (
+        lambda d: _case(d, runs=[{**CHARGE, "csv": {"decimal": ",", "sep": ","}}],
+                        csv={"sep": "::", "decimal": ";", "encoding": "utf-9", "skip_rows": -1,
+                             "comment": "", "units_row": "yes", "delim": ","}),
+        ["csv.sep: sep '::' is not one character, '\\t' or whitespace",
+         "csv.decimal: decimal ';' is not '.' or ','",
+         "csv.encoding: unknown encoding 'utf-9'",
+         "csv.skip_rows: skip_rows -1 is not an integer >= 0",
+         "csv.comment: comment '' is not a non-empty prefix",
+         "csv.units_row: units_row 'yes' is not true or false",
+         "csv.delim: unknown key 'delim'",
+         "runs[0].csv.decimal [run 'charge1']: decimal ',' needs a sep other than ','"],
+    ),
+    "bad_run_columns_units": (
+        lambda d: _case(d, runs=[{**CHARGE, "columns": {"valv": "V"},
+                                  "units": {"time": "sec"}}]),
+        ["runs[0].columns.valv [run 'charge1']: unknown canonical column 'valv'",
+         "runs[0].units.time [run 'charge1']: time unit 'sec' is not one of s, ms"],
+    ),
+})
 
 GOOD: dict[str, Callable[[Path], None]] = {
     "spa_good": _good,

@@ -11,7 +11,7 @@
 # code are unchanged is restored from results/.store (spa.pipeline.reuse, `store`); its
 # status says "reused". A dataset without runs of a kind gets empty tables and a figure
 # saying so, so that every dataset has the same outputs.
-# The stages of the job, in order, from the stage table (spa/pipeline/stages.py: job "analyse"):
+# The stages of the job, in order, from the stage table (spa/pipeline/stage_table.py: job "analyse"):
 # identify, tune, validate_model, staircase, sine, chirp, closed_loop, page.
 ANALYSE = job_stages("analyse")
 
@@ -61,4 +61,4 @@ for _rule, _drawn in (("analyse", True), ("analyse_tables", False)):
                 default=[0.05, 20.0],
             ),
         script:
-            "../scripts/stages.py"
+            "../scripts/run_job.py"

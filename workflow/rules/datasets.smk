@@ -52,4 +52,4 @@ rule ingest_dataset:
         ),
         stages=INGEST,
     script:
-        "../scripts/stages.py"
+        "../scripts/run_job.py"

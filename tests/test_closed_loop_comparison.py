@@ -7,8 +7,8 @@ import pytest
 import yaml
 
 from spa.closedloop.choice import CONTROLLERS
+from spa.closedloop.comparison import closed_loop, write_controllers
 from spa.closedloop.controller import PIController
-from spa.closedloop.stage import closed_loop, write_controllers
 from spa.model.params import ValveParams
 
 SELECTED = [

@@ -455,7 +455,7 @@ STAGES: tuple[Stage, ...] = (
         category="Closed loop",
         job="analyse",
         config="closed_loop",
-        function="spa.closedloop.stage.closed_loop",
+        function="spa.closedloop.comparison.closed_loop",
         reads=("identify", "tune"),
         params=("selected",),
     ),
