@@ -10,13 +10,8 @@ import pytest
 
 from spa.identification import identify_with_config
 from spa.identification.adequacy import Adequacy, adequacy_clause, assess
-from spa.identification.refine import (
-    andrews_bandwidth,
-    block_means,
-    chain_runs,
-    newey_west,
-    replay_kernel,
-)
+from spa.identification.longrun import andrews_bandwidth, newey_west
+from spa.identification.refine import block_means, chain_runs, replay_kernel
 from spa.model.modulators import modulate
 from spa.model.params import ValveParams
 from spa.model.plant import replay, run_start_pressures, simulate
