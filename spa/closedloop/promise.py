@@ -59,7 +59,13 @@ def design_for_dataset(
     bench : BenchOutputs
         ``bench.header`` is ``controller.h``; ``bench.summary["promise"]`` the promise.
     """
-    from spa.closedloop.bench import adequacy_of, apply_bench, bench_outputs, sensor_noise
+    from spa.closedloop.bench import (
+        adequacy_clause,
+        adequacy_of,
+        apply_bench,
+        bench_outputs,
+        sensor_noise,
+    )
     from spa.closedloop.comparison import DEFAULTS, closed_loop
     from spa.closedloop.model_error import dataset_error
     from spa.identification.identified import read_identified
@@ -70,7 +76,15 @@ def design_for_dataset(
     result = closed_loop(valve.params, list(selected), recommendation, cfg)
     ctl = result.controllers
     first = _chosen(ctl)
-    candidates = list(dict.fromkeys([first, *(tuple(x) for x in ctl.get("meeting", []))]))
+    adequacy = adequacy_of(identified)
+    # After the stage's choice, only loops that can be verified: of a modulator the bench ran
+    # and the model describes there (an unverifiable promise is no better than none).
+    others = [
+        (str(label), str(name))
+        for label, name in ctl.get("meeting", [])
+        if adequacy_clause(adequacy, label.split("-", 1)[0]) == ""
+    ]
+    candidates = list(dict.fromkeys([first, *others]))
     benches: list[tuple[tuple[str, str] | None, BenchOutputs]] = []
     for choice in candidates[:MAX_CANDIDATES]:
         equilibrium = choice is not None and choice[1] == "scheduled_ff"
@@ -81,7 +95,7 @@ def design_for_dataset(
             cfg,
             sensor_noise(identified),
             model_error=dataset_error(runs, metas, valve.params, equilibrium=equilibrium),
-            adequacy=adequacy_of(identified),
+            adequacy=adequacy,
             choice=choice,
         )
         benches.append((choice, bench))
@@ -98,7 +112,7 @@ def design_for_dataset(
 
 
 #: Most designed loops checked over the box, in the stage's order, for one that keeps a
-#: promise (the first is the stage's choice).
+#: verified promise (the first is the stage's choice; each costs a robust design).
 MAX_CANDIDATES = 6
 
 
