@@ -21,7 +21,7 @@ import pandas as pd
 import yaml
 
 from spa import _checks as checks
-from spa.io import dump_yaml
+from spa.io import dump_yaml, read_yaml
 from spa.model.modulators import Modulator, get_kind
 from spa.model.params import ValveParams
 from spa.model.thresholds import threshold_table
@@ -117,7 +117,7 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
                 "failed (see its log), so it gets no tuning"
             )
         try:
-            source = yaml.safe_load(path.read_text())
+            source = read_yaml(path)
         except yaml.YAMLError as exc:
             raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
     if not isinstance(source, Mapping):

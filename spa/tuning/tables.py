@@ -20,6 +20,7 @@ import pandas as pd
 
 from spa import _checks as checks
 from spa._docs import fill_doc
+from spa._memo import memoised
 from spa.model.averaging import equilibrium_pressure, time_constant, time_fractions
 from spa.model.modulators import MODULATOR_ORDER, get_kind
 from spa.model.params import ValveParams, valve_params
@@ -318,7 +319,13 @@ def tuning_table(
     if candidates is None:
         opts = replace(options or TuningOptions(), gain_sweep=None)
         candidates = candidate_frame(grids, p, n, opts, data)
-    lo, hi = propagate(lambda q: _corner_optima(grids, q, n), p, intervals)
+    # the box's corners depend on the valve, the sweeps and n_xi alone, not on the
+    # constraints: kept between runs of the pipeline (a tuning: change reuses them)
+    lo, hi = memoised(
+        "tuning-corners",
+        {"params": p, "intervals": intervals or {}, "grids": grids, "n_xi": n},
+        lambda: np.stack(propagate(lambda q: _corner_optima(grids, q, n), p, intervals)),
+    )
     rows = []
     for i, kind in enumerate(grids):
         d = data[data["modulator"] == kind]
