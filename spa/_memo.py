@@ -7,8 +7,10 @@ corners of the identification's 95 % box depend on the identified valve, the swe
 (``results/.store/memo/<name>/<digest>.npy``), keyed by the SHA-256 of its arguments and of
 the code (:func:`spa.pipeline.reuse.code_digest`: the whole ``spa`` package, the Python
 version and the numerical libraries' versions), so an edit to ``spa/`` never serves an old
-result. The pipeline's analysis job sets the folder (:func:`use_folder`); elsewhere (the
-command line, tests) nothing is kept and every call computes.
+result. :func:`files_memoised` does the same for files a computation writes (a figure drawn
+from the same data, :func:`spa.plots.save.draw`). The pipeline's analysis job sets the folder
+(:func:`use_folder`); elsewhere (the command line, tests) nothing is kept and every call
+computes.
 """
 
 from __future__ import annotations
@@ -16,15 +18,16 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import tempfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["key_digest", "memoised", "use_folder"]
+__all__ = ["files_memoised", "key_digest", "memoised", "use_folder"]
 
 _FOLDER: list[Path | None] = [None]
 _CODE: list[str | None] = [None]
@@ -113,3 +116,54 @@ def memoised(name: str, key: Any, compute: Callable[[], npt.ArrayLike]) -> npt.N
     except OSError:  # a read-only store: the run goes on without it
         pass
     return value
+
+
+def files_memoised(
+    name: str, blob: bytes, paths: Sequence[str | Path], write: Callable[[], None]
+) -> bool:
+    """Put at ``paths`` the files ``write()`` wrote there before for the same ``blob`` and
+    code, or call ``write()`` and keep what it wrote (only when a folder is set,
+    :func:`use_folder`).
+
+    Parameters
+    ----------
+    name : str
+        What is written (a folder of the memo).
+    blob : bytes
+        Every argument the files depend on, serialised (equal bytes must mean equal files
+        under the same code; unequal bytes for equal arguments only cost a miss).
+    paths : sequence of path-like
+        The files ``write`` writes, in a fixed order.
+    write : callable
+        Writes them.
+
+    Returns
+    -------
+    bool
+        True when the files came from the memo, False when ``write()`` ran.
+    """
+    folder = _FOLDER[0]
+    if folder is None:
+        write()
+        return False
+    h = hashlib.sha256(json.dumps({"name": name, "code": _code(), "n": len(paths)}).encode())
+    h.update(blob)
+    entry = folder / name / h.hexdigest()
+    kept = [entry / f"{i}" for i in range(len(paths))]
+    if all(k.is_file() for k in kept):
+        for k, path in zip(kept, paths, strict=True):
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(k, path)
+        return True
+    write()
+    tmp = None
+    try:
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".memo-", dir=entry.parent))
+        for i, path in enumerate(paths):
+            shutil.copyfile(path, tmp / f"{i}")
+        os.replace(tmp, entry)
+    except OSError:  # a read-only store, or another job kept the same files first
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return False

@@ -102,3 +102,47 @@ def test_tuning_corners_kept_give_the_table_computed_without_them(folder, monkey
     _memo.use_folder(folder)
     tables.tuning_table(SWEEPS, VALVE, 20, intervals=wider, options=opts)
     assert len(calls) == 2 * first + 1 + 2**4
+
+
+DRAWN: list[str] = []
+
+
+def line_figure(data: pd.DataFrame, title: str = ""):
+    from spa.plots.style import new_figure
+
+    DRAWN.append(title)
+    fig = new_figure(figsize=(3, 2))
+    ax = fig.add_subplot()
+    ax.plot(data["x"], data["y"])
+    ax.set_title(title)
+    return fig
+
+
+def test_a_figure_of_the_same_data_is_copied_not_drawn(folder, tmp_path) -> None:
+    from spa.plots.save import FIGURE_FORMATS, draw, set_figure_formats
+
+    formats = list(FIGURE_FORMATS)
+    set_figure_formats(["png"])
+    try:
+        DRAWN.clear()
+        data = pd.DataFrame({"x": np.arange(5.0), "y": np.arange(5.0) ** 2})
+        a, b = tmp_path / "a.png", tmp_path / "b.png"
+        draw(a, line_figure, data, title="one")
+        draw(b, line_figure, data.copy(), title="one")
+        assert DRAWN == ["one"] and a.read_bytes() == b.read_bytes()
+        _memo.use_folder(None)
+        draw(tmp_path / "fresh.png", line_figure, data, title="one")
+        assert (tmp_path / "fresh.png").read_bytes() == b.read_bytes()
+        _memo.use_folder(folder)
+        changed = data.assign(y=data["y"] + 1e-12)
+        draw(tmp_path / "c.png", line_figure, changed, title="one")
+        draw(tmp_path / "d.png", line_figure, data, title="two")
+        set_figure_formats(["png", "svg"])
+        draw(tmp_path / "e.png", line_figure, data, title="one")
+        assert DRAWN == ["one", "one", "one", "two", "one"]
+        assert (tmp_path / "e.svg").is_file()
+        draw(tmp_path / "f.png", lambda d: line_figure(d, "l"), data)
+        draw(tmp_path / "g.png", lambda d: line_figure(d, "l"), data)
+        assert DRAWN[-2:] == ["l", "l"]
+    finally:
+        set_figure_formats(formats)
