@@ -146,3 +146,13 @@ def test_a_figure_of_the_same_data_is_copied_not_drawn(folder, tmp_path) -> None
         assert DRAWN[-2:] == ["l", "l"]
     finally:
         set_figure_formats(formats)
+
+
+def test_tuning_exact_sweep_kept_gives_the_frame_computed_without_it(folder) -> None:
+    kept_first = tables.sweep_frame(SWEEPS, VALVE, 20, exact=True)
+    kept = tables.sweep_frame(SWEEPS, VALVE, 20, exact=True)
+    assert any((folder / "tuning-exact-sweep").iterdir())
+    _memo.use_folder(None)
+    fresh = tables.sweep_frame(SWEEPS, VALVE, 20, exact=True)
+    assert kept.to_csv() == fresh.to_csv() == kept_first.to_csv()
+    pd.testing.assert_frame_equal(kept, fresh)

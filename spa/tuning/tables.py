@@ -96,10 +96,12 @@ def sweep_frame(
                 }
             )
         )
-        if exact:
-            parts[-1]["J_exact"] = np.where(
-                np.isfinite(cost), exact_cost(kind, values, p, n_xi), np.nan
+        if exact:  # kept between runs: the grid's exact costs do not depend on the constraints
+            key = {"kind": kind, "values": values.tolist(), "params": p, "n_xi": n_xi}
+            j_exact = memoised(
+                "tuning-exact-sweep", key, lambda k=kind, v=values: exact_cost(k, v, p, n_xi)
             )
+            parts[-1]["J_exact"] = np.where(np.isfinite(cost), j_exact, np.nan)
     return pd.concat(parts, ignore_index=True)
 
 
