@@ -353,6 +353,10 @@ def test_a_tuning_change_reuses_identification_and_a_recompute_gives_the_same_ta
     assert how["identify"] == how["validate_model"] == how["staircase"] == "reused"
     assert how["chirp"] == "reused"
     assert how["tune"] == how["sine"] == how["page"] == "computed"
+    # the recommended setting did not move: the closed loop is restored, and the tuning's
+    # corners, its predicted staircases and its figures came from the memo
+    assert how["closed_loop"] == "reused"
+    assert any((results / ".store" / "memo" / "tuning-corners").iterdir())
     assert {p.name: p.read_bytes() for p in (results / "sim" / "identification").iterdir()} == ident
     reused = _tables(results)
     _snakemake(tuned, results, "--forceall", reuse=False)
