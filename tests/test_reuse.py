@@ -11,6 +11,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+import yaml
 
 from spa.pipeline import reuse
 from spa.pipeline.jobs import (
@@ -84,6 +85,10 @@ def fill(view: SimpleNamespace, stage: str, calls: list[str], salt: str = "") ->
         elif key == "figures":
             out.mkdir(parents=True, exist_ok=True)
             (out / "a.png").write_text(text)
+        elif key == "recommendation":  # what it chose, and an echo of its settings
+            chosen = view.params.cfg.get("chosen", text)
+            record = {"recommended": {"setting": chosen, "J": 1.0}, "echo": text}
+            out.write_text(json.dumps(record))
         else:
             out.write_text(f"{key}: {text}")
     Path(view.log[0]).parent.mkdir(parents=True, exist_ok=True)
@@ -151,6 +156,42 @@ def test_a_tuning_change_reruns_tune_and_what_reads_it_only(tmp_path) -> None:
                    "closed_loop": "computed"}  # fmt: skip
     assert calls == ["tune", "closed_loop"]
     assert Path(job.output.identify__params).read_bytes() == params
+
+
+def test_the_closed_loop_reads_the_recommended_setting_alone(tmp_path) -> None:
+    """A tuning change that leaves the recommended setting (and the adequacy) as it was
+    leaves the closed loop reused, though the recommendation's other fields changed; a
+    change of the setting, or of the adequacy, recomputes it; the closed loop sees those
+    fields alone."""
+
+    def chosen(setting: str, **params: object) -> SimpleNamespace:
+        cfg = {"identify": {"n_boot": 50}, "tune": {"chosen": setting}, "sine": {}}
+        return analysis_job(tmp_path, cfg=cfg, **params)
+
+    script, calls = fake_script(tmp_path), []
+    run_job(chosen("pwm 20 Hz"), script, calls)
+    calls.clear()
+    job = chosen("pwm 20 Hz", tuning={"score": "J_exact"})
+    how = run_job(job, script, calls)
+    assert how["tune"] == "computed" and how["closed_loop"] == "reused"
+    assert "J_exact" in json.loads(Path(job.output.tune__recommendation).read_text())["echo"]
+    seen = stage_job(job, "closed_loop").input.recommendation
+    assert yaml.safe_load(Path(seen).read_text()) == {"recommended": {"setting": "pwm 20 Hz"}}
+    calls.clear()
+    how = run_job(chosen("dsm 20 ms"), script, calls)
+    assert how["closed_loop"] == "computed" and "closed_loop" in calls
+    # the adequacy: another view, another digest
+    before = read_files(job, "closed_loop")["tune__recommendation"]
+    rec = Path(job.output.tune__recommendation)
+    rec.write_text(json.dumps({**json.loads(rec.read_text()), "adequacy": {"adequate": False}}))
+    after = read_files(job, "closed_loop")["tune__recommendation"]
+    assert before != after and file_digest(before) != file_digest(after)
+
+
+def test_project_keeps_the_named_fields_alone() -> None:
+    record = {"recommended": {"setting": {"type": "pwm"}, "J": 2.0}, "adequacy": None, "x": 1}
+    part = reuse.project(record, ("recommended.setting", "adequacy", "missing.field"))
+    assert part == {"recommended": {"setting": {"type": "pwm"}}, "adequacy": None}
 
 
 def test_a_stage_whose_input_came_back_the_same_bytes_is_reused(tmp_path) -> None:
@@ -312,6 +353,10 @@ def test_a_tuning_change_reuses_identification_and_a_recompute_gives_the_same_ta
     assert how["identify"] == how["validate_model"] == how["staircase"] == "reused"
     assert how["chirp"] == "reused"
     assert how["tune"] == how["sine"] == how["page"] == "computed"
+    # the recommended setting did not move: the closed loop is restored, and the tuning's
+    # corners, its predicted staircases and its figures came from the memo
+    assert how["closed_loop"] == "reused"
+    assert any((results / ".store" / "memo" / "tuning-corners").iterdir())
     assert {p.name: p.read_bytes() for p in (results / "sim" / "identification").iterdir()} == ident
     reused = _tables(results)
     _snakemake(tuned, results, "--forceall", reuse=False)

@@ -21,6 +21,7 @@ import numpy as np
 import yaml
 
 from spa import _checks as checks
+from spa.io import read_yaml
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -215,7 +216,7 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
                 "failed (see its log), so it gets no tuning"
             )
         try:
-            source = yaml.safe_load(path.read_text())
+            source = read_yaml(path)
         except yaml.YAMLError as exc:
             raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
     if not isinstance(source, Mapping):

@@ -124,9 +124,8 @@ def stage_job(smk: Any, stage: str) -> SimpleNamespace:
     output = _stage_outputs(smk, stage)
     params = stage_params(smk, stage)
     inputs = dict(smk.input.items())
-    for before in _read_stages(smk, stage):
-        for key, path in _stage_outputs(smk, before).items():
-            inputs.setdefault(key, path)
+    for _, key, path in _read_outputs(smk, stage):
+        inputs.setdefault(key, path)
     return SimpleNamespace(
         input=Names(inputs),
         output=Names(output),
@@ -195,7 +194,38 @@ def read_stages(stage: str, order: Iterable[str]) -> list[str]:
         declared = get_stage(stage).upstream
     if declared is None or "*" in declared:
         return before
-    return [s for s in before if s in declared]
+    names = {d.split(".", 1)[0] for d in declared}
+    return [s for s in before if s in names]
+
+
+def _read_outputs(smk: Any, stage: str) -> list[tuple[str, str, Any]]:
+    """``(earlier stage, output key, path)`` of every output of the earlier stages that
+    ``stage`` reads: all of a stage its ``reads`` names, one output for ``"<stage>.<key>"``;
+    an output of which it reads some fields (:attr:`Stage.read_keys
+    <spa.pipeline.stage_types.Stage.read_keys>`) as the copy holding those alone
+    (:func:`spa.pipeline.reuse.yaml_view`, in the results' store)."""
+    from spa.pipeline.outputs import dataset_folder, get_stage
+    from spa.pipeline.reuse import STORE, VIEWS, yaml_view
+
+    try:
+        spec = get_stage(stage)
+    except KeyError:
+        spec = None
+    declared = () if spec is None else (spec.reads or ())
+    fields = {} if spec is None else spec.read_keys
+    out = []
+    for before in _read_stages(smk, stage):
+        outputs = _stage_outputs(smk, before)
+        keys = {d.split(".", 1)[1] for d in declared if d.startswith(f"{before}.")}
+        for key, path in outputs.items():
+            if keys and before not in declared and key not in keys:
+                continue
+            part = fields.get(f"{before}.{key}")
+            if part:
+                views = dataset_folder(before, outputs).parent / STORE / VIEWS
+                path = str(yaml_view(path, tuple(part), views))
+            out.append((before, key, path))
+    return out
 
 
 def _read_stages(smk: Any, stage: str) -> list[str]:
@@ -212,11 +242,10 @@ def _read_stages(smk: Any, stage: str) -> list[str]:
 
 def read_files(smk: Any, stage: str) -> dict[str, Any]:
     """Every file or folder one stage of a shared job reads, keyed ``<stage>__<key>`` for
-    the outputs of the earlier stages it reads (:func:`_read_stages`) and by their own keys
+    the outputs of the earlier stages it reads (:func:`_read_outputs`) and by their own keys
     for the job's inputs (a status file's key ends in ``status``)."""
     files = {f"input{JOIN}{k}": v for k, v in smk.input.items()}
-    for before in _read_stages(smk, stage):
-        files.update({f"{before}{JOIN}{k}": v for k, v in _stage_outputs(smk, before).items()})
+    files.update({f"{before}{JOIN}{k}": v for before, k, v in _read_outputs(smk, stage)})
     return files
 
 

@@ -56,13 +56,21 @@ __all__ = [
     "Store",
     "code_digest",
     "file_digest",
+    "project",
     "run_job",
     "run_or_reuse",
     "stage_digest",
+    "yaml_view",
 ]
 
 STORE = ".store"
 """The store's folder in the results folder."""
+
+MEMO = "memo"
+"""The store's folder of parts of a stage's work kept between runs (:mod:`spa._memo`)."""
+
+VIEWS = "views"
+"""The store's folder of the parts of YAML files a stage reads (:func:`yaml_view`)."""
 
 LIBRARIES = ("numpy", "scipy", "pandas", "pyarrow", "matplotlib", "numba", "PyYAML")
 """Distributions whose version is part of every digest: an upgrade recomputes."""
@@ -118,9 +126,11 @@ def _sha(path: Path) -> str:
     return h.hexdigest()
 
 
-def code_digest(script: str | Path | None = None) -> str:
+def code_digest(script: str | Path | None = None, package: str | None = None) -> str:
     """The digest of the code a stage runs: the ``spa`` package's source, the script's,
     the Python version and :data:`LIBRARIES`' versions.
+
+    ``package``: :func:`spa.io.package_digest` when already taken (once a job).
 
     Examples
     --------
@@ -130,7 +140,8 @@ def code_digest(script: str | Path | None = None) -> str:
     from spa.io import package_digest
 
     h = hashlib.sha256()
-    h.update(package_digest().encode() + b"\0" + sys.version.encode() + b"\0")
+    package = package_digest() if package is None else package
+    h.update(package.encode() + b"\0" + sys.version.encode() + b"\0")
     h.update(_versions(LIBRARIES).encode())
     if script is not None:
         h.update(Path(script).read_bytes())
@@ -223,6 +234,73 @@ def stage_digest(
     }
     text = json.dumps(record, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def project(record: Any, fields: tuple[str, ...]) -> dict[str, Any]:
+    """The part of a mapping named by dotted ``fields``; a field it lacks is left out.
+
+    Examples
+    --------
+    >>> project({"a": {"b": 1, "c": 2}, "d": 3, "e": 4}, ("a.b", "d", "x.y"))
+    {'a': {'b': 1}, 'd': 3}
+    """
+    out: dict[str, Any] = {}
+    for field in fields:
+        *parents, last = field.split(".")
+        node: Any = record
+        for name in parents:
+            node = node.get(name) if isinstance(node, Mapping) else None
+        if not isinstance(node, Mapping) or last not in node:
+            continue
+        target = out
+        for name in parents:
+            target = target.setdefault(name, {})
+        target[last] = node[last]
+    return out
+
+
+def yaml_view(path: str | Path, fields: tuple[str, ...], folder: str | Path) -> Path:
+    """A copy of the YAML file ``path`` holding ``fields`` alone (:func:`project`), for a
+    stage that reads only those (:attr:`Stage.read_keys
+    <spa.pipeline.stage_types.Stage.read_keys>`): it is given this copy instead of the file,
+    so its digest covers exactly what it can see, and a change elsewhere in the file
+    (the tuning's constraints echoed in its recommendation) leaves it reused.
+
+    Parameters
+    ----------
+    path : path-like
+        The YAML file; a missing one, or one that is not YAML, is returned as it is (the
+        stage sees it, and its digest covers all of it).
+    fields : tuple of str
+        Dotted keys (``"recommended.setting"``).
+    folder : path-like
+        Where the copies go (``<results>/.store/views``): named by the sha256 of their
+        content, so the same part gives the same path and the same digest.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    import yaml
+
+    from spa.io import read_yaml
+
+    source = Path(path)
+    try:
+        record = read_yaml(source)
+    except (OSError, yaml.YAMLError):  # missing or not YAML: the stage sees the file itself
+        return source
+    text = yaml.safe_dump(project(record if isinstance(record, Mapping) else {}, fields),
+                          sort_keys=True, allow_unicode=True)  # fmt: skip
+    target = Path(folder) / f"{hashlib.sha256(text.encode()).hexdigest()}.yaml"
+    if not target.is_file():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        handle, name = tempfile.mkstemp(prefix=".view-", dir=target.parent)
+        os.close(handle)
+        tmp = Path(name)
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, target)
+    return target
 
 
 class Store:
@@ -363,6 +441,7 @@ def run_or_reuse(
     raw: Mapping[str, str | Path] = {},
     enabled: bool = True,
     digest: Callable[[str | Path, bool], str] = file_digest,
+    package: str | None = None,
 ) -> str:
     """Restore a stage's outputs from the store when its digest is there, else run it and
     store them.
@@ -388,13 +467,15 @@ def run_or_reuse(
         False (config ``reuse: false``): always run, and refresh the store.
     digest : callable
         ``(path, is_status) -> hex`` (:func:`file_digest` or a memo of it).
+    package : str, optional
+        :func:`spa.io.package_digest`, when the job already took it.
 
     Returns
     -------
     str
         ``"reused"`` or ``"computed"``, also written into the stage's status file.
     """
-    code = code_digest(script)
+    code = code_digest(script, package)
     key = stage_digest(view, stage, code, reads, raw, results, digest)
     store = Store(Path(results) / STORE)
     outputs = dict(view.output.items())
@@ -414,7 +495,8 @@ def run_job(smk: Any, scriptdir: str | Path) -> dict[str, str]:
     """Run a shared job's stages in turn (``params.stages``: stage -> script name), each its
     own script seeing :func:`spa.pipeline.jobs.stage_job`'s view as ``snakemake``; with
     ``params.store`` (the analysis job), through :func:`run_or_reuse`, unless config
-    ``reuse`` is false.
+    ``reuse`` is false; then too, the parts of a stage's work that depend on fewer settings
+    than the stage are kept in ``<results>/.store/memo`` (:mod:`spa._memo`).
 
     Returns
     -------
@@ -423,11 +505,14 @@ def run_job(smk: Any, scriptdir: str | Path) -> dict[str, str]:
     """
     import runpy
 
+    from spa._memo import use_folder
+    from spa.io import package_digest
     from spa.pipeline.jobs import read_files, stage_job
     from spa.pipeline.outputs import dataset_folder, get_stage
 
     store = bool(smk.params.get("store"))
     enabled = bool((getattr(smk, "config", None) or {}).get("reuse", True))
+    package = package_digest() if store else None  # the job's code does not change under it
     memo: dict[tuple[str, bool], str] = {}
 
     def digest(path: str | Path, status: bool = False) -> str:
@@ -451,6 +536,7 @@ def run_job(smk: Any, scriptdir: str | Path) -> dict[str, str]:
             continue
         folder = dataset_folder(stage, dict(view.output.items()))
         raw = Path(str(smk.params.get("raw_dir", ""))) / str(smk.wildcards.dataset)
+        use_folder(folder.parent / STORE / MEMO if enabled else None)
         how[stage] = run_or_reuse(
             view,
             stage,
@@ -461,5 +547,6 @@ def run_job(smk: Any, scriptdir: str | Path) -> dict[str, str]:
             raw={name: raw / name for name in get_stage(stage).raw_files},
             enabled=enabled,
             digest=digest,
+            package=package,
         )
     return how

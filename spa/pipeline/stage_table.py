@@ -456,7 +456,10 @@ STAGES: tuple[Stage, ...] = (
         job="analyse",
         config="closed_loop",
         function="spa.closedloop.comparison.closed_loop",
-        reads=("identify", "tune"),
+        # of the tuning, the recommended setting and the bench's adequacy alone: a tuning:
+        # change that leaves them as they were leaves the closed loop reused
+        reads=("identify", "tune.recommendation"),
+        read_keys={"tune.recommendation": ("recommended.setting", "adequacy")},
         params=("selected",),
     ),
     # Its dataset's page of the report and its row of the overview, in the dataset's own job.

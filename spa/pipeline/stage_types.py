@@ -134,9 +134,14 @@ class Stage:
         The ``spa`` function that does its work, dotted (``"spa.stages.staircase.run_staircase"``).
     reads : tuple of str or None
         In a shared job, the earlier stages whose outputs its script reads (their outputs are
-        its inputs, and their content is part of its digest, :mod:`spa.pipeline.reuse`);
+        its inputs, and their content is part of its digest, :mod:`spa.pipeline.reuse`), or
+        ``"<stage>.<output key>"`` for one output of a stage alone;
         ``("*",)``: every stage before it; None: its ``upstream`` (every stage before it when
         that is None too). The job's own inputs are always read.
+    read_keys : mapping of str to tuple of str
+        ``"<stage>.<output key>"`` of a YAML file it reads -> the dotted keys of it that it
+        reads: its script is given a copy holding those alone
+        (:func:`spa.pipeline.reuse.yaml_view`), and its digest covers only them.
     params : tuple of str
         In a shared job, the job's parameters its script reads besides ``cfg`` (the names of
         ``params:`` in ``workflow/rules/analyse.smk``): the stage sees these alone, and their
@@ -159,6 +164,7 @@ class Stage:
     config: str | None = None
     function: str = ""
     reads: tuple[str, ...] | None = None
+    read_keys: dict[str, tuple[str, ...]] = field(default_factory=dict)
     params: tuple[str, ...] = ()
     raw_files: tuple[str, ...] = ()
 
@@ -191,7 +197,7 @@ def _per_dataset(
     """A per-dataset step, after ``upstream``: by default written by the rule ``name``, which
     logs to ``logs/{dataset}/<name>.log``; ``logs`` names other rules (rule -> log file);
     ``declared``: the :class:`Stage`'s ``job``, ``script``, ``config``, ``function``,
-    ``reads``, ``params`` and ``raw_files``."""
+    ``reads``, ``read_keys``, ``params`` and ``raw_files``."""
     logs = logs or {name: f"{{dataset}}/{name}.log"}
     status = Output("status", f"status/{name}.json", DATA)  # spa.pipeline.status: worked or failed
     outputs = _with_vectors((*outputs, status))

@@ -179,9 +179,37 @@ def draw(path: str | Path | None, make: Callable[..., Any], *args: Any, **kwargs
         Returns the matplotlib figure.
     *args, **kwargs
         Passed to ``make``.
+
+    Notes
+    -----
+    In the pipeline's analysis job the files are kept in the results' store, keyed by
+    ``make``, its arguments (pickled), the formats and the code
+    (:func:`spa._memo.files_memoised`): a stage run again on the same data (a ``tuning:``
+    change leaves Fig. 4's sweeps as they were) copies the figure instead of drawing it.
+    Arguments that cannot be pickled, and a ``make`` without a module-level name, are drawn
+    every time.
     """
-    if path is not None:
-        save_figure(make(*args, **kwargs), path)
+    if path is None:
+        return
+    import pickle
+
+    from spa._memo import files_memoised
+
+    png = Path(path)
+    paths = [png, *([vector_path(png)] if "svg" in FIGURE_FORMATS else [])]
+
+    def write() -> None:
+        save_figure(make(*args, **kwargs), png)
+
+    name = f"{getattr(make, '__module__', '')}.{getattr(make, '__qualname__', '<unnamed>')}"
+    try:
+        if "<" in name:  # a lambda or a local function: its name does not say what it draws
+            raise TypeError(name)
+        blob = pickle.dumps((name, args, sorted(kwargs.items()), FIGURE_FORMATS), protocol=5)
+    except (pickle.PicklingError, TypeError, AttributeError):
+        write()
+        return
+    files_memoised("figures", blob, paths, write)
 
 
 def _close(fig: Any) -> None:

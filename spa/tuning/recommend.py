@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa._memo import memoised
 from spa.model.averaging import time_constant, time_fractions
 from spa.model.modulators import MODULATOR_ORDER, Modulator
 from spa.model.params import ValveParams
@@ -73,17 +74,31 @@ def staircase_hold(options: TuningOptions, params: ValveParams) -> float:
     return max(float(options.staircase["hold"]), 5.0 * params.tau2)
 
 
+_STAIRCASE_METRICS = ("fit", "mse", "max_dev", "mad")
+
+
 def _staircase(mod: Modulator, params: ValveParams, options: TuningOptions, **analysis: Any):
-    """Fit, MSE, max_dev and MAD of a noise-free simulated staircase (Table 3's metrics)."""
+    """Fit, MSE, max_dev and MAD of a noise-free simulated staircase (Table 3's metrics).
+
+    They depend on the setting, the valve, the staircase and the analysis' settings alone,
+    not on the constraints: kept between runs of the pipeline (:mod:`spa._memo`).
+    """
     step, dt = (options.staircase[k] for k in ("step", "dt"))
     hold = staircase_hold(options, params)
-    levels = math.floor(1.0 / step + 1e-9) + 1
-    t = np.arange(round(levels * hold / dt)) * dt
-    xi = staircase_input(t, step, hold)
-    u = mod.bind(params).modulate(xi, dt)
-    run = pd.DataFrame({"t": t, "p": simulate(u, dt, params), "valve": u, "u": xi})
-    _, _, summary = staircase_analysis(run, mod.to_mapping(), params, **analysis)
-    out = {k: float(summary[k]) for k in ("fit", "mse", "max_dev", "mad")}
+
+    def simulated() -> list[float]:
+        levels = math.floor(1.0 / step + 1e-9) + 1
+        t = np.arange(round(levels * hold / dt)) * dt
+        xi = staircase_input(t, step, hold)
+        u = mod.bind(params).modulate(xi, dt)
+        run = pd.DataFrame({"t": t, "p": simulate(u, dt, params), "valve": u, "u": xi})
+        _, _, summary = staircase_analysis(run, mod.to_mapping(), params, **analysis)
+        return [float(summary[k]) for k in _STAIRCASE_METRICS]
+
+    key = {"setting": mod.to_mapping(), "params": params, "step": step, "dt": dt,
+           "hold": hold, "analysis": analysis}  # fmt: skip
+    values = memoised("tuning-staircase", key, simulated)
+    out = {k: float(v) for k, v in zip(_STAIRCASE_METRICS, values, strict=True)}
     if hold != float(options.staircase["hold"]):
         out["staircase_hold"] = hold
     return out

@@ -20,6 +20,7 @@ import pandas as pd
 
 from spa import _checks as checks
 from spa._docs import fill_doc
+from spa._memo import memoised
 from spa.model.averaging import equilibrium_pressure, time_constant, time_fractions
 from spa.model.modulators import MODULATOR_ORDER, get_kind
 from spa.model.params import ValveParams, valve_params
@@ -95,10 +96,12 @@ def sweep_frame(
                 }
             )
         )
-        if exact:
-            parts[-1]["J_exact"] = np.where(
-                np.isfinite(cost), exact_cost(kind, values, p, n_xi), np.nan
+        if exact:  # kept between runs: the grid's exact costs do not depend on the constraints
+            key = {"kind": kind, "values": values.tolist(), "params": p, "n_xi": n_xi}
+            j_exact = memoised(
+                "tuning-exact-sweep", key, lambda k=kind, v=values: exact_cost(k, v, p, n_xi)
             )
+            parts[-1]["J_exact"] = np.where(np.isfinite(cost), j_exact, np.nan)
     return pd.concat(parts, ignore_index=True)
 
 
@@ -319,7 +322,13 @@ def tuning_table(
     if candidates is None:
         opts = replace(options or TuningOptions(), gain_sweep=None)
         candidates = candidate_frame(grids, p, n, opts, data)
-    lo, hi = propagate(lambda q: _corner_optima(grids, q, n), p, intervals)
+    # the box's corners depend on the valve, the sweeps and n_xi alone, not on the
+    # constraints: kept between runs of the pipeline (a tuning: change reuses them)
+    lo, hi = memoised(
+        "tuning-corners",
+        {"params": p, "intervals": intervals or {}, "grids": grids, "n_xi": n},
+        lambda: np.stack(propagate(lambda q: _corner_optima(grids, q, n), p, intervals)),
+    )
     rows = []
     for i, kind in enumerate(grids):
         d = data[data["modulator"] == kind]
