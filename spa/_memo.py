@@ -33,19 +33,26 @@ _FOLDER: list[Path | None] = [None]
 _CODE: list[str | None] = [None]
 
 
-def use_folder(folder: str | Path | None) -> None:
-    """Keep results under ``folder`` from now on (None: keep nothing); the code's digest is
-    taken again at the next use."""
+def use_folder(folder: str | Path | None, code: str | None = None) -> None:
+    """Keep results under ``folder`` from now on (None: keep nothing), keyed with ``code``,
+    the digest of the code that computes them (:func:`spa.pipeline.reuse.code_digest`,
+    taken by the caller once a job).
+
+    Raises
+    ------
+    ValueError
+        For a folder without the code's digest: a result kept without it could be served
+        to edited code.
+    """
+    if folder is not None and not code:
+        raise ValueError("use_folder: a folder needs the code's digest (code_digest())")
     _FOLDER[0] = Path(folder) if folder is not None else None
-    _CODE[0] = None
+    _CODE[0] = code if folder is not None else None
 
 
 def _code() -> str:
-    """:func:`spa.pipeline.reuse.code_digest`, once per :func:`use_folder`."""
-    if _CODE[0] is None:
-        from spa.pipeline.reuse import code_digest
-
-        _CODE[0] = code_digest()
+    """The code's digest given to :func:`use_folder`."""
+    assert _CODE[0] is not None, "no memo folder in use"
     return _CODE[0]
 
 

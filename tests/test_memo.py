@@ -9,6 +9,7 @@ import pytest
 
 from spa import _memo
 from spa.model.params import ValveParams
+from spa.pipeline.reuse import code_digest
 from spa.tuning import tables
 from spa.tuning.recommend import TuningOptions
 
@@ -24,7 +25,7 @@ SWEEPS = {
 
 @pytest.fixture
 def folder(tmp_path):
-    _memo.use_folder(tmp_path / "memo")
+    _memo.use_folder(tmp_path / "memo", code_digest())
     yield tmp_path / "memo"
     _memo.use_folder(None)
 
@@ -66,7 +67,7 @@ def test_other_arguments_or_other_code_compute_again(folder, monkeypatch, change
         name = "y"
     else:  # an edit anywhere in spa/, seen by the next job
         monkeypatch.setattr("spa.io.package_digest", lambda: "edited")
-        _memo.use_folder(folder)
+        _memo.use_folder(folder, code_digest())
     out = _memo.memoised(name, key, counted(np.ones(2), calls))
     assert len(calls) == 2 and out.tolist() == [1.0, 1.0]
 
@@ -99,7 +100,7 @@ def test_tuning_corners_kept_give_the_table_computed_without_them(folder, monkey
     assert kept.to_csv() == fresh.to_csv()
     pd.testing.assert_frame_equal(kept, fresh)
     wider = {**BOX, "tau2": (0.69, 0.71)}
-    _memo.use_folder(folder)
+    _memo.use_folder(folder, code_digest())
     tables.tuning_table(SWEEPS, VALVE, 20, intervals=wider, options=opts)
     assert len(calls) == 2 * first + 1 + 2**4
 
@@ -133,7 +134,7 @@ def test_a_figure_of_the_same_data_is_copied_not_drawn(folder, tmp_path) -> None
         _memo.use_folder(None)
         draw(tmp_path / "fresh.png", line_figure, data, title="one")
         assert (tmp_path / "fresh.png").read_bytes() == b.read_bytes()
-        _memo.use_folder(folder)
+        _memo.use_folder(folder, code_digest())
         changed = data.assign(y=data["y"] + 1e-12)
         draw(tmp_path / "c.png", line_figure, changed, title="one")
         draw(tmp_path / "d.png", line_figure, data, title="two")

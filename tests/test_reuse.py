@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import pytest
 import yaml
 
-from spa.pipeline import reuse
+from spa.pipeline import reuse, store
 from spa.pipeline.jobs import (
     Names,
     joined_outputs,
@@ -190,7 +190,7 @@ def test_the_closed_loop_reads_the_recommended_setting_alone(tmp_path) -> None:
 
 def test_project_keeps_the_named_fields_alone() -> None:
     record = {"recommended": {"setting": {"type": "pwm"}, "J": 2.0}, "adequacy": None, "x": 1}
-    part = reuse.project(record, ("recommended.setting", "adequacy", "missing.field"))
+    part = store.project(record, ("recommended.setting", "adequacy", "missing.field"))
     assert part == {"recommended": {"setting": {"type": "pwm"}}, "adequacy": None}
 
 

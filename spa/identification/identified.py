@@ -21,7 +21,6 @@ import numpy as np
 import yaml
 
 from spa import _checks as checks
-from spa.io import read_yaml
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -216,7 +215,10 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
                 "failed (see its log), so it gets no tuning"
             )
         try:
-            source = read_yaml(path)
+            # libyaml's parser when PyYAML has it (spa.io.read_yaml; not imported: spa.io
+            # reads params.yaml through this package)
+            loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+            source = yaml.load(path.read_text(encoding="utf-8"), Loader=loader)
         except yaml.YAMLError as exc:
             raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
     if not isinstance(source, Mapping):

@@ -203,9 +203,9 @@ def _read_outputs(smk: Any, stage: str) -> list[tuple[str, str, Any]]:
     ``stage`` reads: all of a stage its ``reads`` names, one output for ``"<stage>.<key>"``;
     an output of which it reads some fields (:attr:`Stage.read_keys
     <spa.pipeline.stage_types.Stage.read_keys>`) as the copy holding those alone
-    (:func:`spa.pipeline.reuse.yaml_view`, in the results' store)."""
+    (:func:`spa.pipeline.store.yaml_view`, in the results' store)."""
     from spa.pipeline.outputs import dataset_folder, get_stage
-    from spa.pipeline.reuse import STORE, VIEWS, yaml_view
+    from spa.pipeline.store import STORE, VIEWS, yaml_view
 
     try:
         spec = get_stage(stage)

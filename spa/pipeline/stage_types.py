@@ -141,7 +141,7 @@ class Stage:
     read_keys : mapping of str to tuple of str
         ``"<stage>.<output key>"`` of a YAML file it reads -> the dotted keys of it that it
         reads: its script is given a copy holding those alone
-        (:func:`spa.pipeline.reuse.yaml_view`), and its digest covers only them.
+        (:func:`spa.pipeline.store.yaml_view`), and its digest covers only them.
     params : tuple of str
         In a shared job, the job's parameters its script reads besides ``cfg`` (the names of
         ``params:`` in ``workflow/rules/analyse.smk``): the stage sees these alone, and their
