@@ -28,6 +28,9 @@ DOCDICT: dict[str, str] = {
     ),
     "cost_args": "kind, value, params, n_xi, gain\n    As :func:`spa.tuning.cost.linearity_cost`.",
     "dataset_folder": "folder : str or path-like\n    The dataset folder, ``raw/<name>``.",
+    "figure_check": (
+        "Parameters\n----------\nfig : matplotlib.figure.Figure\n\nReturns\n-------\nlist of str"
+    ),
     "derivative_fit": """\
 window : float, default 0.1
     Savitzky–Golay window in s for the smoothed pressure and its derivative. A run whose fit
