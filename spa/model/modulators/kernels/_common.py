@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 #: The relative tolerance of :mod:`spa.model.modulators` for event times (the same value:
@@ -14,6 +15,12 @@ EPS = 1e-9
 def pulse_steps(width: float, dt: float) -> int:
     """Steps a pulse of ``width`` s lasts, at least one (the open-loop modulators' rule)."""
     return max(1, math.floor(width / dt + 0.5))
+
+
+def fire_config(gain: float, width: float, dt: float) -> np.ndarray:
+    """Constants of an integrate-and-fire kernel (IPFM, IIPFM) firing pulses of ``width`` s:
+    ``[threshold gain*width in steps, pulse width in steps]``."""
+    return np.array([gain * width / dt, float(pulse_steps(width, dt))])
 
 
 @njit(cache=True)
