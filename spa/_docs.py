@@ -41,6 +41,10 @@ dataset : str
     kind.
 log : logging.Logger, optional
     Where to say that there is none.""",
+    "setting_valve": (
+        "modulator : Modulator or mapping\n    Modulator setting.\nparams : ValveParams, optional\n"
+        "    The valve; nominal when omitted."
+    ),
     "figure_check": (
         "Parameters\n----------\nfig : matplotlib.figure.Figure\n\nReturns\n-------\nlist of str"
     ),
