@@ -45,6 +45,10 @@ log : logging.Logger, optional
         "modulator : Modulator or mapping\n    Modulator setting.\nparams : ValveParams, optional\n"
         "    The valve; nominal when omitted."
     ),
+    "table_figure": (
+        "Returns\n-------\nmatplotlib.figure.Figure\n\nRaises\n------\nValueError\n"
+        "    If a column is missing."
+    ),
     "figure_check": (
         "Parameters\n----------\nfig : matplotlib.figure.Figure\n\nReturns\n-------\nlist of str"
     ),
