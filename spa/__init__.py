@@ -17,6 +17,7 @@ API reference (docs/api/index.rst). Names are imported on first use (PEP 562), s
 from __future__ import annotations
 
 from spa._lazy import lazy_exports
+from spa.closedloop import _EXPORTS as _CLOSED_LOOP
 
 __version__ = "0.1.0"
 
@@ -69,12 +70,19 @@ _EXPORTS: dict[str, str] = {
     **dict.fromkeys(
         ("bicoherence", "mean_bicoherence", "principal_domain_mask"), "spa.openloop.spectra"
     ),
-    # Closed loop: design, exact simulation, the controller on a bench.
-    "PIController": "spa.closedloop.controller",
-    "design_pi": "spa.closedloop.design",
-    "simulate_closed_loop": "spa.closedloop.loop",
-    "ControllerStepper": "spa.closedloop.stepper",
-    **dict.fromkeys(("controller_header", "export_designed"), "spa.closedloop.export"),
+    # Closed loop: design, exact simulation, the controller on a bench (where
+    # spa.closedloop says each lives).
+    **{
+        name: _CLOSED_LOOP[name]
+        for name in (
+            "PIController",
+            "design_pi",
+            "simulate_closed_loop",
+            "ControllerStepper",
+            "controller_header",
+            "export_designed",
+        )
+    },
 }
 
 __all__ = sorted(_EXPORTS)

@@ -28,6 +28,30 @@ DOCDICT: dict[str, str] = {
     ),
     "cost_args": "kind, value, params, n_xi, gain\n    As :func:`spa.tuning.cost.linearity_cost`.",
     "dataset_folder": "folder : str or path-like\n    The dataset folder, ``raw/<name>``.",
+    "write_figure_stage": """\
+Parameters
+----------
+result
+    The stage's ``run_<stage>``'s result.
+out : mapping-like
+    Output key to path (``snakemake.output``, or a dict); the figure is drawn where its key
+    is given.
+dataset : str
+    The dataset's name, for the placeholder figure of a dataset without runs of the stage's
+    kind.
+log : logging.Logger, optional
+    Where to say that there is none.""",
+    "setting_valve": (
+        "modulator : Modulator or mapping\n    Modulator setting.\nparams : ValveParams, optional\n"
+        "    The valve; nominal when omitted."
+    ),
+    "table_figure": (
+        "Returns\n-------\nmatplotlib.figure.Figure\n\nRaises\n------\nValueError\n"
+        "    If a column is missing."
+    ),
+    "figure_check": (
+        "Parameters\n----------\nfig : matplotlib.figure.Figure\n\nReturns\n-------\nlist of str"
+    ),
     "derivative_fit": """\
 window : float, default 0.1
     Savitzky–Golay window in s for the smoothed pressure and its derivative. A run whose fit

@@ -8,6 +8,7 @@ Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usa
 from __future__ import annotations
 
 import argparse
+import inspect
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -24,6 +25,11 @@ _NUMBERS = dict(enumerate(["no", "one", "two", "three", "four", "five", "six", "
 
 
 def _validate(args: argparse.Namespace, out: TextIO) -> int:
+    """check dataset folders against the contract (raw/README.md)
+
+    Check each dataset folder; print every problem, or one summary line per run. Exit 1 if any
+    dataset has an error.
+    """
     from spa.datasets import check_dataset
 
     status = 0
@@ -47,6 +53,10 @@ def _validate(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _ingest(args: argparse.Namespace, out: TextIO) -> int:
+    """validate a dataset and write one canonical run table per run
+
+    Validate FOLDER, then write OUT_DIR/<run id>.parquet for each run.
+    """
     from spa.datasets import DatasetError, ingest_dataset
     from spa.pipeline.safety import INGEST_MARKER, check_ingest_output
 
@@ -71,6 +81,13 @@ def _ingest(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _init(args: argparse.Namespace, out: TextIO) -> int:
+    """draft dataset.yaml for a folder of recordings
+
+    Read every data file of FOLDER and write FOLDER/dataset.yaml: a draft with guessed columns,
+    units, kinds and modulators, each with its reason as a comment, and TODO where a guess
+    failed. This is the one file spa writes into raw/; it never overwrites an existing
+    dataset.yaml without --force and never touches data files.
+    """
     from spa.datasets.draft_yaml import TODO, write_draft
 
     try:
@@ -89,6 +106,11 @@ def _init(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _example(args: argparse.Namespace, out: TextIO) -> int:
+    """write the example bench export (what raw/example holds)
+
+    Simulate a small dataset laid out like a real bench export (CSV in ms and kPa with renamed
+    columns, a MATLAB .mat run, a Parquet run) into FOLDER.
+    """
     from spa.synthetic import write_example_dataset
 
     for path in write_example_dataset(args.folder, seed=args.seed):
@@ -115,6 +137,14 @@ def _run_folder(folder: Path, tmp: Path) -> Path:
 
 
 def _identify(args: argparse.Namespace, out: TextIO) -> int:
+    """identify a valve's parameters (95 % intervals) from a dataset
+
+    Identify c1, k2, tau2, t_on and t_off (paper Section 3.2) from the charge, discharge and
+    pulse runs of DATASET, as the workflow's identify rule does, without Snakemake; print them
+    with their 95 % intervals. DATASET is a bench dataset folder (validated and ingested into a
+    temporary folder; nothing is written next to it), a results folder with runs/
+    (results/<name>) or a folder of run tables.
+    """
     import json
     import tempfile
 
@@ -174,6 +204,15 @@ def _version() -> str:
 
 
 def _tune(args: argparse.Namespace, out: TextIO) -> int:
+    """tune the {count} modulators for a valve, recommend a setting
+
+    Sweep the parameter of each of the {count} modulators ({names}) for the valve of PARAMS.yaml
+    (an identification's params.yaml, whose 95 % intervals are propagated) or of the five
+    parameters given; print Table 2 in brief (each modulator's optimum, its costs and
+    chattering, and whether it lies at an end of its sweep) and the recommended setting; --yaml
+    or --json print all of Table 2 and the recommendation. Exit 1 for a valve that cannot be
+    tuned.
+    """
     import yaml
 
     from spa.tuning import format_result, tune_with_config
@@ -197,6 +236,12 @@ def _tune(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _design_pi(args: argparse.Namespace, out: TextIO) -> int:
+    """PI gains for a valve and a modulator setting (closed loop)
+
+    Design a fixed and a gain-scheduled PI (SIMC on the averaged model's local gain, time
+    constant and dead time) for the valve of PARAMS.yaml and one modulator setting; print the
+    gains and the exact simulation of the set-point staircase (docs/model.md section 8).
+    """
     from spa.closedloop.describe import design_summary, format_design, parse_modulator_spec
     from spa.identification.identified import read_identified
 
@@ -229,6 +274,13 @@ def stage_choice(params_path: str | Path) -> dict[str, Any] | None:
 
 
 def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
+    """C99 header and Arduino sketch of a designed PI
+
+    Design the PIs for the valve of PARAMS.yaml and one modulator setting (as design-pi) and
+    write one of them, with the modulator's per-step law, as OUT/controller.h (dependency-free
+    C99: init and step(r, p) -> valve, xi, the step as a constant) and OUT/controller.ino (where
+    the sensor read and valve write go).
+    """
     from spa.closedloop.describe import parse_modulator_spec
     from spa.closedloop.export import export_designed
     from spa.identification.identified import read_identified
@@ -313,6 +365,40 @@ class _Formatter(argparse.HelpFormatter):
         return super()._format_action(action)
 
 
+#: The modulator setting's syntax on the command line, with an example.
+_MODULATOR = ("KIND:NAME=VALUE,...", "e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20")
+
+
+def _folder(p: argparse.ArgumentParser, dest: str = "folder", help: str = "") -> None:
+    """The dataset folder argument (``FOLDER``)."""
+    p.add_argument(dest, metavar="FOLDER", help=help or "dataset folder, raw/<name>")
+
+
+def _params(p: argparse.ArgumentParser, **kwargs: Any) -> None:
+    """The identified parameters' file (``PARAMS.yaml``)."""
+    p.add_argument("params", metavar="PARAMS.yaml", help="identified parameters", **kwargs)
+
+
+def _config(p: argparse.ArgumentParser, takes: str, otherwise: str) -> None:
+    """``--config CONFIG.yaml``, which ``takes`` these sections (else ``otherwise``)."""
+    p.add_argument(
+        "--config",
+        metavar="CONFIG.yaml",
+        help=f"take {takes} from this configuration (default: none, {otherwise})",
+    )
+
+
+def _setting(
+    p: argparse.ArgumentParser, levels: str, tau_c: float | None, tau_c_default: str = ""
+) -> None:
+    """The design's ``--tau-c`` (default ``tau_c``, described by ``tau_c_default``) and
+    ``--levels`` (whose default ``levels`` describes)."""
+    p.add_argument(
+        "--tau-c", type=float, default=tau_c, help="closed-loop time constant, s" + tau_c_default
+    )
+    p.add_argument("--levels", metavar="R1,R2,...", help=f"set-points, bar (default: {levels})")
+
+
 def _parser() -> argparse.ArgumentParser:
     from spa.model.modulators import get_kind, kinds
 
@@ -327,79 +413,39 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"spa {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
-    add = sub.add_parser
 
-    def add_parser(name: str, **kwargs: Any) -> argparse.ArgumentParser:
-        return add(name, formatter_class=_Formatter, **kwargs)
+    def command(name: str, func: Any, **fill: str) -> argparse.ArgumentParser:
+        """The sub-command ``name`` that ``func`` runs: its help is the first line of
+        ``func``'s docstring, its description the rest (``{key}`` filled from ``fill``)."""
+        doc = inspect.cleandoc(func.__doc__ or "")
+        summary, _, rest = (doc.format(**fill) if fill else doc).partition("\n\n")
+        p = sub.add_parser(
+            name,
+            formatter_class=_Formatter,
+            help=summary.replace("%", "%%"),
+            description=" ".join(rest.split()),
+        )
+        p.set_defaults(func=func)
+        return p
 
-    sub.add_parser = add_parser  # type: ignore[method-assign]
-    p = sub.add_parser(
-        "validate",
-        help="check dataset folders against the contract (raw/README.md)",
-        description="Check each dataset folder; print every problem, or one summary line per "
-        "run. Exit 1 if any dataset has an error.",
-    )
+    p = command("validate", _validate)
     p.add_argument("folders", nargs="+", metavar="FOLDER", help="dataset folder, raw/<name>")
-    p.set_defaults(func=_validate)
-    p = sub.add_parser(
-        "ingest",
-        help="validate a dataset and write one canonical run table per run",
-        description="Validate FOLDER, then write OUT_DIR/<run id>.parquet for each run.",
-    )
-    p.add_argument("folder", metavar="FOLDER", help="dataset folder, raw/<name>")
+    p = command("ingest", _ingest)
+    _folder(p)
     p.add_argument("out_dir", metavar="OUT_DIR", help="output folder (not inside raw/)")
-    p.set_defaults(func=_ingest)
-    p = sub.add_parser(
-        "init",
-        help="draft dataset.yaml for a folder of recordings",
-        description="Read every data file of FOLDER and write FOLDER/dataset.yaml: a draft "
-        "with guessed columns, units, kinds and modulators, each with its reason as a comment, "
-        "and TODO where a guess failed. This is the one file spa writes into raw/; it never "
-        "overwrites an existing dataset.yaml without --force and never touches data files.",
-    )
-    p.add_argument("folder", metavar="FOLDER", help="dataset folder, raw/<name>")
+    p = command("init", _init)
+    _folder(p)
     p.add_argument("--force", action="store_true", help="replace an existing dataset.yaml")
-    p.set_defaults(func=_init)
-    p = sub.add_parser(
-        "example",
-        help="write the example bench export (what raw/example holds)",
-        description="Simulate a small dataset laid out like a real bench export (CSV in ms "
-        "and kPa with renamed columns, a MATLAB .mat run, a Parquet run) into FOLDER.",
-    )
-    p.add_argument("folder", metavar="FOLDER", help="destination, e.g. raw/example")
+    p = command("example", _example)
+    _folder(p, help="destination, e.g. raw/example")
     p.add_argument("--seed", type=int, default=2025, help="noise seed")
-    p.set_defaults(func=_example)
-    p = sub.add_parser(
-        "identify",
-        help="identify a valve's parameters (95 %% intervals) from a dataset",
-        description="Identify c1, k2, tau2, t_on and t_off (paper Section 3.2) from the "
-        "charge, discharge and pulse runs of DATASET, as the workflow's identify rule does, "
-        "without Snakemake; print them with their 95 % intervals. DATASET is a bench dataset "
-        "folder (validated and ingested into a temporary folder; nothing is written next to "
-        "it), a results folder with runs/ (results/<name>) or a folder of run tables.",
-    )
+    p = command("identify", _identify)
     p.add_argument("dataset", metavar="DATASET", help="raw/<name>, results/<name> or a runs/")
-    p.add_argument(
-        "--config",
-        metavar="CONFIG.yaml",
-        help="take identification:, nominal: and seed: from this configuration (default: "
-        "none, the built-in defaults)",
-    )
+    _config(p, "identification:, nominal: and seed:", "the built-in defaults")
     p.add_argument("--seed", type=int, help="bootstrap seed (default: the config's, else 0)")
     p.add_argument("--json", action="store_true", help="print params.yaml's content as JSON")
-    p.set_defaults(func=_identify)
-    p = sub.add_parser(
-        "tune",
-        help=f"tune the {count} modulators for a valve, recommend a setting",
-        description=f"Sweep the parameter of each of the {count} modulators ("
-        f"{', '.join(names)}) for the valve of PARAMS.yaml (an identification's "
-        "params.yaml, whose 95 % intervals are propagated) or of the five parameters given; "
-        "print Table 2 in brief (each modulator's optimum, its costs and chattering, and "
-        "whether it lies at an end of its sweep) and the recommended setting; --yaml or "
-        "--json print all of Table 2 and the recommendation. Exit 1 for a valve that cannot "
-        "be tuned.",
-    )
-    p.add_argument("params", nargs="?", metavar="PARAMS.yaml", help="identified parameters")
+    p = command("tune", _tune, count=count, names=", ".join(names))
+    _params(p, nargs="?")
     for name, unit in (
         ("c1", "s*bar^-0.5"),
         ("k2", "bar"),
@@ -410,12 +456,7 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument(
             f"--{name}", type=float, help=f"{name} in {unit} (no default: all five or PARAMS.yaml)"
         )
-    p.add_argument(
-        "--config",
-        metavar="CONFIG.yaml",
-        help="take sweeps, n_xi and the tuning: section from this configuration (default: "
-        "none, the paper's grids)",
-    )
+    _config(p, "sweeps, n_xi and the tuning: section", "the paper's grids")
     p.add_argument(
         "--score",
         choices=["J", "J_exact"],
@@ -426,45 +467,18 @@ def _parser() -> argparse.ArgumentParser:
         "--yaml", action="store_true", help="print all of Table 2 and the recommendation as YAML"
     )
     what.add_argument("--json", action="store_true", help="the same as JSON, for scripts")
-    p.set_defaults(func=_tune)
-    p = sub.add_parser(
-        "design-pi",
-        help="PI gains for a valve and a modulator setting (closed loop)",
-        description="Design a fixed and a gain-scheduled PI (SIMC on the averaged model's "
-        "local gain, time constant and dead time) for the valve of PARAMS.yaml and one "
-        "modulator setting; print the gains and the exact simulation of the set-point "
-        "staircase (docs/model.md section 8).",
-    )
-    p.add_argument("params", metavar="PARAMS.yaml", help="identified parameters")
-    p.add_argument(
-        "--modulator",
-        required=True,
-        metavar="KIND:NAME=VALUE,...",
-        help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20",
-    )
-    p.add_argument("--tau-c", type=float, default=TAU_C, help="closed-loop time constant, s")
-    p.add_argument(
-        "--levels",
-        metavar="R1,R2,...",
-        help="set-points, bar (default: fractions 0.1-0.8 of k2 that the setting holds)",
-    )
+    p = command("design-pi", _design_pi)
+    _params(p)
+    p.add_argument("--modulator", required=True, metavar=_MODULATOR[0], help=_MODULATOR[1])
+    _setting(p, "fractions 0.1-0.8 of k2 that the setting holds", TAU_C)
     p.add_argument("--json", action="store_true", help="print JSON for scripts")
-    p.set_defaults(func=_design_pi)
-    p = sub.add_parser(
-        "export-controller",
-        help="C99 header and Arduino sketch of a designed PI",
-        description="Design the PIs for the valve of PARAMS.yaml and one modulator setting "
-        "(as design-pi) and write one of them, with the modulator's per-step law, as "
-        "OUT/controller.h (dependency-free C99: init and step(r, p) -> valve, xi, the step "
-        "as a constant) and OUT/controller.ino (where the sensor read and valve write go).",
-    )
-    p.add_argument("params", metavar="PARAMS.yaml", help="identified parameters")
+    p = command("export-controller", _export_controller)
+    _params(p)
     p.add_argument(
         "--modulator",
-        metavar="KIND:NAME=VALUE,...",
-        help="e.g. iipfm:t_l=0.02,gain=1.15 or pwm:f_w=20 (default: the closed_loop "
-        "stage's choice when PARAMS.yaml is in a results folder); an LPWM without its "
-        "valve inverts the valve of PARAMS.yaml",
+        metavar=_MODULATOR[0],
+        help=f"{_MODULATOR[1]} (default: the closed_loop stage's choice when PARAMS.yaml is in a "
+        "results folder); an LPWM without its valve inverts the valve of PARAMS.yaml",
     )
     p.add_argument(
         "--controller",
@@ -473,18 +487,11 @@ def _parser() -> argparse.ArgumentParser:
         help="which design (default: the closed_loop stage's choice when PARAMS.yaml is in "
         "a results folder, else scheduled_ff: gain-scheduled with feed-forward)",
     )
-    p.add_argument(
-        "--tau-c",
-        type=float,
-        default=None,
-        help="closed-loop time constant, s (default: the stage's shipped one for its "
-        "chosen setting, else 0.2)",
-    )
-    p.add_argument(
-        "--levels",
-        metavar="R1,R2,...",
-        help="set-points, bar (default: the stage's for its chosen setting, else spread "
-        "over the range the setting holds)",
+    _setting(
+        p,
+        "the stage's for its chosen setting, else spread over the range the setting holds",
+        None,
+        " (default: the stage's shipped one for its chosen setting, else 0.2)",
     )
     p.add_argument("--dt", type=float, default=0.001, help="controller step, s")
     p.add_argument(
@@ -495,7 +502,6 @@ def _parser() -> argparse.ArgumentParser:
         "(float, for single-precision FPUs)",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    p.set_defaults(func=_export_controller)
     return parser
 
 

@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
+from spa._docs import fill_doc
 from spa.closedloop.controller import PIController
 from spa.model.averaging import equilibrium, pulse_times, time_constant, time_fractions
 from spa.model.modulators import Modulator
@@ -106,6 +107,7 @@ def _curve_of(
     return out
 
 
+@fill_doc
 def feedforward(
     r: npt.ArrayLike, modulator: Modulator | dict[str, Any], params: ValveParams | None = None
 ) -> np.ndarray:
@@ -115,10 +117,7 @@ def feedforward(
     ----------
     r : array_like
         Set-points, bar; outside the reachable range the edge of the range is used.
-    modulator : Modulator or mapping
-        Modulator setting.
-    params : ValveParams, optional
-        The valve; nominal when omitted.
+    %(setting_valve)s
 
     Returns
     -------
@@ -140,6 +139,7 @@ def feedforward(
     return np.interp(np.asarray(r, dtype=np.float64), peq, xi)
 
 
+@fill_doc
 def local_models(
     r: npt.ArrayLike, modulator: Modulator | dict[str, Any], params: ValveParams | None = None
 ) -> LocalModels:
@@ -149,10 +149,7 @@ def local_models(
     ----------
     r : array_like
         Set-points, bar (inside ``(0, k2)``).
-    modulator : Modulator or mapping
-        Modulator setting.
-    params : ValveParams, optional
-        The valve; nominal when omitted.
+    %(setting_valve)s
 
     Returns
     -------
@@ -180,6 +177,7 @@ def local_models(
     return LocalModels(rr, x, gain, tau, theta)
 
 
+@fill_doc
 def operating_levels(
     levels: npt.ArrayLike,
     modulator: Modulator | dict[str, Any],
@@ -193,10 +191,7 @@ def operating_levels(
     ----------
     levels : array_like
         Wanted set-points, bar.
-    modulator : Modulator or mapping
-        Modulator setting.
-    params : ValveParams, optional
-        The valve; nominal when omitted.
+    %(setting_valve)s
     max_fraction : float, default 1
         Levels at or above ``max_fraction * k2`` are left out too.
     spread : bool, default False
@@ -283,6 +278,7 @@ def simc(
     return kp, kp / ti
 
 
+@fill_doc
 def design_pi(
     modulator: Modulator | dict[str, Any],
     params: ValveParams | None = None,
@@ -295,10 +291,7 @@ def design_pi(
 
     Parameters
     ----------
-    modulator : Modulator or mapping
-        Modulator setting.
-    params : ValveParams, optional
-        The valve; nominal when omitted.
+    %(setting_valve)s
     levels : array_like
         Set-points of the operating range, bar: the schedule's grid.
     tau_c : float, optional

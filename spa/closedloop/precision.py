@@ -15,7 +15,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import tempfile
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -133,13 +133,8 @@ class PrecisionAgreement:
     max_xi_difference: float
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain numbers (YAML/JSON-ready)."""
-        return {
-            "steps": self.steps,
-            "mismatches": self.mismatches,
-            "max_pressure_difference": self.max_pressure_difference,
-            "max_xi_difference": self.max_xi_difference,
-        }
+        """Plain numbers (YAML/JSON-ready): the fields, in order."""
+        return asdict(self)
 
 
 def closed_loops(

@@ -343,6 +343,26 @@ def _parse_options(parsed: _Parsed, doc: Mapping[str, Any]) -> None:
         parsed.data_ok = False
 
 
+def _sub_entry(
+    entry: Mapping[str, Any],
+    name: str,
+    check: Callable[[Any], tuple[Any, list[str]]],
+    err: Callable[[str, str], None],
+    needed: bool,
+    missing: str,
+) -> Any:
+    """A run's optional sub-mapping ``entry[name]`` checked by ``check`` (its problems given
+    to ``err`` under ``name``), or None; when absent and ``needed``, ``missing`` is the error."""
+    if entry.get(name) is not None:
+        value, problems = check(entry[name])
+        for message in problems:
+            err(message, name)
+        return value
+    if needed:
+        err(missing, name)
+    return None
+
+
 def _parse_runs(parsed: _Parsed, runs: Any) -> None:
     if not isinstance(runs, list):
         parsed.error(
@@ -396,29 +416,25 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
                 f"unknown kind {kind!r}; expected one of {_one_of(KINDS)}{_suggest(kind, KINDS)}",
                 "kind",
             )
-        modulator = None
-        if entry.get("modulator") is not None:
-            modulator, problems = _check_modulator(entry["modulator"])
-            for message in problems:
-                err(message, "modulator")
-        elif _is_one_of(kind, MODULATED_KINDS):
-            err(
-                f"a {kind} run needs a modulator, one of {{type: pwm, f_w: <Hz>}}, "
-                "{type: ipfm, t_h: <s>, gain: <G>}, {type: iipfm, t_l: <s>, gain: <G>}, "
-                "{type: dsm, period: <s>}",
-                "modulator",
-            )
-        controller = None
-        if entry.get("controller") is not None:
-            controller, problems = _check_controller(entry["controller"])
-            for message in problems:
-                err(message, "controller")
-        elif kind == "closed_loop":
-            err(
-                "a closed_loop run needs its controller, e.g. {kp: 4.0, ki: 4.5, dt: 0.001} "
-                "(gains in 1/bar and 1/(bar*s), step in s)",
-                "controller",
-            )
+        modulator = _sub_entry(
+            entry,
+            "modulator",
+            _check_modulator,
+            err,
+            _is_one_of(kind, MODULATED_KINDS),
+            f"a {kind} run needs a modulator, one of {{type: pwm, f_w: <Hz>}}, "
+            "{type: ipfm, t_h: <s>, gain: <G>}, {type: iipfm, t_l: <s>, gain: <G>}, "
+            "{type: dsm, period: <s>}",
+        )
+        controller = _sub_entry(
+            entry,
+            "controller",
+            _check_controller,
+            err,
+            kind == "closed_loop",
+            "a closed_loop run needs its controller, e.g. {kp: 4.0, ki: 4.5, dt: 0.001} "
+            "(gains in 1/bar and 1/(bar*s), step in s)",
+        )
         notes = entry.get("notes")
         if notes is not None and not isinstance(notes, str):
             err(f"notes must be text, got {notes!r}", "notes")

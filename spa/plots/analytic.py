@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from spa._docs import fill_doc
 from spa.model.modulators import MODULATOR_ORDER, get_kind
 from spa.model.params import ValveParams
 from spa.openloop.paper import PAPER_FIG5_ORDER
@@ -90,6 +91,7 @@ def sweep_optimum(sweep: pd.DataFrame) -> pd.Series:
     return sweep.iloc[int(np.nanargmin(j))]
 
 
+@fill_doc
 def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) -> Figure:
     """Fig. 4: the linearity cost ``J`` of the four modulators on one axis.
 
@@ -101,14 +103,7 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
     params : ValveParams, optional
         The valve: PWM periods below ``t_on + t_off`` are shaded and marked (see Notes).
 
-    Returns
-    -------
-    matplotlib.figure.Figure
-
-    Raises
-    ------
-    ValueError
-        If a column is missing.
+    %(table_figure)s
 
     Notes
     -----

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from spa._docs import fill_doc
 from spa.plots.caption_check import caption_problems
 from spa.plots.drawn import (
     _NO_LINE,
@@ -108,16 +109,11 @@ def figure_problems(fig: Figure) -> list[str]:
     ]
 
 
+@fill_doc
 def legend_overlaps(fig: Figure) -> list[str]:
     """Legends whose box covers plotted data.
 
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-
-    Returns
-    -------
-    list of str
+    %(figure_check)s
         One sentence per legend and axes whose data it covers.
 
     Notes
@@ -133,16 +129,11 @@ def legend_overlaps(fig: Figure) -> list[str]:
     return _legend_overlaps(fig, _draw(fig))
 
 
+@fill_doc
 def missing_tick_labels(fig: Figure) -> list[str]:
     """Axes that show data but leave an axis without tick labels.
 
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-
-    Returns
-    -------
-    list of str
+    %(figure_check)s
         One sentence per unlabelled axis. An axis without labels passes when an axes that
         shares it (``sharex``/``sharey``, or a twin) labels it and sits below it (x) or to
         its left (y), or at the same place (a twin). Colour bars and axes turned off are
@@ -185,16 +176,11 @@ def small_axis_labels(fig: Figure, drawn: bool = False) -> list[str]:
     return problems
 
 
+@fill_doc
 def shared_styles(fig: Figure) -> list[str]:
     """Series of one axes that cannot be told apart: same colour, line style and marker.
 
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-
-    Returns
-    -------
-    list of str
+    %(figure_check)s
         One sentence per pair. A series is a line (``Line2D``); lines of one legend label
         are one series; an error bar's caps and bars belong to its data line.
     """
@@ -232,16 +218,11 @@ def shared_styles(fig: Figure) -> list[str]:
     return problems
 
 
+@fill_doc
 def cut_off(fig: Figure) -> list[str]:
     """Texts and legends that reach past the edge of the figure.
 
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-
-    Returns
-    -------
-    list of str
+    %(figure_check)s
         One sentence per legend or text (titles, axis labels, annotations, the figure's
         title; not tick labels, which the layout places) more than one pixel outside.
     """
@@ -394,16 +375,11 @@ def _labels_for(ax: Axes, other: Axes, name: str, box: Any) -> bool:
     return o.y0 < box.y1 and box.y0 < o.y1 and o.x0 <= box.x0 + eps
 
 
+@fill_doc
 def legend_over_titles(fig: Figure) -> list[str]:
     """Legends whose box covers a title (an axes' or the figure's).
 
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-
-    Returns
-    -------
-    list of str
+    %(figure_check)s
         One sentence per legend and title it covers.
     """
     return _legend_over_titles(fig, _draw(fig))

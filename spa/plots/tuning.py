@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from spa._docs import fill_doc
 from spa.model.params import ValveParams
 from spa.plots.analytic import (
     _COLOURS,
@@ -29,6 +30,7 @@ if TYPE_CHECKING:
 __all__ = ["plot_tuning_equilibrium", "plot_tuning_sweeps"]
 
 
+@fill_doc
 def plot_tuning_sweeps(
     sweeps: pd.DataFrame, title: str | None = None, params: ValveParams | None = None
 ) -> Figure:
@@ -45,14 +47,7 @@ def plot_tuning_sweeps(
         The valve: marks PWM's periods below ``t_on + t_off``
         (:func:`spa.plots.analytic.plot_cost_sweeps`).
 
-    Returns
-    -------
-    matplotlib.figure.Figure
-
-    Raises
-    ------
-    ValueError
-        If a column is missing.
+    %(table_figure)s
 
     Notes
     -----

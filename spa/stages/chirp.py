@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa._docs import fill_doc
 from spa.io import write_csv
 from spa.model.params import ValveParams
 from spa.openloop import (
@@ -25,11 +26,12 @@ from spa.openloop import (
     run_tags,
     runs_of_kind,
 )
-from spa.openloop.reference import REFERENCE, SKIPPED_PART, reference_skip_reason
+from spa.openloop.reference import SKIPPED_PART
 from spa.openloop.shapes import check_input_shape
-from spa.pipeline.status import Skipped, naming_run
-from spa.plots.openloop import fig9, fig9_data, write_no_runs
+from spa.pipeline.status import naming_run
+from spa.plots.openloop import fig9, fig9_data
 from spa.plots.save import draw
+from spa.stages._common import SkippedParts, skipped_reference, write_placeholders
 
 __all__ = ["ChirpResult", "run_chirp", "write_chirp"]
 
@@ -40,7 +42,7 @@ Map = tuple[str, np.ndarray, np.ndarray, float, float]
 
 
 @dataclass(frozen=True)
-class ChirpResult:
+class ChirpResult(SkippedParts):
     """What the chirp stage found (empty without chirp runs).
 
     Attributes
@@ -71,11 +73,6 @@ class ChirpResult:
     titles: list[str] = field(default_factory=list)
     note: str = ""
     skipped: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def warnings(self) -> list[Skipped]:
-        """What the stage's status records: one :class:`~spa.pipeline.status.Skipped` a part."""
-        return [Skipped(part, why) for part, why in self.skipped.items()]
 
     @property
     def empty(self) -> bool:
@@ -141,13 +138,10 @@ def run_chirp(
         )  # fmt: skip
     if not ids:
         return ChirpResult(pd.DataFrame())
-    mods = [metas[r]["modulator"] for r in ids]
     first = ids[0]  # through its sensor (ringing after its edges, its noise) if simulated
-    why = reference_skip_reason(mods, params)
-    if why:  # the runs as recorded; the model-based reference left out by name
-        log.warning("%s skipped: %s", SKIPPED_PART, why)
-        tags = {"run": REFERENCE, "modulator": REFERENCE, "setting": REFERENCE}
-        ref = {**tags, "skipped": f"{SKIPPED_PART}: {why}"}
+    mods, why, ref_tags = skipped_reference(metas, ids, params, log)
+    if why:
+        ref = {**ref_tags, "skipped": f"{SKIPPED_PART}: {why}"}
         basis = rows[0]  # the runs' own segments and threshold
     else:
         # The same input (the first run's) through the linear first-order reference.
@@ -174,27 +168,17 @@ def run_chirp(
     return ChirpResult(table, named, list(shown["setting"]), titles, note, skipped)
 
 
+@fill_doc
 def write_chirp(
     result: ChirpResult, out: Any, dataset: str, log: logging.Logger | None = None
 ) -> None:
-    """Write the chirp table and Fig. 9 (its data and, where drawn, the figure).
+    """Write the chirp table and Fig. 9 (its data and, where drawn, the figure): the
+    outputs ``table``, ``fig9_csv`` and ``fig9`` of :func:`run_chirp`'s result.
 
-    Parameters
-    ----------
-    result : ChirpResult
-        :func:`run_chirp`'s.
-    out : mapping-like
-        Output key to path (``snakemake.output``, or a dict): ``table``, ``fig9_csv`` and
-        ``fig9`` where it is drawn.
-    dataset : str
-        The dataset's name, for the placeholder figure of a dataset without chirp runs.
-    log : logging.Logger, optional
-        Where to say that there is none.
+    %(write_figure_stage)s
     """
     if result.empty:
-        (log or _LOG).info("no chirp runs in this dataset: empty table, placeholder figure")
-        tables = [out.get("table"), out.get("fig9_csv")]
-        write_no_runs(f"{dataset}: no chirp runs", tables, [out.get("fig9")])
+        write_placeholders(out, dataset, "chirp", ["table", "fig9_csv"], ["fig9"], log or _LOG)
         return
     write_csv(result.table, out.get("table"))
     write_csv(fig9_data(result.maps), out.get("fig9_csv"))

@@ -10,14 +10,16 @@ from typing import Any
 
 import pandas as pd
 
+from spa._docs import fill_doc
 from spa.io import write_csv
 from spa.model.params import ValveParams
 from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, sine_reference
-from spa.openloop.reference import REFERENCE, SKIPPED_PART, reference_skip_reason
+from spa.openloop.reference import REFERENCE, SKIPPED_PART
 from spa.openloop.shapes import check_input_shape
-from spa.pipeline.status import Skipped, naming_run
-from spa.plots.openloop import fig8, thin, write_no_runs
+from spa.pipeline.status import naming_run
+from spa.plots.openloop import fig8, thin
 from spa.plots.save import draw
+from spa.stages._common import SkippedParts, skipped_reference, write_placeholders
 
 __all__ = ["SineResult", "run_sine", "write_sine"]
 
@@ -25,7 +27,7 @@ _LOG = logging.getLogger("spa.stages.sine")
 
 
 @dataclass(frozen=True)
-class SineResult:
+class SineResult(SkippedParts):
     """What the sine stage found (empty tables without sine runs).
 
     Attributes
@@ -52,11 +54,6 @@ class SineResult:
     reference: pd.DataFrame
     note: str
     skipped: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def warnings(self) -> list[Skipped]:
-        """What the stage's status records: one :class:`~spa.pipeline.status.Skipped` a part."""
-        return [Skipped(part, why) for part, why in self.skipped.items()]
 
     @property
     def empty(self) -> bool:
@@ -115,12 +112,9 @@ def run_sine(
         )  # fmt: skip
     if not ids:
         return SineResult(pd.DataFrame(), pd.DataFrame(), pd.DataFrame(), "")
-    mods = [metas[r]["modulator"] for r in ids]
-    why = reference_skip_reason(mods, params)
-    if why:  # the runs as recorded; the model-based reference left out by name
-        log.warning("%s skipped: %s", SKIPPED_PART, why)
-        tags = {"run": REFERENCE, "modulator": REFERENCE, "setting": REFERENCE}
-        rows.append({**tags, "settle": settles[ids[0]], "skipped": f"{SKIPPED_PART}: {why}"})
+    mods, why, ref_tags = skipped_reference(metas, ids, params, log)
+    if why:
+        rows.append({**ref_tags, "settle": settles[ids[0]], "skipped": f"{SKIPPED_PART}: {why}"})
         note = f"sine at {float(rows[0]['frequency']):.3g} Hz; {SKIPPED_PART} skipped: {why}"
         return SineResult(
             pd.DataFrame(rows), pd.concat(curves), pd.DataFrame(), note, {SKIPPED_PART: why}
@@ -135,27 +129,17 @@ def run_sine(
     return SineResult(pd.DataFrame(rows), pd.concat(curves), reference, frequency_note(ref))
 
 
+@fill_doc
 def write_sine(
     result: SineResult, out: Any, dataset: str, log: logging.Logger | None = None
 ) -> None:
-    """Write the sine table and Fig. 8 (its data and, where drawn, the figure).
+    """Write the sine table and Fig. 8 (its data and, where drawn, the figure): the
+    outputs ``table``, ``fig8_csv`` and ``fig8`` of :func:`run_sine`'s result.
 
-    Parameters
-    ----------
-    result : SineResult
-        :func:`run_sine`'s.
-    out : mapping-like
-        Output key to path (``snakemake.output``, or a dict): ``table``, ``fig8_csv`` and
-        ``fig8`` where it is drawn.
-    dataset : str
-        The dataset's name, for the placeholder figure of a dataset without sine runs.
-    log : logging.Logger, optional
-        Where to say that there is none.
+    %(write_figure_stage)s
     """
     if result.empty:
-        (log or _LOG).info("no sine runs in this dataset: empty table, placeholder figure")
-        tables = [out.get("table"), out.get("fig8_csv")]
-        write_no_runs(f"{dataset}: no sine runs", tables, [out.get("fig8")])
+        write_placeholders(out, dataset, "sine", ["table", "fig8_csv"], ["fig8"], log or _LOG)
         return
     write_csv(result.table, out.get("table"))
     reference = None if result.reference.empty else result.reference

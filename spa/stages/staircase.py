@@ -23,8 +23,9 @@ from spa.openloop import (
 )
 from spa.openloop.shapes import check_input_shape
 from spa.pipeline.status import naming_run
-from spa.plots.openloop import fig6, fig7a, fig7b, tau_outliers, write_no_runs
+from spa.plots.openloop import fig6, fig7a, fig7b, tau_outliers
 from spa.plots.save import draw
+from spa.stages._common import write_placeholders
 
 __all__ = ["StaircaseResult", "run_staircase", "write_staircase"]
 
@@ -174,10 +175,8 @@ def write_staircase(
     """
     log = log or _LOG
     if result.empty:
-        log.info("no staircase runs in this dataset: empty tables, placeholder figures")
         tables = ["table3", "levels", "time_constants", "fig6_csv", "fig7a_csv", "fig7b_csv"]
-        figures = [out.get(key) for key in ("fig6", "fig7a", "fig7b")]
-        write_no_runs(f"{dataset}: no staircase runs", [out.get(k) for k in tables], figures)
+        write_placeholders(out, dataset, "staircase", tables, ["fig6", "fig7a", "fig7b"], log)
         return
     write_csv(result.table3, out.get("table3"))
     write_csv(result.levels, out.get("levels"))

@@ -17,16 +17,13 @@ import numpy.typing as npt
 
 from spa._docs import fill_doc
 from spa.model._broadcast import safe_div
-from spa.model.modulators import _pulses
-from spa.model.modulators.base import ModulatorKind
-from spa.model.modulators.ipfm import check_threshold, guess_fired
-from spa.model.modulators.trace import Trace
+from spa.model.modulators.ipfm import IntegrateAndFire
 from spa.model.params import ValveParams, valve_params
 
 __all__ = ["IIPFM", "iipfm_optimal_t_l"]
 
 
-class IIPFM(ModulatorKind):
+class IIPFM(IntegrateAndFire):
     """Inverse IPFM: low pulses of ``t_l`` at a rate following ``1 - xi``."""
 
     type = "iipfm"
@@ -37,20 +34,12 @@ class IIPFM(ModulatorKind):
     colour = "#009E73"  # bluish green
     order = 2.0
     settings: ClassVar[Mapping[str, float | None]] = {"t_l": None, "gain": 1.0}
-    default_grid: ClassVar[Mapping[str, float]] = {"start": 0.0125, "stop": 1.0, "step": 0.001}
-    reference = 0.020
     threshold_formulas = ("1 - gain/(1 + t_on/t_l)", "1")
-    has_gain = True
+    fires_high = False
+    width_limit = "t_off"
+    gain_rule = "and gain = 1 + t_on/t_l"
     gain_swept = True
     guess_rank = 3.0
-
-    def check_dt(self, s: Mapping[str, float], dt: float) -> None:
-        check_threshold(self, s, dt)
-
-    def pulse(
-        self, x: npt.NDArray[np.float64], dt: float, s: Mapping[str, float]
-    ) -> npt.NDArray[np.int8]:
-        return 1 - _pulses.fire_pulses(1.0 - x, dt, s["gain"] * s["t_l"], s["t_l"])
 
     def pulse_times(
         self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
@@ -75,23 +64,9 @@ class IIPFM(ModulatorKind):
     ) -> dict[str, Any]:
         return {"t_l": v, "gain": 1.0 + p.t_on / v if gain is None else gain}
 
-    def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
-        return v > p.t_off
-
-    def constraint(self, p: ValveParams) -> str:
-        return f"t_l > t_off = {p.t_off * 1e3:g} ms and gain = 1 + t_on/t_l"
-
-    def sweep_limits(
-        self, values: npt.NDArray[np.float64], p: ValveParams
-    ) -> list[tuple[str, float, float, str, str]]:
-        return [("t_off", p.t_off, values[-1], "IIPFM t_l", "t_l > t_off")]
-
     def analytic_optimum(self, p: ValveParams) -> float:
         """Eq. 29's ``t_l*`` in ms."""
         return iipfm_optimal_t_l(p) * 1e3
-
-    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
-        return guess_fired(self, trace, high=False)
 
 
 @fill_doc

@@ -21,7 +21,7 @@ from spa.model.modulators.base import ModulatorKind
 from spa.model.modulators.trace import Trace, sig, threshold_gain
 from spa.model.params import ValveParams
 
-__all__ = ["IPFM", "check_threshold", "guess_fired"]
+__all__ = ["IPFM", "IntegrateAndFire", "check_threshold", "guess_fired"]
 
 
 def check_threshold(kind: ModulatorKind, s: Mapping[str, float], dt: float) -> None:
@@ -66,7 +66,49 @@ def guess_fired(kind: ModulatorKind, tr: Trace, high: bool) -> tuple[dict[str, A
     )
 
 
-class IPFM(ModulatorKind):
+class IntegrateAndFire(ModulatorKind):
+    """What IPFM and IIPFM share: an integrator of ``xi`` (high pulses, :attr:`fires_high`)
+    or of ``1 - xi`` (low pulses) fires a pulse of the width ``parameter`` each time it
+    reaches ``gain`` times that width. Not a kind by itself (never registered)."""
+
+    #: Whether the fired pulses are high (IPFM) or low (IIPFM, on ``1 - xi``).
+    fires_high: ClassVar[bool] = True
+    #: The valve delay the pulse width must exceed, and what the constraint says of the gain.
+    width_limit: ClassVar[str] = "t_on"
+    gain_rule: ClassVar[str] = "(gain = 1)"
+    default_grid: ClassVar[Mapping[str, float]] = {"start": 0.0125, "stop": 1.0, "step": 0.001}
+    reference = 0.020
+    has_gain = True
+
+    def check_dt(self, s: Mapping[str, float], dt: float) -> None:
+        check_threshold(self, s, dt)
+
+    def pulse(
+        self, x: npt.NDArray[np.float64], dt: float, s: Mapping[str, float]
+    ) -> npt.NDArray[np.int8]:
+        width = s[self.parameter]
+        if self.fires_high:
+            return _pulses.fire_pulses(x, dt, s["gain"] * width, width)
+        return 1 - _pulses.fire_pulses(1.0 - x, dt, s["gain"] * width, width)
+
+    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
+        return guess_fired(self, trace, high=self.fires_high)
+
+    def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
+        return v > getattr(p, self.width_limit)
+
+    def constraint(self, p: ValveParams) -> str:
+        limit = getattr(p, self.width_limit)
+        return f"{self.parameter} > {self.width_limit} = {limit * 1e3:g} ms {self.gain_rule}"
+
+    def sweep_limits(
+        self, values: npt.NDArray[np.float64], p: ValveParams
+    ) -> list[tuple[str, float, float, str, str]]:
+        w, limit = self.parameter, self.width_limit
+        return [(limit, getattr(p, limit), values[-1], f"{self.name} {w}", f"{w} > {limit}")]
+
+
+class IPFM(IntegrateAndFire):
     """Integral pulse-frequency modulation: pulses of ``t_h`` at a rate following ``xi``."""
 
     type = "ipfm"
@@ -77,19 +119,8 @@ class IPFM(ModulatorKind):
     colour = "#E69F00"  # orange
     order = 1.0
     settings: ClassVar[Mapping[str, float | None]] = {"t_h": None, "gain": 1.0}
-    default_grid: ClassVar[Mapping[str, float]] = {"start": 0.0125, "stop": 1.0, "step": 0.001}
-    reference = 0.020
     threshold_formulas = ("0", "gain*t_h/(t_h + t_off)")
-    has_gain = True
     guess_rank = 2.0
-
-    def check_dt(self, s: Mapping[str, float], dt: float) -> None:
-        check_threshold(self, s, dt)
-
-    def pulse(
-        self, x: npt.NDArray[np.float64], dt: float, s: Mapping[str, float]
-    ) -> npt.NDArray[np.int8]:
-        return _pulses.fire_pulses(x, dt, s["gain"] * s["t_h"], s["t_h"])
 
     def pulse_times(
         self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
@@ -113,17 +144,3 @@ class IPFM(ModulatorKind):
         self, v: npt.NDArray[np.float64], p: ValveParams, gain: Any = None
     ) -> dict[str, Any]:
         return {"t_h": v, "gain": np.ones_like(v) if gain is None else gain}
-
-    def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
-        return v > p.t_on
-
-    def constraint(self, p: ValveParams) -> str:
-        return f"t_h > t_on = {p.t_on * 1e3:g} ms (gain = 1)"
-
-    def sweep_limits(
-        self, values: npt.NDArray[np.float64], p: ValveParams
-    ) -> list[tuple[str, float, float, str, str]]:
-        return [("t_on", p.t_on, values[-1], "IPFM t_h", "t_h > t_on")]
-
-    def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
-        return guess_fired(self, trace, high=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 #: The relative tolerance of :mod:`spa.model.modulators` for event times (the same value:
@@ -14,6 +15,39 @@ EPS = 1e-9
 def pulse_steps(width: float, dt: float) -> int:
     """Steps a pulse of ``width`` s lasts, at least one (the open-loop modulators' rule)."""
     return max(1, math.floor(width / dt + 0.5))
+
+
+@njit(cache=True)
+def next_start(j: float, period: float, dt: float, k: int) -> tuple[float, int]:  # pragma: no cover
+    """The first period index after ``j`` whose start ``ceil(j*period/dt - eps)`` lies after
+    step ``k``, and that start (PWM's periods, ΔΣM's ticks)."""
+    j += 1.0
+    nxt = math.ceil(j * period / dt - EPS)
+    while nxt <= k:  # a start that falls on this step again (never for period >= 2*dt)
+        j += 1.0
+        nxt = math.ceil(j * period / dt - EPS)
+    return j, nxt
+
+
+def c_next_start(j: str) -> str:
+    """:func:`next_start` in C99, inline in a kernel's step, with the index variable ``j``:
+    sets ``st[0]`` and ``st[1]`` (the caller declares ``j`` and ``nxt``)."""
+    return f"""\
+        {j} = st[0] + 1.0;
+        nxt = ceil({j} * period / dt - ${{eps}});
+        while (nxt <= (double)k) {{
+            {j} += 1.0;
+            nxt = ceil({j} * period / dt - ${{eps}});
+        }}
+        st[0] = {j};
+        st[1] = nxt;
+"""
+
+
+def fire_config(gain: float, width: float, dt: float) -> np.ndarray:
+    """Constants of an integrate-and-fire kernel (IPFM, IIPFM) firing pulses of ``width`` s:
+    ``[threshold gain*width in steps, pulse width in steps]``."""
+    return np.array([gain * width / dt, float(pulse_steps(width, dt))])
 
 
 @njit(cache=True)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from spa.model.modulators.kernels._common import EPS
+from spa.model.modulators.kernels._common import EPS, c_next_start, next_start
 
 #: State: [index m of the next tick, step of the next tick, S, ones so far, output].
 INITIAL = (0.0, 0.0, 0.0, 0.0, 0.0)
@@ -35,18 +35,14 @@ def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: 
         ones = math.floor(st[2] + 0.5 + EPS)
         st[4] = ones - st[3]
         st[3] = ones
-        m = st[0] + 1.0
-        nxt = math.ceil(m * period / dt - EPS)
-        while nxt <= k:  # ticks closer than one step share it (np.unique in the closed form)
-            m += 1.0
-            nxt = math.ceil(m * period / dt - EPS)
-        st[0] = m
-        st[1] = nxt
+        # ticks closer than one step share it (np.unique in the closed form)
+        st[0], st[1] = next_start(st[0], period, dt, k)
     return int(st[4])
 
 
 #: :func:`step` in C99: ``int ${p}_mod_step(k, xi, cfg, st)`` (see :mod:`.pwm`).
-C_STEP = """
+C_STEP = (
+    """
 static int ${p}_mod_step(long long k, double xi, const double *cfg, double *st)
 {
     const double period = cfg[0];
@@ -57,15 +53,11 @@ static int ${p}_mod_step(long long k, double xi, const double *cfg, double *st)
         ones = floor(st[2] + 0.5 + ${eps});
         st[4] = ones - st[3];
         st[3] = ones;
-        m = st[0] + 1.0;
-        nxt = ceil(m * period / dt - ${eps});
-        while (nxt <= (double)k) {
-            m += 1.0;
-            nxt = ceil(m * period / dt - ${eps});
-        }
-        st[0] = m;
-        st[1] = nxt;
+"""
+    + c_next_start("m")
+    + """\
     }
     return (int)st[4];
 }
 """
+)

@@ -9,27 +9,25 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from spa.model.modulators.kernels._common import (
-    C_INTEGRATE_AND_FIRE,
-    integrate_and_fire,
-    pulse_steps,
-)
+from spa.model.modulators.kernels import ipfm
+from spa.model.modulators.kernels._common import C_INTEGRATE_AND_FIRE, fire_config
 
-#: State: [integral of 1 - xi up to t_k in steps, next threshold index, end of the pulse].
-INITIAL = (0.0, 1.0, 0.0)
+#: State: IPFM's, of ``1 - xi``: [integral of 1 - xi up to t_k in steps, next threshold
+#: index, end of the pulse].
+INITIAL = ipfm.INITIAL
+
+_ipfm_step = ipfm.step
 
 
 def configure(settings: dict[str, float], dt: float) -> np.ndarray:
-    """Constants of the kernel: ``[threshold in steps, pulse width in steps]``."""
-    return np.array(
-        [settings["gain"] * settings["t_l"] / dt, float(pulse_steps(settings["t_l"], dt))]
-    )
+    """Constants of the kernel: ``[threshold in steps, pulse width in steps]`` for ``t_l``."""
+    return fire_config(settings["gain"], settings["t_l"], dt)
 
 
 @njit(cache=True)
 def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: no cover
-    """Command ``u[k]``; ``1 - xi`` (sampled at step ``k``) enters the integral after it."""
-    return 1 - integrate_and_fire(k, 1.0 - xi, cfg[0], cfg[1], st)
+    """Command ``u[k]``: IPFM's step on ``1 - xi`` (sampled at step ``k``), inverted."""
+    return 1 - _ipfm_step(k, 1.0 - xi, cfg, st)
 
 
 #: :func:`step` in C99: ``int ${p}_mod_step(k, xi, cfg, st)`` (see :mod:`.pwm`).

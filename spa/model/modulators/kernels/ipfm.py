@@ -12,8 +12,8 @@ from numba import njit
 
 from spa.model.modulators.kernels._common import (
     C_INTEGRATE_AND_FIRE,
+    fire_config,
     integrate_and_fire,
-    pulse_steps,
 )
 
 #: State: [integral up to t_k in steps, next threshold index, end of the pulse].
@@ -22,9 +22,7 @@ INITIAL = (0.0, 1.0, 0.0)
 
 def configure(settings: dict[str, float], dt: float) -> np.ndarray:
     """Constants of the kernel: ``[threshold in steps, pulse width in steps]``."""
-    return np.array(
-        [settings["gain"] * settings["t_h"] / dt, float(pulse_steps(settings["t_h"], dt))]
-    )
+    return fire_config(settings["gain"], settings["t_h"], dt)
 
 
 @njit(cache=True)

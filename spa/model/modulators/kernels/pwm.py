@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
-from spa.model.modulators.kernels._common import EPS
+from spa.model.modulators.kernels._common import EPS, c_next_start, next_start
 
 #: State: [period index j of the next start, step of the next start, end of the high part].
 INITIAL = (0.0, 0.0, 0.0)
@@ -31,19 +31,14 @@ def step(k: int, xi: float, cfg: np.ndarray, st: np.ndarray) -> int:  # pragma: 
     if k >= st[1]:
         t_start = st[0] * period
         st[2] = math.ceil((t_start + xi * period) / dt - EPS)
-        j = st[0] + 1.0
-        nxt = math.ceil(j * period / dt - EPS)
-        while nxt <= k:  # a start that falls on this step again (never for period >= 2*dt)
-            j += 1.0
-            nxt = math.ceil(j * period / dt - EPS)
-        st[0] = j
-        st[1] = nxt
+        st[0], st[1] = next_start(st[0], period, dt, k)
     return 1 if k < st[2] else 0
 
 
 #: :func:`step` in C99 as ``${p}_pwm`` (and ``${p}_mod_step``), the same operations in the
 #: same order (:mod:`spa.closedloop.export` fills ``${p}`` and ``${eps}``).
-C_PWM = """
+C_PWM = (
+    """
 static int ${p}_pwm(long long k, double xi, const double *cfg, double *st)
 {
     const double period = cfg[0];
@@ -52,18 +47,14 @@ static int ${p}_pwm(long long k, double xi, const double *cfg, double *st)
         const double t_start = st[0] * period;
         double j, nxt;
         st[2] = ceil((t_start + xi * period) / dt - ${eps});
-        j = st[0] + 1.0;
-        nxt = ceil(j * period / dt - ${eps});
-        while (nxt <= (double)k) {
-            j += 1.0;
-            nxt = ceil(j * period / dt - ${eps});
-        }
-        st[0] = j;
-        st[1] = nxt;
+"""
+    + c_next_start("j")
+    + """\
     }
     return (double)k < st[2] ? 1 : 0;
 }
 """
+)
 
 #: The kind's per-step law in C99: ``int ${p}_mod_step(k, xi, cfg, st)``.
 C_STEP = (
