@@ -26,7 +26,7 @@ __all__ = ["close_dataset_loop", "write_closed_loop"]
 def close_dataset_loop(
     params_path: str | Path,
     recommendation_path: str | Path,
-    run_paths: Sequence[str | Path],
+    run_paths: str | Path,
     selected: Sequence[Mapping[str, Any]],
     cfg: Mapping[str, Any],
 ) -> tuple[ClosedLoopResult, pd.DataFrame, BenchOutputs]:
@@ -45,8 +45,8 @@ def close_dataset_loop(
         The identification's ``params.yaml``.
     recommendation_path : str or pathlib.Path
         The tuning's ``recommendation.yaml`` (may be missing: no recommendation).
-    run_paths : sequence of path
-        The dataset's run tables (Parquet).
+    run_paths : str or pathlib.Path
+        The dataset's ``runs/`` folder of run tables (Parquet, :func:`spa.datasets.read_runs`).
     selected, cfg
         The settings compared and the ``closed_loop:`` section of the config.
 
