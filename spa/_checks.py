@@ -22,6 +22,7 @@ import numpy.typing as npt
 __all__ = [
     "ArgumentTypeError",
     "finite_array",
+    "float_or_nan",
     "fraction",
     "integer",
     "nonnegative",
@@ -58,6 +59,23 @@ def number(name: str, value: Any) -> float:
     if isinstance(value, bool | np.bool_) or not isinstance(value, _REALS):
         raise ArgumentTypeError(f"{name} must be a number, got {value!r}")
     return float(value)
+
+
+def float_or_nan(value: Any) -> float:
+    """``float(value)``, or NaN when ``value`` is not a number (a missing YAML key, a string).
+
+    For reading an optional number back from a written file: the caller decides what a NaN
+    means; nothing is raised.
+
+    Examples
+    --------
+    >>> float_or_nan("2.5"), float_or_nan(None), float_or_nan("n/a")
+    (2.5, nan, nan)
+    """
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def _unit(unit: str) -> str:

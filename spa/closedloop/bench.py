@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa._checks import float_or_nan as _num
 from spa.closedloop.box import box_hold, box_levels
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
@@ -419,14 +420,6 @@ def _plain(summary: dict[str, Any]) -> dict[str, Any]:
         return v
 
     return {k: one(v) for k, v in summary.items()}
-
-
-def _num(value: Any) -> float:
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        return math.nan
-    return f
 
 
 def bench_sentence(summary: Mapping[str, Any]) -> str:

@@ -10,15 +10,9 @@ from typing import Any
 
 import numpy as np
 
+from spa._checks import float_or_nan as _num
+
 __all__ = ["Adequacy", "adequacy_clause", "assess"]
-
-
-def _num(x: Any) -> float:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return math.nan
-    return v
 
 
 def _median(values: Sequence[float]) -> float:

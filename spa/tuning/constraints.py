@@ -47,6 +47,16 @@ CONSTRAINTS: tuple[str, ...] = (
 _SCORES = ("J", "J_exact")
 
 
+#: The optional positive limits of :class:`TuningOptions`, in check order, with their units.
+_LIMIT_UNITS = {
+    "max_switching_rate": "edges/s",
+    "max_chattering": "bar",
+    "max_chattering_relative": "of k2",
+    "min_pulse_width": "s",
+    "max_time_constant": "tau2",
+}
+
+
 def _limit(name: str, value: Any, unit: str) -> float | None:
     return None if value is None else checks.positive(f"tuning.{name}", value, unit)
 
@@ -116,25 +126,8 @@ class TuningOptions:
     def __post_init__(self) -> None:
         if self.score not in _SCORES:
             raise ValueError(f"tuning.score must be one of {list(_SCORES)}, got {self.score!r}")
-        object.__setattr__(
-            self,
-            "max_switching_rate",
-            _limit("max_switching_rate", self.max_switching_rate, "edges/s"),
-        )
-        object.__setattr__(
-            self, "max_chattering", _limit("max_chattering", self.max_chattering, "bar")
-        )
-        object.__setattr__(
-            self,
-            "max_chattering_relative",
-            _limit("max_chattering_relative", self.max_chattering_relative, "of k2"),
-        )
-        object.__setattr__(
-            self, "min_pulse_width", _limit("min_pulse_width", self.min_pulse_width, "s")
-        )
-        object.__setattr__(
-            self, "max_time_constant", _limit("max_time_constant", self.max_time_constant, "tau2")
-        )
+        for name, unit in _LIMIT_UNITS.items():
+            object.__setattr__(self, name, _limit(name, getattr(self, name), unit))
         if self.max_fit_shortfall is not None:
             object.__setattr__(
                 self,
