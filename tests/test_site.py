@@ -362,8 +362,13 @@ def _script(name: str, job) -> None:
     """Run ``workflow/scripts/<name>.py`` as its rule would, ``job`` as ``snakemake``."""
     import runpy
 
+    from spa import _memo
+
     script = ROOT / "workflow" / "scripts" / f"{name}.py"
-    runpy.run_path(str(script), init_globals={"snakemake": job}, run_name="__main__")
+    try:
+        runpy.run_path(str(script), init_globals={"snakemake": job}, run_name="__main__")
+    finally:
+        _memo.use_folder(None)  # a job's process ends here; this one goes on testing
 
 
 def test_a_dataset_removed_from_the_run_loses_its_page(fake_results, site, tmp_path):

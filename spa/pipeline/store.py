@@ -74,15 +74,15 @@ def yaml_view(path: str | Path, fields: tuple[str, ...], folder: str | Path) -> 
     """
     import yaml
 
-    from spa.io import read_yaml
+    from spa.io import dump_yaml, read_yaml
 
     source = Path(path)
     try:
         record = read_yaml(source)
     except (OSError, yaml.YAMLError):  # missing or not YAML: the stage sees the file itself
         return source
-    text = yaml.safe_dump(project(record if isinstance(record, Mapping) else {}, fields),
-                          sort_keys=True, allow_unicode=True)  # fmt: skip
+    part = project(record if isinstance(record, Mapping) else {}, fields)
+    text = str(dump_yaml(part, sort_keys=True, allow_unicode=True))
     target = Path(folder) / f"{hashlib.sha256(text.encode()).hexdigest()}.yaml"
     if not target.is_file():
         target.parent.mkdir(parents=True, exist_ok=True)

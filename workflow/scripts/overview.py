@@ -15,7 +15,7 @@ from spa.report.params import PARAM_NAMES
 log = get_logger("overview", snakemake.log[0])
 guard_environment(log, "the overview")  # a full disk: one line saying so
 # Fig. O1 of the same table is copied from the results' store, not drawn (spa._memo)
-if snakemake.config.get("reuse", True):
+if (getattr(snakemake, "config", None) or {}).get("reuse", True):
     use_folder(Path(snakemake.output.table).parent / STORE / MEMO, code_digest())
 table = overview_table(read_rows(snakemake.input.rows))
 write_csv(table, snakemake.output.table)
