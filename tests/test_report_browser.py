@@ -108,8 +108,17 @@ def browser(tmp_path_factory):
 
 def open_report(driver, path: Path) -> tuple[dict, list[dict]]:
     """Load ``path``; return the page's statistics and the console messages it logged."""
+    from selenium.webdriver.support.ui import WebDriverWait
+
     driver.get_log("browser")  # drop anything logged before this page
     driver.get(path.as_uri())
+    # a page of several MB of inline figures: parsed and every image decoded before counting
+    WebDriverWait(driver, 60).until(
+        lambda d: d.execute_script(
+            "return document.readyState === 'complete'"
+            " && Array.from(document.images).every(i => i.complete);"
+        )
+    )
     return driver.execute_script(PAGE_STATS), driver.get_log("browser")
 
 
