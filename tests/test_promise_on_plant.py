@@ -44,16 +44,22 @@ def _compiler() -> None:
 
 
 def _dataset(name: str, seed: int = 3):
-    """The dataset's runs made by its plant: identification experiments and one staircase
-    of each of its modulators (each level held max(3 s, 5 tau2))."""
+    """The full config's dataset ``name`` made by its plant (:func:`_runs_of`)."""
     entry = CONFIG["simulated"][name]
     plant = PhysicalPlant.from_mapping(entry["plant"])
+    runs, metas, mods = _runs_of(plant, entry["modulators"], seed, name)
+    return plant, runs, metas, mods, entry["modulators"]
+
+
+def _runs_of(plant: PhysicalPlant, modulators: list, seed: int, name: str):
+    """Runs made by ``plant``: identification experiments and one staircase of each of
+    ``modulators`` (each level held max(3 s, 5 tau2)); ``(runs, metas, modulator types)``."""
     eq = equivalent_params(plant, DT)
     cfg = {
         "controller_dt": DT,
         "sensor": {"fs": 1000.0},
         "plant": plant.to_mapping(),
-        "modulators": entry["modulators"],
+        "modulators": modulators,
     }
     hold = float(np.ceil(max(3.0, 5.0 * eq.tau2)))
     experiments = {
@@ -67,7 +73,7 @@ def _dataset(name: str, seed: int = 3):
     }
     metas = {s.id: {"kind": s.kind} for s in specs}
     mods = {s.id: (s.modulator or {}).get("type", "") for s in specs}
-    return plant, runs, metas, mods, entry["modulators"]
+    return runs, metas, mods
 
 
 def _identify(runs, metas, mods):
@@ -156,25 +162,8 @@ def test_a_valve_the_hold_convention_misses_is_told_which_describes_it() -> None
 
     plant = random_plant(np.random.default_rng([1, 6]))
     assert min(plant.t_open, plant.t_close) > 0.015
-    eq = equivalent_params(plant, DT)
-    cfg = {
-        "controller_dt": DT,
-        "sensor": {"fs": 1000.0},
-        "plant": plant.to_mapping(),
-        "modulators": [{"type": "pwm", "f_w": 20.0}, {"type": "dsm", "period": 0.02}],
-    }
-    hold = float(np.ceil(max(3.0, 5.0 * eq.tau2)))
-    experiments = {
-        "identification": identification_experiment_for(eq),
-        "staircase": {"step": 0.1, "hold": hold},
-    }
-    specs = [s for s in dataset_runs(cfg, experiments) if s.kind != "closed_loop"]
-    runs = {
-        s.id: simulate_run(s, eq, DT, Sensor(fs=1000.0), run_seed(3, "p6", s.id), plant)
-        for s in specs
-    }
-    metas = {s.id: {"kind": s.kind} for s in specs}
-    mods = {s.id: (s.modulator or {}).get("type", "") for s in specs}
+    modulators = [{"type": "pwm", "f_w": 20.0}, {"type": "dsm", "period": 0.02}]
+    runs, metas, mods = _runs_of(plant, modulators, 3, "p6")
     identified = _identify(runs, metas, mods)
     conv = identified["delay_convention"]
     assert conv["chosen"] == "transport"
