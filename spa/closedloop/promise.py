@@ -86,15 +86,18 @@ def design_for_dataset(
     ]
     candidates = list(dict.fromkeys([first, *others]))
     benches: list[tuple[tuple[str, str] | None, BenchOutputs]] = []
+    errors: dict[bool, dict[str, tuple[float, float]]] = {}  # each staircase replayed once
     for choice in candidates[:MAX_CANDIDATES]:
         equilibrium = choice is not None and choice[1] == "scheduled_ff"
+        if equilibrium not in errors:
+            errors[equilibrium] = dataset_error(runs, metas, valve.params, equilibrium=equilibrium)
         bench = bench_outputs(
             result,
             valve.params,
             valve.intervals,
             cfg,
             sensor_noise(identified),
-            model_error=dataset_error(runs, metas, valve.params, equilibrium=equilibrium),
+            model_error=errors[equilibrium],
             adequacy=adequacy,
             choice=choice,
         )

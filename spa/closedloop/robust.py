@@ -148,9 +148,10 @@ def box_worst_case(
     r0 = float(levels[0])
     period = cycle_period(modulator, params, float(np.median(levels)), dt)
     frames = []
+    # the settled integrator depends on the feed-forward, which a gain factor leaves alone
+    i0 = [_settled(modulator, controller, valve, r0) for valve in valves]
     for factor in dict.fromkeys(float(g) for g in gains):
         ctrl = controller if factor == 1.0 else controller.scaled(factor)
-        i0 = [_settled(modulator, ctrl, valve, r0) for valve in valves]
         ps, _, us = closed_loop_many(r, dt, modulator, ctrl, valves, [r0] * len(valves), i0)
         for p, u in zip(ps, us, strict=True):
             rows = step_rows(t, r, p, u, period, r_initial=r0)
