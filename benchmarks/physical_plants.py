@@ -137,6 +137,10 @@ def one_plant(
     adequacy = identified.get("adequacy") or {}
     row["adequate"] = bool(adequacy.get("adequate", False))
     row["adequacy_heldout_median"] = (adequacy.get("heldout_fit") or {}).get("median")
+    convention = identified.get("delay_convention") or {}
+    row["convention"] = convention.get("chosen")
+    for d, v in (convention.get("heldout_fit_modulated") or {}).items():
+        row[f"heldout_modulated_{d}"] = v
     if closed_loop:
         row.update(_closed_loop(plant, ident, rng, float(hold)))
     if promise:

@@ -62,6 +62,18 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
     noise,
 ):
     c1, k2, tau2, t_on, t_off = plant[0], plant[1], plant[2], plant[3], plant[4]
+    # The transport convention (plant[5] == 1): each command edge reaches the plant after its
+    # delay and the plant keeps its previous connection meanwhile; the edges in flight wait
+    # in a queue, and one that arrives no later than the edge before it cancels both
+    # (spa.model.plant.transport_runs).
+    transport = plant.size > 5 and plant[5] > 0.5
+    cap = int(max(t_on, t_off) / dt) + 4
+    q_t = np.empty(cap)
+    q_l = np.zeros(cap, dtype=np.int64)
+    q_head = 0
+    q_n = 0
+    plevel = 0
+    t_start = 0.0
     noisy = noise.size > 0
     integ = i0
     level = 0
@@ -72,7 +84,16 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
     g_kp = g_ki = g_ff = 0.0
     for k in range(r.size):
         # The pressure at t_k: the closed form of the run in progress.
-        if k == 0:
+        if transport:
+            tk = k * dt
+            while q_n > 0 and q_t[q_head] <= tk:
+                p_start = _segment(plevel == 1, p_start, q_t[q_head] - t_start, c1, k2, tau2)
+                t_start = q_t[q_head]
+                plevel = q_l[q_head]
+                q_head = (q_head + 1) % cap
+                q_n -= 1
+            p = p0 if k == 0 else _segment(plevel == 1, p_start, tk - t_start, c1, k2, tau2)
+        elif k == 0:
             p = p0
         else:
             p = _segment(level == 1, p_start, k * dt - (start * dt + hold), c1, k2, tau2)
@@ -82,6 +103,7 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
             hold = max(start * dt + hold - k * dt, 0.0)
             p_start = p
             start = k
+            t_start = k * dt
             k2 = k2_new
         # The controller: gains and feed-forward at the set-point, conditional integration.
         rk = r[k]
@@ -99,12 +121,25 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
         u = kernels.step(kind, k, xi, cfg, st)
         if k == 0:
             level = u
+            plevel = u
         elif u != level:
-            # The pressure the run of (k - start)*dt - hold active seconds leaves.
-            p_start = _segment(level == 1, p_start, max((k - start) * dt - hold, 0.0), c1, k2, tau2)
+            if transport:
+                arrival = k * dt + (t_on if u == 1 else t_off)
+                last = (q_head + q_n - 1) % cap
+                if q_n > 0 and arrival <= q_t[last]:
+                    q_n -= 1  # overtakes the edge in flight before it: neither arrives
+                else:
+                    q_t[(q_head + q_n) % cap] = arrival
+                    q_l[(q_head + q_n) % cap] = u
+                    q_n += 1
+            else:
+                # The pressure the run of (k - start)*dt - hold active seconds leaves.
+                p_start = _segment(
+                    level == 1, p_start, max((k - start) * dt - hold, 0.0), c1, k2, tau2
+                )
+                start = k
+                hold = t_on if u == 1 else t_off
             level = u
-            start = k
-            hold = t_on if u == 1 else t_off
         p_out[k] = p
         xi_out[k] = xi
         u_out[k] = u
@@ -122,6 +157,13 @@ def _loop_many(  # pragma: no cover  (compiled; its Python body is run by the te
             r, dt, p0s[j], i0s[j], plants[j], grid, kp, ki, ff_r, ff_xi, kind, cfg, st,
             p_out[j], xi_out[j], u_out[j], -1, plants[j, 1], noise,
         )  # fmt: skip
+
+
+def _plant_row(v: ValveParams) -> npt.NDArray[np.float64]:
+    """The plant as the compiled loop reads it: the five parameters and the convention
+    (1.0 for the transport delay)."""
+    flag = 1.0 if v.delay == "transport" else 0.0
+    return np.array([v.c1, v.k2, v.tau2, v.t_on, v.t_off, flag], dtype=np.float64)
 
 
 def _checked_loop(
@@ -177,7 +219,7 @@ def closed_loop_many(
     if np.any(p0s < 0.0) or not np.all(np.isfinite(p0s)):
         raise ValueError("p0: expected finite pressures >= 0 bar")
     kernel = KERNELS[mod.kind]
-    plants = np.array([[v.c1, v.k2, v.tau2, v.t_on, v.t_off] for v in valves], dtype=np.float64)
+    plants = np.array([_plant_row(v) for v in valves], dtype=np.float64)
     n = r.size
     p, xi, u = np.empty((m, n)), np.empty((m, n)), np.empty((m, n), dtype=np.int8)
     cfg = kernel.configure(settings, dt)
@@ -222,7 +264,7 @@ def closed_loop_arrays(
     kernel = KERNELS[mod.kind]
     n = r.size
     p, xi, u = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
-    plant = np.array([params.c1, params.k2, params.tau2, params.t_on, params.t_off])
+    plant = _plant_row(params)
     args = (r, dt, p0, float(integral0), plant, *controller.arrays())
     state = np.array(kernel.INITIAL, dtype=np.float64)
     cfg = kernel.configure(settings, dt)

@@ -21,6 +21,7 @@ import numpy as np
 import yaml
 
 from spa import _checks as checks
+from spa.identification.results import _delay_of
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -237,7 +238,7 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
         values[name] = value
     clipped: dict[str, str] = {}
     try:
-        params = ValveParams(**values)
+        params = ValveParams(**values, delay=_delay_of(source))
         intervals = read_intervals(source, clipped)
     except ValueError as exc:
         raise TuningError(f"{where}: {exc}") from None

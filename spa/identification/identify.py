@@ -20,9 +20,16 @@ from spa.identification.results import (
     IdentificationResult,
     Runs,
 )
-from spa.model.params import ValveParams
+from spa.model.params import DELAY_CONVENTIONS, ValveParams
 
-__all__ = ["identify", "identify_runs", "identify_with_config", "refine_result", "run_context"]
+__all__ = [
+    "choose_convention",
+    "identify",
+    "identify_runs",
+    "identify_with_config",
+    "refine_result",
+    "run_context",
+]
 
 # --------------------------------------------------------------------------------------------
 # The whole identification
@@ -236,6 +243,11 @@ def identify_with_config(
             f"identification.adequacy_threshold must be in (0, 100] %, got {threshold!r}"
         )
     do_refine = bool(cfg.pop("refine", True))
+    convention = str(cfg.pop("delay_convention", "auto"))
+    if convention not in ("auto", *DELAY_CONVENTIONS):
+        raise ValueError(
+            f"identification.delay_convention must be auto, hold or transport, got {convention!r}"
+        )
     use_fallback = bool(cfg.pop("use_fallback", False))
     savgol = dict(cfg.pop("savgol", None) or {})
     fallback = None
@@ -268,6 +280,7 @@ def identify_with_config(
             threshold=threshold,
             max_delay=float(cfg.get("max_delay", 0.05)),
             search_delays=search,
+            convention=convention,
         )
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as err:
         if search:  # no estimate of the delays at all: nothing to fall back on
@@ -325,6 +338,7 @@ def refine_result(
     threshold: float = 80.0,
     max_delay: float = 0.05,
     search_delays: bool = False,
+    convention: str = "auto",
 ) -> IdentificationResult:
     """Refine ``result`` on every run with a valve command; conventions, adequacy, warnings.
 
@@ -345,14 +359,17 @@ def refine_result(
     search_delays : bool, optional
         The pulse fit gave no delays: start from a coarse search of each delay over
         ``[0, max_delay]`` on the runs' cycle means instead of ``result``'s values.
+    convention : {"auto", "hold", "transport"}, optional
+        ``identification.delay_convention``: the delay convention of the five parameters;
+        ``"auto"`` chooses it (:func:`choose_convention`).
 
     Returns
     -------
     IdentificationResult
-        The five top-level parameters from the hold convention's refinement (the logging-step
-        rule applied to the delays), ``refinement``, ``delay_convention``, ``adequacy`` and
-        ``warnings`` filled in. When no run carries a valve command, ``result`` unchanged but
-        for a warning.
+        The five top-level parameters from the chosen convention's refinement (the
+        logging-step rule applied to the delays), ``refinement``, ``delay_convention``,
+        ``adequacy`` and ``warnings`` filled in. When no run carries a valve command,
+        ``result`` unchanged but for a warning.
 
     Notes
     -----
@@ -382,12 +399,16 @@ def refine_result(
     else:
         warnings_start = []
     fits = {d: refine(prepared, start, delay=d, max_delay=max_delay) for d in ("hold", "transport")}
-    hold = fits["hold"]
     held_median = {d: f.heldout_median() for d, f in fits.items()}
-    chosen = max(
-        ("hold", "transport"),
-        key=lambda d: held_median[d] if math.isfinite(held_median[d]) else -math.inf,
+    mods_of = {r.rid: r.modulator for r in prepared}
+    verdicts = {
+        d: assess(f.fit_heldout, f.fit_after, f.noise_ceiling, mods_of, threshold)
+        for d, f in fits.items()
+    }
+    chosen = choose_convention(
+        {d: a.heldout_median for d, a in verdicts.items()}, held_median, convention
     )
+    ref = fits[chosen]
     dt = float(np.median([r.dt for r in prepared]))
     width = float(np.median([r.edge_width for r in prepared]))
     n_on = sum(r.n_on for r in prepared)
@@ -396,10 +417,10 @@ def refine_result(
     ests = {}
     runs_all = tuple(r.rid for r in prepared)
     for name in NAMES:
-        value = float(getattr(hold.params, name))
-        se = float(hold.se[name])
+        value = float(getattr(ref.params, name))
+        se = float(ref.se[name])
         method = (
-            "output-error refinement of the exact model (hold convention) on the cycle means "
+            f"output-error refinement of the exact model ({chosen} convention) on the cycle means "
             f"of {len(prepared)} run(s) with a valve command, from the charge/discharge/pulse "
             "estimates; 95% from the sandwich covariance (Newey-West, bandwidth from the "
             "data), widened to the leave-one-run-out spread"
@@ -464,7 +485,7 @@ def refine_result(
             lo,
             hi,
             UNITS[name],
-            tuple(hold.informed[name]) or runs_all,
+            tuple(ref.informed[name]) or runs_all,
             method,
             spread=old.spread,
         )
@@ -480,24 +501,23 @@ def refine_result(
                     f"({key}: 0): {name} comes from the other runs' edges only; record a "
                     f"pulse train whose {what} edges move the pressure"
                 )
-    # The verdict is about the model the downstream stages use: the five top-level (hold
-    # convention) parameters, whichever convention describes the runs better.
-    mods_of = {r.rid: r.modulator for r in prepared}
-    adequacy = assess(hold.fit_heldout, hold.fit_after, hold.noise_ceiling, mods_of, threshold)
-    other = assess(
-        fits["transport"].fit_heldout,
-        fits["transport"].fit_after,
-        fits["transport"].noise_ceiling,
-        mods_of,
-        threshold,
-    )
+    # The verdict is about the model the downstream stages use: the five top-level
+    # parameters in the chosen convention. A convention forced by the config that misses
+    # the runs the other describes is said.
+    adequacy = verdicts[chosen]
+    other_name = "transport" if chosen == "hold" else "hold"
+    other = verdicts[other_name]
     if not adequacy.adequate and other.adequate:
+        what = {
+            "transport": "the transport-delay convention (the valve keeps its previous "
+            "connection during its dead time)",
+            "hold": "the paper's hold convention",
+        }
         better = (
-            "the transport-delay convention (the valve keeps its previous connection during "
-            "its dead time) describes the runs the designs are for: held-out FIT "
-            f"{other.heldout_median:.0f} % against {adequacy.heldout_median:.0f} % for the "
-            "paper's hold convention, which the tuning and the closed loop use; their "
-            "results on this valve are not verified"
+            f"{what[other_name]} describes the runs the designs are for: held-out FIT "
+            f"{other.heldout_median:.0f} % against {adequacy.heldout_median:.0f} % for "
+            f"{what[chosen]}, which identification.delay_convention sets and the tuning and "
+            "the closed loop use; their results on this valve are not verified"
         )
         adequacy = replace(adequacy, sentence=f"{adequacy.sentence} But {better}.")
         warnings.append(better)
@@ -507,20 +527,20 @@ def refine_result(
 
     refinement = {
         "start": {n: float(getattr(start, n)) for n in NAMES},
-        "informed_by": {n: list(hold.informed[n]) for n in NAMES},
-        "fit_before": clean(hold.fit_before),
-        "fit_after": clean(hold.fit_after),
-        "fit_heldout": clean(hold.fit_heldout),
-        "noise_ceiling": clean(hold.noise_ceiling),
-        "bandwidth_blocks": {k: int(v) for k, v in hold.bandwidth.items()},
+        "informed_by": {n: list(ref.informed[n]) for n in NAMES},
+        "fit_before": clean(ref.fit_before),
+        "fit_after": clean(ref.fit_after),
+        "fit_heldout": clean(ref.fit_heldout),
+        "noise_ceiling": clean(ref.noise_ceiling),
+        "bandwidth_blocks": {k: int(v) for k, v in ref.bandwidth.items()},
         "block_samples": {r.rid: int(r.block * r.stride) for r in prepared},
         "edge_width": width,
         "n_edges_on": int(n_on),
         "n_edges_off": int(n_off),
         "simulations": int(sum(f.nfev for f in fits.values())),
-        "converged": bool(hold.converged),
+        "converged": bool(ref.converged),
     }
-    convention = {
+    record = {
         "chosen": chosen,
         **{
             d: {
@@ -534,11 +554,12 @@ def refine_result(
         },
         "heldout_fit_modulated": {
             d: (round(a.heldout_median, 3) if math.isfinite(a.heldout_median) else None)
-            for d, a in (("hold", adequacy), ("transport", other))
+            for d, a in verdicts.items()
         },
+        "setting": convention,
     }
     if n_on == 0 or n_off == 0:
-        convention["note"] = "a delay is unresolved; the conventions differ only in it"
+        record["note"] = "a delay is unresolved; the conventions differ only in it"
     if result.fallback:
         refinement["started_from_fallback"] = dict(result.fallback)
     return replace(
@@ -547,7 +568,56 @@ def refine_result(
         fallback={},
         settings={**result.settings, "refine": True, "adequacy_threshold": float(threshold)},
         refinement=refinement,
-        delay_convention=convention,
+        delay_convention=record,
         adequacy=adequacy.to_dict(),
         warnings=tuple(warnings),
     )
+
+
+#: Held-out FIT points by which the transport convention must beat the paper's hold
+#: convention to be chosen (``delay_convention: auto``): on a valve the two describe
+#: alike, the paper's stays.
+CONVENTION_MARGIN = 1.0
+
+
+def choose_convention(
+    modulated: Mapping[str, float], overall: Mapping[str, float], setting: str = "auto"
+) -> str:
+    """The delay convention of the identified valve.
+
+    Parameters
+    ----------
+    modulated : mapping
+        Convention → median held-out FIT (%) over the modulated runs (the runs the model is
+        used for; NaN when there are none).
+    overall : mapping
+        Convention → median held-out FIT over every run with a valve command (used when no
+        modulated run scores).
+    setting : {"auto", "hold", "transport"}
+        ``identification.delay_convention``; a convention named is kept.
+
+    Returns
+    -------
+    str
+        ``"transport"`` when ``setting`` says so, or (``"auto"``) when it beats ``"hold"``
+        by more than :data:`CONVENTION_MARGIN` points; else ``"hold"``.
+
+    Examples
+    --------
+    >>> choose_convention({"hold": 62.0, "transport": 86.0}, {"hold": 70.0, "transport": 88.0})
+    'transport'
+    >>> choose_convention({"hold": 92.0, "transport": 92.5}, {"hold": 95.0, "transport": 95.0})
+    'hold'
+    >>> choose_convention({"hold": 62.0, "transport": 86.0}, {}, "hold")
+    'hold'
+    """
+    if setting in DELAY_CONVENTIONS:
+        return setting
+    for score in (modulated, overall):
+        h = score.get("hold", math.nan)
+        t = score.get("transport", math.nan)
+        if math.isfinite(h) or math.isfinite(t):
+            h = h if math.isfinite(h) else -math.inf
+            t = t if math.isfinite(t) else -math.inf
+            return "transport" if t > h + CONVENTION_MARGIN else "hold"
+    return "hold"

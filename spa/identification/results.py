@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.model.params import ValveParams
+from spa.model.params import DELAY_CONVENTIONS, ValveParams
 
 __all__ = [
     "UNITS",
@@ -255,7 +255,8 @@ class IdentificationResult:
         (:mod:`spa.identification.refine`): where it started, each run's FIT before and after,
         which runs informed which parameter.
     delay_convention : dict or None
-        ``chosen``, each convention's delays and held-out FIT.
+        ``chosen``, each convention's delays and held-out FIT. The five estimates are the
+        chosen convention's (:attr:`delay`).
     adequacy : dict or None
         :class:`spa.identification.adequacy.Adequacy` as a mapping.
     warnings : tuple of str
@@ -277,14 +278,23 @@ class IdentificationResult:
     adequacy: Mapping[str, Any] | None = None
     warnings: tuple[str, ...] = ()
 
+    @property
+    def delay(self) -> str:
+        """The delay convention of the estimates (``"hold"`` unless the refinement chose
+        ``"transport"``)."""
+        chosen = (self.delay_convention or {}).get("chosen", "hold")
+        return "transport" if chosen == "transport" else "hold"
+
     def to_valve_params(self) -> ValveParams:
-        """The point estimates as :class:`~spa.model.params.ValveParams`."""
+        """The point estimates as :class:`~spa.model.params.ValveParams`, in their
+        convention."""
         return ValveParams(
             c1=self.c1.value,
             k2=self.k2.value,
             tau2=self.tau2.value,
             t_on=self.t_on.value,
             t_off=self.t_off.value,
+            delay=self.delay,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -309,6 +319,8 @@ class IdentificationResult:
             k: {kk: (vv if isinstance(vv, bool | int) else float(vv)) for kk, vv in v.items()}
             for k, v in fits.items()
         }
+        if self.delay != "hold":
+            out["delay"] = self.delay  # the convention the five values are in
         out["fallback"] = dict(self.fallback)
         out["settings"] = dict(self.settings)
         if self.refinement is not None:
@@ -351,4 +363,13 @@ def load_params(mapping: Mapping[str, Any]) -> ValveParams:
             raise ValueError(f"mapping has no {name!r}; expected keys {list(UNITS)}")
         item = mapping[name]
         values[name] = item["value"] if isinstance(item, Mapping) else item
-    return ValveParams(**values)
+    return ValveParams(**values, delay=_delay_of(mapping))
+
+
+def _delay_of(mapping: Mapping[str, Any]) -> str:
+    """The delay convention ``params.yaml`` states (top-level ``delay``; ``"hold"``, the
+    paper's, when absent)."""
+    delay = mapping.get("delay", "hold")
+    if delay not in DELAY_CONVENTIONS:
+        raise ValueError(f"'delay' must be one of {', '.join(DELAY_CONVENTIONS)}, got {delay!r}")
+    return str(delay)

@@ -161,6 +161,14 @@ def time_fractions(
     ``1 - (1 + 2f t_off) xi + 2f t_off xi²`` and ``(1 - 2f t_on) xi + 2f t_on xi²`` factored,
     which keeps the end points exact.
 
+    The table is written for the paper's hold convention. For a valve with
+    ``delay="transport"`` the same rows are evaluated with ``t_on``, ``t_off`` replaced by
+    the charging and discharging time a pulse loses,
+    :attr:`~spa.model.params.ValveParams.on_loss` ``= t_on - t_off`` and
+    :attr:`~spa.model.params.ValveParams.off_loss` ``= t_off - t_on``: the plant charges
+    from ``t_on`` after a rising edge to ``t_off`` after the falling one and holds never, so
+    ``alpha1 + alpha2 = 1``; ``alpha2`` is clipped to [0, 1].
+
     Examples
     --------
     >>> p = ValveParams()
@@ -174,7 +182,16 @@ def time_fractions(
     p = valve_params(params)
     s = settings_arrays(kind, settings)
     x = input_fraction(xi)
-    a1, a2 = get_kind(kind).fractions(x, s, p)
+    spec = get_kind(kind)
+    a1, a2 = spec.fractions(x, s, p)
+    if p.delay == "transport":
+        # No hold: the plant charges or discharges all the time. A train that never leaves
+        # a level (a pulse of zero width is no pulse) is that level's.
+        t_h, t_l = (np.asarray(a) for a in spec.pulse_times(x, s, p))
+        a2 = np.clip(np.asarray(a2, dtype=np.float64), 0.0, 1.0)
+        a2 = np.where((t_h <= 0.0) | np.isinf(t_l), 0.0, a2)
+        a2 = np.where((t_l <= 0.0) | np.isinf(t_h), 1.0, a2)
+        a1 = 1.0 - a2
     return as_output(np.asarray(a1)), as_output(np.asarray(a2))
 
 

@@ -111,10 +111,14 @@ def pseudo_steady_state(
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     if np.any(np.isnan(th)) or np.any(np.isnan(tl)) or np.any(th < 0) or np.any(tl < 0):
         raise ValueError("t_h and t_l must be >= 0 (inf allowed), not NaN")
-    h = np.maximum(th - p.t_on, 0.0)
-    l_eff = np.maximum(tl - p.t_off, 0.0)
-    charges = (h > 0.0) & np.isfinite(tl)
-    discharges = (l_eff > 0.0) & np.isfinite(th)
+    # The charging and discharging times of a cycle: the pulse widths less what the delays
+    # take (the hold convention's holds; the transport convention's shift of the edges).
+    h = np.maximum(th - p.on_loss, 0.0)
+    l_eff = np.maximum(tl - p.off_loss, 0.0)
+    # A pulse of zero width is no pulse (under the transport convention the delays would
+    # otherwise stretch it).
+    charges = (h > 0.0) & np.isfinite(tl) & (th > 0.0)
+    discharges = (l_eff > 0.0) & np.isfinite(th) & (tl > 0.0)
     both = charges & discharges
     # Placeholders outside `both` keep the arithmetic finite; those entries are overwritten.
     hb = np.where(both, h, 1.0)

@@ -7,7 +7,10 @@ from dataclasses import asdict, dataclass, fields
 
 from spa._checks import ArgumentTypeError
 
-__all__ = ["PHYSICAL_RANGE", "ValveParams"]
+__all__ = ["DELAY_CONVENTIONS", "PHYSICAL_RANGE", "ValveParams"]
+
+#: The delay conventions a valve may carry (:attr:`ValveParams.delay`).
+DELAY_CONVENTIONS: tuple[str, ...] = ("hold", "transport")
 
 #: The valves every stage is made and tested for (README, "Any valve"): ``name -> (lo, hi)``
 #: in s·bar^-1/2, bar, s, s, s. The tests draw valves from it; a valve outside it still runs.
@@ -36,6 +39,13 @@ class ValveParams:
         Opening delay in s: the pressure holds for ``t_on`` after a 0→1 command edge (Eq. 3).
     t_off : float
         Closing delay in s: the pressure holds for ``t_off`` after a 1→0 command edge (Eq. 3).
+    delay : {"hold", "transport"}, optional
+        Delay convention. ``"hold"`` (default, the paper's Eq. 3): the pressure holds still
+        for ``t_on``/``t_off`` after an edge. ``"transport"``: the command reaches the plant
+        ``t_on`` after a rising and ``t_off`` after a falling edge and the valve keeps its
+        previous connection meanwhile, as a solenoid valve's armature does during its dead
+        time (docs/model.md section 1). Every simulation, averaged formula, tuning and closed
+        loop of spa follows the convention the parameters carry.
 
     Raises
     ------
@@ -60,9 +70,17 @@ class ValveParams:
     tau2: float = 0.826
     t_on: float = 0.003
     t_off: float = 0.010
+    delay: str = "hold"
 
     def __post_init__(self) -> None:
+        if self.delay not in DELAY_CONVENTIONS:
+            raise ValueError(
+                f"ValveParams.delay must be one of {', '.join(DELAY_CONVENTIONS)}, "
+                f"got {self.delay!r}"
+            )
         for f in fields(self):
+            if f.name == "delay":
+                continue
             value = getattr(self, f.name)
             try:
                 number = float(value)
@@ -77,8 +95,46 @@ class ValveParams:
             object.__setattr__(self, f.name, number)
 
     def as_dict(self) -> dict[str, float]:
-        """Return the parameters as a plain ``{name: value}`` dictionary."""
-        return asdict(self)
+        """Return the parameters as a plain ``{name: value}`` dictionary.
+
+        ``delay`` is included only when it is not the default ``"hold"``, so the paper's
+        valves keep their five-number form; ``ValveParams(**p.as_dict()) == p`` always.
+        """
+        out = asdict(self)
+        if self.delay == "hold":
+            del out["delay"]
+        return out
+
+    @property
+    def on_loss(self) -> float:
+        """Charging time a high pulse loses to the delays, s (the averaged model's ``t_on``).
+
+        ``t_on`` under the hold convention; ``t_on - t_off`` under the transport convention
+        (the plant charges from ``t_on`` after the rising edge to ``t_off`` after the falling
+        one), which may be negative.
+        """
+        return self.t_on if self.delay == "hold" else self.t_on - self.t_off
+
+    @property
+    def off_loss(self) -> float:
+        """Discharging time a low pulse loses to the delays, s (the averaged model's ``t_off``).
+
+        ``t_off`` under the hold convention; ``t_off - t_on`` under the transport convention.
+        """
+        return self.t_off if self.delay == "hold" else self.t_off - self.t_on
+
+    def loss_label(self, rising: bool) -> str:
+        """How :attr:`on_loss` (``rising``) or :attr:`off_loss` is written in a sentence."""
+        if self.delay == "hold":
+            return "t_on" if rising else "t_off"
+        return "t_on - t_off" if rising else "t_off - t_on"
+
+    def hold_time(self, rising: bool) -> float:
+        """How long the pressure holds still after an edge, s: the delay under the hold
+        convention, 0 under the transport convention (the previous connection persists)."""
+        if self.delay != "hold":
+            return 0.0
+        return self.t_on if rising else self.t_off
 
 
 def valve_params(params: ValveParams | None, name: str = "params") -> ValveParams:

@@ -134,16 +134,16 @@ def train_mean(t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | Non
     p = valve_params(params)
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     hi, lo = (np.asarray(a, dtype=np.float64) for a in pseudo_steady_state(th, tl, p))
-    h = np.maximum(th - p.t_on, 0.0)
-    l_eff = np.maximum(tl - p.t_off, 0.0)
-    charges = (h > 0.0) & np.isfinite(tl)
-    discharges = (l_eff > 0.0) & np.isfinite(th)
+    h = np.maximum(th - p.on_loss, 0.0)
+    l_eff = np.maximum(tl - p.off_loss, 0.0)
+    charges = (h > 0.0) & np.isfinite(tl) & (th > 0.0)
+    discharges = (l_eff > 0.0) & np.isfinite(th) & (tl > 0.0)
     both = charges & discharges
     th_b, tl_b, h_b = (np.where(both, a, 1.0) for a in (th, tl, h))
     area = (
-        lo * np.minimum(th_b, p.t_on)
+        lo * np.minimum(th_b, p.hold_time(True))
         + charge_integral(lo, hi, h_b, p)
-        + hi * np.minimum(tl_b, p.t_off)
+        + hi * np.minimum(tl_b, p.hold_time(False))
         + discharge_integral(hi, lo, p)
     )
     mean = np.where(both, area / (th_b + tl_b), np.where(charges, p.k2, 0.0))
@@ -218,7 +218,9 @@ def _dsm_orbit(
     runs_t = np.ascontiguousarray(table.T)  # run r of every pattern: runs_t[r]
     n_el = pattern.size
     counts = (table > 0).sum(axis=1)[pattern]
-    holds = np.where(np.arange(runs_t.shape[0]) % 2 == 0, p.t_on, p.t_off)
+    # What each run loses to the delays (a hold, or the transport convention's shift).
+    holds = np.where(np.arange(runs_t.shape[0]) % 2 == 0, p.on_loss, p.off_loss)
+    holding = p.delay == "hold"
     lengths, actives = [], []
     for r in range(runs_t.shape[0]):
         n = int(np.searchsorted(-counts, -r, side="left"))  # elements with more than r runs
@@ -258,7 +260,8 @@ def _dsm_orbit(
     for r, (length, active) in enumerate(zip(lengths, actives, strict=True)):
         n = active.size
         before = x[:n]
-        area[:n] += before * (length - active)  # the hold
+        if holding:
+            area[:n] += before * (length - active)  # the hold
         if r % 2 == 0:
             after = charge(before, active, p)
             area[:n] += charge_integral(before, after, active, p)

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
-from spa.model.params import ValveParams, valve_params
+from spa.model.params import DELAY_CONVENTIONS, ValveParams, valve_params
 
 __all__ = [
     "charge",
@@ -28,11 +28,11 @@ __all__ = [
     "transport_runs",
 ]
 
+
 #: The two delay conventions of the exact simulator (docs/model.md section 1).
-DELAY_CONVENTIONS = ("hold", "transport")
-
-
-def _check_delay(delay: str) -> str:
+def _check_delay(delay: str | None, params: ValveParams | None = None) -> str:
+    if delay is None:
+        return params.delay if params is not None else "hold"
     if delay not in DELAY_CONVENTIONS:
         raise ValueError(f"delay must be one of {DELAY_CONVENTIONS}, got {delay!r}")
     return delay
@@ -243,7 +243,7 @@ def simulate(
     params: ValveParams | None = None,
     p0: float = 0.0,
     *,
-    delay: str = "hold",
+    delay: str | None = None,
 ) -> npt.NDArray[np.float64]:
     """Exact pressure response of the valve + actuator to a sampled 0/1 command.
 
@@ -260,10 +260,10 @@ def simulate(
         Pressure at ``t = 0``, bar (>= 0). At ``t = 0`` the valve is settled in state
         ``u[0]``: no transition is running.
     delay : {"hold", "transport"}, optional
-        Delay convention. ``"hold"`` (default, the paper's): the pressure holds still for
-        ``t_on``/``t_off`` after an edge. ``"transport"``: the command reaches the plant
-        ``t_on`` after a rising and ``t_off`` after a falling edge, the previous connection
-        persisting meanwhile (see :func:`transport_runs`).
+        Delay convention; ``params.delay`` when omitted. ``"hold"`` (the paper's): the
+        pressure holds still for ``t_on``/``t_off`` after an edge. ``"transport"``: the
+        command reaches the plant ``t_on`` after a rising and ``t_off`` after a falling
+        edge, the previous connection persisting meanwhile (see :func:`transport_runs`).
 
     Returns
     -------
@@ -297,7 +297,7 @@ def simulate(
     params = valve_params(params)
     dt = checks.positive("dt", dt, "s")
     p0 = checks.nonnegative("p0", p0, "bar")
-    _check_delay(delay)
+    delay = _check_delay(delay, params)
     cmd = _check_command(u)
     n = cmd.size
     if n == 0:
@@ -337,7 +337,7 @@ def replay(
     p0: float,
     params: ValveParams,
     *,
-    delay: str = "hold",
+    delay: str | None = None,
 ) -> npt.NDArray[np.float64]:
     """Exact pressure at any times ``t`` for a sequence of runs of constant command.
 
@@ -357,7 +357,8 @@ def replay(
     params : ValveParams
         Model parameters.
     delay : {"hold", "transport"}, optional
-        ``"hold"`` (default): ``hold`` is how long each run holds the pressure still.
+        ``params.delay`` when omitted. ``"hold"``: ``hold`` is how long each run holds the
+        pressure still.
         ``"transport"``: ``hold`` is the transport delay after which each run's command
         reaches the plant (:func:`transport_runs`); the plant keeps its previous connection
         meanwhile.
@@ -368,7 +369,7 @@ def replay(
         The pressure at ``t``: :func:`run_start_pressures` chains the runs, then
         :func:`segment_pressure` evaluates each sample's run.
     """
-    if _check_delay(delay) == "transport":
+    if _check_delay(delay, params) == "transport":
         starts, level = transport_runs(starts, level, hold)
         hold = np.zeros(starts.size)
     ends = np.append(starts[1:], np.inf)

@@ -135,8 +135,8 @@ def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) ->
             label += f" ({1e3 / best['x_ms']:.4g} Hz)"
         ax.plot(d["x_ms"], d["J"], color=_COLOURS[kind], lw=1.5, label=label)
         ax.plot(best["x_ms"], best["J"], "o", color=_COLOURS[kind], ms=5)
-    if params is not None:
-        limit = 1e3 * (params.t_on + params.t_off)
+    if params is not None and params.on_loss + params.off_loss > 0.0:
+        limit = 1e3 * (params.on_loss + params.off_loss)
         lo = float(sweeps.loc[sweeps["modulator"] == MODULATOR_ORDER[0], "x_ms"].min())
         if lo < limit:
             ax.axvspan(

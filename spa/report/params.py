@@ -95,7 +95,7 @@ def identification_notes(params: Mapping[str, Any]) -> list[str]:
     --------
     >>> identification_notes({"delay_convention": {"chosen": "hold", "heldout_fit":
     ...     {"hold": 98.0, "transport": None}}, "warnings": ["t_off is not resolved"]})
-    ['Delay convention: hold (held-out FIT hold 98.0 %, transport n/a).', \
+    ['Delay convention: hold (chosen; held-out FIT: hold 98.0 %, transport n/a).', \
 'Warning: t_off is not resolved']
     """
     out = []
@@ -104,11 +104,18 @@ def identification_notes(params: Mapping[str, Any]) -> list[str]:
         out.append(str(adequacy["sentence"]))
     conv = params.get("delay_convention") or {}
     if conv.get("chosen"):
-        fits = conv.get("heldout_fit") or {}
+        fits = conv.get("heldout_fit_modulated") or {}
+        which = "on the modulated runs"
+        if not any(isinstance(v, int | float) for v in fits.values()):
+            fits, which = conv.get("heldout_fit") or {}, ""
         said = ", ".join(
             f"{k} {v:.1f} %" if isinstance(v, int | float) and math.isfinite(v) else f"{k} n/a"
             for k, v in fits.items()
         )
-        out.append(f"Delay convention: {conv['chosen']} (held-out FIT {said}).")
+        how = "set by the config" if conv.get("setting") in ("hold", "transport") else "chosen"
+        out.append(
+            f"Delay convention: {conv['chosen']} ({how}; held-out FIT"
+            f"{' ' + which if which else ''}: {said})."
+        )
     out += [f"Warning: {w}" for w in params.get("warnings") or []]
     return out

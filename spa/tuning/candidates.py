@@ -73,8 +73,8 @@ def setting_metrics(
     # A pulse within rounding of its hold (IIPFM's t_on-long high at xi = 0 with the gain of
     # Eq. 17) does not move the pressure.
     moving = np.minimum(
-        np.where(pulsing & (th > params.t_on * (1 + 1e-9)), th, np.inf),
-        np.where(pulsing & (tl > params.t_off * (1 + 1e-9)), tl, np.inf),
+        np.where(pulsing & (th > params.on_loss * (1 + 1e-9)), th, np.inf),
+        np.where(pulsing & (tl > params.off_loss * (1 + 1e-9)), tl, np.inf),
     ).min(axis=-1)
     moving = get_kind(kind).min_pulse(moving, grid)
     with np.errstate(all="ignore"):

@@ -65,6 +65,7 @@ class ModulatorKind:
     ranges: ClassVar[Mapping[str, tuple[float, float, str]]] = {}
     #: Settings that may be 0 (delays).
     zero_allowed: ClassVar[tuple[str, ...]] = ()
+    signed: ClassVar[tuple[str, ...]] = ()
     #: Default tuning grid of :attr:`parameter`: ``{start, stop, step}``.
     default_grid: ClassVar[Mapping[str, float]] = {}
     #: Reference value of :attr:`parameter` (the paper's choice: 20 Hz or 20 ms).

@@ -163,7 +163,13 @@ def check_settings(kind: str, dt: float | None = None, **settings: Any) -> dict[
                 continue
             raise ValueError(f"{kind}: missing setting {name!r}")
         # Booleans and strings are refused (YAML ``true`` is not 1 Hz).
-        check = checks.nonnegative if name in k.zero_allowed else checks.positive
+        check = (
+            checks.number
+            if name in k.signed
+            else checks.nonnegative
+            if name in k.zero_allowed
+            else checks.positive
+        )
         out[name] = check(f"{kind}: setting {name!r}", value)
         lo, hi, unit = k.range(name)
         if not lo <= out[name] <= hi:

@@ -61,15 +61,15 @@ class DSM(ModulatorKind):
         self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
     ) -> tuple[Any, Any]:
         f = 1.0 / s["period"]
-        a1 = (1.0 - x) * (1.0 - 2.0 * f * p.t_off * x)
-        a2 = x * (1.0 - 2.0 * f * p.t_on * (1.0 - x))
+        a1 = (1.0 - x) * (1.0 - 2.0 * f * p.off_loss * x)
+        a2 = x * (1.0 - 2.0 * f * p.on_loss * (1.0 - x))
         return a1, a2
 
     def thresholds(self, s: Mapping[str, Any], p: ValveParams) -> tuple[Any, Any]:
         # An ideal valve (no delay) has neither: the limits of the formulas as t -> 0.
         period = s["period"]
-        dead = 1.0 - period / (2.0 * p.t_on) if p.t_on > 0 else 0.0 * period
-        sat = period / (2.0 * p.t_off) if p.t_off > 0 else 1.0 + 0.0 * period
+        dead = 1.0 - period / (2.0 * p.on_loss) if p.on_loss > 0 else 0.0 * period
+        sat = period / (2.0 * p.off_loss) if p.off_loss > 0 else 1.0 + 0.0 * period
         return dead, sat
 
     def periodic_mean(
@@ -90,18 +90,18 @@ class DSM(ModulatorKind):
         return np.where(np.isfinite(moving), np.asarray(s["period"])[..., 0], np.inf)
 
     def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
-        return (v > p.t_off) & (v > p.t_on)
+        return (v > p.off_loss) & (v > p.on_loss)
 
     def constraint(self, p: ValveParams) -> str:
-        on, off = f"{p.t_on * 1e3:g} ms", f"{p.t_off * 1e3:g} ms"
-        return f"period > t_off = {off} and period > t_on = {on}"
+        on, off = f"{p.on_loss * 1e3:g} ms", f"{p.off_loss * 1e3:g} ms"
+        return f"period > {p.loss_label(False)} = {off} and period > {p.loss_label(True)} = {on}"
 
     def sweep_limits(
         self, values: npt.NDArray[np.float64], p: ValveParams
     ) -> list[tuple[str, float, float, str, str]]:
         return [
-            ("t_off", p.t_off, values[-1], "ΔΣM period", "period > t_off"),
-            ("t_on", p.t_on, values[-1], "ΔΣM period", "period > t_on"),
+            ("t_off", p.off_loss, values[-1], "ΔΣM period", "period > t_off"),
+            ("t_on", p.on_loss, values[-1], "ΔΣM period", "period > t_on"),
         ]
 
     def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:

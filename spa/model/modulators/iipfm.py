@@ -51,18 +51,18 @@ class IIPFM(IntegrateAndFire):
     def fractions(
         self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
     ) -> tuple[Any, Any]:
-        a1 = (1.0 - p.t_off / s["t_l"]) * (1.0 - x) / s["gain"]
-        a2 = 1.0 - (1.0 + p.t_on / s["t_l"]) * (1.0 - x) / s["gain"]
+        a1 = (1.0 - p.off_loss / s["t_l"]) * (1.0 - x) / s["gain"]
+        a2 = 1.0 - (1.0 + p.on_loss / s["t_l"]) * (1.0 - x) / s["gain"]
         return a1, a2
 
     def thresholds(self, s: Mapping[str, Any], p: ValveParams) -> tuple[Any, Any]:
-        dead = 1.0 - s["gain"] / (1.0 + p.t_on / s["t_l"])
-        return dead, np.where(s["t_l"] > p.t_off, 1.0, 0.0)
+        dead = 1.0 - s["gain"] / (1.0 + p.on_loss / s["t_l"])
+        return dead, np.where(s["t_l"] > p.off_loss, 1.0, 0.0)
 
     def sweep_settings(
         self, v: npt.NDArray[np.float64], p: ValveParams, gain: Any = None
     ) -> dict[str, Any]:
-        return {"t_l": v, "gain": 1.0 + p.t_on / v if gain is None else gain}
+        return {"t_l": v, "gain": 1.0 + max(p.on_loss, 0.0) / v if gain is None else gain}
 
     def analytic_optimum(self, p: ValveParams) -> float:
         """Eq. 29's ``t_l*`` in ms."""
@@ -103,4 +103,4 @@ def iipfm_optimal_t_l(params: ValveParams | None = None) -> float:
     r = p.c1 * np.sqrt(p.k2 / 2.0) / p.tau2
     if r >= 1.0:
         raise ValueError(f"c1*sqrt(k2/2)/tau2 = {r:g} must be < 1 for Eq. 29 to have a solution")
-    return float((p.t_off + r * p.t_on) / (1.0 - r))
+    return float((p.off_loss + r * p.on_loss) / (1.0 - r))

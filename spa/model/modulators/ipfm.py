@@ -95,17 +95,24 @@ class IntegrateAndFire(ModulatorKind):
         return guess_fired(self, trace, high=self.fires_high)
 
     def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
-        return v > getattr(p, self.width_limit)
+        return v > _loss(p, self.width_limit)
 
     def constraint(self, p: ValveParams) -> str:
-        limit = getattr(p, self.width_limit)
-        return f"{self.parameter} > {self.width_limit} = {limit * 1e3:g} ms {self.gain_rule}"
+        limit = _loss(p, self.width_limit)
+        label = p.loss_label(self.width_limit == "t_on")
+        return f"{self.parameter} > {label} = {limit * 1e3:g} ms {self.gain_rule}"
 
     def sweep_limits(
         self, values: npt.NDArray[np.float64], p: ValveParams
     ) -> list[tuple[str, float, float, str, str]]:
         w, limit = self.parameter, self.width_limit
-        return [(limit, getattr(p, limit), values[-1], f"{self.name} {w}", f"{w} > {limit}")]
+        return [(limit, _loss(p, limit), values[-1], f"{self.name} {w}", f"{w} > {limit}")]
+
+
+def _loss(p: ValveParams, name: str) -> float:
+    """What a pulse loses to the delay ``name`` (``t_on``: a high pulse, ``t_off``: a low
+    one) under the valve's convention (:attr:`ValveParams.on_loss`)."""
+    return p.on_loss if name == "t_on" else p.off_loss
 
 
 class IPFM(IntegrateAndFire):
@@ -132,13 +139,13 @@ class IPFM(IntegrateAndFire):
     def fractions(
         self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
     ) -> tuple[Any, Any]:
-        a1 = 1.0 - (1.0 + p.t_off / s["t_h"]) * x / s["gain"]
-        a2 = (1.0 - p.t_on / s["t_h"]) * x / s["gain"]
+        a1 = 1.0 - (1.0 + p.off_loss / s["t_h"]) * x / s["gain"]
+        a2 = (1.0 - p.on_loss / s["t_h"]) * x / s["gain"]
         return a1, a2
 
     def thresholds(self, s: Mapping[str, Any], p: ValveParams) -> tuple[Any, Any]:
-        dead = np.where(s["t_h"] > p.t_on, 0.0, 1.0)
-        return dead, s["gain"] * s["t_h"] / (s["t_h"] + p.t_off)
+        dead = np.where(s["t_h"] > p.on_loss, 0.0, 1.0)
+        return dead, s["gain"] * s["t_h"] / (s["t_h"] + p.off_loss)
 
     def sweep_settings(
         self, v: npt.NDArray[np.float64], p: ValveParams, gain: Any = None

@@ -38,7 +38,8 @@ VALVE: tuple[str, ...] = ("c1", "k2", "tau2", "t_on", "t_off")
 
 def _valve(s: Mapping[str, Any], p: ValveParams) -> tuple[Any, ...]:
     """The inverted valve: the setting's own parameters where given, else ``p``'s."""
-    return tuple(s.get(name, getattr(p, name)) for name in VALVE)
+    own = {"t_on": p.on_loss, "t_off": p.off_loss}  # the losses: the delays under "hold"
+    return tuple(s.get(name, own.get(name, getattr(p, name))) for name in VALVE)
 
 
 class LPWM(PWM):
@@ -54,10 +55,14 @@ class LPWM(PWM):
         "c1": (1e-4, 1e4, "s·bar^-0.5"),
         "k2": (1e-4, 1e3, "bar"),
         "tau2": (1e-5, 1e4, "s"),
-        "t_on": (0.0, 1.0, "s"),
-        "t_off": (0.0, 1.0, "s"),
+        "t_on": (-1.0, 1.0, "s"),
+        "t_off": (-1.0, 1.0, "s"),
     }
     zero_allowed = ("t_on", "t_off")
+    #: The inverted valve's delays are the charging and discharging times a pulse loses
+    #: (:attr:`~spa.model.params.ValveParams.on_loss`): negative for a transport-delay valve
+    #: whose closing delay exceeds its opening delay.
+    signed = ("t_on", "t_off")
     default_grid: ClassVar[Mapping[str, float]] = {"start": 1.0, "stop": 76.0, "step": 0.1}
     reference = 20.0
     threshold_formulas = ("inverse of d(xi) = t_on*f_w", "inverse of d(xi) = 1 - t_off*f_w")
@@ -105,7 +110,7 @@ class LPWM(PWM):
                 root = 2.0 * qc / (qb + disc)
             return np.where(a_hi > b_lo, root * root / k2, np.nan)
 
-        dead, sat = crossing(p.t_on * f), crossing(1.0 - p.t_off * f)
+        dead, sat = crossing(p.on_loss * f), crossing(1.0 - p.off_loss * f)
         return np.where(np.isnan(dead), 0.0, dead), np.where(np.isnan(sat), 1.0, sat)
 
     def guess(self, trace: Any) -> None:
@@ -113,8 +118,10 @@ class LPWM(PWM):
 
     def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
         """A linear range exists: ``1/f_w > t_on + t_off``."""
-        return v * (p.t_on + p.t_off) < 1.0
+        return v * (p.on_loss + p.off_loss) < 1.0
 
     def constraint(self, p: ValveParams) -> str:
-        limit = 1.0 / (p.t_on + p.t_off)
+        if p.on_loss + p.off_loss <= 0.0:  # the transport convention: no hold to fit in
+            return "f_w > 0 Hz, inverse of the identified valve"
+        limit = 1.0 / (p.on_loss + p.off_loss)
         return f"f_w < 1/(t_on + t_off) = {limit:.4g} Hz, inverse of the identified valve"

@@ -66,10 +66,10 @@ class PWM(ModulatorKind):
         self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
     ) -> tuple[Any, Any]:
         d = self.duty(x, s, p)
-        return (1.0 - d) - p.t_off * s["f_w"], d - p.t_on * s["f_w"]
+        return (1.0 - d) - p.off_loss * s["f_w"], d - p.on_loss * s["f_w"]
 
     def thresholds(self, s: Mapping[str, Any], p: ValveParams) -> tuple[Any, Any]:
-        return p.t_on * s["f_w"], 1.0 - p.t_off * s["f_w"]
+        return p.on_loss * s["f_w"], 1.0 - p.off_loss * s["f_w"]
 
     def constraint(self, p: ValveParams) -> str:
         return "f_w > 0 Hz"
@@ -78,7 +78,7 @@ class PWM(ModulatorKind):
         self, values: npt.NDArray[np.float64], p: ValveParams
     ) -> list[tuple[str, float, float, str, str]]:
         rule = "t_on + t_off < 1/f_w, else all dead-zone or saturation"
-        return [("t_on + t_off", p.t_on + p.t_off, 1.0 / values[0], "PWM period 1/f_w", rule)]
+        return [("t_on + t_off", p.on_loss + p.off_loss, 1.0 / values[0], "PWM period 1/f_w", rule)]
 
     def guess(self, trace: Trace) -> tuple[dict[str, Any], str] | None:
         """Rises on a steady period, widths that vary (and follow ``u`` when logged)."""
