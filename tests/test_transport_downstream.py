@@ -182,3 +182,37 @@ def test_a_convention_set_by_the_config_is_kept() -> None:
     assert res.delay_convention["setting"] == "hold"
     with pytest.raises(ValueError, match="delay_convention must be auto, hold or transport"):
         identify_with_config(runs, kinds, {"identification": {"delay_convention": "fast"}})
+
+
+def test_the_box_spans_the_delays_mean_and_difference() -> None:
+    """With the difference's own interval, no corner has delays at opposite ends of their
+    intervals: each corner's t_off - t_on is inside the difference's interval."""
+    from spa.identification.identified import corners, read_intervals
+
+    est = ValveParams(t_on=0.025, t_off=0.026, delay="transport")
+    source = {
+        "t_on": {"value": 0.025, "lo": 0.022, "hi": 0.029},
+        "t_off": {"value": 0.026, "lo": 0.023, "hi": 0.030},
+        "delay_difference": {"value": 0.001, "lo": 0.0005, "hi": 0.0015},
+    }
+    box = read_intervals(source)
+    valves = corners(est, box)
+    assert len(valves) == 4
+    for v in valves:
+        assert v.delay == "transport"
+        assert 0.0005 - 1e-12 <= v.t_off - v.t_on <= 0.0015 + 1e-12
+        assert 0.0225 - 1e-12 <= 0.5 * (v.t_on + v.t_off) <= 0.0295 + 1e-12
+    apart = corners(est, {k: box[k] for k in ("t_on", "t_off")})
+    assert max(v.t_off - v.t_on for v in apart) == pytest.approx(0.008)
+
+
+def test_a_transport_identification_states_the_difference() -> None:
+    truth = ValveParams(c1=0.5, k2=1.2, tau2=0.6, t_on=0.006, t_off=0.022, delay="transport")
+    runs, kinds, mods = _dataset(truth, seed=7)
+    res = identify_with_config(
+        runs, kinds, {"seed": 7}, modulators=mods, command_dt=dict.fromkeys(runs, 1e-3)
+    )
+    d = res.to_dict()["delay_difference"]
+    assert d["lo"] <= truth.t_off - truth.t_on <= d["hi"]
+    width_each = min(res.t_on.hi - res.t_on.lo, res.t_off.hi - res.t_off.lo)
+    assert d["hi"] - d["lo"] <= width_each  # the difference is known at least as well

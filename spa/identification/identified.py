@@ -37,6 +37,11 @@ __all__ = [
 #: The identified parameters, in ``params.yaml`` order.
 PARAMETERS: tuple[str, ...] = ("c1", "k2", "tau2", "t_on", "t_off")
 
+#: The interval of ``t_off - t_on`` a transport-delay identification adds
+#: (``params.yaml``'s ``delay_difference``): with it, the box's delays span their mean's
+#: range and their difference's (:func:`corners`).
+DIFFERENCE = "delay_difference"
+
 #: The delays: their domain includes 0 (a valve may switch at once).
 DELAYS: tuple[str, ...] = ("t_on", "t_off")
 
@@ -99,6 +104,15 @@ def read_intervals(
             lo = edge
             hi = max(hi, edge)
         out[name] = (lo, hi)
+    item = mapping.get(DIFFERENCE)
+    if isinstance(item, Mapping) and item.get("lo") is not None and item.get("hi") is not None:
+        lo = checks.number(f"{DIFFERENCE}.lo", item["lo"])
+        hi = checks.number(f"{DIFFERENCE}.hi", item["hi"])
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
+            raise ValueError(
+                f"{DIFFERENCE}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]"
+            )
+        out[DIFFERENCE] = (lo, hi)
     return out
 
 
@@ -113,6 +127,11 @@ def corners(
         Point estimate; parameters without an interval keep its value.
     intervals : mapping or None
         ``name -> (lo, hi)`` (:func:`read_intervals`). A lower end <= 0 is raised to 1e-12.
+        With ``delay_difference`` beside ``t_on`` and ``t_off``, the delays' corners are
+        those of their mean (between the means of the two intervals' ends) and of their
+        difference ``t_off - t_on`` (its own interval), not of the two delays apart: the
+        delays' errors move together, and two delays at opposite ends of their intervals
+        would make a valve whose pulses gain a time the data exclude.
 
     Returns
     -------
@@ -131,15 +150,26 @@ def corners(
     """
     if not intervals:
         return []
-    unknown = sorted(set(intervals) - set(PARAMETERS))
+    unknown = sorted(set(intervals) - {*PARAMETERS, DIFFERENCE})
     if unknown:
         raise ValueError(f"intervals: unknown parameter(s) {unknown}; expected {PARAMETERS}")
-    names = [n for n in PARAMETERS if n in intervals]
+    paired = DIFFERENCE in intervals and "t_on" in intervals and "t_off" in intervals
+    names = [n for n in PARAMETERS if n in intervals and not (paired and n in DELAYS)]
     ends = [tuple(dict.fromkeys(max(v, _FLOOR) for v in intervals[n])) for n in names]
+    delays: list[dict[str, float]] = [{}]
+    if paired:
+        (on_lo, on_hi), (off_lo, off_hi) = intervals["t_on"], intervals["t_off"]
+        means = dict.fromkeys((0.5 * (on_lo + off_lo), 0.5 * (on_hi + off_hi)))
+        delays = [
+            {"t_on": max(m - 0.5 * d, _FLOOR), "t_off": max(m + 0.5 * d, _FLOOR)}
+            for m in means
+            for d in dict.fromkeys(intervals[DIFFERENCE])
+        ]
     base = params.as_dict()
     return [
-        ValveParams(**{**base, **dict(zip(names, c, strict=True))})
+        ValveParams(**{**base, **dict(zip(names, c, strict=True)), **pair})
         for c in itertools.product(*ends)
+        for pair in delays
     ]
 
 

@@ -415,6 +415,7 @@ def refine_result(
     n_off = sum(r.n_off for r in prepared)
     warnings = [*result.warnings, *warnings_start]
     ests = {}
+    unresolved = set()
     runs_all = tuple(r.rid for r in prepared)
     for name in NAMES:
         value = float(getattr(ref.params, name))
@@ -451,6 +452,7 @@ def refine_result(
             edges = n_on if name == "t_on" else n_off
             what = "rising" if name == "t_on" else "falling"
             if edges == 0:
+                unresolved.add(name)
                 lo, hi = 0.0, max_delay
                 warnings.append(
                     f"{name} is not resolved: no {what} valve edge in any run; record runs "
@@ -459,6 +461,7 @@ def refine_result(
                 )
                 method += f"; unresolved (no {what} edge): interval [0, max_delay]"
             elif _Z95 * se > max_delay / 4.0:
+                unresolved.add(name)
                 lo, hi = 0.0, max_delay
                 warnings.append(
                     f"{name} is not resolved: the runs' {what} edges do not show it (95 % "
@@ -469,6 +472,7 @@ def refine_result(
                 )
                 method += f"; unresolved (the {what} edges do not show it): [0, max_delay]"
             elif value < dt or value - _Z95 * se <= 0.0:
+                unresolved.add(name)
                 lo, hi = 0.0, max(hi, 2.0 * dt)
                 warnings.append(
                     f"{name} is not resolved: {1e3 * value:.2g} ms is within a logging step "
@@ -488,6 +492,23 @@ def refine_result(
             tuple(ref.informed[name]) or runs_all,
             method,
             spread=old.spread,
+        )
+    difference = None
+    if chosen == "transport" and not unresolved:
+        # Under the transport convention the averaged model moves with t_off - t_on (the
+        # time a pulse gains), the loop's dead time with the delays themselves: the box
+        # spans both (spa.identification.identified.corners).
+        d_value = ests["t_off"].value - ests["t_on"].value
+        d_se = math.sqrt(ref.se_difference**2 + 2.0 * width * width / 12.0)
+        difference = Estimate(
+            d_value,
+            d_value - _Z95 * d_se,
+            d_value + _Z95 * d_se,
+            "s",
+            tuple(sorted(set(ests["t_on"].runs) | set(ests["t_off"].runs))),
+            "the refinement's sandwich covariance of the two delays (Newey-West), widened "
+            "to the leave-one-run-out spread of their difference; logged edges uniform "
+            "within their step",
         )
     if result.delays is not None:
         pulse = result.delays.summary()
@@ -569,6 +590,7 @@ def refine_result(
         settings={**result.settings, "refine": True, "adequacy_threshold": float(threshold)},
         refinement=refinement,
         delay_convention=record,
+        delay_difference=difference,
         adequacy=adequacy.to_dict(),
         warnings=tuple(warnings),
     )

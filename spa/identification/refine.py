@@ -290,6 +290,10 @@ class RefineFit:
         Where the fit started (today's estimates) and where it ended.
     se : dict
         Standard error of each parameter (sandwich/jackknife, before the logging-step term).
+    se_difference : float
+        Standard error of ``t_off - t_on`` (the same, with the two delays' covariance): the
+        delays move together with a lag the data cannot tell from a delay, their difference
+        much less.
     informed : dict
         Parameter → ids of the runs that inform it.
     fit_before, fit_after, fit_heldout : dict
@@ -318,6 +322,7 @@ class RefineFit:
     nfev: int
     converged: bool
     runs: tuple[RefineRun, ...] = field(repr=False, default=())
+    se_difference: float = math.nan
 
     def heldout_median(self) -> float:
         """Median held-out FIT over the runs (NaN when none is finite)."""
@@ -484,6 +489,20 @@ def refine(
             v = loo_x[members, i]
             jack = (len(members) - 1) / len(members) * float(np.sum((v - v.mean()) ** 2))
             var[i] = max(var[i], jack)
+    # The delays' difference: its sandwich variance with their covariance, and the jackknife
+    # over the runs that inform both.
+    contrast = np.array([0.0, 0.0, 0.0, -1.0, 1.0])
+    var_diff = max(float(contrast @ cov @ contrast), 0.0)
+    both = [
+        j
+        for j, r in enumerate(runs)
+        if r.rid in informed["t_on"]
+        and r.rid in informed["t_off"]
+        and all((info[:, i].sum() - info[j, i]) > 0.1 * info[:, i].sum() for i in (3, 4))
+    ]
+    if len(both) >= 3:
+        v = loo_x[both, 4] - loo_x[both, 3]
+        var_diff = max(var_diff, (len(both) - 1) / len(both) * float(np.sum((v - v.mean()) ** 2)))
     # Back to the parameters' own units (delta method for the log-parameters).
     values = np.array([getattr(prm, n) for n in NAMES])
     scale = np.array([values[0], values[1], values[2], 1.0, 1.0])
@@ -508,6 +527,7 @@ def refine(
         nfev=nfev + 1,  # the held-out runs: one simulation of each
         converged=bool(sol.status > 0),
         runs=tuple(runs),
+        se_difference=math.sqrt(var_diff),
     )
 
 

@@ -257,6 +257,9 @@ class IdentificationResult:
     delay_convention : dict or None
         ``chosen``, each convention's delays and held-out FIT. The five estimates are the
         chosen convention's (:attr:`delay`).
+    delay_difference : Estimate or None
+        ``t_off - t_on`` with its own 95 % interval (transport convention, both delays
+        resolved): much narrower than the two delays' intervals, which move together.
     adequacy : dict or None
         :class:`spa.identification.adequacy.Adequacy` as a mapping.
     warnings : tuple of str
@@ -275,6 +278,7 @@ class IdentificationResult:
     settings: Mapping[str, Any] = field(default_factory=dict)
     refinement: Mapping[str, Any] | None = field(default=None, repr=False)
     delay_convention: Mapping[str, Any] | None = None
+    delay_difference: Estimate | None = None
     adequacy: Mapping[str, Any] | None = None
     warnings: tuple[str, ...] = ()
 
@@ -327,6 +331,8 @@ class IdentificationResult:
             out["refinement"] = dict(self.refinement)
         if self.delay_convention is not None:
             out["delay_convention"] = dict(self.delay_convention)
+        if self.delay_difference is not None:
+            out["delay_difference"] = self.delay_difference.to_dict()
         if self.adequacy is not None:
             out["adequacy"] = dict(self.adequacy)
         out["warnings"] = list(self.warnings)
