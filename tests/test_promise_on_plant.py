@@ -154,10 +154,12 @@ def test_a_poorly_described_valve_gets_a_closed_loop_sentence_that_says_so() -> 
     assert "does not describe this valve well enough" in bench.sentence
 
 
-def test_a_valve_the_hold_convention_misses_is_told_which_describes_it() -> None:
+def test_a_valve_the_hold_convention_misses_is_identified_in_the_one_that_describes_it() -> None:
     """A plant whose valve keeps its connection through dead times of about 20 ms (drawn by
     ``random_plant``): the paper's hold convention misses its staircases, the transport
-    convention describes them; the verdict says both, and that the designs are unverified."""
+    convention describes them. Identification chooses transport, the verdict is that
+    model's; forced to the hold convention by the config, the verdict says the other
+    describes the valve and that the designs are unverified."""
     from spa.synthetic.physical import random_plant
 
     plant = random_plant(np.random.default_rng([1, 6]))
@@ -167,7 +169,25 @@ def test_a_valve_the_hold_convention_misses_is_told_which_describes_it() -> None
     identified = _identify(runs, metas, mods)
     conv = identified["delay_convention"]
     assert conv["chosen"] == "transport"
-    assert conv["heldout_fit_modulated"]["transport"] > conv["heldout_fit_modulated"]["hold"] + 20
-    assert identified["adequacy"]["adequate"] is False
-    assert "transport-delay convention" in identified["adequacy"]["sentence"]
-    assert any("transport-delay convention" in w for w in identified["warnings"])
+    assert identified["delay"] == "transport"
+    fits = conv["heldout_fit_modulated"]
+    assert fits["transport"] > fits["hold"] + 20
+    assert identified["adequacy"]["heldout_fit"]["median"] == pytest.approx(fits["transport"])
+    assert identified["adequacy"]["adequate"] is True
+
+    kinds = {rid: m["kind"] for rid, m in metas.items()}
+    forced = identify_with_config(
+        runs,
+        kinds,
+        {
+            **CONFIG,
+            "seed": 1,
+            "identification": {**CONFIG.get("identification", {}), "delay_convention": "hold"},
+        },
+        modulators=mods,
+        command_dt=dict.fromkeys(runs, DT),
+    ).to_dict()
+    assert "delay" not in forced
+    assert forced["adequacy"]["adequate"] is False
+    assert "transport-delay convention" in forced["adequacy"]["sentence"]
+    assert any("transport-delay convention" in w for w in forced["warnings"])
