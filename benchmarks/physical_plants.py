@@ -153,7 +153,7 @@ def _promise(plant, identified, runs, metas, config, rng) -> dict:
     merged with the measured model error, the header), then the header closed on the plant
     in C over the promise's staircase, settled at its first level, measured as spa measures
     (``spa.closedloop.promise.promise_kept``)."""
-    from spa.closedloop.experiments import cycle_period
+    from spa.closedloop.experiments import step_periods
     from spa.closedloop.promise import design_for_dataset, promise_kept
     from spa.model.modulators import Modulator
 
@@ -185,7 +185,7 @@ def _promise(plant, identified, runs, metas, config, rng) -> dict:
         return {**out, "kept": False}
     levels, hold = [float(v) for v in promise["levels"]], float(promise["hold"])
     mod = Modulator.from_mapping(result.controllers["setting"])
-    period = cycle_period(mod, res_params(identified), float(np.median(levels)), DT)
+    period = step_periods(mod, res_params(identified), levels, DT)
     with tempfile.TemporaryDirectory(prefix="spa-bench-") as tmp:
         header = Path(tmp) / "controller.h"
         header.write_text(bench.header)
@@ -194,6 +194,10 @@ def _promise(plant, identified, runs, metas, config, rng) -> dict:
         except Exception as err:
             return {**out, "kept": False, "promise_error": f"{type(err).__name__}: {err}"}
     _, measured = measure_staircase(run, period, skip=hold, r_initial=levels[0])
+    # the limit cycle is the actuator's: its ripple from the true pressure (the log adds the
+    # sensor's noise and mains pickup)
+    _, actual = measure_staircase(run, period, column="p_true", skip=hold, r_initial=levels[0])
+    measured = {**measured, "worst_ripple_pp": actual["worst_ripple_pp"]}
     verdict = promise_kept(measured, promise, float(cfg.get("max_overshoot", 10.0)))
     return {
         **out,

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from spa._checks import float_or_nan as _num
-from spa.closedloop.box import box_hold, box_levels
+from spa.closedloop.box import box_hold, box_levels, promise_levels
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
 from spa.closedloop.controller import PIController
@@ -305,17 +305,19 @@ def bench_outputs(
     if c.get("levels") is None and c.get("levels_fraction"):
         top = min(top, max(float(v) for v in c["levels_fraction"]))
     own = box_levels(mod, params, box, own, top)
+    stairs = promise_levels(own, params.k2, float(c["promise_step_fraction"]))
     rd = robust_design(
         mod,
         name,
         params,
         box,
-        levels=own,
+        levels=stairs,
+        schedule=own,
         hold=float(entry.get("hold", 3.0)),
         dt=dt,
         tau_c=tau_c,
         limit=limit,
-        hold_of=lambda tau: box_hold(mod, params, box, own, tau, c, min(gains)),
+        hold_of=lambda tau: box_hold(mod, params, box, stairs, tau, c, min(gains)),
         gains=gains,
     )
     shipped_tau = rd.tau_c_robust if rd.tau_c_robust is not None else tau_c
@@ -348,8 +350,8 @@ def bench_outputs(
         "kept": rd.tau_c_robust is not None,
         "tau_c": shipped_tau,
         "controller": ctrl.to_mapping(),
-        "levels": own,
-        "hold": box_hold(mod, params, box, own, shipped_tau, c, min(gains)),
+        "levels": stairs,
+        "hold": box_hold(mod, params, box, stairs, shipped_tau, c, min(gains)),
         "overshoot": worst.get("overshoot", math.nan),
         "settling_time": worst.get("settling_time", math.nan),
         "end_error": worst.get("end_error", math.nan),
@@ -369,11 +371,11 @@ def bench_outputs(
     }
     settle = worst.get("settling_time", math.nan)
     if rd.tau_c_robust is not None:
-        stairs = ", ".join(f"{v:.4g}" for v in own)
+        stairs_said = ", ".join(f"{v:.4g}" for v in stairs)
         note = (
             f"The closed_loop stage's choice (controllers.yaml), shipped at tau_c = "
             f"{shipped_tau:g} s; promise over the 95 % box and the measured model error "
-            f"({rd.n_corners} corners), staircase {stairs} bar up then down, each level held "
+            f"({rd.n_corners} corners), staircase {stairs_said} bar up then down, each level held "
             f"{summary['promise']['hold']:.1f} s: overshoot <= {worst['overshoot']:.1f} %, "
             "every level within 2 % of its step by the end of its hold, ripple <= "
             f"{worst['ripple_pp'] * 1e3:.1f} mbar peak-to-peak"

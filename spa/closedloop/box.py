@@ -12,7 +12,40 @@ import numpy as np
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
-__all__ = ["box_hold", "box_levels"]
+__all__ = ["box_hold", "box_levels", "promise_levels"]
+
+
+def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list[float]:
+    """The promise's staircase: ``levels`` (increasing) thinned so that each step is at
+    least ``step_fraction * k2``, from the lowest; the highest level is kept (it replaces
+    the last kept one when that is closer than the step).
+
+    A step smaller than the loop's ripple, or than the pressure one step of the modulator's
+    duty moves, is within the loop's resolution: its "overshoot" and its 2 % band measure
+    the limit cycle, which the promise states as ripple.
+
+    Examples
+    --------
+    >>> promise_levels([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7], 1.0, 0.2)
+    [0.1, 0.3, 0.5, 0.7]
+    >>> promise_levels([0.1, 0.2, 0.3, 0.4, 0.5, 0.6], 1.0, 0.2)
+    [0.1, 0.3, 0.6]
+    >>> promise_levels([0.1, 0.2, 0.3], 1.0, 0.0)
+    [0.1, 0.2, 0.3]
+    """
+    step = float(step_fraction) * float(k2)
+    if step <= 0.0 or len(levels) <= 2:
+        return list(levels)
+    kept = [levels[0]]
+    for v in levels[1:-1]:
+        if v - kept[-1] >= step * 0.95:  # levels are rounded to 3 significant digits
+            kept.append(v)
+    top = levels[-1]
+    if len(kept) > 1 and top - kept[-1] < step * 0.95:
+        kept[-1] = top
+    else:
+        kept.append(top)
+    return kept
 
 
 def box_hold(

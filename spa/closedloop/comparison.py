@@ -67,6 +67,7 @@ DEFAULTS: dict[str, Any] = {
     "max_level_fraction": 0.95,
     "figure_decimate": 20,
     "max_overshoot": 10.0,
+    "promise_step_fraction": 0.2,
 }
 
 
@@ -414,11 +415,13 @@ def closed_loop(
     if met:
         controllers["setting"] = gains[choice[0]]["setting"]
         controllers["controller"] = choice[1]
+        ranked = ranked_choices(table, rec, limit, measured)
         controllers["meeting"] = [
-            [label, name]
-            for label, name in ranked_choices(table, rec, limit, measured)
-            if _meets(table, label, name, limit)
+            [label, name] for label, name in ranked if _meets(table, label, name, limit)
         ]
+        # every designed loop, best first: the promise tries the verifiable ones that do not
+        # meet the design at this tau_c too (the box lengthens tau_c for them)
+        controllers["ranked"] = [[label, name] for label, name in ranked]
         sentence = closed_loop_sentence(table, gains, *choice)
         held = info["held"].get(choice[0])
         if held is not None:

@@ -27,7 +27,7 @@ import numpy.typing as npt
 
 from spa import _checks as checks
 from spa.closedloop.controller import PIController
-from spa.closedloop.experiments import _settled, cycle_period, staircase_reference
+from spa.closedloop.experiments import _settled, staircase_reference, step_periods
 from spa.closedloop.loop import closed_loop_arrays
 from spa.closedloop.metrics import cycle_mean, ripple, steps
 from spa.model.modulators import Modulator
@@ -95,7 +95,7 @@ class _Setup:
         self.r = staircase_reference(self.levels, hold, dt)
         self.t = np.arange(self.r.size) * dt
         self.i0 = _settled(modulator, controller, params, self.levels[0])
-        self.period = cycle_period(modulator, params, float(np.median(self.levels)), dt)
+        self.period = step_periods(modulator, params, self.levels, dt)
 
     def run(self, **disturbance: Any) -> tuple[np.ndarray, np.ndarray]:
         """``(p, valve)`` of the staircase, with ``k2_change`` or ``sensor_noise``."""
@@ -113,7 +113,7 @@ def _drop_metrics(setup: _Setup, clean: np.ndarray, drop: float) -> dict[str, fl
     level = setup.levels[mid]
     params = setup.args[2]
     p, _ = setup.run(k2_change=(k_drop, params.k2 * (1.0 - drop)))
-    window = max(round(setup.period / setup.dt), 1)
+    window = max(round(setup.period[level] / setup.dt), 1)
     stop = (mid + 1) * setup.n_hold
     deviation = cycle_mean(clean, window)[k_drop:stop] - cycle_mean(p, window)[k_drop:stop]
     tail = p[stop - max((stop - k_drop) // 4, 1) : stop]
@@ -168,7 +168,7 @@ def supply_drop(
     dict
         ``drop_level`` (the set-point during the drop, bar), ``recovery_time`` (s),
         ``dip`` (bar) and ``steady_state_error`` after the drop (bar), as the module says;
-        the cycle-mean window is the modulator's period at the middle level.
+        the cycle-mean window is the modulator's period at the level of the drop.
     """
     setup = _Setup(modulator, controller, params, levels, hold, dt)
     return _drop_metrics(setup, setup.run()[0], drop)

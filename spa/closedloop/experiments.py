@@ -29,6 +29,7 @@ __all__ = [
     "sine_reference",
     "spread",
     "staircase_reference",
+    "step_periods",
 ]
 
 
@@ -59,8 +60,32 @@ def cycle_period(modulator: Modulator, params: ValveParams, level: float, dt: fl
     The window of the cycle-mean pressure (:func:`spa.closedloop.metrics.cycle_mean`).
     """
     xi = float(feedforward([level], modulator, params)[0])
+    if modulator.kind == "dsm":
+        # First-order ΔΣ repeats its minority level once every T_DS/min(xi, 1 - xi): that is
+        # its cycle (pulse_times gives the paper's approximate mean durations).
+        minority = min(xi, 1.0 - xi)
+        period = modulator.settings["period"] / minority if minority > 0.0 else MAX_PERIOD
+        return float(np.clip(period, 2.0 * dt, MAX_PERIOD))
     t_h, t_l = pulse_times(modulator.kind, xi, **modulator.settings)
     return float(np.clip(float(t_h) + float(t_l), 2.0 * dt, MAX_PERIOD))
+
+
+def step_periods(
+    modulator: Modulator, params: ValveParams, levels: Sequence[float], dt: float
+) -> dict[float, float]:
+    """Each level's cycle-mean window (:func:`cycle_period`), for measuring the steps that go
+    to it (:func:`spa.closedloop.metrics.step_metrics`): a modulator whose period changes
+    with the level (IPFM, IIPFM, ΔΣ) is averaged over its own cycle at every level.
+
+    Examples
+    --------
+    >>> from spa.model.params import ValveParams
+    >>> w = step_periods(Modulator.from_mapping({"type": "pwm", "f_w": 20.0}),
+    ...                  ValveParams(), [0.2, 0.4], 1e-3)
+    >>> w
+    {0.2: 0.05, 0.4: 0.05}
+    """
+    return {float(v): cycle_period(modulator, params, float(v), dt) for v in levels}
 
 
 def _settled(
@@ -93,8 +118,9 @@ def run_staircase(
         p0=float(levels[0]),
         integral0=_settled(modulator, controller, params, float(levels[0])),
     )
-    period = cycle_period(modulator, params, float(np.median(levels)), dt)
-    return run, step_metrics(run, period, r_initial=float(levels[0]))
+    return run, step_metrics(
+        run, step_periods(modulator, params, levels, dt), r_initial=float(levels[0])
+    )
 
 
 def run_steps(
@@ -107,10 +133,9 @@ def run_steps(
 ) -> pd.DataFrame:
     """One step from rest (0 bar, integrator at 0) to each level: one metrics row per level.
 
-    The cycle-mean window is the modulator's period at the middle level, as for the
-    staircase.
+    Each step is measured with the cycle-mean window of its level, as the staircase.
     """
-    period = cycle_period(modulator, params, float(np.median(levels)), dt)
+    period = step_periods(modulator, params, levels, dt)
     n = round(hold / dt)
     t = np.arange(n, dtype=np.float64) * dt
     rows = []

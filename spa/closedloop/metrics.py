@@ -23,6 +23,7 @@ pressure itself:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 import numpy.typing as npt
@@ -88,7 +89,7 @@ def _first(mask: np.ndarray) -> int:
 
 
 def step_metrics(
-    run: pd.DataFrame, period: float, *, r_initial: float | None = None
+    run: pd.DataFrame, period: float | Mapping[float, float], *, r_initial: float | None = None
 ) -> pd.DataFrame:
     """The step metrics of every change of set-point in a closed-loop run.
 
@@ -97,8 +98,12 @@ def step_metrics(
     run : pandas.DataFrame
         Columns ``t``, ``r``, ``p`` and ``valve``, uniformly sampled (a
         :func:`spa.closedloop.loop.simulate_closed_loop` table, or a bench recording).
-    period : float
-        Window of the cycle-mean, s: the modulator's pulse period (a few samples at least).
+    period : float or mapping
+        Window of the cycle-mean, s: the modulator's pulse period (a few samples at least);
+        or ``set-point -> window``, each step measured with the window of the level it goes
+        to (a modulator whose period changes with the level:
+        :func:`spa.closedloop.experiments.step_periods`; a level missing from it gets the
+        longest window).
     r_initial : float, optional
         The level before the first step; the pressure at ``t = 0`` by default. The first
         segment counts as a step only if it differs from this level.
@@ -202,13 +207,27 @@ def step_rows(
     r: np.ndarray,
     p: np.ndarray,
     u: np.ndarray,
-    period: float,
+    period: float | Mapping[float, float],
     *,
     r_initial: float | None = None,
 ) -> list[dict[str, float]]:
     """:func:`step_metrics` on arrays (``t`` uniformly sampled), one dict per step."""
     dt = float(np.median(np.diff(t)))
-    pm = cycle_mean(p, round(checks.positive("period", period, "s") / dt))
+    if isinstance(period, Mapping):
+        windows = {float(k): checks.positive("period", v, "s") for k, v in period.items()}
+        if not windows:
+            raise ValueError("period: an empty mapping of set-point -> window")
+        longest = max(windows.values())
+    else:
+        windows, longest = {}, checks.positive("period", period, "s")
+    means: dict[int, np.ndarray] = {}
+
+    def smoothed(level: float) -> np.ndarray:
+        n = max(round(windows.get(level, longest) / dt), 1)
+        if n not in means:
+            means[n] = cycle_mean(p, n)
+        return means[n]
+
     edges = np.concatenate(([0], np.abs(np.diff(u.astype(np.int16)))))
     prev = float(p[0]) if r_initial is None else float(r_initial)
     rows = []
@@ -219,6 +238,7 @@ def step_rows(
         if delta == 0.0 or b - a < 4:
             continue
         sgn = math.copysign(1.0, delta)
+        pm = smoothed(r1)
         y = (pm[a:b] - r0) * sgn / abs(delta)  # 0 -> 1 whatever the direction
         i10, i90 = _first(y >= 0.1), _first(y >= 0.9)
         rise = (i90 - i10) * dt if i10 >= 0 and i90 >= 0 else math.nan

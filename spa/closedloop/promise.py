@@ -79,9 +79,11 @@ def design_for_dataset(
     adequacy = adequacy_of(identified)
     # After the stage's choice, only loops that can be verified: of a modulator the bench ran
     # and the model describes there (an unverifiable promise is no better than none).
+    # Those that meet the design at the stage's tau_c first, then the others in the stage's
+    # order (the promise lengthens tau_c for each).
     others = [
         (str(label), str(name))
-        for label, name in ctl.get("meeting", [])
+        for label, name in [*ctl.get("meeting", []), *ctl.get("ranked", [])]
         if adequacy_clause(adequacy, label.split("-", 1)[0]) == ""
     ]
     candidates = list(dict.fromkeys([first, *others]))
@@ -167,7 +169,9 @@ def promise_kept(
     ----------
     measured : mapping
         ``measure_staircase``'s summary: ``worst_overshoot`` (%), ``worst_error`` (largest
-        end error, % of its step), ``worst_ripple_pp`` (bar).
+        end error, % of its step), ``worst_ripple_pp`` (bar; the actuator's pressure, as the
+        promise's: a sensor's log adds its own noise, some 6 to 8 standard deviations peak
+        to peak over a hold).
     promise : mapping
         ``controllers.yaml: bench.promise`` (``kept``, ``overshoot``, ``ripple_pp``).
     max_overshoot : float

@@ -26,7 +26,7 @@ import pandas as pd
 
 from spa import _checks as checks
 from spa.closedloop.controller import PIController
-from spa.closedloop.experiments import cycle_period
+from spa.closedloop.experiments import step_periods
 from spa.closedloop.loop import simulate_closed_loop
 from spa.closedloop.metrics import step_metrics
 from spa.model.modulators import Modulator
@@ -117,7 +117,7 @@ def replay_closed_loop(
     err = p - p_model
     spread = float(np.linalg.norm(p - p.mean()))
     fit = 100.0 * (1.0 - float(np.linalg.norm(err)) / spread) if spread > 0 else math.nan
-    period = cycle_period(mod, params, float(np.median(r)), dt)
+    period = step_periods(mod, params, np.unique(r), dt)
     valve = run["valve"].to_numpy() if "valve" in run else np.zeros(t.size, dtype=np.int8)
     recording = pd.DataFrame({"t": t, "r": r, "p": p, "valve": valve})
     measured = step_metrics(recording, period, r_initial=float(r[0]))

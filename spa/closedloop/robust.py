@@ -22,7 +22,7 @@ import numpy as np
 from spa import _checks as checks
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import design_pi
-from spa.closedloop.experiments import _settled, cycle_period, staircase_reference
+from spa.closedloop.experiments import _settled, staircase_reference, step_periods
 from spa.closedloop.loop import closed_loop_many
 from spa.closedloop.metrics import step_rows
 from spa.identification.identified import corners
@@ -146,7 +146,7 @@ def box_worst_case(
     r = staircase_reference(levels, hold, dt)
     t = np.arange(r.size) * dt
     r0 = float(levels[0])
-    period = cycle_period(modulator, params, float(np.median(levels)), dt)
+    period = step_periods(modulator, params, levels, dt)
     frames = []
     # the settled integrator depends on the feed-forward, which a gain factor leaves alone
     i0 = [_settled(modulator, controller, valve, r0) for valve in valves]
@@ -258,6 +258,7 @@ def robust_design(
     max_tau_c: float | None = None,
     hold_of: Callable[[float], float] | None = None,
     gains: Sequence[float] = (1.0,),
+    schedule: Sequence[float] | None = None,
 ) -> RobustDesign:
     """Worst case over the box of the controller ``controller`` designed at the estimate,
     and the robust ``tau_c`` (:func:`lengthen_tau_c`).
@@ -282,6 +283,9 @@ def robust_design(
         omitted.
     gains : sequence of float, default (1.0,)
         Factors on the loop gain, as :func:`box_worst_case`.
+    schedule : sequence of float, optional
+        The set-points the controller is designed on (its gain schedule's grid); ``levels``
+        when omitted. The staircase ``levels`` may be a subset (the promise's larger steps).
 
     Returns
     -------
@@ -297,7 +301,8 @@ def robust_design(
     results: dict[float, tuple[dict[str, float], int]] = {}
 
     def evaluate(tau: float) -> float:
-        ctrl = design_pi(modulator, params, levels=levels, tau_c=tau)[controller]
+        grid = levels if schedule is None else schedule
+        ctrl = design_pi(modulator, params, levels=grid, tau_c=tau)[controller]
         h = hold if hold_of is None else float(hold_of(tau))
         results[tau] = box_worst_case(modulator, ctrl, params, intervals, levels, h, dt, gains)
         worst = results[tau][0]

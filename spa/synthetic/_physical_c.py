@@ -13,7 +13,7 @@ import re
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -316,7 +316,7 @@ def close_loop_in_c(
 
 def measure_staircase(
     run: pd.DataFrame,
-    period: float,
+    period: float | Mapping[float, float],
     *,
     column: str = "p",
     r_initial: float = 0.0,
@@ -329,9 +329,10 @@ def measure_staircase(
     run : pandas.DataFrame
         ``t``, ``r``, ``valve`` and the pressure ``column`` (bar): a :func:`close_loop_in_c`
         run, or a bench recording.
-    period : float
-        Window of the cycle-mean pressure, s: the modulator's pulse period (for PWM
-        ``1/f_w``, for ΔΣM its period, for IPFM/IIPFM the period at the middle level).
+    period : float or mapping
+        Window of the cycle-mean pressure, s: the modulator's pulse period, or
+        ``set-point -> window`` (:func:`spa.closedloop.experiments.step_periods`, as spa
+        measures its own staircases).
     column : str, default "p"
         Which pressure: ``p`` (what the sensor logged) or ``p_true``.
     r_initial : float, default 0
