@@ -86,7 +86,16 @@ def design_for_dataset(
         for label, name in [*ctl.get("meeting", []), *ctl.get("ranked", [])]
         if adequacy_clause(adequacy, label.split("-", 1)[0]) == ""
     ]
-    candidates = list(dict.fromkeys([first, *others]))
+    # One loop of each setting first (the best of each, in that order), then the others: a
+    # setting whose loops all miss the promise should not use up the candidates.
+    ordered = list(dict.fromkeys([first, *others]))
+    seen: set[str] = set()
+    heads = []
+    for choice in ordered:
+        if choice is not None and choice[0] not in seen:
+            seen.add(choice[0])
+            heads.append(choice)
+    candidates = list(dict.fromkeys([first, *heads, *ordered]))
     benches: list[tuple[tuple[str, str] | None, BenchOutputs]] = []
     errors: dict[bool, dict[str, tuple[float, float]]] = {}  # each staircase replayed once
     for choice in candidates[:MAX_CANDIDATES]:

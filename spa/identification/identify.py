@@ -415,7 +415,6 @@ def refine_result(
     n_off = sum(r.n_off for r in prepared)
     warnings = [*result.warnings, *warnings_start]
     ests = {}
-    unresolved = set()
     runs_all = tuple(r.rid for r in prepared)
     for name in NAMES:
         value = float(getattr(ref.params, name))
@@ -452,7 +451,6 @@ def refine_result(
             edges = n_on if name == "t_on" else n_off
             what = "rising" if name == "t_on" else "falling"
             if edges == 0:
-                unresolved.add(name)
                 lo, hi = 0.0, max_delay
                 warnings.append(
                     f"{name} is not resolved: no {what} valve edge in any run; record runs "
@@ -461,7 +459,6 @@ def refine_result(
                 )
                 method += f"; unresolved (no {what} edge): interval [0, max_delay]"
             elif _Z95 * se > max_delay / 4.0:
-                unresolved.add(name)
                 lo, hi = 0.0, max_delay
                 warnings.append(
                     f"{name} is not resolved: the runs' {what} edges do not show it (95 % "
@@ -472,7 +469,6 @@ def refine_result(
                 )
                 method += f"; unresolved (the {what} edges do not show it): [0, max_delay]"
             elif value < dt or value - _Z95 * se <= 0.0:
-                unresolved.add(name)
                 lo, hi = 0.0, max(hi, 2.0 * dt)
                 warnings.append(
                     f"{name} is not resolved: {1e3 * value:.2g} ms is within a logging step "
@@ -494,7 +490,13 @@ def refine_result(
             spread=old.spread,
         )
     difference = None
-    if chosen == "transport" and not unresolved:
+    # The difference is known whenever both directions have edges that show the delays,
+    # even when one delay's interval reaches 0 (the corners are then clipped at 0).
+    shown = not any(
+        "do not show it" in m or "no rising" in m or "no falling" in m
+        for m in (ests["t_on"].method, ests["t_off"].method)
+    )
+    if chosen == "transport" and shown and math.isfinite(ref.se_difference):
         # Under the transport convention the averaged model moves with t_off - t_on (the
         # time a pulse gains), the loop's dead time with the delays themselves: the box
         # spans both (spa.identification.identified.corners).
