@@ -123,8 +123,11 @@ def box_worst_case(
     levels, hold, dt : as :func:`spa.closedloop.experiments.run_staircase`
     gains : sequence of float, default (1.0,)
         Factors on the loop gain (the measured model error's ``gain``,
-        :func:`spa.closedloop.model_error.error_intervals`): every valve is run with the
-        controller's gains times each factor (:meth:`PIController.scaled`).
+        :func:`spa.closedloop.model_error.error_intervals`): the estimate is also run with
+        the controller's gains times each factor (:meth:`PIController.scaled`). The factor
+        is the measured plant's slope against the estimate's, whatever its cause (a
+        parameter's error included), so it scales the estimate's loop, not every corner's:
+        the corners are the parameters' own uncertainty, at the model's gain.
 
     Returns
     -------
@@ -152,7 +155,11 @@ def box_worst_case(
     i0 = [_settled(modulator, controller, valve, r0) for valve in valves]
     for factor in dict.fromkeys(float(g) for g in gains):
         ctrl = controller if factor == 1.0 else controller.scaled(factor)
-        ps, _, us = closed_loop_many(r, dt, modulator, ctrl, valves, [r0] * len(valves), i0)
+        # The measured gain error is the plant's against the estimate (whatever its cause,
+        # a parameter's error included): it scales the estimate's loop; the corners are the
+        # parameters' own uncertainty, at the model's gain.
+        run = valves if factor == 1.0 else valves[:1]
+        ps, _, us = closed_loop_many(r, dt, modulator, ctrl, run, [r0] * len(run), i0[: len(run)])
         for p, u in zip(ps, us, strict=True):
             rows = step_rows(t, r, p, u, period, r_initial=r0)
             for row in rows:

@@ -490,13 +490,10 @@ def refine_result(
             spread=old.spread,
         )
     difference = None
-    # The difference is known whenever both directions have edges that show the delays,
-    # even when one delay's interval reaches 0 (the corners are then clipped at 0).
-    shown = not any(
-        "do not show it" in m or "no rising" in m or "no falling" in m
-        for m in (ests["t_on"].method, ests["t_off"].method)
-    )
-    if chosen == "transport" and shown and math.isfinite(ref.se_difference):
+    # The difference is known whenever both directions have edges, even when a delay is
+    # not resolved on its own: a lag the model does not have (a sensor's, a long line's)
+    # moves both delays together and leaves their difference (the corners clip at 0).
+    if chosen == "transport" and n_on > 0 and n_off > 0 and math.isfinite(ref.se_difference):
         # Under the transport convention the averaged model moves with t_off - t_on (the
         # time a pulse gains), the loop's dead time with the delays themselves: the box
         # spans both (spa.identification.identified.corners).
