@@ -113,12 +113,15 @@ def test_lpwm_inverts_a_transport_valve() -> None:
         {"type": "dsm", "period": 0.02},
         {"type": "iipfm", "t_l": 0.02, "gain": 1.15},
         {"type": "ipfm", "t_h": 0.02},
+        {"type": "lpwm", "f_w": 20.0},
     ],
-    ids=["pwm", "dsm", "iipfm", "ipfm"],
+    ids=["pwm", "dsm", "iipfm", "ipfm", "lpwm"],
 )
 def test_closed_loop_is_the_simulator_on_its_own_command(valve, mod) -> None:
     """The compiled loop's edges in flight: its pressure is the exact transport simulation of
-    the command it issued, and its plain-Python body gives the same bits."""
+    the command it issued, and its plain-Python body gives the same bits (LPWM inverting
+    the transport valve: its losses, one of them negative, in the kernel)."""
+    mod = Modulator.from_mapping(mod).bind(valve)
     r = np.r_[np.full(2500, 0.3 * valve.k2), np.full(2500, 0.6 * valve.k2)]
     c = PIController(kp=1.0 / valve.k2, ki=2.0 / valve.k2)
     p, _, u = closed_loop_arrays(r, 1e-3, mod, c, valve, 0.0)

@@ -10,7 +10,8 @@ gain. :func:`error_intervals` turns them into ranges: the extreme gain errors in
 on the loop gain (``gain``), and, for a loop with the averaged model's feed-forward, the
 extreme equilibrium errors into a range of the supply ``k2``. :func:`widen` merges the
 latter with the identification's 95 % box; the closed loop's promise is the worst over the
-merged box and the gain factor's ends.
+merged box and the estimate's loop at the gain factor's ends
+(:func:`spa.closedloop.robust.box_worst_case`).
 """
 
 from __future__ import annotations
