@@ -148,8 +148,7 @@ def _dataset(truth: ValveParams, seed: int) -> tuple[dict, dict, dict]:
     specs = dataset_runs(cfg, experiments)
     sensor = Sensor(fs=1000.0)
     runs = {
-        s.id: simulate_run(s, truth, 1e-3, sensor, run_seed(seed, "transport", s.id))
-        for s in specs
+        s.id: simulate_run(s, truth, 1e-3, sensor, run_seed(seed, "transport", s.id)) for s in specs
     }
     kinds = {s.id: s.kind for s in specs}
     modulators = {s.id: (s.modulator["type"] if s.modulator else "") for s in specs}
@@ -217,5 +216,10 @@ def test_a_transport_identification_states_the_difference() -> None:
     )
     d = res.to_dict()["delay_difference"]
     assert d["lo"] <= truth.t_off - truth.t_on <= d["hi"]
+    from spa.report.params import params_table
+
+    table = params_table(res.to_dict())
+    row = table[table["parameter"] == "t_off - t_on"].iloc[0]
+    assert row["95 % lo"] == pytest.approx(d["lo"]) and row["unit"] == "s"
     width_each = min(res.t_on.hi - res.t_on.lo, res.t_off.hi - res.t_off.lo)
     assert d["hi"] - d["lo"] <= width_each  # the difference is known at least as well

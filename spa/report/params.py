@@ -30,7 +30,8 @@ def params_table(params: Mapping[str, Any]) -> pd.DataFrame:
     -------
     pandas.DataFrame
         Columns ``parameter``, ``value``, ``95 % lo``, ``95 % hi``, ``unit``, ``method``,
-        ``fallback`` (``"no"`` or the reason), in the order of :data:`PARAM_NAMES`.
+        ``fallback`` (``"no"`` or the reason), in the order of :data:`PARAM_NAMES`; then
+        ``t_off - t_on`` when the file has a ``delay_difference`` (a transport-delay valve).
 
     Raises
     ------
@@ -49,7 +50,9 @@ def params_table(params: Mapping[str, Any]) -> pd.DataFrame:
     if not isinstance(params, Mapping):
         raise ValueError(f"params must be a mapping, got {type(params).__name__}")
     rows = []
-    for name in PARAM_NAMES:
+    # a transport-delay valve's delay difference has its own interval: a row of its own
+    extra = ("delay_difference",) if isinstance(params.get("delay_difference"), Mapping) else ()
+    for name in (*PARAM_NAMES, *extra):
         entry = params.get(name)
         if not isinstance(entry, Mapping):
             raise ValueError(f"params lacks the parameter {name!r}")
@@ -59,7 +62,7 @@ def params_table(params: Mapping[str, Any]) -> pd.DataFrame:
         fallback = entry.get("fallback")
         rows.append(
             {
-                "parameter": name,
+                "parameter": "t_off - t_on" if name == "delay_difference" else name,
                 "value": float(entry["value"]),
                 # a fallback value has no interval: NaN, shown as a blank
                 "95 % lo": math.nan if entry["lo"] is None else float(entry["lo"]),
