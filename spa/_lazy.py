@@ -26,7 +26,7 @@ def declared_names(path: Path) -> list[str]:
     --------
     >>> import spa.model.params
     >>> declared_names(Path(spa.model.params.__file__))
-    ['PHYSICAL_RANGE', 'ValveParams']
+    ['DELAY_CONVENTIONS', 'PHYSICAL_RANGE', 'ValveParams']
     """
     for node in ast.parse(path.read_text(encoding="utf-8")).body:
         if (
@@ -86,8 +86,8 @@ def lazy_exports(
     Examples
     --------
     >>> exports, getattr_, dir_ = lazy_exports("spa.model", ["params"])
-    >>> exports
-    {'PHYSICAL_RANGE': 'spa.model.params', 'ValveParams': 'spa.model.params'}
+    >>> sorted(exports), exports["ValveParams"]
+    (['DELAY_CONVENTIONS', 'PHYSICAL_RANGE', 'ValveParams'], 'spa.model.params')
     >>> getattr_("ValveParams").__name__
     'ValveParams'
     """

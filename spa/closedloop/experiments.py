@@ -17,8 +17,8 @@ from spa.closedloop.controller import PIController
 from spa.closedloop.design import MAX_PERIOD, feedforward
 from spa.closedloop.loop import closed_loop_arrays, simulate_closed_loop
 from spa.closedloop.metrics import STEP_METRICS, sine_metrics, step_metrics, step_rows
-from spa.model.averaging import pulse_times
-from spa.model.modulators import Modulator
+from spa.model.modulators import Modulator, get_kind
+from spa.model.modulators.core import settings_arrays
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -59,15 +59,11 @@ def cycle_period(modulator: Modulator, params: ValveParams, level: float, dt: fl
 
     The window of the cycle-mean pressure (:func:`spa.closedloop.metrics.cycle_mean`).
     """
-    xi = float(feedforward([level], modulator, params)[0])
-    if modulator.kind == "dsm":
-        # First-order ΔΣ repeats its minority level once every T_DS/min(xi, 1 - xi): that is
-        # its cycle (pulse_times gives the paper's approximate mean durations).
-        minority = min(xi, 1.0 - xi)
-        period = modulator.settings["period"] / minority if minority > 0.0 else MAX_PERIOD
-        return float(np.clip(period, 2.0 * dt, MAX_PERIOD))
-    t_h, t_l = pulse_times(modulator.kind, xi, **modulator.settings)
-    return float(np.clip(float(t_h) + float(t_l), 2.0 * dt, MAX_PERIOD))
+    xi = np.float64(feedforward([level], modulator, params)[0])
+    settings = settings_arrays(modulator.kind, dict(modulator.settings))
+    # the kind's own cycle (ΔΣ: the time between its minority pulses)
+    period = float(np.asarray(get_kind(modulator.kind).cycle(xi, settings, params)))
+    return float(np.clip(period, 2.0 * dt, MAX_PERIOD))
 
 
 def step_periods(

@@ -127,6 +127,13 @@ class ModulatorKind:
 
         return train_mean(*self.pulse_times(x, s, p), p)
 
+    def cycle(self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams) -> Any:
+        """The time after which the train repeats at a constant input, s: the pulse period
+        ``t_h + t_l`` of :meth:`pulse_times` (``inf`` where it never pulses). The window of a
+        cycle-mean pressure (:func:`spa.closedloop.experiments.cycle_period`)."""
+        t_h, t_l = self.pulse_times(x, s, p)
+        return np.asarray(t_h, dtype=np.float64) + np.asarray(t_l, dtype=np.float64)
+
     def min_pulse(self, moving: npt.NDArray[np.float64], s: Mapping[str, Any]) -> Any:
         """Shortest pulse that moves the pressure, from the steady durations' ``moving``."""
         return moving

@@ -85,6 +85,11 @@ class DSM(ModulatorKind):
             return dsm_mean(x, s["period"], p)
         return dsm_mean(x, s["period"], p, max_denominator=max_denominator)
 
+    def cycle(self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams) -> Any:
+        """First-order ΔΣ repeats its minority level once every ``T_DS/min(xi, 1 - xi)``
+        (:meth:`pulse_times` gives the paper's approximate mean durations instead)."""
+        return safe_div(s["period"], np.minimum(x, 1.0 - x), np.inf)
+
     def min_pulse(self, moving: npt.NDArray[np.float64], s: Mapping[str, Any]) -> Any:
         """The clock period wherever anything pulses."""
         return np.where(np.isfinite(moving), np.asarray(s["period"])[..., 0], np.inf)
