@@ -18,7 +18,8 @@ to the content of ``params.yaml``; :func:`identification_commands` and
 
 The modules follow the stages of that work: ``results`` (what is returned), ``rates`` (dP/dt
 and segments), ``rate_fits`` (experiments 1 and 2), ``delays`` (experiment 3), ``identify``
-(the three chained), ``experiments`` (the experiment design, for the simulator and a bench)
+(the three chained, then refined), ``convention`` (which delay convention the valve has),
+``experiments`` (the experiment design, for the simulator and a bench)
 and ``identified`` (a ``params.yaml`` read back for the stages that use the valve, with the
 corners of its 95 % box).
 
@@ -35,6 +36,7 @@ from spa._lazy import lazy_exports
 #: Submodules whose ``__all__`` the package re-exports (imported on first use).
 _MODULES = (
     "adequacy",
+    "convention",
     "delays",
     "experiments",
     "identified",
