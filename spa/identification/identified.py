@@ -88,15 +88,10 @@ def read_intervals(
     """
     out: dict[str, tuple[float, float]] = {}
     for name in PARAMETERS:
-        item = mapping.get(name)
-        if not isinstance(item, Mapping) or item.get("lo") is None or item.get("hi") is None:
+        interval = _interval(mapping, name)
+        if interval is None:
             continue
-        lo = checks.number(f"{name}.lo", item["lo"])
-        hi = checks.number(f"{name}.hi", item["hi"])
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-            raise ValueError(
-                f"{name}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]"
-            )
+        lo, hi = interval
         edge = 0.0 if name in DELAYS else (hi * 1e-3 if hi > 0 else _FLOOR)
         if lo < edge or (lo <= 0 and name not in DELAYS):
             if clipped is not None:
@@ -104,16 +99,23 @@ def read_intervals(
             lo = edge
             hi = max(hi, edge)
         out[name] = (lo, hi)
-    item = mapping.get(DIFFERENCE)
-    if isinstance(item, Mapping) and item.get("lo") is not None and item.get("hi") is not None:
-        lo = checks.number(f"{DIFFERENCE}.lo", item["lo"])
-        hi = checks.number(f"{DIFFERENCE}.hi", item["hi"])
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-            raise ValueError(
-                f"{DIFFERENCE}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]"
-            )
-        out[DIFFERENCE] = (lo, hi)
+    difference = _interval(mapping, DIFFERENCE)  # signed: no domain edge
+    if difference is not None:
+        out[DIFFERENCE] = difference
     return out
+
+
+def _interval(mapping: Mapping[str, Any], name: str) -> tuple[float, float] | None:
+    """``mapping[name]``'s ``(lo, hi)``, checked finite with ``lo <= hi``; None for a flat
+    entry or one whose ``lo`` or ``hi`` is null (no interval)."""
+    item = mapping.get(name)
+    if not isinstance(item, Mapping) or item.get("lo") is None or item.get("hi") is None:
+        return None
+    lo = checks.number(f"{name}.lo", item["lo"])
+    hi = checks.number(f"{name}.hi", item["hi"])
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
+        raise ValueError(f"{name}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]")
+    return lo, hi
 
 
 def corners(

@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa.model.params import DELAY_CONVENTIONS, ValveParams
+from spa.model.params import ValveParams
 
 __all__ = [
     "UNITS",
@@ -372,10 +372,7 @@ def load_params(mapping: Mapping[str, Any]) -> ValveParams:
     return ValveParams(**values, delay=_delay_of(mapping))
 
 
-def _delay_of(mapping: Mapping[str, Any]) -> str:
+def _delay_of(mapping: Mapping[str, Any]) -> Any:
     """The delay convention ``params.yaml`` states (top-level ``delay``; ``"hold"``, the
-    paper's, when absent)."""
-    delay = mapping.get("delay", "hold")
-    if delay not in DELAY_CONVENTIONS:
-        raise ValueError(f"'delay' must be one of {', '.join(DELAY_CONVENTIONS)}, got {delay!r}")
-    return str(delay)
+    paper's, when absent); :class:`~spa.model.params.ValveParams` checks it."""
+    return mapping.get("delay", "hold")

@@ -22,6 +22,31 @@ from spa.model.params import ValveParams, valve_params
 __all__ = ["chattering_estimate", "pseudo_steady_mean", "pseudo_steady_state"]
 
 
+def train_segments(
+    th: npt.NDArray[np.float64], tl: npt.NDArray[np.float64], p: ValveParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A periodic train's charging and discharging times per cycle, and whether it charges
+    and discharges at all (for :func:`pseudo_steady_state` and
+    :func:`spa.model.periodic.train_mean`).
+
+    The times are the pulse widths less what the delays take (the hold convention's holds,
+    the transport convention's shift of the edges: :attr:`ValveParams.on_loss`), at least 0.
+    A pulse of zero width is no pulse (under the transport convention the delays would
+    otherwise stretch it); a level that lasts forever leaves the other unreached.
+
+    Examples
+    --------
+    >>> h, l, c, d = train_segments(np.array([0.02]), np.array([0.02]), ValveParams())
+    >>> h.round(4).tolist(), l.round(4).tolist(), c.tolist(), d.tolist()
+    ([0.017], [0.01], [True], [True])
+    """
+    h = np.maximum(th - p.on_loss, 0.0)
+    l_eff = np.maximum(tl - p.off_loss, 0.0)
+    charges = (h > 0.0) & np.isfinite(tl) & (th > 0.0)
+    discharges = (l_eff > 0.0) & np.isfinite(th) & (tl > 0.0)
+    return h, l_eff, charges, discharges
+
+
 def chattering_estimate(
     t_h: npt.ArrayLike, p_eq: npt.ArrayLike, params: ValveParams | None = None
 ) -> Floats:
@@ -111,14 +136,7 @@ def pseudo_steady_state(
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     if np.any(np.isnan(th)) or np.any(np.isnan(tl)) or np.any(th < 0) or np.any(tl < 0):
         raise ValueError("t_h and t_l must be >= 0 (inf allowed), not NaN")
-    # The charging and discharging times of a cycle: the pulse widths less what the delays
-    # take (the hold convention's holds; the transport convention's shift of the edges).
-    h = np.maximum(th - p.on_loss, 0.0)
-    l_eff = np.maximum(tl - p.off_loss, 0.0)
-    # A pulse of zero width is no pulse (under the transport convention the delays would
-    # otherwise stretch it).
-    charges = (h > 0.0) & np.isfinite(tl) & (th > 0.0)
-    discharges = (l_eff > 0.0) & np.isfinite(th) & (tl > 0.0)
+    h, l_eff, charges, discharges = train_segments(th, tl, p)
     both = charges & discharges
     # Placeholders outside `both` keep the arithmetic finite; those entries are overwritten.
     hb = np.where(both, h, 1.0)

@@ -34,7 +34,7 @@ import numpy.typing as npt
 from spa import _checks as checks
 from spa._docs import fill_doc
 from spa.model._broadcast import Floats, as_output
-from spa.model.chattering import pseudo_steady_state
+from spa.model.chattering import pseudo_steady_state, train_segments
 from spa.model.params import ValveParams, valve_params
 from spa.model.plant import charge, discharge
 
@@ -134,10 +134,7 @@ def train_mean(t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | Non
     p = valve_params(params)
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     hi, lo = (np.asarray(a, dtype=np.float64) for a in pseudo_steady_state(th, tl, p))
-    h = np.maximum(th - p.on_loss, 0.0)
-    l_eff = np.maximum(tl - p.off_loss, 0.0)
-    charges = (h > 0.0) & np.isfinite(tl) & (th > 0.0)
-    discharges = (l_eff > 0.0) & np.isfinite(th) & (tl > 0.0)
+    h, _, charges, discharges = train_segments(th, tl, p)
     both = charges & discharges
     th_b, tl_b, h_b = (np.where(both, a, 1.0) for a in (th, tl, h))
     area = (
@@ -219,14 +216,14 @@ def _dsm_orbit(
     n_el = pattern.size
     counts = (table > 0).sum(axis=1)[pattern]
     # What each run loses to the delays (a hold, or the transport convention's shift).
-    holds = np.where(np.arange(runs_t.shape[0]) % 2 == 0, p.on_loss, p.off_loss)
+    losses = np.where(np.arange(runs_t.shape[0]) % 2 == 0, p.on_loss, p.off_loss)
     holding = p.delay == "hold"
     lengths, actives = [], []
     for r in range(runs_t.shape[0]):
         n = int(np.searchsorted(-counts, -r, side="left"))  # elements with more than r runs
         length = runs_t[r][pattern[:n]] * period[:n]
         lengths.append(length)
-        actives.append(np.maximum(length - holds[r], 0.0))
+        actives.append(np.maximum(length - losses[r], 0.0))
 
     def cycle(start: npt.NDArray[np.float64]) -> tuple[np.ndarray, np.ndarray]:
         """The cycle map and its derivative at ``start``."""

@@ -29,8 +29,9 @@ __all__ = [
 ]
 
 
-#: The two delay conventions of the exact simulator (docs/model.md section 1).
 def _check_delay(delay: str | None, params: ValveParams | None = None) -> str:
+    """The delay convention to simulate with: ``delay``, or the valve's own when None
+    (docs/model.md section 1)."""
     if delay is None:
         return params.delay if params is not None else "hold"
     if delay not in DELAY_CONVENTIONS:
