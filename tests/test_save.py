@@ -39,3 +39,32 @@ def test_the_svg_keeps_the_layout_the_png_computed(tmp_path: Path) -> None:
         assert np.array_equal(ax.get_position().bounds, ref.get_position().bounds)
     svg = (tmp_path / "a.svg").read_text()
     assert svg.count('<g id="axes_') == 2 and "<dc:date>" not in svg
+
+
+def _varied(shape: str):
+    """Figures whose constrained layout has work to do: a suptitle, a legend beside, log axes."""
+    fig = new_figure(figsize=(9.0, 5.0), layout="constrained")
+    rows, cols = (2, 3) if shape == "grid" else (1, 1)
+    t = np.logspace(-2, 2, 400)
+    for i, ax in enumerate(np.atleast_1d(fig.subplots(rows, cols)).ravel()):
+        ax.loglog(t, t ** (0.5 + i), label=f"curve {i}")
+        ax.set_title(f"panel {i}")
+        ax.set_ylabel("cost (bar$^2$)")
+    fig.suptitle("a title over every panel")
+    fig.axes[-1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    return fig
+
+
+def test_one_layout_gives_the_bytes_of_savefig_s_two_drawings(tmp_path: Path) -> None:
+    """The layout computed before drawing (save._lay_out) is savefig's own: PNG bytes equal."""
+    for shape in ("grid", "single"):
+        save_figure(_varied(shape), tmp_path / f"{shape}.png", vector=False)
+        _varied(shape).savefig(
+            tmp_path / f"{shape}-plain.png",
+            dpi=PNG_DPI,
+            metadata={"Software": None},
+            pil_kwargs={"compress_level": 3},
+        )
+        assert (tmp_path / f"{shape}.png").read_bytes() == (
+            tmp_path / f"{shape}-plain.png"
+        ).read_bytes()
