@@ -171,7 +171,7 @@ def _lay_out(fig: Any, dpi: int) -> None:
     ``savefig`` of a figure that has a layout engine draws it twice: once with drawing
     disabled, to run the engine, then for real. Computing the layout here, on an Agg canvas
     at the PNG's resolution, and removing the engine leaves ``savefig`` one drawing: the same
-    pixels, byte for byte (``tests/test_save.py``), in about 12 % less time
+    pixels, byte for byte (``tests/test_save.py``), in about a fifth less time
     (``benchmarks/README.md``, "Figures: one drawing a format").
     """
     engine = fig.get_layout_engine()
