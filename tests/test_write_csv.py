@@ -10,7 +10,7 @@ import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spa.io import _plain_csv, write_csv
+from spa.io import _plain_columns, _plain_lines, write_csv
 
 SPECIAL = [0.0, -0.0, np.inf, -np.inf, 1e-300, 5e-324, 1e20, 123456789012.0, 1 / 3, 0.1, 1e-5]
 
@@ -43,7 +43,7 @@ words = st.lists(st.text(alphabet='ab ,"\n\r', max_size=3), min_size=1, max_size
 def test_bytes_are_pandas_bytes(cols: list[np.ndarray], data: st.DataObject) -> None:
     rows = min(len(c) for c in cols)
     df = pd.DataFrame({f"c{j}": c[:rows] for j, c in enumerate(cols)})
-    assert (_plain_csv(df) is None) == (len(cols) == 1 and cols[0].dtype == object)
+    assert (_plain_columns(df) is None) == (len(cols) == 1 and cols[0].dtype == object)
     assert _ours(df) == _pandas(df)
 
 
@@ -52,7 +52,7 @@ def test_bytes_are_pandas_bytes(cols: list[np.ndarray], data: st.DataObject) -> 
 def test_words_that_need_quotes_are_quoted_as_pandas_quotes_them(values: list[str]) -> None:
     df = pd.DataFrame({"run": np.array(values, dtype=object), "x": np.arange(len(values)) / 3})
     plain = not any(set(v) & set(',"\n\r') for v in values)
-    assert (_plain_csv(df) is not None) == plain
+    assert (_plain_columns(df) is not None) == plain
     assert _ours(df) == _pandas(df)
 
 
@@ -68,10 +68,21 @@ def test_tables_the_fast_path_leaves_to_pandas_are_written_as_pandas_writes_them
         "no column": pd.DataFrame(),
     }
     for name, df in tables.items():
-        assert _plain_csv(df) is None, name
+        assert _plain_columns(df) is None, name
         assert _ours(df) == _pandas(df), name
 
 
 def test_an_empty_table_keeps_its_header() -> None:
     df = pd.DataFrame({"t": np.array([], dtype=float), "n": np.array([], dtype=np.int64)})
     assert _ours(df) == _pandas(df) == b"t,n\n"
+
+
+def test_a_table_longer_than_a_chunk_is_written_chunk_by_chunk_to_the_same_bytes() -> None:
+    n = 1000
+    df = pd.DataFrame({"t": np.arange(n) / 7.0, "valve": np.arange(n) % 2, "run": "a"})
+    plain = _plain_columns(df)
+    assert plain is not None
+    whole = "".join(_plain_lines(*plain, chunk=n))
+    for chunk in (1, 7, 999, 1000, 5000):
+        assert "".join(_plain_lines(*plain, chunk=chunk)) == whole
+    assert whole.encode() == _pandas(df)
