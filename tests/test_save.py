@@ -68,3 +68,10 @@ def test_one_layout_gives_the_bytes_of_savefig_s_two_drawings(tmp_path: Path) ->
         assert (tmp_path / f"{shape}.png").read_bytes() == (
             tmp_path / f"{shape}-plain.png"
         ).read_bytes()
+
+
+def test_the_figure_keeps_its_canvas_and_resolution(tmp_path: Path) -> None:
+    fig = _varied("grid")
+    canvas, dpi = fig.canvas, fig.dpi
+    save_figure(fig, tmp_path / "a.png", vector=False)
+    assert fig.canvas is canvas and fig.dpi == dpi and fig.get_layout_engine() is None

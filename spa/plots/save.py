@@ -169,20 +169,21 @@ def _lay_out(fig: Any, dpi: int) -> None:
     """Compute the figure's layout once, at ``dpi``, and remove its layout engine.
 
     ``savefig`` of a figure that has a layout engine draws it twice: once with drawing
-    disabled, to run the engine, then for real. Computing the layout here, on an Agg canvas
-    at the PNG's resolution, and removing the engine leaves ``savefig`` one drawing: the same
-    pixels, byte for byte (``tests/test_save.py``), in about a fifth less time
-    (``benchmarks/README.md``, "Figures: one drawing a format").
+    disabled, to run the engine, then for real. Running the engine here, with the renderer
+    ``savefig`` would use at the PNG's resolution, and removing it leaves ``savefig`` one
+    drawing: the same pixels, byte for byte (``tests/test_save.py``), in about a fifth less
+    time (``benchmarks/README.md``, "Figures: one drawing a format"). The figure's canvas
+    and resolution are left as they were.
     """
     engine = fig.get_layout_engine()
     if engine is None:
         return
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    if not isinstance(fig.canvas, FigureCanvasAgg):
-        FigureCanvasAgg(fig)
-    fig.set_dpi(dpi)
-    engine.execute(fig)
+    own = fig.dpi
+    fig.set_dpi(dpi)  # the layout's text extents are measured at the PNG's resolution
+    try:
+        engine.execute(fig)
+    finally:
+        fig.set_dpi(own)
     fig.set_layout_engine(None)
 
 
