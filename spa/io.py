@@ -232,12 +232,9 @@ def read_params(path: str | Path) -> ValveParams:
     ValueError
         If a parameter is missing or invalid; the message names the file and the parameter.
     """
-    import yaml
-
     from spa.identification import load_params
 
-    with open(path, encoding="utf-8") as fh:
-        content = yaml.safe_load(fh)
+    content = read_yaml(path)
     if not isinstance(content, dict):
         raise ValueError(f"{path}: expected a mapping of parameters, got {type(content).__name__}")
     try:

@@ -425,8 +425,9 @@ def with_fit_before_refinement(
     """
     import yaml
 
-    with open(params_file) as fh:
-        start = ((yaml.safe_load(fh) or {}).get("refinement") or {}).get("start")
+    with open(params_file, encoding="utf-8") as fh:  # libyaml's parser where PyYAML has it
+        content = yaml.load(fh, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    start = ((content or {}).get("refinement") or {}).get("start")
     if not start:
         return table
     before = validate_runs(runs, ValveParams(**start), modulators, kinds)

@@ -9,6 +9,7 @@ from typing import Any
 import yaml
 
 from spa._checks import MAX_GRID_VALUES, MAX_SWEEP_POINTS
+from spa.io import read_yaml
 
 __all__ = [
     "MAX_GRID_VALUES",
@@ -405,7 +406,7 @@ def validate_config(config: Mapping[str, Any], schema_path: str | Path) -> None:
     ConfigError
         Listing every problem, each naming its key and what is allowed.
     """
-    schema = yaml.safe_load(Path(schema_path).read_text())
+    schema = read_yaml(schema_path)
     coerce_numbers(config, schema)
     errors = config_errors(config, schema)
     if errors:

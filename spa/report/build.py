@@ -10,9 +10,8 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-import yaml
 
-from spa.io import PNG_DPI, dump_yaml
+from spa.io import PNG_DPI, dump_yaml, read_yaml
 from spa.pipeline.outputs import (
     FIGURE,
     FIGURES,
@@ -139,9 +138,9 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
         body = f'<img src="{embed_png(path)}" alt="{alt}" width="{width}" height="{height}">'
         attrs = f' class="fig" style="max-width:{width + 2}px"'
     elif item.kind == RECOMMENDATION:
-        body = recommendation_html(yaml.safe_load(path.read_text(encoding="utf-8")))
+        body = recommendation_html(read_yaml(path))
     elif item.kind == PARAMS:
-        params = yaml.safe_load(path.read_text(encoding="utf-8"))
+        params = read_yaml(path)
         body = f'<div class="scroll">{html_table(params_table(params))}</div>'
         body += "".join(
             f'<p class="note">{html.escape(n)}</p>' for n in identification_notes(params)

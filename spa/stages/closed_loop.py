@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-import yaml
 
 from spa.closedloop.bench import BenchOutputs
 from spa.closedloop.comparison import ClosedLoopResult, write_controllers
@@ -16,7 +15,7 @@ from spa.closedloop.promise import design_for_dataset
 from spa.closedloop.replay import recorded_runs
 from spa.datasets import read_runs
 from spa.identification.identified import read_identified
-from spa.io import write_csv
+from spa.io import read_yaml, write_csv
 from spa.plots.closedloop import fig10, fig11, no_design
 from spa.plots.save import draw
 
@@ -61,8 +60,8 @@ def close_dataset_loop(
     rec_path = Path(recommendation_path)
     # {} rather than None: without a recommendation the stage compares the selected settings
     # alone (design_for_dataset reads None as "take the adequacy from params.yaml")
-    recommendation = yaml.safe_load(rec_path.read_text()) if rec_path.is_file() else {}
-    identified = yaml.safe_load(Path(params_path).read_text())
+    recommendation = read_yaml(rec_path) if rec_path.is_file() else {}
+    identified = read_yaml(params_path)
     runs, metas = read_runs(run_paths)
     result, bench = design_for_dataset(
         identified, runs, metas, selected, cfg, recommendation=recommendation
