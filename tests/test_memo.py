@@ -83,26 +83,25 @@ def test_tuning_corners_kept_give_the_table_computed_without_them(folder, monkey
     calls: list[int] = []
     real = tables._corner_optima
 
-    def corner(*args, **kwargs):
-        calls.append(1)
-        return real(*args, **kwargs)
+    def corner(grids, valves, n_xi):  # one call for the estimate and every corner
+        calls.append(len(valves))
+        return real(grids, valves, n_xi)
 
     monkeypatch.setattr(tables, "_corner_optima", corner)
     tables.tuning_table(SWEEPS, VALVE, 20, intervals=BOX)
-    first = len(calls)
-    assert first == 1 + 2**3
+    assert calls == [1 + 2**3]
     opts = TuningOptions(max_chattering=0.04)
     kept = tables.tuning_table(SWEEPS, VALVE, 20, intervals=BOX, options=opts)
-    assert len(calls) == first  # the corners came from the memo
+    assert calls == [1 + 2**3]  # the corners came from the memo
     _memo.use_folder(None)
     fresh = tables.tuning_table(SWEEPS, VALVE, 20, intervals=BOX, options=opts)
-    assert len(calls) == 2 * first
+    assert calls == [1 + 2**3] * 2
     assert kept.to_csv() == fresh.to_csv()
     pd.testing.assert_frame_equal(kept, fresh)
     wider = {**BOX, "tau2": (0.69, 0.71)}
     _memo.use_folder(folder, code_digest())
     tables.tuning_table(SWEEPS, VALVE, 20, intervals=wider, options=opts)
-    assert len(calls) == 2 * first + 1 + 2**4
+    assert calls == [1 + 2**3, 1 + 2**3, 1 + 2**4]
 
 
 DRAWN: list[str] = []

@@ -25,8 +25,10 @@ where it ends and ``a`` its length, the closed-form integrals are
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from fractions import Fraction
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +44,7 @@ __all__ = [
     "charge_integral",
     "discharge_integral",
     "dsm_mean",
+    "dsm_means",
     "dsm_runs",
     "train_mean",
 ]
@@ -201,43 +204,63 @@ def _pattern(xi: float, max_denominator: int) -> tuple[int, ...]:
     return _runs(frac.numerator, frac.denominator)
 
 
+class _Valves(NamedTuple):
+    """The valve of each element of a batch of ΔΣ orbits, as arrays (one value an element):
+    what :func:`spa.model.plant.charge`, :func:`~spa.model.plant.discharge` and the
+    integrals read of a valve."""
+
+    c1: npt.NDArray[np.float64]
+    k2: npt.NDArray[np.float64]
+    tau2: npt.NDArray[np.float64]
+    on_loss: npt.NDArray[np.float64]
+    off_loss: npt.NDArray[np.float64]
+
+    def first(self, n: int) -> _Valves:
+        """The first ``n`` elements' valves."""
+        return _Valves(*(field[:n] for field in self))
+
+
 def _dsm_orbit(
     table: npt.NDArray[np.int64],
     pattern: npt.NDArray[np.int64],
     period: npt.NDArray[np.float64],
-    p: ValveParams,
+    valves: _Valves,
+    holding: bool,
 ) -> npt.NDArray[np.float64]:
-    """Cycle means of the elements with pattern ``table[pattern[e]]`` at clock ``period[e]``.
+    """Cycle means of the elements with pattern ``table[pattern[e]]`` at clock ``period[e]``
+    on valve ``e`` of ``valves`` (``holding``: the hold convention, or transport).
 
     ``table`` holds one zero-padded row of run lengths per pattern; the elements are sorted
     by decreasing number of runs, so that those still running at run ``r`` are a prefix.
+    Each element's Newton iteration stops on its own step, so an element's mean does not
+    depend on the other elements of the batch.
     """
     runs_t = np.ascontiguousarray(table.T)  # run r of every pattern: runs_t[r]
     n_el = pattern.size
     counts = (table > 0).sum(axis=1)[pattern]
-    # What each run loses to the delays (a hold, or the transport convention's shift).
-    losses = np.where(np.arange(runs_t.shape[0]) % 2 == 0, p.on_loss, p.off_loss)
-    holding = p.delay == "hold"
-    lengths, actives = [], []
+    lengths, actives, prefixes = [], [], []
     for r in range(runs_t.shape[0]):
         n = int(np.searchsorted(-counts, -r, side="left"))  # elements with more than r runs
         length = runs_t[r][pattern[:n]] * period[:n]
+        # What each run loses to the delays (a hold, or the transport convention's shift).
+        loss = (valves.on_loss if r % 2 == 0 else valves.off_loss)[:n]
         lengths.append(length)
-        actives.append(np.maximum(length - losses[r], 0.0))
+        actives.append(np.maximum(length - loss, 0.0))
+        prefixes.append(valves.first(n))
 
     def cycle(start: npt.NDArray[np.float64]) -> tuple[np.ndarray, np.ndarray]:
         """The cycle map and its derivative at ``start``."""
         x = start.copy()
         slope = np.ones(n_el)
-        for r, active in enumerate(actives):
+        for r, (active, v) in enumerate(zip(actives, prefixes, strict=True)):
             n = active.size
             before = x[:n]
             if r % 2 == 0:
-                after = charge(before, active, p)
-                gap = p.k2 - before
-                d = np.divide(p.k2 - after, gap, out=np.zeros(n), where=gap > 0.0)
+                after = charge(before, active, v)
+                gap = v.k2 - before
+                d = np.divide(v.k2 - after, gap, out=np.zeros(n), where=gap > 0.0)
             else:
-                after = discharge(before, active, p)
+                after = discharge(before, active, v)
                 d = np.divide(np.sqrt(after), np.sqrt(before), out=np.zeros(n), where=before > 0)
                 d = np.where(active > 0.0, d, 1.0)
             slope[:n] *= d
@@ -247,24 +270,26 @@ def _dsm_orbit(
     # G(P) = F(P) - P is convex and decreasing on [0, k2] (charges are affine, discharges
     # convex, all non-decreasing), so Newton's method from P = 0 climbs to the root.
     x = np.zeros(n_el)
+    done = np.zeros(n_el, dtype=bool)
     for _ in range(_NEWTON_MAX):
         f, slope = cycle(x)
-        step = np.divide(f - x, 1.0 - slope, out=np.zeros(n_el), where=slope < 1.0)
-        x = np.clip(x + step, 0.0, p.k2)
-        if np.max(np.abs(step), initial=0.0) < _NEWTON_TOL:
+        step = np.divide(f - x, 1.0 - slope, out=np.zeros(n_el), where=(slope < 1.0) & ~done)
+        x = np.clip(x + step, 0.0, valves.k2)
+        done |= np.abs(step) < _NEWTON_TOL
+        if done.all():
             break
     area = np.zeros(n_el)
-    for r, (length, active) in enumerate(zip(lengths, actives, strict=True)):
+    for r, (length, active, v) in enumerate(zip(lengths, actives, prefixes, strict=True)):
         n = active.size
         before = x[:n]
         if holding:
             area[:n] += before * (length - active)  # the hold
         if r % 2 == 0:
-            after = charge(before, active, p)
-            area[:n] += charge_integral(before, after, active, p)
+            after = charge(before, active, v)
+            area[:n] += charge_integral(before, after, active, v)
         else:
-            after = discharge(before, active, p)
-            area[:n] += discharge_integral(before, after, p)
+            after = discharge(before, active, v)
+            area[:n] += discharge_integral(before, after, v)
         x[:n] = after
     return area / (table.sum(axis=1)[pattern] * period)
 
@@ -314,23 +339,75 @@ def dsm_mean(
     >>> bool(abs(dsm_mean(0.5, 0.02) - train_mean(0.02, 0.02)) < 1e-12)  # 1 high, 1 low
     True
     """
-    p = valve_params(params)
+    return as_output(dsm_means(xi, [period], [valve_params(params)], max_denominator)[0])
+
+
+def dsm_means(
+    xi: npt.ArrayLike,
+    periods: Sequence[npt.ArrayLike],
+    valves: Sequence[ValveParams],
+    max_denominator: int = 1000,
+) -> npt.NDArray[np.float64]:
+    """:func:`dsm_mean` of several valves, each at its own clock periods, in one batch.
+
+    Parameters
+    ----------
+    xi : array_like of float
+        Input fractions, as :func:`dsm_mean`; shared by every valve.
+    periods : sequence of array_like of float
+        The clock periods of each valve (> 0), each broadcasting with ``xi`` to one shape.
+    valves : sequence of ValveParams
+        One a row of the result, as many as ``periods``.
+    max_denominator : int, default 1000
+        As :func:`dsm_runs`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(len(valves),) + shape``: row ``j`` is ``dsm_mean(xi, periods[j],
+        valves[j])``, bit for bit (each orbit's Newton iteration stops on its own step).
+
+    Raises
+    ------
+    ValueError
+        As :func:`dsm_mean`, or if ``periods`` and ``valves`` differ in length or are empty.
+
+    Examples
+    --------
+    >>> from spa.model.params import ValveParams
+    >>> a, b = ValveParams(), ValveParams(k2=0.8)
+    >>> batch = dsm_means([0.3, 0.7], [0.02, 0.05], [a, b])
+    >>> bool(batch[0, 1] == dsm_mean(0.7, 0.02, a) and batch[1, 0] == dsm_mean(0.3, 0.05, b))
+    True
+    """
+    if len(periods) != len(valves) or not valves:
+        raise ValueError(
+            f"expected one period array a valve, got {len(periods)} for {len(valves)} valves"
+        )
     x = np.clip(checks.finite_array("xi", xi), 0.0, 1.0)
-    t = checks.positive_array("period", period)
-    xb, tb = np.broadcast_arrays(x, t)
-    shape = xb.shape
-    xf, tf = xb.ravel(), tb.ravel()
+    ts = [checks.positive_array("period", t) for t in periods]
+    shape = np.broadcast_shapes(x.shape, *(t.shape for t in ts))
+    xf = np.broadcast_to(x, shape).ravel()
+    tf = np.stack([np.broadcast_to(t, shape).ravel() for t in ts])  # (valves, elements)
     uniq, inverse = np.unique(xf, return_inverse=True)
     patterns = [dsm_runs(float(v), max_denominator) for v in uniq]
     width = max((len(r) for r in patterns), default=0)
     table = np.zeros((len(patterns), max(width, 1)), dtype=np.int64)
     for i, r in enumerate(patterns):
         table[i, : len(r)] = r
-    count = np.array([len(r) for r in patterns])[inverse]
-    out = np.where(uniq[inverse] >= 1.0, p.k2, 0.0)
-    pulsing = count >= 2
-    if np.any(pulsing):
-        idx = np.flatnonzero(pulsing)
-        idx = idx[np.argsort(-count[idx], kind="stable")]
-        out[idx] = _dsm_orbit(table, inverse[idx], tf[idx], p)
-    return as_output(out.reshape(shape))
+    count = np.array([len(r) for r in patterns], dtype=np.int64)[inverse]
+    fields = {
+        f: np.array([getattr(v, f) for v in valves], dtype=np.float64) for f in _Valves._fields
+    }
+    out = np.where(uniq[inverse] >= 1.0, fields["k2"][:, np.newaxis], 0.0)
+    pulsing = np.flatnonzero(count >= 2)
+    order = pulsing[np.argsort(-count[pulsing], kind="stable")]  # most runs first
+    for holding in (True, False):  # each convention's orbits in a batch of their own
+        rows = np.flatnonzero([(v.delay == "hold") == holding for v in valves])
+        if not (order.size and rows.size):
+            continue
+        el = np.repeat(order, rows.size)  # still by decreasing number of runs
+        row = np.tile(rows, order.size)
+        batch = _Valves(*(fields[f][row] for f in _Valves._fields))
+        out[row, el] = _dsm_orbit(table, inverse[el], tf[row, el], batch, holding)
+    return out.reshape((len(valves), *shape))

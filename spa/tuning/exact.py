@@ -10,6 +10,8 @@ two costs differ, the averaging assumption does not hold for the valve at hand.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
@@ -20,7 +22,7 @@ from spa.model.modulators import get_kind
 from spa.model.params import ValveParams, valve_params
 from spa.tuning.cost import _on_xi_grid, deviation_cost
 
-__all__ = ["COST_TIE", "best_first", "exact_cost", "exact_curve", "tied_optimum"]
+__all__ = ["COST_TIE", "best_first", "exact_cost", "exact_costs", "exact_curve", "tied_optimum"]
 
 #: Costs (bar) that differ by less than this are equal when settings are ranked. Model-inverse
 #: PWM makes ``J`` zero by construction: its ``J`` over the sweep is rounding error (below
@@ -114,6 +116,55 @@ def exact_cost(
     curve = exact_curve(kind, value, p, n_xi, gain=gain)
     xi = np.linspace(0.0, 1.0, curve.shape[-1])
     return np.asarray(deviation_cost(curve, xi, p.k2), dtype=np.float64)[()]
+
+
+def exact_costs(
+    kind: str,
+    values: Sequence[float],
+    valves: Sequence[ValveParams],
+    n_xi: int = 100,
+) -> npt.NDArray[np.float64]:
+    """:func:`exact_cost` of one setting on each of several valves, in one batch.
+
+    Parameters
+    ----------
+    kind : str
+        Modulator type.
+    values : sequence of float
+        The swept parameter's value on each valve.
+    valves : sequence of ValveParams
+        As many as ``values`` (the corners of a parameter box, say).
+    n_xi : int, default 100
+        As :func:`exact_cost`.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``J_exact`` of each (value, valve), bit for bit :func:`exact_cost`'s: a kind whose
+        orbit is iterated (ΔΣM) computes every valve's orbits in one Newton iteration
+        (:meth:`spa.model.modulators.ModulatorKind.periodic_means`).
+
+    Examples
+    --------
+    >>> a, b = ValveParams(), ValveParams(c1=0.6)
+    >>> costs = exact_costs("dsm", [0.02, 0.03], [a, b], n_xi=20)
+    >>> bool(costs[1] == exact_cost("dsm", 0.03, b, 20))
+    True
+    """
+    grids, xi = [], None
+    for value, valve in zip(values, valves, strict=True):
+        _, xi, grid = _on_xi_grid(kind, value, valve, n_xi, None)
+        grids.append(grid)
+    if xi is None:
+        return np.zeros(0)
+    curves = get_kind(kind).periodic_means(xi, grids, list(valves), max_denominator=xi.size - 1)
+    return np.array(
+        [
+            deviation_cost(np.asarray(curve, dtype=np.float64), xi, valve.k2)
+            for curve, valve in zip(curves, valves, strict=True)
+        ],
+        dtype=np.float64,
+    )
 
 
 def best_first(frame: pd.DataFrame, score: str) -> pd.DataFrame:

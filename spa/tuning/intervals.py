@@ -23,7 +23,7 @@ from spa._progress import progress
 from spa.identification.identified import corners
 from spa.model.params import ValveParams
 
-__all__ = ["INTERVAL_METHOD", "propagate"]
+__all__ = ["INTERVAL_METHOD", "box_points", "propagate", "spread"]
 
 #: How the intervals of the tuning tables are obtained.
 INTERVAL_METHOD = "corners"
@@ -57,13 +57,40 @@ def propagate(
     >>> round(float(lo), 4), round(float(hi), 4)
     (0.4185, 0.5022)
     """
-    points = [params, *corners(params, intervals)]
+    points = box_points(params, intervals)
     values = np.array(
         [
             np.asarray(result(p), dtype=np.float64)
             for p in progress(points, "95 % box corners", unit="valve")
         ]
     )
+    return spread(values)
+
+
+def box_points(
+    params: ValveParams, intervals: Mapping[str, tuple[float, float]] | None
+) -> list[ValveParams]:
+    """The point estimate, then every corner of the box (:func:`propagate`'s valves).
+
+    Examples
+    --------
+    >>> [p.c1 for p in box_points(ValveParams(), {"c1": (0.5, 0.6)})]
+    [0.533, 0.5, 0.6]
+    """
+    return [params, *corners(params, intervals)]
+
+
+def spread(values: npt.ArrayLike) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Element-wise smallest and largest of ``values`` over its first axis (one row a valve
+    of :func:`box_points`); NaN where every row is NaN.
+
+    Examples
+    --------
+    >>> lo, hi = spread([[1.0, np.nan], [3.0, np.nan]])
+    >>> lo.tolist(), hi.tolist()
+    ([1.0, nan], [3.0, nan])
+    """
     with warnings.catch_warnings():  # an all-NaN column gives NaN, as documented
         warnings.simplefilter("ignore", RuntimeWarning)
-        return np.nanmin(values, axis=0), np.nanmax(values, axis=0)
+        rows = np.asarray(values, dtype=np.float64)
+        return np.nanmin(rows, axis=0), np.nanmax(rows, axis=0)

@@ -11,7 +11,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -36,8 +36,8 @@ from spa.tuning.cost import (
     setting,
     sweep,
 )
-from spa.tuning.exact import best_first, exact_cost, exact_curve, tied_optimum
-from spa.tuning.intervals import INTERVAL_METHOD, propagate
+from spa.tuning.exact import best_first, exact_cost, exact_costs, exact_curve, tied_optimum
+from spa.tuning.intervals import INTERVAL_METHOD, box_points, spread
 from spa.tuning.recommend import TuningOptions, candidate_frame
 
 __all__ = ["equilibrium_frame", "optimum_table", "sweep_frame", "tuning_table"]
@@ -232,18 +232,21 @@ def _meeting_constraints(
 
 
 def _corner_optima(
-    grids: Mapping[str, Mapping[str, float]], params: ValveParams, n_xi: int
+    grids: Mapping[str, Mapping[str, float]], valves: Sequence[ValveParams], n_xi: int
 ) -> npt.NDArray[np.float64]:
-    """``[optimum, J_min, J_exact at it]`` per modulator (rows in order) for one valve."""
-    rows = []
-    for kind, g in grids.items():
-        values, j = sweep(kind, params, g["start"], g["stop"], g["step"], n_xi)
-        if not np.any(np.isfinite(j)):  # the error of optimum(): no feasible grid point
-            optimum(kind, params, g["start"], g["stop"], g["step"], n_xi)
-        i = tied_optimum(kind, values, j, params, n_xi)
-        value = float(values[i])
-        rows.append([value, float(j[i]), float(exact_cost(kind, value, params, n_xi))])
-    return np.array(rows)
+    """``[optimum, J_min, J_exact at it]`` per valve and modulator (shape ``(valves,
+    modulators, 3)``); each modulator's ``J_exact`` of every valve in one batch
+    (:func:`spa.tuning.exact.exact_costs`)."""
+    rows = np.empty((len(valves), len(grids), 3))
+    for k, (kind, g) in enumerate(grids.items()):
+        for v, params in enumerate(valves):
+            values, j = sweep(kind, params, g["start"], g["stop"], g["step"], n_xi)
+            if not np.any(np.isfinite(j)):  # the error of optimum(): no feasible grid point
+                optimum(kind, params, g["start"], g["stop"], g["step"], n_xi)
+            i = tied_optimum(kind, values, j, params, n_xi)
+            rows[v, k, :2] = float(values[i]), float(j[i])
+        rows[:, k, 2] = exact_costs(kind, rows[:, k, 0].tolist(), valves, n_xi)
+    return rows
 
 
 def tuning_table(
@@ -327,7 +330,7 @@ def tuning_table(
     lo, hi = memoised(
         "tuning-corners",
         {"params": p, "intervals": intervals or {}, "grids": grids, "n_xi": n},
-        lambda: np.stack(propagate(lambda q: _corner_optima(grids, q, n), p, intervals)),
+        lambda: np.stack(spread(_corner_optima(grids, box_points(p, intervals), n))),
     )
     rows = []
     for i, kind in enumerate(grids):

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -126,6 +126,23 @@ class ModulatorKind:
         from spa.model.periodic import train_mean
 
         return train_mean(*self.pulse_times(x, s, p), p)
+
+    def periodic_means(
+        self,
+        x: npt.NDArray[np.float64],
+        settings: Sequence[Mapping[str, Any]],
+        valves: Sequence[ValveParams],
+        max_denominator: int | None = None,
+    ) -> npt.NDArray[np.float64]:
+        """:meth:`periodic_mean` of several valves, each with its own settings: one row a
+        valve, each row bit for bit that valve's :meth:`periodic_mean` (a kind whose orbit
+        is iterated computes them in one batch)."""
+        return np.stack(
+            [
+                np.asarray(self.periodic_mean(x, s, p, max_denominator), dtype=np.float64)
+                for s, p in zip(settings, valves, strict=True)
+            ]
+        )
 
     def cycle(self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams) -> Any:
         """The time after which the train repeats at a constant input, s: the pulse period

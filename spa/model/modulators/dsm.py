@@ -8,7 +8,7 @@ pattern (:func:`spa.model.periodic.dsm_mean`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -84,6 +84,21 @@ class DSM(ModulatorKind):
         if max_denominator is None:
             return dsm_mean(x, s["period"], p)
         return dsm_mean(x, s["period"], p, max_denominator=max_denominator)
+
+    def periodic_means(
+        self,
+        x: npt.NDArray[np.float64],
+        settings: Sequence[Mapping[str, Any]],
+        valves: Sequence[ValveParams],
+        max_denominator: int | None = None,
+    ) -> npt.NDArray[np.float64]:
+        """Every valve's orbits in one Newton iteration (:func:`spa.model.periodic.dsm_means`)."""
+        from spa.model.periodic import dsm_means
+
+        periods = [s["period"] for s in settings]
+        if max_denominator is None:
+            return dsm_means(x, periods, valves)
+        return dsm_means(x, periods, valves, max_denominator=max_denominator)
 
     def cycle(self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams) -> Any:
         """First-order ΔΣ repeats its minority level once every ``T_DS/min(xi, 1 - xi)``
