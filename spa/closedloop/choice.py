@@ -52,19 +52,48 @@ def _least_overshoot(table: pd.DataFrame) -> float | None:
     return float(values.min()) if values.size else None
 
 
-def _worst(table: pd.DataFrame, label: str, controller: str, metric: str) -> float:
-    sel = table[
-        (table.modulator == label)
-        & (table.controller == controller)
-        & (table.experiment == "staircase")
-        & (table.metric == metric)
-    ]
-    return float(sel["max"].iloc[0]) if len(sel) else math.nan
-
-
 #: A step is settled when its mean pressure over the last quarter of the step is within
 #: this share of the step, %.
 SETTLED = 2.0
+
+
+class _Staircases:
+    """The staircase's metrics of every designed loop, read once from the comparison's table
+    and looked up by (setting, controller, metric), rather than filtering the whole table
+    for each of a ranking's questions (a key's first row, as a filter's first match)."""
+
+    def __init__(self, table: pd.DataFrame) -> None:
+        sel = table[table.experiment == "staircase"]
+        self._rows: dict[tuple[str, str, str], tuple[float, float]] = {}
+        for label, controller, metric, worst, missing in zip(
+            sel.modulator,
+            sel.controller,
+            sel.metric,
+            sel["max"].to_numpy(np.float64),
+            sel["n_missing"].to_numpy(np.float64),
+            strict=True,
+        ):
+            key = (str(label), str(controller), str(metric))
+            self._rows.setdefault(key, (float(worst), float(missing)))
+
+    def worst(self, label: str, controller: str, metric: str) -> float:
+        """The worst value of a staircase metric of a loop (NaN when the loop has none)."""
+        return self._rows.get((label, controller, metric), (math.nan, 0.0))[0]
+
+    def settled(self, label: str, controller: str) -> bool:
+        """Every staircase step of the loop ends within :data:`SETTLED` % of its size (the
+        mean pressure over the last quarter of the step, as a bench measures it)."""
+        row = self._rows.get((label, controller, "end_error"))
+        if row is None or int(row[1]) != 0:
+            return False
+        return bool(row[0] <= SETTLED)
+
+    def meets(self, label: str, controller: str, limit: float) -> bool:
+        """The loop overshoots at most ``limit`` % over the staircase AND every step ends
+        within 2 % of its size (:meth:`settled`): a longer ``tau_c`` that trades overshoot
+        for a loop that never settles does not meet."""
+        over = self.worst(label, controller, "overshoot")
+        return bool(math.isfinite(over) and over <= limit and self.settled(label, controller))
 
 
 def end_error(steps: pd.DataFrame) -> np.ndarray:
@@ -81,28 +110,6 @@ def end_error(steps: pd.DataFrame) -> np.ndarray:
     sse = np.abs(steps["steady_state_error"].to_numpy(np.float64))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(size > 0.0, 100.0 * sse / size, np.nan)
-
-
-def _settled(table: pd.DataFrame, label: str, controller: str) -> bool:
-    """Every staircase step of the loop ends within :data:`SETTLED` % of its size (the mean
-    pressure over the last quarter of the step, as a bench measures it)."""
-    sel = table[
-        (table.modulator == label)
-        & (table.controller == controller)
-        & (table.experiment == "staircase")
-        & (table.metric == "end_error")
-    ]
-    if not len(sel) or int(sel["n_missing"].iloc[0]) != 0:
-        return False
-    return bool(float(sel["max"].iloc[0]) <= SETTLED)
-
-
-def _meets(table: pd.DataFrame, label: str, controller: str, limit: float) -> bool:
-    """The loop overshoots at most ``limit`` % over the staircase AND every step ends within
-    2 % of its size (:func:`_settled`): a longer ``tau_c`` that trades overshoot for a loop
-    that never settles does not meet."""
-    over = _worst(table, label, controller, "overshoot")
-    return bool(math.isfinite(over) and over <= limit and _settled(table, label, controller))
 
 
 def _measured(recommendation: Mapping[str, Any] | None) -> frozenset[str] | None:
@@ -146,7 +153,7 @@ def ranked_choices(
 ) -> list[tuple[str, str]]:
     """Every designed (setting, controller), best first. The best: over every designed
     setting and controller, the smallest worst-case rise time among those overshooting at
-    most ``limit`` % over the staircase with every step settled (:func:`_meets`); else,
+    most ``limit`` % over the staircase with every step settled (:meth:`_Staircases.meets`); else,
     among those that settle, the smallest worst-case overshoot; else the smallest worst-case
     overshoot. Ties go to the tuning's recommended setting, then to the order of the table.
     When ``measured`` (the modulator types run on this bench and described there by the
@@ -160,15 +167,16 @@ def ranked_choices(
         return []
     designed = list(dict.fromkeys(table.modulator))
     recommended = rec.label if rec is not None else None
+    stairs = _Staircases(table)
     scores = []
     for order, label in enumerate(designed):
         for name in CONTROLLERS:
-            rise = _worst(table, label, name, "rise_time")
-            over = _worst(table, label, name, "overshoot")
+            rise = stairs.worst(label, name, "rise_time")
+            over = stairs.worst(label, name, "overshoot")
             if not (math.isfinite(rise) and math.isfinite(over)):
                 continue
-            ok = _meets(table, label, name, limit)
-            settled = _settled(table, label, name)
+            ok = stairs.meets(label, name, limit)
+            settled = stairs.settled(label, name)
             key = rise if ok else over
             kind = label.split("-", 1)[0]  # Modulator.label: "<type>-<setting>"
             unmeasured = measured is not None and kind not in measured
@@ -192,8 +200,9 @@ def closed_loop_sentence(
 
     kind = {"fixed": "fixed", "scheduled": "gain-scheduled", "scheduled_ff": "gain-scheduled"}
     ff = " with the averaged-model feed-forward" if controller == "scheduled_ff" else ""
-    rise = _worst(table, label, controller, "rise_time")
-    over = _worst(table, label, controller, "overshoot")
+    stairs = _Staircases(table)
+    rise = stairs.worst(label, controller, "rise_time")
+    over = stairs.worst(label, controller, "overshoot")
     sse = table[
         (table.modulator == label)
         & (table.controller == controller)
@@ -201,7 +210,7 @@ def closed_loop_sentence(
         & (table.metric == "steady_state_error")
     ]
     err = max(abs(float(sse["min"].iloc[0])), abs(float(sse["max"].iloc[0])))
-    settle = _worst(table, label, controller, "settling_time")
+    settle = stairs.worst(label, controller, "settling_time")
     levels = gains[label].get("levels") or []
     where = f" {min(levels):.3g}–{max(levels):.3g} bar" if levels else ""
     rise_text = (

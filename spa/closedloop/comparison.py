@@ -24,8 +24,7 @@ from spa.closedloop.choice import (
     _choice,
     _least_overshoot,
     _measured,
-    _meets,
-    _worst,
+    _Staircases,
     closed_loop_sentence,
     end_error,
     held_clause,
@@ -381,7 +380,7 @@ def closed_loop(
         )
         table = pd.DataFrame(rows)
         choice = _choice(table, rec, limit, measured)
-        met = choice is not None and _meets(table, *choice, limit)
+        met = choice is not None and _Staircases(table).meets(*choice, limit)
         tried.append(
             {
                 "tau_c": used,
@@ -416,8 +415,9 @@ def closed_loop(
         controllers["setting"] = gains[choice[0]]["setting"]
         controllers["controller"] = choice[1]
         ranked = ranked_choices(table, rec, limit, measured)
+        stairs = _Staircases(table)
         controllers["meeting"] = [
-            [label, name] for label, name in ranked if _meets(table, label, name, limit)
+            [label, name] for label, name in ranked if stairs.meets(label, name, limit)
         ]
         # every designed loop, best first: the promise tries the verifiable ones that do not
         # meet the design at this tau_c too (the box lengthens tau_c for them)
@@ -435,7 +435,7 @@ def closed_loop(
             )
         controllers["sentence"] = sentence
     elif choice is not None:
-        over = _worst(table, *choice, "overshoot")
+        over = _Staircases(table).worst(*choice, "overshoot")
         longest = tried[-1]["tau_c"]
         controllers["sentence"] = (
             f"Closed loop: no designed controller keeps the overshoot within {limit:.3g} % "
