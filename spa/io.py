@@ -7,6 +7,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any, Final
 
+from spa._yaml import read_yaml
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -64,16 +66,6 @@ def package_digest() -> str:
     for path in sorted(root.rglob("*.py")):
         h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()[:16]
-
-
-def read_yaml(path: str | Path) -> Any:
-    """A YAML file the pipeline wrote, read safely with libyaml's parser when PyYAML has it
-    (about ten times faster than the pure-Python one: the report reads a few per dataset)."""
-    import yaml
-
-    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    with open(path, encoding="utf-8") as fh:
-        return yaml.load(fh, Loader=loader)
 
 
 def dump_yaml(data: Any, stream: IO[str] | None = None, **options: Any) -> str | None:

@@ -423,11 +423,9 @@ def with_fit_before_refinement(
         A copy with ``fit_before_refinement`` (%) before ``fit_percent``; ``table`` itself
         when the file records no refinement.
     """
-    import yaml
+    from spa._yaml import read_yaml
 
-    with open(params_file, encoding="utf-8") as fh:  # libyaml's parser where PyYAML has it
-        content = yaml.load(fh, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
-    start = ((content or {}).get("refinement") or {}).get("start")
+    start = ((read_yaml(params_file) or {}).get("refinement") or {}).get("start")
     if not start:
         return table
     before = validate_runs(runs, ValveParams(**start), modulators, kinds)

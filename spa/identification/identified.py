@@ -21,6 +21,7 @@ import numpy as np
 import yaml
 
 from spa import _checks as checks
+from spa._yaml import load_yaml
 from spa.identification.results import _delay_of
 from spa.model.params import ValveParams
 
@@ -248,10 +249,7 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
                 "failed (see its log), so it gets no tuning"
             )
         try:
-            # libyaml's parser when PyYAML has it (spa.io.read_yaml; not imported: spa.io
-            # reads params.yaml through this package)
-            loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-            source = yaml.load(path.read_text(encoding="utf-8"), Loader=loader)
+            source = load_yaml(path.read_text(encoding="utf-8"))
         except yaml.YAMLError as exc:
             raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
     if not isinstance(source, Mapping):
