@@ -1,7 +1,7 @@
 """Which loop the closed-loop design recommends, and the recommendation in words.
 
-Over every designed setting and controller (:data:`CONTROLLERS`), :func:`_choice` keeps the
-fastest loop whose worst-case overshoot over the set-point staircase is at most
+Over every designed setting and controller (:data:`CONTROLLERS`), :func:`ranked_choices` puts
+first the fastest loop whose worst-case overshoot over the set-point staircase is at most
 :data:`MAX_OVERSHOOT` % with every step settled within :data:`SETTLED` % (:func:`end_error`);
 :func:`closed_loop_sentence` says what it does and :func:`held_clause` which pressures a setting
 cannot hold on the valve.
@@ -63,8 +63,10 @@ class _Staircases:
     for each of a ranking's questions (a key's first row, as a filter's first match)."""
 
     def __init__(self, table: pd.DataFrame) -> None:
-        sel = table[table.experiment == "staircase"]
         self._rows: dict[tuple[str, str, str], tuple[float, float]] = {}
+        if table.empty:  # nothing designed: no columns either
+            return
+        sel = table[table.experiment == "staircase"]
         for label, controller, metric, worst, missing in zip(
             sel.modulator,
             sel.controller,
@@ -132,17 +134,6 @@ def _measured(recommendation: Mapping[str, Any] | None) -> frozenset[str] | None
         return None
     a = Adequacy.from_mapping(adequacy)
     return frozenset(str(k) for k in kinds if a.modulator_adequate(str(k)))
-
-
-def _choice(
-    table: pd.DataFrame,
-    rec: Modulator | None,
-    limit: float = 10.0,
-    measured: frozenset[str] | None = None,
-) -> tuple[str, str] | None:
-    """The first of :func:`ranked_choices` (None when nothing was designed)."""
-    ranked = ranked_choices(table, rec, limit, measured)
-    return ranked[0] if ranked else None
 
 
 def ranked_choices(

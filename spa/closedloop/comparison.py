@@ -21,7 +21,6 @@ import pandas as pd
 
 from spa.closedloop.choice import (
     TAU_C_FACTORS,
-    _choice,
     _least_overshoot,
     _measured,
     _Staircases,
@@ -359,7 +358,8 @@ def closed_loop(
 
     Notes
     -----
-    The choice (:func:`_choice`) needs a loop within ``max_overshoot`` over the staircase.
+    The choice (the first of :func:`~spa.closedloop.choice.ranked_choices`) needs a loop
+    within ``max_overshoot`` over the staircase.
     When no designed loop meets it at ``tau_c``, every setting is designed again with
     ``tau_c`` lengthened by the factors of :data:`TAU_C_FACTORS` until one does; the tables
     are then those of the lengthened ``tau_c`` and ``controllers.yaml`` says so. When none
@@ -379,8 +379,10 @@ def closed_loop(
             mods, params, c, used, levels_of, unheld
         )
         table = pd.DataFrame(rows)
-        choice = _choice(table, rec, limit, measured)
-        met = choice is not None and _Staircases(table).meets(*choice, limit)
+        stairs = _Staircases(table)
+        ranked = ranked_choices(table, rec, limit, measured)
+        choice = ranked[0] if ranked else None
+        met = choice is not None and stairs.meets(*choice, limit)
         tried.append(
             {
                 "tau_c": used,
@@ -389,12 +391,12 @@ def closed_loop(
             }
         )
         if first is None:
-            first = (used, rows, step_rows, traces, gains, skipped, table, choice)
+            first = (used, rows, step_rows, traces, gains, skipped, table, stairs, ranked, choice)
         if met or not gains:
             break
     if not met:
         # Lengthening did not help: report the loops at the requested tau_c, as designed first.
-        used, rows, step_rows, traces, gains, skipped, table, choice = first
+        used, rows, step_rows, traces, gains, skipped, table, stairs, ranked, choice = first
     steps = pd.concat(step_rows, ignore_index=True) if step_rows else pd.DataFrame()
     controllers: dict[str, Any] = {
         "tau_c": used,
@@ -414,8 +416,6 @@ def closed_loop(
     if met:
         controllers["setting"] = gains[choice[0]]["setting"]
         controllers["controller"] = choice[1]
-        ranked = ranked_choices(table, rec, limit, measured)
-        stairs = _Staircases(table)
         controllers["meeting"] = [
             [label, name] for label, name in ranked if stairs.meets(label, name, limit)
         ]
@@ -435,7 +435,7 @@ def closed_loop(
             )
         controllers["sentence"] = sentence
     elif choice is not None:
-        over = _Staircases(table).worst(*choice, "overshoot")
+        over = stairs.worst(*choice, "overshoot")
         longest = tried[-1]["tau_c"]
         controllers["sentence"] = (
             f"Closed loop: no designed controller keeps the overshoot within {limit:.3g} % "
