@@ -94,6 +94,44 @@ def _settled(
     return float(feedforward([level], modulator, params)[0])
 
 
+def _settled_run(
+    reference: np.ndarray,
+    dt: float,
+    modulator: Modulator,
+    controller: PIController,
+    params: ValveParams,
+    level: float,
+) -> pd.DataFrame:
+    """:func:`~spa.closedloop.loop.simulate_closed_loop` over ``reference``, started settled
+    at ``level``: the pressure at ``level``, the integrator at :func:`_settled`'s state.
+
+    Parameters
+    ----------
+    reference : numpy.ndarray
+        The set-points, bar.
+    dt : float
+        The controller step, s.
+    modulator, controller, params
+        As :func:`run_staircase`.
+    level : float
+        The set-point the loop starts settled at, bar.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :func:`~spa.closedloop.loop.simulate_closed_loop`'s run.
+    """
+    return simulate_closed_loop(
+        reference,
+        dt,
+        modulator,
+        controller,
+        params,
+        p0=level,
+        integral0=_settled(modulator, controller, params, level),
+    )
+
+
 def run_staircase(
     modulator: Modulator,
     controller: PIController,
@@ -105,15 +143,7 @@ def run_staircase(
     """The staircase up and down, settled at the first level (pressure and integrator at
     its averaged equilibrium): ``(run, step metrics)``."""
     r = staircase_reference(levels, hold, dt)
-    run = simulate_closed_loop(
-        r,
-        dt,
-        modulator,
-        controller,
-        params,
-        p0=float(levels[0]),
-        integral0=_settled(modulator, controller, params, float(levels[0])),
-    )
+    run = _settled_run(r, dt, modulator, controller, params, float(levels[0]))
     return run, step_metrics(
         run, step_periods(modulator, params, levels, dt), r_initial=float(levels[0])
     )
@@ -151,15 +181,7 @@ def run_sine(
 ) -> tuple[pd.DataFrame, dict[str, float]]:
     """The sine reference (``offset``, ``amplitude``, ``frequency``, ``duration``, ``skip``)."""
     r = sine_reference(sine["offset"], sine["amplitude"], sine["frequency"], sine["duration"], dt)
-    run = simulate_closed_loop(
-        r,
-        dt,
-        modulator,
-        controller,
-        params,
-        p0=float(r[0]),
-        integral0=_settled(modulator, controller, params, float(r[0])),
-    )
+    run = _settled_run(r, dt, modulator, controller, params, float(r[0]))
     return run, sine_metrics(run, sine["frequency"], skip=float(sine.get("skip", 0.0)))
 
 
