@@ -12,15 +12,23 @@ from __future__ import annotations
 import ast
 import importlib
 import importlib.util
+import re
 import sys
 import types
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+_ALL = re.compile(r"^__all__\s*=\s*([\[(][^\])]*[\])])[ \t]*(?:#[^\n]*)?$", re.MULTILINE)
+"""A literal ``__all__ = [...]`` (or a tuple) alone on its lines: its brackets, whole."""
+
 
 def declared_names(path: Path) -> list[str]:
     """The names in the literal ``__all__ = [...]`` of a module's source file.
+
+    The assignment is found by its text and only its list is parsed (a package's import
+    parses a dozen modules' lists: the whole source would cost a job about a tenth of a
+    second); where its text is not a plain list of strings, the whole module is parsed.
 
     Examples
     --------
@@ -28,7 +36,21 @@ def declared_names(path: Path) -> list[str]:
     >>> declared_names(Path(spa.model.params.__file__))
     ['DELAY_CONVENTIONS', 'PHYSICAL_RANGE', 'ValveParams']
     """
-    for node in ast.parse(path.read_text(encoding="utf-8")).body:
+    source = path.read_text(encoding="utf-8")
+    match = _ALL.search(source)
+    if match is not None:
+        try:
+            names = ast.literal_eval(match.group(1))
+        except (ValueError, SyntaxError):
+            names = None
+        if isinstance(names, list | tuple) and all(isinstance(n, str) for n in names):
+            return list(names)
+    return _parsed_names(source, path)
+
+
+def _parsed_names(source: str, path: Path) -> list[str]:
+    """``declared_names`` by parsing the whole module: the literal ``__all__`` at its top level."""
+    for node in ast.parse(source).body:
         if (
             isinstance(node, ast.Assign)
             and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets)
