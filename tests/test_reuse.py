@@ -363,3 +363,45 @@ def test_a_tuning_change_reuses_identification_and_a_recompute_gives_the_same_ta
     status = yaml.safe_load((results / "status.yaml").read_text())["stages"]["sim"]
     assert set(status.values()) == {"computed"}
     assert _tables(results) == reused
+
+
+@pytest.mark.parametrize("store_on", [False, True])
+def test_a_job_collects_garbage_less_often_and_gives_the_thresholds_back(
+    tmp_path, store_on
+) -> None:
+    """Every stage runs under JOB_GC_THRESHOLD; after the job, and after a stage that fails,
+    the caller's thresholds are back (a notebook or pytest calling run_job keeps its own)."""
+    import gc
+
+    seen = tmp_path / "thresholds.txt"
+    scripts = tmp_path / "scripts"
+    scripts.mkdir()
+    for stage in STAGES:
+        (scripts / f"{stage}.py").write_text(
+            "import gc\n"
+            f"with open({str(seen)!r}, 'a') as f:\n"
+            "    f.write(repr(gc.get_threshold()) + '\\n')\n"
+            "from pathlib import Path\n"
+            "for p in snakemake.output:\n"
+            "    Path(p).parent.mkdir(parents=True, exist_ok=True)\n"
+            "    Path(p).mkdir() if not Path(p).suffix else Path(p).write_text('x')\n"
+        )
+    job = analysis_job(tmp_path, store=store_on)
+    job.config = {"reuse": True}
+    before = gc.get_threshold()
+    try:
+        gc.set_threshold(700, 10, 10)
+        reuse.run_job(job, scripts)
+        assert gc.get_threshold() == (700, 10, 10)
+        lines = seen.read_text().splitlines()
+        assert lines == [repr(reuse.JOB_GC_THRESHOLD)] * len(STAGES)
+
+        (scripts / "tune.py").write_text("raise RuntimeError('a broken stage')\n")
+        for path in job.output:  # as Snakemake before a rerun
+            p = Path(path)
+            shutil.rmtree(p) if p.is_dir() else p.unlink(missing_ok=True)
+        with pytest.raises(RuntimeError, match="a broken stage"):
+            reuse.run_job(job, scripts)
+        assert gc.get_threshold() == (700, 10, 10)
+    finally:
+        gc.set_threshold(*before)
