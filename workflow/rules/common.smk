@@ -1,5 +1,6 @@
 # Names the workflow uses, all from spa: the datasets of the run (spa.pipeline.config), each stage's
 # output and log files (spa.pipeline.outputs), the digest of spa's code. No logic and no paths here.
+import gc
 from pathlib import Path
 
 from snakemake.exceptions import WorkflowError
@@ -32,8 +33,14 @@ from spa.pipeline.outputs import (
     stage_settings,
     wildcard_choice,
 )
+from spa.pipeline.reuse import JOB_GC_THRESHOLD
 from spa.pipeline.safety import check_results_dir
 from spa.pipeline.workflow_report import report_flags
+
+# Snakemake builds a few thousand objects a dataset (jobs, files) over a heap of its imports:
+# at the collector's default thresholds a dry run over 102 datasets spends 0.6 of its 4 CPU-s
+# collecting garbage, at a job's thresholds 0.24 (benchmarks/README.md, "The garbage collector").
+gc.set_threshold(*JOB_GC_THRESHOLD)
 
 validate_config(
     config, Path(workflow.basedir) / "workflow" / "schemas" / "config.schema.yaml"
