@@ -74,7 +74,7 @@ short-lived ones (a figure's ticks and texts, tables); at the default, a collect
 youngest generation runs every 700 net allocations and each tenth of those scans the middle
 one. Fourteen times fewer collections cut the collector's time in the example's analysis job
 from 0.65-1.0 to 0.34-0.46 CPU-s with figures and from 0.26 to 0.12 without, its peak memory
-unchanged (``benchmarks/README.md``, "The garbage collector in a job"). Garbage is collected
+unchanged (``benchmarks/README.md``, "What every process pays"). Garbage is collected
 all the same, and nothing a stage computes depends on when."""
 
 _STATUS_KEY = "status"

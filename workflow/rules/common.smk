@@ -39,7 +39,8 @@ from spa.pipeline.workflow_report import report_flags
 
 # Snakemake builds a few thousand objects a dataset (jobs, files) over a heap of its imports:
 # at the collector's default thresholds a dry run over 102 datasets spends 0.6 of its 4 CPU-s
-# collecting garbage, at a job's thresholds 0.24 (benchmarks/README.md, "The garbage collector").
+# collecting garbage, at a job's thresholds 0.33 (benchmarks/README.md, "What every process
+# pays").
 gc.set_threshold(*JOB_GC_THRESHOLD)
 
 validate_config(
