@@ -12,7 +12,8 @@ from pathlib import Path
 
 import yaml
 
-from spa.pipeline.outputs import FIGURE, FIGURES, STAGES, TABLE
+from spa.pipeline.outputs import STAGES
+from spa.pipeline.stage_types import FIGURE, FIGURES, TABLE
 from spa.pipeline.workflow_report import caption_file, caption_rst, report_flags, report_outputs
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -12,12 +12,7 @@ import pytest
 
 from spa.pipeline.config import ConfigError, discover_datasets, figure_datasets
 from spa.pipeline.outputs import (
-    FIGURE,
-    FIGURES,
-    RUNS,
     STAGES,
-    VECTOR,
-    Output,
     all_targets,
     dataset_folder,
     figure_paths,
@@ -27,6 +22,7 @@ from spa.pipeline.outputs import (
     stage_outputs,
     wildcard_choice,
 )
+from spa.pipeline.stage_types import FIGURE, FIGURES, RUNS, VECTOR, Output
 
 ROOT = Path(__file__).resolve().parents[1]
 

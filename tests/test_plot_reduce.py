@@ -222,7 +222,8 @@ def test_constrained_layout_is_computed_once_for_png_and_svg(tmp_path, monkeypat
 
 
 def test_figure_formats_decide_the_svg_copy_and_the_declared_outputs(tmp_path):
-    from spa.pipeline.outputs import VECTOR, all_targets, get_stage, stage_outputs
+    from spa.pipeline.outputs import all_targets, get_stage, stage_outputs
+    from spa.pipeline.stage_types import VECTOR
     from spa.plots import save
 
     keep = list(save.FIGURE_FORMATS)

@@ -104,7 +104,8 @@ def test_optional_outputs_are_skipped_when_missing(report):
 
 
 def test_sections_show_what_the_registry_of_outputs_lists(fake_results, report):
-    from spa.pipeline.outputs import FIGURES, section_outputs
+    from spa.pipeline.outputs import section_outputs
+    from spa.pipeline.stage_types import FIGURES
 
     secs = sections(report)
     for section, html in (("analytic", secs["analytic"]), ("dataset", secs["dataset-sim"])):

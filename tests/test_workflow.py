@@ -53,7 +53,8 @@ def test_every_figure_is_for_print_with_its_vector_copy_and_data(small_run):
     wide at 200 dpi or more, an SVG copy beside it and the plotted data as CSV."""
     import struct
 
-    from spa.pipeline.outputs import FIGURE, STAGES, VECTOR
+    from spa.pipeline.outputs import STAGES
+    from spa.pipeline.stage_types import FIGURE, VECTOR
 
     # the results, not the store of stages' outputs kept for reuse (results/.store)
     pngs = sorted(p for p in small_run.rglob("*.png") if ".store" not in p.parts)

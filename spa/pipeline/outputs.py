@@ -1,15 +1,17 @@
 """The one registry of what every stage of the pipeline writes, and where.
 
-Each :class:`Stage` names its outputs (:class:`Output`): a key, a path relative to the results
+Each :class:`~spa.pipeline.stage_types.Stage` names its outputs
+(:class:`~spa.pipeline.stage_types.Output`): a key, a path relative to the results
 folder (``results/``) or to a dataset's folder (``results/<dataset>/``), what kind of file it
 is, and how the HTML report shows it (heading and caption, or not at all). The workflow's rules
 take their ``output:`` from here (:func:`stage_outputs`), the ``reproduce-all`` target and the
 report rule their inputs (:func:`all_targets`), and :mod:`spa.report` its sections, in the
 order of :data:`STAGES`. Logs are named here too (:func:`log_path`).
 
-A new stage is one more :class:`Stage` in the stage table, :mod:`spa.pipeline.stage_table`, at its
-place in the pipeline (the report shows a section's items in this order), and a rule whose
-``output:`` is ``**outputs("<stage>")``.
+A new stage is one more :class:`~spa.pipeline.stage_types.Stage` in the stage table,
+:mod:`spa.pipeline.stage_table`, at its place in the pipeline (the report shows a section's
+items in this order), and a rule whose ``output:`` is ``**outputs("<stage>")``. The kinds of
+output (``FIGURE``, ``TABLE``, ...) are imported from :mod:`spa.pipeline.stage_types`.
 
 This module imports nothing heavy: the workflow imports it to parse the Snakefile.
 
@@ -29,33 +31,10 @@ from pathlib import Path
 from typing import Any
 
 from spa.pipeline.stage_table import STAGES
-from spa.pipeline.stage_types import (
-    DATA,
-    FIGURE,
-    FIGURES,
-    PAGE,
-    PARAMS,
-    RECOMMENDATION,
-    RUNS,
-    TABLE,
-    VECTOR,
-    Output,
-    Stage,
-)
+from spa.pipeline.stage_types import FIGURE, FIGURES, VECTOR, Output, Stage
 
 __all__ = [
-    "DATA",
-    "FIGURE",
-    "FIGURES",
-    "PAGE",
-    "PARAMS",
-    "RECOMMENDATION",
-    "RUNS",
     "STAGES",
-    "TABLE",
-    "VECTOR",
-    "Output",
-    "Stage",
     "all_targets",
     "dataset_folder",
     "figure_paths",

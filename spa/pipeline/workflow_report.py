@@ -24,7 +24,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from spa.pipeline.outputs import FIGURE, FIGURES, STAGES, TABLE, Output, Stage, get_stage
+from spa.pipeline.outputs import STAGES, get_stage
+from spa.pipeline.stage_types import FIGURE, FIGURES, TABLE, Output, Stage
 
 __all__ = ["caption_file", "caption_rst", "report_flags", "report_outputs", "write_captions"]
 

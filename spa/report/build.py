@@ -12,15 +12,8 @@ from typing import Any
 import pandas as pd
 
 from spa.io import PNG_DPI, dump_yaml, read_yaml
-from spa.pipeline.outputs import (
-    FIGURE,
-    FIGURES,
-    PARAMS,
-    RECOMMENDATION,
-    STAGES,
-    Output,
-    section_outputs,
-)
+from spa.pipeline.outputs import STAGES, section_outputs
+from spa.pipeline.stage_types import FIGURE, FIGURES, PARAMS, RECOMMENDATION, Output
 from spa.pipeline.status import dataset_failures, dataset_statuses
 from spa.report.failure import failed_here, failure_box, skipped_note, stage_note
 from spa.report.html import (
