@@ -215,6 +215,7 @@ def _draw_all(
     from spa.plots.identification import fig2a, fig2b, fig2c, validation_figure
     from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
     from spa.report.overview_figure import plot_overview
+    from spa.stages._common import OpenLoopInputs
     from spa.stages.chirp import run_chirp, write_chirp
     from spa.stages.sine import run_sine, write_sine
     from spa.stages.staircase import run_staircase, write_staircase
@@ -258,7 +259,7 @@ def _draw_all(
             ("sine", run_sine, write_sine),
             ("chirp", run_chirp, write_chirp),
         ):
-            result = run(runs, metas, params, {**settings[stage]})
+            result = run(OpenLoopInputs(runs, metas, params, {**settings[stage]}))
             paths = {
                 key: str(p)
                 for key, p in stage_outputs(stage, str(out), ds).items()

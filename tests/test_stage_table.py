@@ -14,6 +14,7 @@ import yaml
 from spa.datasets import read_runs
 from spa.io import read_params
 from spa.pipeline.outputs import STAGES, job_stages, stage_outputs, stage_settings
+from spa.stages._common import OpenLoopInputs
 from spa.stages.chirp import run_chirp, write_chirp
 from spa.stages.sine import run_sine, write_sine
 from spa.stages.staircase import run_staircase, write_staircase
@@ -88,7 +89,7 @@ def test_a_stage_function_reproduces_the_pipelines_table(
     cfg = stage_settings(_merged(full, small), [stage])  # as --configfile merges them
     runs, metas = read_runs(small_run / "sim" / "runs")
     params = read_params(small_run / "sim" / "identification" / "params.yaml")
-    result = run(runs, metas, params, {**cfg[stage]})
+    result = run(OpenLoopInputs(runs, metas, params, {**cfg[stage]}))
     assert not result.empty
     outputs = {
         key: str(tmp_path / Path(path).name)

@@ -1,6 +1,7 @@
 """Each open-loop stage of a dataset's analysis as two functions: ``run_<stage>`` computes
-its tables from the run tables (pure: no file is read or written) and ``write_<stage>`` writes
-them and draws its figures to the paths the workflow gives.
+its tables from its inputs (:class:`spa.stages._common.OpenLoopInputs`: the run tables and
+their metadata, the identified valve, the stage's settings; pure: no file is read or written)
+and ``write_<stage>`` writes them and draws its figures to the paths the workflow gives.
 
 The workflow's scripts (``workflow/scripts/<stage>.py``) only read the inputs, call these and
 log; a notebook can call the same functions on its own run tables.

@@ -1,19 +1,61 @@
 """What the open-loop stages (:mod:`spa.stages.staircase`, :mod:`~spa.stages.sine`,
-:mod:`~spa.stages.chirp`) share: the warnings of the parts they skip, the outputs of a
-dataset without runs of their kind, and the linear reference's skip."""
+:mod:`~spa.stages.chirp`) share: their inputs and the runs of their kind, the warnings of the
+parts they skip, the outputs of a dataset without runs of their kind, and the linear
+reference's skip."""
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
+
+import pandas as pd
 
 from spa.model.params import ValveParams
 from spa.openloop.reference import REFERENCE, SKIPPED_PART, reference_skip_reason
+from spa.openloop.selection import run_tags, runs_of_kind
+from spa.openloop.shapes import check_input_shape
 from spa.pipeline.status import Skipped
 from spa.plots.openloop import write_no_runs
 
-__all__: list[str] = []
+__all__ = ["OpenLoopInputs"]
+
+
+@dataclass(frozen=True)
+class OpenLoopInputs:
+    """What an open-loop stage reads: a dataset's runs, its identified valve, its settings.
+
+    Attributes
+    ----------
+    runs, metas : mapping
+        Run id to canonical run table and to its metadata (:func:`spa.datasets.read_runs`).
+    params : ValveParams
+        The dataset's identified valve (the model's lines, the linear reference's time
+        constant).
+    cfg : mapping
+        The stage's section of the config (``linearity.<stage>``).
+    """
+
+    runs: Mapping[str, pd.DataFrame]
+    metas: Mapping[str, Mapping[str, Any]]
+    params: ValveParams
+    cfg: Mapping[str, Any]
+
+    def runs_of(self, kind: str) -> tuple[list[str], pd.DataFrame]:
+        """The ids of the runs of ``kind`` in the order of their settings
+        (:func:`spa.openloop.runs_of_kind`) and their tags (:func:`spa.openloop.run_tags`).
+
+        Raises
+        ------
+        spa.errors.RunError
+            Naming the first run whose input is not of ``kind``'s shape
+            (:func:`spa.openloop.shapes.check_input_shape`), before any run is analysed.
+        """
+        ids = runs_of_kind(self.metas, kind)
+        for rid in ids:
+            check_input_shape(rid, kind, self.runs[rid]["u"])
+        return ids, run_tags(self.metas, ids)
 
 
 class SkippedParts:

@@ -13,7 +13,6 @@ import pandas as pd
 
 from spa._docs import fill_doc
 from spa.io import write_csv
-from spa.model.params import ValveParams
 from spa.openloop import (
     beyond_paper,
     chirp_analysis,
@@ -23,15 +22,12 @@ from spa.openloop import (
     no_ringing_spread,
     noise_spread,
     paper_settings,
-    run_tags,
-    runs_of_kind,
 )
 from spa.openloop.reference import SKIPPED_PART
-from spa.openloop.shapes import check_input_shape
 from spa.pipeline.status import naming_run
 from spa.plots.openloop import fig9, fig9_data
 from spa.plots.save import draw
-from spa.stages._common import SkippedParts, skipped_reference, write_placeholders
+from spa.stages._common import OpenLoopInputs, SkippedParts, skipped_reference, write_placeholders
 
 __all__ = ["ChirpResult", "run_chirp", "write_chirp"]
 
@@ -85,24 +81,15 @@ def _title(row: Mapping[str, Any]) -> str:
     return f"{row['setting']}: {row['significant_fraction']:.1%} significant"
 
 
-def run_chirp(
-    runs: Mapping[str, pd.DataFrame],
-    metas: Mapping[str, Mapping[str, Any]],
-    params: ValveParams,
-    cfg: Mapping[str, Any],
-    log: logging.Logger | None = None,
-) -> ChirpResult:
+def run_chirp(inputs: OpenLoopInputs, log: logging.Logger | None = None) -> ChirpResult:
     """Bicoherence of every chirp run of a dataset and of the linear reference.
 
     Parameters
     ----------
-    runs, metas : mapping
-        Run id to canonical run table and to its metadata (:func:`spa.datasets.read_runs`).
-    params : ValveParams
-        The dataset's identified valve (the linear reference's time constant).
-    cfg : mapping
-        The config's ``linearity.chirp`` section: ``seeds`` (sensor-noise realisations of a
-        simulated run) and :func:`spa.openloop.chirp_analysis`'s keywords.
+    inputs : OpenLoopInputs
+        The dataset's runs and valve; its ``cfg`` the config's ``linearity.chirp`` section:
+        ``seeds`` (sensor-noise realisations of a simulated run) and
+        :func:`spa.openloop.chirp_analysis`'s keywords.
     log : logging.Logger, optional
         Where each run's summary is logged.
 
@@ -116,13 +103,12 @@ def run_chirp(
         Naming the run whose input is not a chirp or whose analysis failed.
     """
     log = log or _LOG
-    cfg = dict(cfg)
+    runs, metas, params = inputs.runs, inputs.metas, inputs.params
+    cfg = dict(inputs.cfg)
     seeds = cfg.pop("seeds")
-    ids = runs_of_kind(metas, "chirp")
-    tags = run_tags(metas, ids)
+    ids, tags = inputs.runs_of("chirp")
     rows, maps = [], {}
     for i, rid in enumerate(ids, 1):
-        check_input_shape(rid, "chirp", runs[rid]["u"])
         with naming_run(rid, "chirp"):
             f, bic, summary = chirp_analysis(runs[rid], **cfg)
             if is_simulated(metas[rid]) and seeds > 1:  # the spread over sensor-noise seeds

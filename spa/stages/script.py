@@ -12,6 +12,7 @@ from typing import Any
 from spa.datasets import read_runs
 from spa.io import get_logger, read_params
 from spa.pipeline.status import run_stage
+from spa.stages._common import OpenLoopInputs
 
 __all__ = ["run_open_loop"]
 
@@ -28,7 +29,8 @@ def run_open_loop(
     stage : str
         The stage's name (``staircase``, ``sine``, ``chirp``): its logger and its status.
     run : callable
-        ``run_<stage>(runs, metas, params, cfg, log)``: the stage's tables.
+        ``run_<stage>(inputs, log)`` with the stage's
+        :class:`~spa.stages._common.OpenLoopInputs`: its tables.
     write : callable
         ``write_<stage>(result, output, dataset, log)``: its files.
 
@@ -41,8 +43,8 @@ def run_open_loop(
 
     def work() -> list | None:
         runs, metas = read_runs(smk.input.runs)
-        params = read_params(smk.input.params)
-        result = run(runs, metas, params, smk.params.cfg, log)
+        inputs = OpenLoopInputs(runs, metas, read_params(smk.input.params), smk.params.cfg)
+        result = run(inputs, log)
         write(result, smk.output, smk.wildcards.dataset, log)
         return getattr(result, "warnings", None)
 

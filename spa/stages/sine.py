@@ -4,7 +4,6 @@ reference (paper Section 6.2, Fig. 8), then the files."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -12,14 +11,12 @@ import pandas as pd
 
 from spa._docs import fill_doc
 from spa.io import write_csv
-from spa.model.params import ValveParams
-from spa.openloop import frequency_note, run_tags, runs_of_kind, sine_analysis, sine_reference
+from spa.openloop import frequency_note, sine_analysis, sine_reference
 from spa.openloop.reference import REFERENCE, SKIPPED_PART
-from spa.openloop.shapes import check_input_shape
 from spa.pipeline.status import naming_run
 from spa.plots.openloop import fig8, thin
 from spa.plots.save import draw
-from spa.stages._common import SkippedParts, skipped_reference, write_placeholders
+from spa.stages._common import OpenLoopInputs, SkippedParts, skipped_reference, write_placeholders
 
 __all__ = ["SineResult", "run_sine", "write_sine"]
 
@@ -61,24 +58,15 @@ class SineResult(SkippedParts):
         return self.table.empty
 
 
-def run_sine(
-    runs: Mapping[str, pd.DataFrame],
-    metas: Mapping[str, Mapping[str, Any]],
-    params: ValveParams,
-    cfg: Mapping[str, Any],
-    log: logging.Logger | None = None,
-) -> SineResult:
+def run_sine(inputs: OpenLoopInputs, log: logging.Logger | None = None) -> SineResult:
     """Analyse every sine run of a dataset and the same input through the linear reference.
 
     Parameters
     ----------
-    runs, metas : mapping
-        Run id to canonical run table and to its metadata (:func:`spa.datasets.read_runs`).
-    params : ValveParams
-        The dataset's identified valve (the linear reference's time constant).
-    cfg : mapping
-        The config's ``linearity.sine`` section: ``settle`` (s, or None: the hold the
-        simulator recorded before the sine) and ``max_lag`` (s, or None: half a period).
+    inputs : OpenLoopInputs
+        The dataset's runs and valve; its ``cfg`` the config's ``linearity.sine`` section:
+        ``settle`` (s, or None: the hold the simulator recorded before the sine) and
+        ``max_lag`` (s, or None: half a period).
     log : logging.Logger, optional
         Where each run's summary is logged.
 
@@ -92,15 +80,14 @@ def run_sine(
         Naming the run whose input is not a sine or whose analysis failed.
     """
     log = log or _LOG
-    ids = runs_of_kind(metas, "sine")
-    tags = run_tags(metas, ids)
+    runs, metas, params, cfg = inputs.runs, inputs.metas, inputs.params, inputs.cfg
+    ids, tags = inputs.runs_of("sine")
     rows, curves, settles = [], [], {}
     for i, rid in enumerate(ids, 1):
         settle = cfg["settle"]
         if settle is None:  # the hold before the sine, as recorded by the simulator
             settle = float((metas[rid].get("experiment") or {}).get("settle", 0.0))
         settles[rid] = settle
-        check_input_shape(rid, "sine", runs[rid]["u"])
         with naming_run(rid, "sine"):
             aligned, summary = sine_analysis(runs[rid], settle=settle, max_lag=cfg["max_lag"])
         tag = {"run": rid, **tags.loc[rid]}

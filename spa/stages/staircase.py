@@ -4,28 +4,23 @@ a dataset (paper Section 6.1), then the files."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import pandas as pd
 
 from spa.io import write_csv
-from spa.model.params import ValveParams
 from spa.openloop import (
     beyond_paper,
     fallback_note,
     noise_free_pressure,
     paper_settings,
-    run_tags,
-    runs_of_kind,
     staircase_analysis,
 )
-from spa.openloop.shapes import check_input_shape
 from spa.pipeline.status import naming_run
 from spa.plots.openloop import fig6, fig7a, fig7b, tau_outliers
 from spa.plots.save import draw
-from spa.stages._common import write_placeholders
+from spa.stages._common import OpenLoopInputs, write_placeholders
 
 __all__ = ["StaircaseResult", "run_staircase", "write_staircase"]
 
@@ -71,24 +66,15 @@ class StaircaseResult:
         return self.table3.empty
 
 
-def run_staircase(
-    runs: Mapping[str, pd.DataFrame],
-    metas: Mapping[str, Mapping[str, Any]],
-    params: ValveParams,
-    cfg: Mapping[str, Any],
-    log: logging.Logger | None = None,
-) -> StaircaseResult:
+def run_staircase(inputs: OpenLoopInputs, log: logging.Logger | None = None) -> StaircaseResult:
     """Analyse every staircase run of a dataset.
 
     Parameters
     ----------
-    runs, metas : mapping
-        Run id to canonical run table and to its metadata (:func:`spa.datasets.read_runs`).
-    params : ValveParams
-        The dataset's identified valve (the model's lines and time constants).
-    cfg : mapping
-        The config's ``linearity.staircase`` section
-        (:func:`spa.openloop.staircase_analysis`'s keywords).
+    inputs : OpenLoopInputs
+        The dataset's runs and valve (the model's lines and time constants); its ``cfg`` the
+        config's ``linearity.staircase`` section (:func:`spa.openloop.staircase_analysis`'s
+        keywords).
     log : logging.Logger, optional
         Where each run's summary is logged.
 
@@ -102,12 +88,11 @@ def run_staircase(
         Naming the run whose input is not a staircase or whose analysis failed.
     """
     log = log or _LOG
-    ids = runs_of_kind(metas, "staircase")
-    tags = run_tags(metas, ids)
+    runs, metas, params, cfg = inputs.runs, inputs.metas, inputs.params, inputs.cfg
+    ids, tags = inputs.runs_of("staircase")
     rows, levels, steps, traces = [], [], [], []
     for i, rid in enumerate(ids, 1):
         # simulated runs: the chattering of the true pressure, and of the sensor without noise
-        check_input_shape(rid, "staircase", runs[rid]["u"])
         with naming_run(rid, "staircase"):
             clean = {
                 name: noise_free_pressure(runs[rid], metas[rid], ringing=ringing)
