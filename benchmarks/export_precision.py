@@ -2,9 +2,10 @@
 
 For every setting of the config's ``analytic.selected`` and every designed PI (fixed,
 scheduled, scheduled with feed-forward) on the ``sim`` dataset's valve, both headers are
-closed on the model's plant in C (:func:`spa.closedloop.precision.precision_agreement`) over
-the ``closed_loop`` stage's staircase (levels below max_level_fraction*k2, up then down, hold
-each) and compared step by step. Prints one Markdown row per loop.
+closed on the model's plant in C (:func:`spa.closedloop.precision.closed_loops`) over the
+``closed_loop`` stage's staircase (levels below max_level_fraction*k2, up then down, hold
+each) and compared step by step (:func:`spa.closedloop.precision.precision_agreement`).
+Prints one Markdown row per loop.
 
     .venv/bin/python benchmarks/export_precision.py
 """
@@ -18,7 +19,7 @@ import yaml
 from spa.closedloop.choice import CONTROLLERS
 from spa.closedloop.design import design_pi
 from spa.closedloop.experiments import staircase_reference
-from spa.closedloop.precision import precision_agreement
+from spa.closedloop.precision import closed_loops, precision_agreement
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -39,7 +40,7 @@ def main() -> None:
         mod = Modulator.from_mapping(mapping)
         designs = design_pi(mod, params, levels=levels, tau_c=float(cl["tau_c"]))
         for name in CONTROLLERS:
-            a = precision_agreement(mod, designs[name], params, r, dt)
+            a = precision_agreement(closed_loops(mod, designs[name], params, r, dt))
             print(
                 f"| {mod.label} | {name} | {a.mismatches} | {a.mismatches / a.steps:.3%} "
                 f"| {a.max_pressure_difference:.2e} | {a.max_xi_difference:.2e} |"

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from spa.closedloop.design import design_pi
-from spa.closedloop.experiments import run_staircase
+from spa.closedloop.experiments import LoopUnderTest, Staircase, run_staircase
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -36,7 +36,7 @@ def main() -> None:
         for setting in SETTINGS:
             mod = Modulator.from_mapping(setting)
             for name, ctrl in design_pi(mod, params, levels=LEVELS, tau_c=tau_c).items():
-                _, m = run_staircase(mod, ctrl, params, LEVELS, 3.0, 1e-3)
+                _, m = run_staircase(LoopUnderTest(mod, ctrl, params), Staircase(LEVELS, 3.0, 1e-3))
                 rise, over = m["rise_time"].to_numpy(), m["overshoot"].to_numpy()
                 lo, hi = np.nanmin(rise), np.nanmax(rise)
                 print(

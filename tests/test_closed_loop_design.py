@@ -9,7 +9,12 @@ import pandas as pd
 import pytest
 
 from spa.closedloop.design import design_pi, feedforward, local_models, simc
-from spa.closedloop.experiments import run_staircase, staircase_reference
+from spa.closedloop.experiments import (
+    LoopUnderTest,
+    Staircase,
+    run_staircase,
+    staircase_reference,
+)
 from spa.closedloop.metrics import cycle_mean, sine_metrics, step_metrics, steps
 from spa.model.averaging import equilibrium, time_constant, time_fractions
 from spa.model.modulators import Modulator
@@ -68,7 +73,7 @@ def test_design_schedules_simc_over_the_levels() -> None:
 @pytest.mark.parametrize("name", ["fixed", "scheduled", "scheduled_ff"])
 def test_designed_pi_tracks_the_staircase_without_offset(name: str) -> None:
     ctrl = design_pi(IIPFM, P, levels=LEVELS)[name]
-    run, m = run_staircase(IIPFM, ctrl, P, LEVELS, 3.0, 1e-3)
+    run, m = run_staircase(LoopUnderTest(IIPFM, ctrl, P), Staircase(LEVELS, 3.0, 1e-3))
     assert len(m) == 2 * len(LEVELS) - 2
     assert np.all(np.abs(m["steady_state_error"]) < 0.01)
     assert np.all(m["rise_time"] < 1.5)

@@ -11,7 +11,12 @@ from spa.closedloop.comparison import level_hold
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import design_pi
 from spa.closedloop.disturbance import disturbances, noise_ripple, recovery_time, supply_drop
-from spa.closedloop.experiments import run_staircase, staircase_reference
+from spa.closedloop.experiments import (
+    LoopUnderTest,
+    Staircase,
+    run_staircase,
+    staircase_reference,
+)
 from spa.closedloop.loop import closed_loop_arrays
 from spa.closedloop.robust import (
     box_worst_case,
@@ -62,7 +67,7 @@ def test_worst_of_steps_takes_the_largest_magnitude_and_flags_no_rise():
 
 def test_box_worst_case_covers_the_estimate():
     ctrl = design_pi(IIPFM, P, levels=LEVELS)["fixed"]
-    _, steps = run_staircase(IIPFM, ctrl, P, LEVELS, 1.5, DT)
+    _, steps = run_staircase(LoopUnderTest(IIPFM, ctrl, P), Staircase(LEVELS, 1.5, DT))
     alone, n0 = box_worst_case(IIPFM, ctrl, P, None, LEVELS, 1.5, DT)
     assert n0 == 0
     assert alone["overshoot"] == steps["overshoot"].max()
@@ -166,27 +171,29 @@ def test_recovery_time_cases():
 
 
 def test_supply_drop_dips_and_recovers():
-    ctrl = design_pi(PWM, P, levels=LEVELS)["scheduled_ff"]
-    small = supply_drop(PWM, ctrl, P, LEVELS, 3.0, DT)
-    out = supply_drop(PWM, ctrl, P, LEVELS, 3.0, DT, drop=0.2)
+    loop = LoopUnderTest(PWM, design_pi(PWM, P, levels=LEVELS)["scheduled_ff"], P)
+    stairs = Staircase(LEVELS, 3.0, DT)
+    small = supply_drop(loop, stairs)
+    out = supply_drop(loop, stairs, drop=0.2)
     assert out["drop_level"] == 0.4
     assert out["dip"] > small["dip"] > 0.0  # a larger drop, a deeper dip
     assert 0.0 < out["recovery_time"] < 1.5  # back within 2 % before the level ends
     assert abs(out["steady_state_error"]) < 0.02
     # a set-point above the dropped supply is never recovered
-    high = supply_drop(PWM, ctrl, P, LEVELS, 3.0, DT, drop=0.6)
+    high = supply_drop(loop, stairs, drop=0.6)
     assert math.isnan(high["recovery_time"])
     with pytest.raises(ValueError, match="drop"):
-        supply_drop(PWM, ctrl, P, LEVELS, 3.0, DT, drop=0.0)
+        supply_drop(loop, stairs, drop=0.0)
 
 
 def test_noise_adds_ripple_deterministically():
-    ctrl = design_pi(PWM, P, levels=LEVELS)["fixed"]
-    a = noise_ripple(PWM, ctrl, P, LEVELS, 1.5, DT, 0.005, seed=3)
-    b = noise_ripple(PWM, ctrl, P, LEVELS, 1.5, DT, 0.005, seed=3)
+    loop = LoopUnderTest(PWM, design_pi(PWM, P, levels=LEVELS)["fixed"], P)
+    stairs = Staircase(LEVELS, 1.5, DT)
+    a = noise_ripple(loop, stairs, 0.005, seed=3)
+    b = noise_ripple(loop, stairs, 0.005, seed=3)
     assert a == b and a["noise"] == 0.005
-    big = noise_ripple(PWM, ctrl, P, LEVELS, 1.5, DT, 0.05, seed=3)
+    big = noise_ripple(loop, stairs, 0.05, seed=3)
     assert big["added_ripple_rms"] > 0.0 and big["added_ripple_pp"] > 0.0
     # together, sharing the undisturbed run: the same numbers
-    both = disturbances(PWM, ctrl, P, LEVELS, 1.5, DT, 0.005, seed=3)
-    assert both == {**supply_drop(PWM, ctrl, P, LEVELS, 1.5, DT), **a}
+    both = disturbances(loop, stairs, 0.005, seed=3)
+    assert both == {**supply_drop(loop, stairs), **a}

@@ -94,7 +94,7 @@ def test_single_precision_loop_stays_near_the_double_one(kind):
     gives the numbers over the stage's staircase)."""
     _cc()
     r = staircase_reference(LEVELS, 2.0, DT)
-    a = precision_agreement(SETTINGS[kind], _design(kind), PARAMS, r, DT)
+    a = precision_agreement(closed_loops(SETTINGS[kind], _design(kind), PARAMS, r, DT))
     assert a.steps == r.size
     assert a.max_pressure_difference <= 0.03 * PARAMS.k2
     assert a.max_xi_difference <= 0.1

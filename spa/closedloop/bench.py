@@ -26,11 +26,12 @@ import numpy as np
 import pandas as pd
 
 from spa._checks import float_or_nan as _num
-from spa.closedloop.box import box_hold, box_levels, promise_levels
+from spa.closedloop.box import PromiseBox, box_hold, box_levels, promise_levels
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
 from spa.closedloop.controller import PIController
 from spa.closedloop.disturbance import DROP, disturbances
+from spa.closedloop.experiments import LoopUnderTest, Staircase
 from spa.closedloop.export import arduino_sketch, controller_header
 from spa.closedloop.robust import robust_design
 from spa.model.modulators import Modulator
@@ -280,7 +281,9 @@ def bench_outputs(
         ctrl = PIController.from_mapping(designs[name])
         own = [float(v) for v in designs.get("levels", levels)]  # the levels it holds
         hold = float(designs.get("hold", c["hold"] if c["hold"] is not None else 3.0))
-        d = disturbances(mod, ctrl, params, own, hold, dt, noise, seed=NOISE_SEED)
+        d = disturbances(
+            LoopUnderTest(mod, ctrl, params), Staircase(own, hold, dt), noise, seed=NOISE_SEED
+        )
         d["steady_state_error_after_drop"] = d.pop("steady_state_error")
         rows.append(
             {
@@ -304,7 +307,8 @@ def bench_outputs(
     top = float(c["max_level_fraction"])
     if c.get("levels") is None and c.get("levels_fraction"):
         top = min(top, max(float(v) for v in c["levels_fraction"]))
-    own = box_levels(mod, params, box, own, top)
+    plants = PromiseBox(mod, params, box)
+    own = box_levels(plants, own, top)
     stairs = promise_levels(own, params.k2, float(c["promise_step_fraction"]))
     rd = robust_design(
         mod,
@@ -317,7 +321,7 @@ def bench_outputs(
         dt=dt,
         tau_c=tau_c,
         limit=limit,
-        hold_of=lambda tau: box_hold(mod, params, box, stairs, tau, c, min(gains)),
+        hold_of=lambda tau: box_hold(plants, stairs, tau, c, min(gains)),
         gains=gains,
     )
     shipped_tau = rd.tau_c_robust if rd.tau_c_robust is not None else tau_c
@@ -351,7 +355,7 @@ def bench_outputs(
         "tau_c": shipped_tau,
         "controller": ctrl.to_mapping(),
         "levels": stairs,
-        "hold": box_hold(mod, params, box, stairs, shipped_tau, c, min(gains)),
+        "hold": box_hold(plants, stairs, shipped_tau, c, min(gains)),
         "overshoot": worst.get("overshoot", math.nan),
         "settling_time": worst.get("settling_time", math.nan),
         "end_error": worst.get("end_error", math.nan),

@@ -5,14 +5,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from spa.identification.identified import corners
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
-__all__ = ["box_hold", "box_levels", "promise_levels"]
+__all__ = ["PromiseBox", "box_hold", "box_levels", "promise_levels"]
 
 
 def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list[float]:
@@ -48,14 +50,29 @@ def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list
     return kept
 
 
+@dataclass(frozen=True)
+class PromiseBox:
+    """The plants a promise covers with one setting: the estimate and its box's corners.
+
+    Attributes
+    ----------
+    modulator, params, box : Modulator, ValveParams, mapping
+        The setting, the estimate and the box around it, ``name -> (lo, hi)``
+        (:func:`spa.identification.identified.corners`).
+    """
+
+    modulator: Modulator
+    params: ValveParams
+    box: Mapping[str, tuple[float, float]]
+
+    @property
+    def corners(self) -> list[ValveParams]:
+        """The box's corners (without the estimate)."""
+        return corners(self.params, self.box)
+
+
 def box_hold(
-    mod: Modulator,
-    params: ValveParams,
-    box: Mapping[str, tuple[float, float]],
-    levels: list[float],
-    tau_c: float,
-    cfg: Mapping[str, Any],
-    gain: float = 1.0,
+    plants: PromiseBox, levels: list[float], tau_c: float, cfg: Mapping[str, Any], gain: float = 1.0
 ) -> float:
     """Each level's hold for the promise: the longest
     :func:`spa.closedloop.comparison.level_hold` over the estimate and every corner of the box,
@@ -65,24 +82,42 @@ def box_hold(
     time constant, scale by ``1/g``): such a corner's hold is taken at ``tau_c/g``, and at
     ``tau_c/(g*gain)`` with the measured model error's smallest loop-gain factor ``gain``.
 
+    Parameters
+    ----------
+    plants : PromiseBox
+        The setting, the estimate and the box.
+    levels : list of float
+        The promise's set-points, bar.
+    tau_c : float
+        SIMC's closed-loop time constant at the estimate, s.
+    cfg : mapping
+        The ``closed_loop`` stage's settings (:func:`~spa.closedloop.comparison.level_hold`).
+    gain : float, default 1.0
+        The smallest loop-gain factor of the measured model error (clipped to [0.1, 1]).
+
+    Returns
+    -------
+    float
+        The hold, s.
+
     Examples
     --------
     >>> from spa.closedloop.comparison import DEFAULTS
     >>> m = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
     >>> c = {**DEFAULTS, "hold": None}
-    >>> box_hold(m, ValveParams(), {"tau2": (0.5, 1.5)}, [0.2, 0.3], 0.2, c) > box_hold(
-    ...     m, ValveParams(), {}, [0.2, 0.3], 0.2, c)
+    >>> wide, none = (PromiseBox(m, ValveParams(), b) for b in ({"tau2": (0.5, 1.5)}, {}))
+    >>> box_hold(wide, [0.2, 0.3], 0.2, c) > box_hold(none, [0.2, 0.3], 0.2, c)
     True
     """
     from spa.closedloop.comparison import level_hold
     from spa.closedloop.design import local_models
     from spa.closedloop.levels import held_range
-    from spa.closedloop.robust import corners
 
+    mod, params = plants.modulator, plants.params
     k_est = local_models(levels, mod, params).gain
     gain = min(1.0, max(float(gain), 0.1))
     out = level_hold(mod, params, levels, tau_c / gain, cfg)
-    for v in corners(params, box):
+    for v in plants.corners:
         if held_range(mod, v) is None:
             continue  # the setting cannot work on this corner: no hold makes it
         k = local_models(levels, mod, v).gain
@@ -94,14 +129,8 @@ def box_hold(
     return out
 
 
-def box_levels(
-    mod: Modulator,
-    params: ValveParams,
-    box: Mapping[str, tuple[float, float]],
-    levels: list[float],
-    max_fraction: float = 0.95,
-) -> list[float]:
-    """The set-points that every valve of the box holds with ``mod``.
+def box_levels(plants: PromiseBox, levels: list[float], max_fraction: float = 0.95) -> list[float]:
+    """The set-points that every valve of the box holds with its setting.
 
     A plant of the box whose supply is lower than a set-point cannot hold it, whatever the
     controller: the promise can only be about the set-points every plant holds
@@ -109,18 +138,30 @@ def box_levels(
     than two are left, ``levels`` is returned unchanged (the promise then fails on them and
     says so).
 
+    Parameters
+    ----------
+    plants : PromiseBox
+        The setting, the estimate and the box.
+    levels : list of float
+        The candidate set-points, bar.
+    max_fraction : float, default 0.95
+        As :func:`~spa.closedloop.levels.held_range`.
+
+    Returns
+    -------
+    list of float
+
     Examples
     --------
     >>> m = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
-    >>> box_levels(m, ValveParams(), {"k2": (0.6, 1.0)}, [0.2, 0.4, 0.6, 0.8])
+    >>> box_levels(PromiseBox(m, ValveParams(), {"k2": (0.6, 1.0)}), [0.2, 0.4, 0.6, 0.8])
     [0.2, 0.4]
     """
     from spa.closedloop.levels import held_range
-    from spa.closedloop.robust import corners
 
     lo, hi = -math.inf, math.inf
-    for valve in (params, *corners(params, box)):
-        held = held_range(mod, valve, max_fraction)
+    for valve in (plants.params, *plants.corners):
+        held = held_range(plants.modulator, valve, max_fraction)
         if held is None:
             return list(levels)
         lo, hi = max(lo, held[0]), min(hi, held[1])

@@ -31,6 +31,8 @@ from spa.closedloop.choice import (
 )
 from spa.closedloop.design import DEFAULT_TAU_C, design_pi, operating_levels
 from spa.closedloop.experiments import (
+    LoopUnderTest,
+    Staircase,
     cycle_period,
     run_sine,
     run_staircase,
@@ -208,9 +210,10 @@ def _evaluate(
 ) -> tuple[list[dict[str, Any]], list[pd.DataFrame], pd.DataFrame]:
     """One setting and controller: table rows, per-step rows and the Fig. 10 trace."""
     dt = float(c["dt"])
-    run, stair = run_staircase(mod, ctrl, params, levels, hold, dt)
-    step_set = run_steps(mod, ctrl, params, levels, float(c["step_hold"]), dt)
-    _, sine = run_sine(mod, ctrl, params, sine_within(c["sine"], min(levels), max(levels)), dt)
+    loop = LoopUnderTest(mod, ctrl, params)
+    run, stair = run_staircase(loop, Staircase(levels, hold, dt))
+    step_set = run_steps(loop, Staircase(levels, float(c["step_hold"]), dt))
+    _, sine = run_sine(loop, sine_within(c["sine"], min(levels), max(levels)), dt)
     base = {"modulator": mod.label, "description": mod.description, "controller": name}
     rows: list[dict[str, Any]] = []
     step_rows = []

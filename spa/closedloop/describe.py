@@ -11,7 +11,7 @@ import pandas as pd
 
 from spa.closedloop.comparison import DEFAULTS
 from spa.closedloop.design import DEFAULT_TAU_C, design_pi, local_models, simc
-from spa.closedloop.experiments import run_staircase
+from spa.closedloop.experiments import LoopUnderTest, Staircase, run_staircase
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -88,8 +88,9 @@ def design_summary(
         }
     )
     staircase = {}
+    stairs = Staircase(lv, hold, dt)
     for name, ctrl in designs.items():
-        _, steps = run_staircase(modulator, ctrl, params, lv, hold, dt)
+        _, steps = run_staircase(LoopUnderTest(modulator, ctrl, params), stairs)
         staircase[name] = {
             "rise_time_max": float(np.nanmax(steps["rise_time"])),
             "rise_time_min": float(np.nanmin(steps["rise_time"])),

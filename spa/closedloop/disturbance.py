@@ -19,19 +19,15 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from spa import _checks as checks
-from spa.closedloop.controller import PIController
-from spa.closedloop.experiments import _settled, staircase_reference, step_periods
+from spa.closedloop.experiments import LoopUnderTest, Staircase, _settled
 from spa.closedloop.loop import closed_loop_arrays
 from spa.closedloop.metrics import cycle_mean, ripple, steps
-from spa.model.modulators import Modulator
-from spa.model.params import ValveParams
 
 __all__ = ["BAND", "DROP", "disturbances", "noise_ripple", "recovery_time", "supply_drop"]
 
@@ -79,28 +75,26 @@ def recovery_time(
 class _Setup:
     """The staircase, its start (settled at the first level) and cycle-mean window, once."""
 
-    def __init__(
-        self,
-        modulator: Modulator,
-        controller: PIController,
-        params: ValveParams,
-        levels: Sequence[float],
-        hold: float,
-        dt: float,
-    ) -> None:
-        self.args = (modulator, controller, params)
-        self.levels = [float(v) for v in levels]
-        self.dt = dt
-        self.n_hold = round(hold / dt)
-        self.r = staircase_reference(self.levels, hold, dt)
-        self.t = np.arange(self.r.size) * dt
-        self.i0 = _settled(modulator, controller, params, self.levels[0])
-        self.period = step_periods(modulator, params, self.levels, dt)
+    def __init__(self, loop: LoopUnderTest, stairs: Staircase) -> None:
+        self.loop = loop
+        self.stairs = stairs
+        self.r = stairs.reference
+        self.t = np.arange(self.r.size) * stairs.dt
+        self.i0 = _settled(loop.modulator, loop.controller, loop.params, stairs.levels[0])
+        self.period = stairs.periods(loop)
 
     def run(self, **disturbance: Any) -> tuple[np.ndarray, np.ndarray]:
         """``(p, valve)`` of the staircase, with ``k2_change`` or ``sensor_noise``."""
+        loop, stairs = self.loop, self.stairs
         p, _, u = closed_loop_arrays(
-            self.r, self.dt, *self.args, self.levels[0], integral0=self.i0, **disturbance
+            self.r,
+            stairs.dt,
+            loop.modulator,
+            loop.controller,
+            loop.params,
+            stairs.levels[0],
+            integral0=self.i0,
+            **disturbance,
         )
         return p, u
 
@@ -108,19 +102,19 @@ class _Setup:
 def _drop_metrics(setup: _Setup, clean: np.ndarray, drop: float) -> dict[str, float]:
     if not 0.0 < drop < 1.0:
         raise ValueError(f"drop must be a fraction in (0, 1), got {drop}")
-    mid = (len(setup.levels) - 1) // 2
-    k_drop = mid * setup.n_hold + setup.n_hold // 2
-    level = setup.levels[mid]
-    params = setup.args[2]
-    p, _ = setup.run(k2_change=(k_drop, params.k2 * (1.0 - drop)))
-    window = max(round(setup.period[level] / setup.dt), 1)
-    stop = (mid + 1) * setup.n_hold
+    stairs = setup.stairs
+    mid = (len(stairs.levels) - 1) // 2
+    k_drop = mid * stairs.n_hold + stairs.n_hold // 2
+    level = stairs.levels[mid]
+    p, _ = setup.run(k2_change=(k_drop, setup.loop.params.k2 * (1.0 - drop)))
+    window = max(round(setup.period[level] / stairs.dt), 1)
+    stop = (mid + 1) * stairs.n_hold
     deviation = cycle_mean(clean, window)[k_drop:stop] - cycle_mean(p, window)[k_drop:stop]
     tail = p[stop - max((stop - k_drop) // 4, 1) : stop]
     return {
         "drop_level": level,
         "recovery_time": recovery_time(
-            setup.t[k_drop:stop], deviation, BAND * level, k_drop * setup.dt
+            setup.t[k_drop:stop], deviation, BAND * level, k_drop * stairs.dt
         ),
         "dip": float(max(deviation.max(), 0.0)),
         "steady_state_error": float(level - tail.mean()),
@@ -144,22 +138,16 @@ def _noise_metrics(
     return {"noise": sigma, "added_ripple_rms": float(added[0]), "added_ripple_pp": float(added[1])}
 
 
-def supply_drop(
-    modulator: Modulator,
-    controller: PIController,
-    params: ValveParams,
-    levels: Sequence[float],
-    hold: float,
-    dt: float,
-    drop: float = DROP,
-) -> dict[str, float]:
+def supply_drop(loop: LoopUnderTest, stairs: Staircase, drop: float = DROP) -> dict[str, float]:
     """The staircase with the supply pressure dropping by ``drop`` mid-way.
 
     Parameters
     ----------
-    modulator, controller, params, levels, hold, dt
-        As :func:`spa.closedloop.experiments.run_staircase` (started settled at the first
-        level).
+    loop : LoopUnderTest
+        The loop, started settled at the first level (as
+        :func:`spa.closedloop.experiments.run_staircase`).
+    stairs : Staircase
+        The staircase.
     drop : float, optional
         Fraction of ``k2`` lost, in (0, 1).
 
@@ -170,25 +158,18 @@ def supply_drop(
         ``dip`` (bar) and ``steady_state_error`` after the drop (bar), as the module says;
         the cycle-mean window is the modulator's period at the level of the drop.
     """
-    setup = _Setup(modulator, controller, params, levels, hold, dt)
+    setup = _Setup(loop, stairs)
     return _drop_metrics(setup, setup.run()[0], drop)
 
 
 def noise_ripple(
-    modulator: Modulator,
-    controller: PIController,
-    params: ValveParams,
-    levels: Sequence[float],
-    hold: float,
-    dt: float,
-    sigma: float,
-    seed: int = 0,
+    loop: LoopUnderTest, stairs: Staircase, sigma: float, seed: int = 0
 ) -> dict[str, float]:
     """Ripple the sensor's noise adds to the actuator pressure over the staircase.
 
     Parameters
     ----------
-    modulator, controller, params, levels, hold, dt
+    loop, stairs
         As :func:`supply_drop`.
     sigma : float
         The noise's standard deviation, bar (>= 0).
@@ -204,34 +185,34 @@ def noise_ripple(
     Examples
     --------
     >>> from spa.closedloop.design import design_pi
+    >>> from spa.model.modulators import Modulator
+    >>> from spa.model.params import ValveParams
     >>> mod = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
-    >>> c = design_pi(mod, levels=[0.2, 0.4])["fixed"]
-    >>> noise_ripple(mod, c, ValveParams(), [0.2, 0.4], 1.0, 1e-3, 0.0)["added_ripple_rms"]
+    >>> loop = LoopUnderTest(mod, design_pi(mod, levels=[0.2, 0.4])["fixed"], ValveParams())
+    >>> noise_ripple(loop, Staircase([0.2, 0.4], 1.0, 1e-3), 0.0)["added_ripple_rms"]
     0.0
     """
-    setup = _Setup(modulator, controller, params, levels, hold, dt)
+    setup = _Setup(loop, stairs)
     return _noise_metrics(setup, setup.run(), sigma, seed)
 
 
 def disturbances(
-    modulator: Modulator,
-    controller: PIController,
-    params: ValveParams,
-    levels: Sequence[float],
-    hold: float,
-    dt: float,
-    sigma: float,
-    *,
-    seed: int = 0,
-    drop: float = DROP,
+    loop: LoopUnderTest, stairs: Staircase, sigma: float, *, seed: int = 0, drop: float = DROP
 ) -> dict[str, float]:
     """:func:`supply_drop` and :func:`noise_ripple` together, sharing the undisturbed run.
+
+    Parameters
+    ----------
+    loop, stairs, drop
+        As :func:`supply_drop`.
+    sigma, seed
+        As :func:`noise_ripple`.
 
     Returns
     -------
     dict
         Both functions' keys; the same values as calling each.
     """
-    setup = _Setup(modulator, controller, params, levels, hold, dt)
+    setup = _Setup(loop, stairs)
     clean = setup.run()
     return {**_drop_metrics(setup, clean[0], drop), **_noise_metrics(setup, clean, sigma, seed)}

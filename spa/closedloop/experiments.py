@@ -7,12 +7,14 @@ and measures it with :mod:`spa.closedloop.metrics`.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from spa import _checks as checks
 from spa.closedloop.controller import PIController
 from spa.closedloop.design import MAX_PERIOD, feedforward
 from spa.closedloop.loop import closed_loop_arrays, simulate_closed_loop
@@ -22,6 +24,8 @@ from spa.model.modulators.core import settings_arrays
 from spa.model.params import ValveParams
 
 __all__ = [
+    "LoopUnderTest",
+    "Staircase",
     "cycle_period",
     "run_sine",
     "run_staircase",
@@ -94,25 +98,83 @@ def _settled(
     return float(feedforward([level], modulator, params)[0])
 
 
+@dataclass(frozen=True)
+class LoopUnderTest:
+    """The loop an experiment runs: a modulator setting, its PI and the valve it closes on.
+
+    Attributes
+    ----------
+    modulator, controller, params : Modulator, PIController, ValveParams
+        The setting, its PI (fixed, scheduled or with feed-forward) and the plant.
+    """
+
+    modulator: Modulator
+    controller: PIController
+    params: ValveParams
+
+
+@dataclass(frozen=True)
+class Staircase:
+    """The set-points of an experiment: ``levels`` (bar), each held ``hold`` s, sampled every
+    ``dt`` s (the controller step); checked once, here.
+
+    Attributes
+    ----------
+    levels : tuple of float
+        The set-points, bar (at least one; any sequence is stored as a tuple of floats).
+    hold : float
+        How long each is held, s (> 0).
+    dt : float
+        The controller step, s (> 0).
+
+    Examples
+    --------
+    >>> s = Staircase([0.1, 0.2], 0.002, 0.001)
+    >>> s.levels, s.n_hold, s.reference.tolist()
+    ((0.1, 0.2), 2, [0.1, 0.1, 0.2, 0.2, 0.1, 0.1])
+    """
+
+    levels: tuple[float, ...]
+    hold: float
+    dt: float
+
+    def __post_init__(self) -> None:
+        levels = tuple(float(v) for v in self.levels)
+        if not levels:
+            raise ValueError("levels: need at least one set-point")
+        object.__setattr__(self, "levels", levels)
+        object.__setattr__(self, "hold", checks.positive("hold", self.hold, "s"))
+        object.__setattr__(self, "dt", checks.positive("dt", self.dt, "s"))
+
+    @property
+    def n_hold(self) -> int:
+        """Controller steps each level is held."""
+        return round(self.hold / self.dt)
+
+    @property
+    def reference(self) -> np.ndarray:
+        """The staircase up and back down (:func:`staircase_reference`), bar."""
+        return staircase_reference(self.levels, self.hold, self.dt)
+
+    def periods(self, loop: LoopUnderTest) -> dict[float, float]:
+        """Each level's cycle-mean window with ``loop``'s modulator (:func:`step_periods`)."""
+        return step_periods(loop.modulator, loop.params, self.levels, self.dt)
+
+
 def _settled_run(
-    reference: np.ndarray,
-    dt: float,
-    modulator: Modulator,
-    controller: PIController,
-    params: ValveParams,
-    level: float,
+    loop: LoopUnderTest, reference: np.ndarray, dt: float, level: float
 ) -> pd.DataFrame:
     """:func:`~spa.closedloop.loop.simulate_closed_loop` over ``reference``, started settled
     at ``level``: the pressure at ``level``, the integrator at :func:`_settled`'s state.
 
     Parameters
     ----------
+    loop : LoopUnderTest
+        The loop to run.
     reference : numpy.ndarray
         The set-points, bar.
     dt : float
         The controller step, s.
-    modulator, controller, params
-        As :func:`run_staircase`.
     level : float
         The set-point the loop starts settled at, bar.
 
@@ -124,64 +186,61 @@ def _settled_run(
     return simulate_closed_loop(
         reference,
         dt,
-        modulator,
-        controller,
-        params,
+        loop.modulator,
+        loop.controller,
+        loop.params,
         p0=level,
-        integral0=_settled(modulator, controller, params, level),
+        integral0=_settled(loop.modulator, loop.controller, loop.params, level),
     )
 
 
-def run_staircase(
-    modulator: Modulator,
-    controller: PIController,
-    params: ValveParams,
-    levels: Sequence[float],
-    hold: float,
-    dt: float,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
+def run_staircase(loop: LoopUnderTest, stairs: Staircase) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The staircase up and down, settled at the first level (pressure and integrator at
-    its averaged equilibrium): ``(run, step metrics)``."""
-    r = staircase_reference(levels, hold, dt)
-    run = _settled_run(r, dt, modulator, controller, params, float(levels[0]))
-    return run, step_metrics(
-        run, step_periods(modulator, params, levels, dt), r_initial=float(levels[0])
-    )
+    its averaged equilibrium).
+
+    Parameters
+    ----------
+    loop : LoopUnderTest
+        The loop to run.
+    stairs : Staircase
+        The set-points and their hold.
+
+    Returns
+    -------
+    run : pandas.DataFrame
+        :func:`~spa.closedloop.loop.simulate_closed_loop`'s run.
+    steps : pandas.DataFrame
+        :func:`~spa.closedloop.metrics.step_metrics` of its steps, each measured over the
+        cycle of its level (:func:`step_periods`).
+    """
+    r = stairs.reference
+    run = _settled_run(loop, r, stairs.dt, stairs.levels[0])
+    return run, step_metrics(run, stairs.periods(loop), r_initial=stairs.levels[0])
 
 
-def run_steps(
-    modulator: Modulator,
-    controller: PIController,
-    params: ValveParams,
-    levels: Sequence[float],
-    hold: float,
-    dt: float,
-) -> pd.DataFrame:
-    """One step from rest (0 bar, integrator at 0) to each level: one metrics row per level.
+def run_steps(loop: LoopUnderTest, stairs: Staircase) -> pd.DataFrame:
+    """One step from rest (0 bar, integrator at 0) to each of the staircase's levels, held
+    its ``hold``: one metrics row per level.
 
     Each step is measured with the cycle-mean window of its level, as the staircase.
     """
-    period = step_periods(modulator, params, levels, dt)
-    n = round(hold / dt)
-    t = np.arange(n, dtype=np.float64) * dt
+    period = stairs.periods(loop)
+    dt = stairs.dt
+    t = np.arange(stairs.n_hold, dtype=np.float64) * dt
     rows = []
-    for level in levels:
-        r = np.full(n, float(level))
-        p, _, u = closed_loop_arrays(r, dt, modulator, controller, params, 0.0)
+    for level in stairs.levels:
+        r = np.full(stairs.n_hold, level)
+        p, _, u = closed_loop_arrays(r, dt, loop.modulator, loop.controller, loop.params, 0.0)
         rows += step_rows(t, r, p, u, period, r_initial=0.0)
     return pd.DataFrame(rows, columns=["r0", "r1", "t0", *STEP_METRICS])
 
 
 def run_sine(
-    modulator: Modulator,
-    controller: PIController,
-    params: ValveParams,
-    sine: dict[str, Any],
-    dt: float,
+    loop: LoopUnderTest, sine: Mapping[str, Any], dt: float
 ) -> tuple[pd.DataFrame, dict[str, float]]:
     """The sine reference (``offset``, ``amplitude``, ``frequency``, ``duration``, ``skip``)."""
     r = sine_reference(sine["offset"], sine["amplitude"], sine["frequency"], sine["duration"], dt)
-    run = _settled_run(r, dt, modulator, controller, params, float(r[0]))
+    run = _settled_run(loop, r, dt, float(r[0]))
     return run, sine_metrics(run, sine["frequency"], skip=float(sine.get("skip", 0.0)))
 
 

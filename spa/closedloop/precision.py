@@ -1,12 +1,13 @@
 """How far the single-precision header's loop is from the double-precision one's.
 
-:func:`precision_agreement` compiles both headers of one controller
+:func:`closed_loops` compiles both headers of one controller
 (:func:`spa.closedloop.export.controller_header`, ``precision="double"`` and ``"single"``)
 with the system C compiler into one harness that closes each on the model's plant, written
 in C as the closed forms of docs/model.md (the hold convention of
 :func:`spa.model.plant.simulate`: a run of the valve starts ``t_on``/``t_off`` after its edge
 and follows Eq. (1)'s exact segment), drives both with the same set-points and compares the
-valve commands and pressures step by step. The double loop is the simulation's to 1e-12
+valve commands and pressures step by step; :func:`precision_agreement` summarises the
+comparison. The double loop is the simulation's to 1e-12
 (tests/test_export.py); the difference is the single header's rounding alone.
 """
 
@@ -147,13 +148,36 @@ def closed_loops(
     p0: float = 0.0,
     cc: str | None = None,
 ) -> np.ndarray:
-    """Both precisions' loops, step by step (:func:`precision_agreement`'s harness).
+    """Close both precisions' headers on the model's plant and run them step by step.
+
+    Parameters
+    ----------
+    modulator : Modulator or mapping
+        The setting.
+    controller : PIController
+        The designed PI.
+    params : ValveParams
+        The valve the loops are closed on.
+    reference : numpy.ndarray
+        The set-point at every controller step, bar (e.g.
+        :func:`spa.closedloop.experiments.staircase_reference`).
+    dt : float
+        The controller step, s.
+    p0 : float, optional
+        The starting pressure, bar.
+    cc : str, optional
+        The C compiler (default ``cc`` on the PATH).
 
     Returns
     -------
     numpy.ndarray
         Shape ``(n, 6)``: the valve command of the double and single header, the pressure
         of each loop (bar, read before the step's command) and the ``xi`` of each.
+
+    Raises
+    ------
+    RuntimeError
+        When no C compiler is found or the harness does not compile or run.
     """
     compiler = cc or shutil.which("cc")
     if compiler is None:
@@ -190,49 +214,27 @@ def closed_loops(
     return np.loadtxt(ran.stdout.splitlines(), ndmin=2)
 
 
-def precision_agreement(
-    modulator: Any,
-    controller: PIController,
-    params: ValveParams,
-    reference: np.ndarray,
-    dt: float,
-    *,
-    p0: float = 0.0,
-    cc: str | None = None,
-) -> PrecisionAgreement:
-    """Close both precisions' headers on the model's plant and compare them step by step.
+def precision_agreement(loops: np.ndarray) -> PrecisionAgreement:
+    """How far the single-precision loop is from the double-precision one.
 
     Parameters
     ----------
-    modulator : Modulator or mapping
-        The setting.
-    controller : PIController
-        The designed PI.
-    params : ValveParams
-        The valve the loops are closed on.
-    reference : numpy.ndarray
-        The set-point at every controller step, bar (e.g.
-        :func:`spa.closedloop.experiments.staircase_reference`).
-    dt : float
-        The controller step, s.
-    p0 : float, optional
-        The starting pressure, bar.
-    cc : str, optional
-        The C compiler (default ``cc`` on the PATH).
+    loops : numpy.ndarray
+        :func:`closed_loops`' run, shape ``(n, 6)``.
 
     Returns
     -------
     PrecisionAgreement
 
-    Raises
-    ------
-    RuntimeError
-        When no C compiler is found or the harness does not compile or run.
+    Examples
+    --------
+    >>> out = np.array([[1, 1, 0.0, 0.0, 0.5, 0.5], [0, 1, 0.5, 0.25, 0.75, 0.25]])
+    >>> precision_agreement(out).to_dict()
+    {'steps': 2, 'mismatches': 1, 'max_pressure_difference': 0.25, 'max_xi_difference': 0.5}
     """
-    out = closed_loops(modulator, controller, params, reference, dt, p0=p0, cc=cc)
     return PrecisionAgreement(
-        steps=int(out.shape[0]),
-        mismatches=int(np.count_nonzero(out[:, 0] != out[:, 1])),
-        max_pressure_difference=float(np.max(np.abs(out[:, 3] - out[:, 2]))),
-        max_xi_difference=float(np.max(np.abs(out[:, 5] - out[:, 4]))),
+        steps=int(loops.shape[0]),
+        mismatches=int(np.count_nonzero(loops[:, 0] != loops[:, 1])),
+        max_pressure_difference=float(np.max(np.abs(loops[:, 3] - loops[:, 2]))),
+        max_xi_difference=float(np.max(np.abs(loops[:, 5] - loops[:, 4]))),
     )

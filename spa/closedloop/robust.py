@@ -120,7 +120,7 @@ def box_worst_case(
     intervals : mapping or None
         ``name -> (lo, hi)``, the 95 % intervals
         (:func:`~spa.identification.identified.read_intervals`).
-    levels, hold, dt : as :func:`spa.closedloop.experiments.run_staircase`
+    levels, hold, dt : as :class:`spa.closedloop.experiments.Staircase`
     gains : sequence of float, default (1.0,)
         Factors on the loop gain (the measured model error's ``gain``,
         :func:`spa.closedloop.model_error.error_intervals`): the estimate is also run with
@@ -277,7 +277,7 @@ def robust_design(
     controller : {"fixed", "scheduled", "scheduled_ff"}
         Which of :func:`spa.closedloop.design.design_pi`'s controllers.
     params, intervals : as :func:`box_worst_case`
-    levels, hold, dt : the staircase (:func:`spa.closedloop.experiments.run_staircase`)
+    levels, hold, dt : the staircase (:class:`spa.closedloop.experiments.Staircase`)
     tau_c : float
         SIMC's nominal closed-loop time constant, s.
     limit : float
