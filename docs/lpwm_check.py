@@ -23,7 +23,6 @@ import yaml
 from spa.identification.identified import read_identified
 from spa.model.params import ValveParams
 from spa.tuning.cost import linearity_cost
-from spa.tuning.exact import exact_cost
 from spa.tuning.recommend import setting_metrics
 from spa.tuning.sensitivity import valve_sensitivity
 from spa.tuning.tables import tuning_table
@@ -55,7 +54,7 @@ def main(results: Path) -> None:
                 "lpwm_J": inv["J_min"],
                 "lpwm_J_exact": inv["J_exact"],
                 "lpwm_chattering": chat(INVERSE, f_opt),
-                "lpwm_J_exact_20Hz": float(exact_cost(INVERSE, 20.0, p, n_xi)),
+                "lpwm_J_exact_20Hz": float(linearity_cost(INVERSE, 20.0, p, n_xi, exact=True)),
                 "lpwm_J_20Hz": float(linearity_cost(INVERSE, 20.0, p, n_xi)),
                 "lpwm_chattering_20Hz": chat(INVERSE, 20.0),
                 "lpwm_optimum_exact_Hz": f_exact,

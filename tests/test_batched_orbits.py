@@ -8,7 +8,8 @@ import pytest
 
 from spa.model.params import ValveParams
 from spa.model.periodic import dsm_mean, dsm_means
-from spa.tuning.exact import exact_cost, exact_costs
+from spa.tuning.cost import linearity_cost
+from spa.tuning.exact import exact_costs
 from spa.tuning.intervals import box_points
 from spa.tuning.tables import _corner_optima
 
@@ -61,7 +62,10 @@ def test_exact_costs_are_exact_cost_for_every_kind() -> None:
         "ipfm": [0.02, 0.03, 0.04, 0.05],
     }.items():
         batch = exact_costs(kind, values, valves, n_xi=30)
-        single = [float(exact_cost(kind, x, v, 30)) for x, v in zip(values, valves, strict=True)]
+        single = [
+            float(linearity_cost(kind, x, v, 30, exact=True))
+            for x, v in zip(values, valves, strict=True)
+        ]
         assert batch.tolist() == single, kind
 
 

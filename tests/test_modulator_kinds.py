@@ -29,7 +29,6 @@ from spa.openloop import staircase_analysis
 from spa.plots.style import setting_sort_key
 from spa.synthetic import staircase_input
 from spa.tuning.cost import DEFAULT_SWEEPS, feasible, linearity_cost, setting
-from spa.tuning.exact import exact_cost
 
 P = ValveParams()
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +59,7 @@ def test_every_kind_runs_the_chain(kind):
     assert abs(float(periodic_mean(kind, 0.5, P, **mod.settings)) - peq[10]) < 0.05
     # tuning cost and thresholds
     j = float(linearity_cost(kind, spec.reference, P))
-    j_exact = float(exact_cost(kind, spec.reference, P))
+    j_exact = float(linearity_cost(kind, spec.reference, P, exact=True))
     assert 0.0 <= j < 15.0 and 0.0 <= j_exact < 15.0
     dead, sat = thresholds(kind, P, **mod.settings)
     assert 0.0 <= dead < sat <= 1.0

@@ -20,7 +20,6 @@ from spa.tuning import (
     PAPER_TABLE2,
     check_sweeps,
     equilibrium_frame,
-    exact_cost,
     feasible,
     iipfm_optimal_t_l,
     linearity_cost,
@@ -369,7 +368,9 @@ def test_nominal_table2_done_when(table2):
 def test_j_exact_column_is_the_exact_cost_at_the_optimum(example_table2):
     for kind, row in example_table2.iterrows():
         value = row["optimum"] * (1.0 if kind == "pwm" else 1e-3)
-        assert row["J_exact"] == pytest.approx(float(exact_cost(kind, value, EXAMPLE)), rel=1e-12)
+        assert row["J_exact"] == pytest.approx(
+            float(linearity_cost(kind, value, EXAMPLE, exact=True)), rel=1e-12
+        )
         if setting_metrics(kind, value, EXAMPLE)["chattering"] <= 0.05:  # J's optimum is usable
             assert row["J_exact_min"] <= row["J_exact"]
 
@@ -390,7 +391,9 @@ def test_j_exact_optimum_meets_the_constraints_and_is_interior(example_table2):
         assert m["switching_rate"] <= limits.max_switching_rate
         assert m["min_pulse"] >= limits.min_pulse_width * (1 - 1e-9)
         assert not row["optimum_exact_at_grid_edge"] and not row["optimum_at_grid_edge"]
-        assert row["J_exact_min"] == pytest.approx(float(exact_cost(kind, value, EXAMPLE)))
+        assert row["J_exact_min"] == pytest.approx(
+            float(linearity_cost(kind, value, EXAMPLE, exact=True))
+        )
     assert example_table2.loc["dsm", "optimum_exact"] == pytest.approx(16.5)
     free = {
         "max_switching_rate": None,
@@ -426,7 +429,10 @@ def test_j_exact_equals_j_under_fast_switching():
     """Tiny delays and short periods: the orbit is its average and J_exact -> J."""
     fast = ValveParams(t_on=1e-6, t_off=1e-6)
     for kind, value in [("pwm", 2000.0), ("ipfm", 5e-4), ("iipfm", 5e-4), ("dsm", 5e-4)]:
-        j, j_exact = linearity_cost(kind, value, fast), exact_cost(kind, value, fast)
+        j, j_exact = (
+            linearity_cost(kind, value, fast),
+            linearity_cost(kind, value, fast, exact=True),
+        )
         assert j_exact == pytest.approx(j, rel=2e-3), kind
 
 

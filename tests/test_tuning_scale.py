@@ -83,16 +83,18 @@ def test_violation_is_the_sum_of_relative_excesses():
 
 def test_nothing_usable_is_the_only_null():
     """``recommended: null`` only when no swept setting works on the valve at all."""
-    from spa.tuning.recommend import recommend
+    from spa.tuning.recommend import TuningSetup, recommend
     from spa.tuning.sentence import recommendation_sentence
 
     coarse = {k: {**g, "step": g["step"] * 50} for k, g in SMALL.items()}
     candidates = tune(FOUR_BAR, sweeps=coarse, n_xi=20).candidates
-    rec = recommend(candidates.iloc[:0], FOUR_BAR, 20)
+    rec = recommend(candidates.iloc[:0], TuningSetup(FOUR_BAR, 20))
     assert rec["recommended"] is None and rec["excluded_by"] == []
     assert recommendation_sentence(rec).startswith(
         "No setting of any swept modulator works on this valve"
     )
-    tight = recommend(candidates, FOUR_BAR, 20, TuningOptions(max_switching_rate=0.001))
+    tight = recommend(
+        candidates, TuningSetup(FOUR_BAR, 20, TuningOptions(max_switching_rate=0.001))
+    )
     assert tight["n_feasible"] == 0
     assert tight["recommended"] is not None and tight["recommended"]["violates"]

@@ -41,7 +41,6 @@ __all__ = [
     "TuningError",
     "TuningOptions",
     "TuningResult",
-    "exact_cost",
     "iipfm_optimal_t_l",
     "linearity_cost",
     "modulator_settings",

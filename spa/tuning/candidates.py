@@ -27,7 +27,6 @@ from spa.model.params import ValveParams
 from spa.model.usable import usable
 from spa.tuning.constraints import _METRIC, CONSTRAINTS, TuningOptions, violation
 from spa.tuning.cost import _on_xi_grid, feasible, linearity_cost, modulator_settings, sweep_grid
-from spa.tuning.exact import exact_cost
 
 __all__ = ["candidate_frame", "setting_metrics"]
 
@@ -150,7 +149,7 @@ def candidate_frame(
             else:
                 costs = {
                     "J": linearity_cost(kind, v, params, n_xi, gain=gain),
-                    "J_exact": exact_cost(kind, v, params, n_xi, gain=gain),
+                    "J_exact": linearity_cost(kind, v, params, n_xi, gain=gain, exact=True),
                 }
             frame = pd.DataFrame(
                 {

@@ -37,6 +37,7 @@ __all__ = [
     "feasible",
     "iipfm_optimal_t_l",
     "linearity_cost",
+    "mean_pressure",
     "modulator_settings",
     "optimum",
     "paper_setting",
@@ -244,8 +245,9 @@ def linearity_cost(
     n_xi: int = 100,
     *,
     gain: npt.ArrayLike | None = None,
+    exact: bool = False,
 ) -> Floats:
-    """Linearity cost ``J`` of a modulator setting (Eq. 25).
+    """Linearity cost ``J`` of a modulator setting (Eq. 25), or ``J_exact``.
 
     Parameters
     ----------
@@ -257,12 +259,15 @@ def linearity_cost(
         Number ``N`` of equally spaced input fractions in [0, 1], both ends included.
     gain : array_like of float, optional
         IPFM/IIPFM gain instead of the default (:func:`modulator_settings`).
+    exact : bool, default False
+        ``J_exact``: the exact time mean of the periodic steady state in place of the
+        averaged ``P_eq`` (:func:`mean_pressure`).
 
     Returns
     -------
     numpy.ndarray or numpy.float64
-        ``J`` in bar, of the shape of ``value`` (broadcast with ``gain``). The constraint is
-        not applied here (see :func:`feasible`, :func:`sweep`).
+        ``J`` (or ``J_exact``) in bar, of the shape of ``value`` (broadcast with ``gain``).
+        The constraint is not applied here (see :func:`feasible`, :func:`sweep`).
 
     Raises
     ------
@@ -274,17 +279,67 @@ def linearity_cost(
     ``J = sum_{i=1..N} |P_eq(xi_i) - k2*xi_i|``, ``xi_i = (i - 1)/(N - 1)``, with ``P_eq``
     the averaged equilibrium of Eq. 5. ``J`` grows with ``N``; compare costs at equal ``N``.
 
+    ``J_exact`` puts the exact time mean over one cycle of the periodic orbit in place of
+    ``P_eq`` (:mod:`spa.tuning.exact`). Under fast switching (periods far below ``tau2`` and
+    ``c1*sqrt(P)``) the orbit is close to its average and ``J_exact`` to ``J``. The holds
+    make the orbit linger at ``P+`` for ``t_off`` and at ``P-`` for ``t_on``, which Eq. 5
+    does not see.
+
     Examples
     --------
     >>> round(float(linearity_cost("iipfm", 0.0195)), 2)
     3.63
+    >>> round(float(linearity_cost("iipfm", 0.0195, exact=True)), 2)
+    3.62
     """
     p = valve_params(params)
     settings, xi, grid = _on_xi_grid(kind, value, p, n_xi, gain)
     shape = np.broadcast_shapes(*(np.shape(x) for x in settings.values()))
-    a1, a2 = time_fractions(kind, xi, p, **grid)
-    peq = equilibrium_pressure(a1, a2, p)
-    return np.asarray(deviation_cost(peq, xi, p.k2), dtype=np.float64).reshape(shape)[()]
+    pressure = mean_pressure(kind, xi, p, grid, exact=exact)
+    return np.asarray(deviation_cost(pressure, xi, p.k2), dtype=np.float64).reshape(shape)[()]
+
+
+def mean_pressure(
+    kind: str,
+    xi: npt.NDArray[np.float64],
+    params: ValveParams,
+    settings: Mapping[str, npt.ArrayLike],
+    exact: bool = False,
+) -> npt.NDArray[np.float64]:
+    """Mean pressure against the input fractions: ``P_eq`` of Eq. 5, or the exact cycle mean.
+
+    Parameters
+    ----------
+    kind : str
+        Modulator type (checked by the caller).
+    xi : numpy.ndarray
+        The ``n`` fractions ``i/(n - 1)``, ``i = 0..n-1``.
+    params : ValveParams
+        Valve parameters.
+    settings : mapping
+        Modulator settings (:func:`modulator_settings`), broadcasting against ``xi``.
+    exact : bool, default False
+        The exact time mean of the periodic steady state
+        (:meth:`spa.model.modulators.ModulatorKind.periodic_mean`: Appendix B's ``P+``/``P-``
+        for PWM, IPFM and IIPFM, the true first-order pattern for ΔΣM, whose ``xi_i`` is then
+        the fraction ``i/(n - 1)`` exactly) instead of the averaged equilibrium.
+
+    Returns
+    -------
+    numpy.ndarray
+        The pressure at each ``xi`` (broadcast with ``settings``), bar.
+
+    Examples
+    --------
+    >>> xi = np.linspace(0.0, 1.0, 3)
+    >>> mean_pressure("pwm", xi, ValveParams(), {"f_w": 20.0}).round(3).tolist()
+    [0.0, 0.279, 0.837]
+    """
+    if exact:
+        mean = get_kind(kind).periodic_mean(xi, settings, params, max_denominator=xi.size - 1)
+    else:
+        mean = equilibrium_pressure(*time_fractions(kind, xi, params, **settings), params)
+    return np.asarray(mean, dtype=np.float64)
 
 
 def deviation_cost(
@@ -353,7 +408,8 @@ def sweep(
         Points of ``xi`` in the cost.
     cost : callable, optional
         ``(kind, values, params, n_xi) -> J``; :func:`linearity_cost` (Eq. 25) by default,
-        :func:`spa.tuning.exact.exact_cost` for the exact periodic steady state.
+        ``functools.partial(linearity_cost, exact=True)`` for the exact periodic steady
+        state.
 
     Returns
     -------

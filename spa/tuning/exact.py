@@ -2,10 +2,12 @@
 
 The paper's cost (Eq. 25, :func:`spa.tuning.cost.linearity_cost`) measures the averaged
 equilibrium ``P_eq(xi)`` against the line ``k2*xi``. For a constant input the pulse train is
-periodic and the exact plant settles on a periodic orbit; :func:`exact_cost` puts the orbit's
-exact time mean (:func:`spa.model.steady_state.periodic_mean`: Appendix B's ``P+``/``P-`` for
-PWM, IPFM and IIPFM, the true first-order pattern for ΔΣM) in place of ``P_eq``. Where the
-two costs differ, the averaging assumption does not hold for the valve at hand.
+periodic and the exact plant settles on a periodic orbit; ``linearity_cost(..., exact=True)``
+puts the orbit's exact time mean (:func:`spa.tuning.cost.mean_pressure`: Appendix B's
+``P+``/``P-`` for PWM, IPFM and IIPFM, the true first-order pattern for ΔΣM) in place of
+``P_eq``: ``J_exact``. Where the two costs differ, the averaging assumption does not hold for
+the valve at hand. This module computes ``J_exact`` of several valves in one batch
+(:func:`exact_costs`) and ranks settings with ties between the two costs.
 """
 
 from __future__ import annotations
@@ -16,13 +18,11 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from spa._docs import fill_doc
-from spa.model._broadcast import Floats
 from spa.model.modulators import get_kind
-from spa.model.params import ValveParams, valve_params
-from spa.tuning.cost import _on_xi_grid, deviation_cost
+from spa.model.params import ValveParams
+from spa.tuning.cost import _on_xi_grid, deviation_cost, linearity_cost
 
-__all__ = ["COST_TIE", "best_first", "exact_cost", "exact_costs", "exact_curve", "tied_optimum"]
+__all__ = ["COST_TIE", "best_first", "exact_costs", "tied_optimum"]
 
 #: Costs (bar) that differ by less than this are equal when settings are ranked. Model-inverse
 #: PWM makes ``J`` zero by construction: its ``J`` over the sweep is rounding error (below
@@ -32,99 +32,13 @@ __all__ = ["COST_TIE", "best_first", "exact_cost", "exact_costs", "exact_curve",
 COST_TIE = 1e-9
 
 
-@fill_doc
-def exact_curve(
-    kind: str,
-    value: npt.ArrayLike,
-    params: ValveParams | None = None,
-    n_xi: int = 100,
-    *,
-    gain: npt.ArrayLike | None = None,
-) -> npt.NDArray[np.float64]:
-    """Exact mean pressure of the periodic steady state on the grid of ``n_xi`` fractions.
-
-    Parameters
-    ----------
-    %(kind)s
-    value : array_like of float
-        Swept parameter value(s) (:func:`spa.tuning.cost.modulator_settings`).
-    %(params)s
-    n_xi : int, default 100
-        Points ``xi_i = i/(n_xi - 1)``.
-    gain : array_like of float, optional
-        IPFM/IIPFM gain instead of the default.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape ``value.shape + (n_xi,)``: the cycle mean at each ``xi_i``, bar. For ΔΣM each
-        ``xi_i`` is the fraction ``i/(n_xi - 1)`` exactly (its pattern repeats every
-        ``(n_xi - 1)/gcd`` clock periods).
-
-    Raises
-    ------
-    ValueError
-        As :func:`spa.tuning.cost.linearity_cost`.
-    """
-    p = valve_params(params)
-    _, xi, grid = _on_xi_grid(kind, value, p, n_xi, gain)
-    mean = get_kind(kind).periodic_mean(xi, grid, p, max_denominator=xi.size - 1)
-    return np.asarray(mean, dtype=np.float64)
-
-
-@fill_doc
-def exact_cost(
-    kind: str,
-    value: npt.ArrayLike,
-    params: ValveParams | None = None,
-    n_xi: int = 100,
-    *,
-    gain: npt.ArrayLike | None = None,
-) -> Floats:
-    """Linearity cost ``J_exact`` of Eq. 25 with the exact periodic steady state.
-
-    Parameters
-    ----------
-    %(cost_args)s
-
-    Returns
-    -------
-    numpy.ndarray or numpy.float64
-        ``sum_i |P_mean(xi_i) - k2*xi_i|`` in bar, of the shape of ``value`` (broadcast with
-        ``gain``), with ``P_mean`` the exact time mean over one cycle of the periodic orbit
-        (:func:`exact_curve`).
-
-    Raises
-    ------
-    ValueError
-        As :func:`spa.tuning.cost.linearity_cost`.
-
-    Notes
-    -----
-    Under fast switching (periods far below ``tau2`` and ``c1*sqrt(P)``) the orbit is close
-    to its average and ``J_exact`` to ``J``. The holds make the orbit linger at ``P+`` for
-    ``t_off`` and at ``P-`` for ``t_on``, which Eq. 5 does not see.
-
-    Examples
-    --------
-    >>> from spa.tuning.cost import linearity_cost
-    >>> j, j_exact = linearity_cost("iipfm", 0.0195), exact_cost("iipfm", 0.0195)
-    >>> round(float(j), 2), round(float(j_exact), 2)
-    (3.63, 3.62)
-    """
-    p = valve_params(params)
-    curve = exact_curve(kind, value, p, n_xi, gain=gain)
-    xi = np.linspace(0.0, 1.0, curve.shape[-1])
-    return np.asarray(deviation_cost(curve, xi, p.k2), dtype=np.float64)[()]
-
-
 def exact_costs(
     kind: str,
     values: Sequence[float],
     valves: Sequence[ValveParams],
     n_xi: int = 100,
 ) -> npt.NDArray[np.float64]:
-    """:func:`exact_cost` of one setting on each of several valves, in one batch.
+    """``J_exact`` of one setting on each of several valves, in one batch.
 
     Parameters
     ----------
@@ -135,12 +49,13 @@ def exact_costs(
     valves : sequence of ValveParams
         As many as ``values`` (the corners of a parameter box, say).
     n_xi : int, default 100
-        As :func:`exact_cost`.
+        As :func:`spa.tuning.cost.linearity_cost`.
 
     Returns
     -------
     numpy.ndarray
-        ``J_exact`` of each (value, valve), bit for bit :func:`exact_cost`'s: a kind whose
+        ``J_exact`` of each (value, valve), bit for bit
+        ``linearity_cost(kind, value, valve, n_xi, exact=True)``'s: a kind whose
         orbit is iterated (ΔΣM) computes every valve's orbits in one Newton iteration
         (:meth:`spa.model.modulators.ModulatorKind.periodic_means`).
 
@@ -148,7 +63,7 @@ def exact_costs(
     --------
     >>> a, b = ValveParams(), ValveParams(c1=0.6)
     >>> costs = exact_costs("dsm", [0.02, 0.03], [a, b], n_xi=20)
-    >>> bool(costs[1] == exact_cost("dsm", 0.03, b, 20))
+    >>> bool(costs[1] == linearity_cost("dsm", 0.03, b, 20, exact=True))
     True
     """
     grids, xi = [], None
@@ -221,7 +136,7 @@ def tied_optimum(
     -------
     int
         The first index of the smallest ``J`` unless several settings tie with it; then the
-        tied setting with the smallest :func:`exact_cost` (computed for the tied ones only).
+        tied setting with the smallest ``J_exact`` (computed for the tied ones only).
 
     Examples
     --------
@@ -233,5 +148,6 @@ def tied_optimum(
     tied = np.flatnonzero(np.round(j / COST_TIE) == np.round(j[i] / COST_TIE))
     if tied.size < 2:
         return i
-    exact = np.asarray(exact_cost(kind, np.asarray(values)[tied], params, n_xi), dtype=float)
+    tied_values = np.asarray(values)[tied]
+    exact = np.asarray(linearity_cost(kind, tied_values, params, n_xi, exact=True), dtype=float)
     return int(tied[int(np.nanargmin(exact))])

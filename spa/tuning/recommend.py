@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from spa import _checks as checks
 from spa._memo import memoised
 from spa.model.averaging import time_constant, time_fractions
 from spa.model.modulators import MODULATOR_ORDER, Modulator
@@ -41,7 +43,7 @@ from spa.tuning.constraints import violation as violation
 from spa.tuning.cost import modulator_settings
 from spa.tuning.exact import best_first
 
-__all__ = ["UNITS", "predict", "recommend"]
+__all__ = ["UNITS", "TuningSetup", "predict", "recommend"]
 
 #: Units of the numbers in a recommendation.
 UNITS: Mapping[str, str] = {
@@ -59,6 +61,45 @@ UNITS: Mapping[str, str] = {
     "max_dev": "bar",
     "mad": "bar",
 }
+
+
+@dataclass(frozen=True)
+class TuningSetup:
+    """The valve and what a recommendation and its predictions are made with.
+
+    Checked once here; :func:`recommend` and :func:`predict` take it as it is.
+
+    Parameters
+    ----------
+    params : ValveParams
+        Valve parameters.
+    n_xi : int, default 100
+        Points of ``xi`` for the maxima and the ``tau_m`` range (as :func:`candidate_frame`).
+    options : TuningOptions, optional
+        Score and constraints, and the ``staircase`` simulated; defaults when omitted.
+    linearity : mapping, optional
+        Keyword arguments of :func:`spa.openloop.staircase_analysis` (``settle``, ...) for
+        the predicted staircase metrics; its defaults when empty.
+
+    Raises
+    ------
+    ValueError
+        If ``n_xi`` is not an integer >= 2.
+
+    Examples
+    --------
+    >>> TuningSetup(ValveParams(), 20).linearity
+    {}
+    """
+
+    params: ValveParams
+    n_xi: int = 100
+    options: TuningOptions = field(default_factory=TuningOptions)
+    linearity: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n_xi", checks.integer("n_xi", self.n_xi, minimum=2))
+        object.__setattr__(self, "linearity", dict(self.linearity))
 
 
 def staircase_hold(options: TuningOptions, params: ValveParams) -> float:
@@ -104,27 +145,16 @@ def _staircase(mod: Modulator, params: ValveParams, options: TuningOptions, **an
     return out
 
 
-def predict(
-    mod: Modulator,
-    params: ValveParams,
-    n_xi: int = 100,
-    options: TuningOptions | None = None,
-    linearity: Mapping[str, float] | None = None,
-) -> dict[str, Any]:
+def predict(mod: Modulator, setup: TuningSetup) -> dict[str, Any]:
     """What a setting will do on the valve: the ``predicted:`` block of a recommendation.
 
     Parameters
     ----------
     mod : Modulator
         The setting.
-    params : ValveParams
-        Valve parameters.
-    n_xi : int, default 100
-        Points of ``xi`` for the maxima and the ``tau_m`` range.
-    options : TuningOptions, optional
-        Its ``staircase`` is simulated; defaults when omitted.
-    linearity : mapping, optional
-        Keyword arguments of :func:`spa.openloop.staircase_analysis` (``settle``, ...).
+    setup : TuningSetup
+        The valve, ``n_xi``, the options (whose ``staircase`` is simulated) and the
+        staircase analysis' settings.
 
     Returns
     -------
@@ -135,7 +165,7 @@ def predict(
         staircase simulated with the exact plant, noise-free, analysed like a measured one
         (with ``staircase_hold``, s, where :func:`staircase_hold` lengthened its levels).
     """
-    opts = options or TuningOptions()
+    params, n_xi = setup.params, setup.n_xi
     settings = dict(mod.settings)
     dead, sat = (float(v) for v in thresholds(mod.kind, params, **settings))
     gain = settings.get("gain")
@@ -153,7 +183,7 @@ def predict(
             "min": float(tau.min()) if tau.size else None,
             "max": float(tau.max()) if tau.size else None,
         },
-        **_staircase(mod, params, opts, **dict(linearity or {})),
+        **_staircase(mod, params, setup.options, **setup.linearity),
     }
 
 
@@ -184,17 +214,12 @@ def _edge(row: pd.Series, candidates: pd.DataFrame) -> dict[str, Any] | None:
 
 
 def _entry(
-    row: pd.Series,
-    params: ValveParams,
-    n_xi: int,
-    options: TuningOptions,
-    linearity: Mapping[str, float] | None,
-    candidates: pd.DataFrame | None = None,
+    row: pd.Series, setup: TuningSetup, candidates: pd.DataFrame | None = None
 ) -> dict[str, Any]:
     gain = None if np.isnan(row["gain"]) else float(row["gain"])
     mod = Modulator(
-        row["modulator"], modulator_settings(row["modulator"], row["value"], params, gain)
-    ).bind(params)
+        row["modulator"], modulator_settings(row["modulator"], row["value"], setup.params, gain)
+    ).bind(setup.params)
     entry = {
         "modulator": mod.kind,
         "label": mod.label,
@@ -202,7 +227,7 @@ def _entry(
         "setting": mod.to_mapping(),
         "J": float(row["J"]),
         "J_exact": float(row["J_exact"]),
-        "predicted": predict(mod, params, n_xi, options, linearity),
+        "predicted": predict(mod, setup),
     }
     edge = None if candidates is None else _edge(row, candidates)
     entry["at_feasible_edge"] = edge
@@ -233,27 +258,16 @@ def _pass_over(entries: list[dict[str, Any]], shortfall: float | None) -> list[d
     return [entries[first], *entries[:first], *entries[first + 1 :]]
 
 
-def recommend(
-    candidates: pd.DataFrame,
-    params: ValveParams,
-    n_xi: int = 100,
-    options: TuningOptions | None = None,
-    linearity: Mapping[str, float] | None = None,
-) -> dict[str, Any]:
+def recommend(candidates: pd.DataFrame, setup: TuningSetup) -> dict[str, Any]:
     """The recommended setting, the runner-up of each other modulator, or why there is none.
 
     Parameters
     ----------
     candidates : pandas.DataFrame
         :func:`candidate_frame`.
-    params : ValveParams
-        Valve parameters.
-    n_xi : int, default 100
-        As :func:`candidate_frame`.
-    options : TuningOptions, optional
-        Score and constraints; defaults when omitted.
-    linearity : mapping, optional
-        Passed to :func:`predict`.
+    setup : TuningSetup
+        The valve, ``n_xi`` (as :func:`candidate_frame`), the options (score and
+        constraints) and what :func:`predict` analyses the staircase with.
 
     Returns
     -------
@@ -282,16 +296,16 @@ def recommend(
     When no setting meets every constraint, the one of smallest :func:`violation` (ties by
     ``score``) is recommended: usable on the valve, and as near the user's limits as any.
     """
-    opts = options or TuningOptions()
+    params, opts = setup.params, setup.options
     feasible_rows = candidates[candidates["feasible"]]
     best = best_first(feasible_rows, opts.score).drop_duplicates("modulator")
-    entries = [_entry(row, params, n_xi, opts, linearity, candidates) for _, row in best.iterrows()]
+    entries = [_entry(row, setup, candidates) for _, row in best.iterrows()]
     entries = _pass_over(entries, opts.max_fit_shortfall)
     if not entries and not candidates.empty:  # the least-violating usable setting
         found = _least_violating(candidates, opts, params)
         if found is not None:
             row, least = found
-            entry = _entry(row, params, n_xi, opts, linearity)
+            entry = _entry(row, setup)
             entry["violates"] = _violated(row, opts, params)
             entry["violation"] = least
             entries = [entry]

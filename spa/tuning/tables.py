@@ -30,13 +30,14 @@ from spa.tuning.cost import (
     check_sweeps,
     constraint,
     linearity_cost,
+    mean_pressure,
     modulator_settings,
     optimum,
     paper_setting,
     setting,
     sweep,
 )
-from spa.tuning.exact import best_first, exact_cost, exact_costs, exact_curve, tied_optimum
+from spa.tuning.exact import best_first, exact_costs, tied_optimum
 from spa.tuning.intervals import INTERVAL_METHOD, box_points, spread
 from spa.tuning.recommend import TuningOptions, candidate_frame
 
@@ -63,7 +64,7 @@ def sweep_frame(
     n_xi : int, default 100
         Points of ``xi`` in the cost.
     exact : bool, default False
-        Add the column ``J_exact`` (:func:`spa.tuning.exact.exact_cost`).
+        Add the column ``J_exact`` (:func:`spa.tuning.cost.linearity_cost` with ``exact``).
 
     Returns
     -------
@@ -99,7 +100,9 @@ def sweep_frame(
         if exact:  # kept between runs: the grid's exact costs do not depend on the constraints
             key = {"kind": kind, "values": values.tolist(), "params": p, "n_xi": n_xi}
             j_exact = memoised(
-                "tuning-exact-sweep", key, lambda k=kind, v=values: exact_cost(k, v, p, n_xi)
+                "tuning-exact-sweep",
+                key,
+                lambda k=kind, v=values: linearity_cost(k, v, p, n_xi, exact=True),
             )
             parts[-1]["J_exact"] = np.where(np.isfinite(cost), j_exact, np.nan)
     return pd.concat(parts, ignore_index=True)
@@ -169,7 +172,7 @@ def equilibrium_frame(
         Points of ``xi`` in [0, 1].
     exact : bool, default False
         Add the column ``p_exact``: the exact cycle mean of the periodic steady state
-        (:func:`spa.tuning.exact.exact_curve`).
+        (:func:`spa.tuning.cost.mean_pressure` with ``exact``).
 
     Returns
     -------
@@ -201,7 +204,7 @@ def equilibrium_frame(
             )
         )
         if exact:
-            parts[-1]["p_exact"] = exact_curve(kind, optima[kind], p, xi.size)
+            parts[-1]["p_exact"] = mean_pressure(kind, xi, p, settings, exact=True)
     if not parts:
         raise ValueError(f"optima: expected some of {list(MODULATOR_ORDER)}, got {sorted(optima)}")
     return pd.DataFrame(pd.concat(parts, ignore_index=True))
@@ -369,7 +372,7 @@ def tuning_table(
                 "J_exact_hi": hi[i, 2],
                 "interval_method": INTERVAL_METHOD if intervals else "none",
                 "label": mod.label,
-                "J_exact_paper_setting": float(exact_cost(kind, paper.value, p, n)),
+                "J_exact_paper_setting": float(linearity_cost(kind, paper.value, p, n, exact=True)),
                 "optimum_exact": round(value_exact * scale, 9),
                 "J_exact_min": j_exact_min,
                 "constraint": constraint(kind, p),

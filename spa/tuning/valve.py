@@ -29,7 +29,13 @@ from spa.model.thresholds import threshold_table
 from spa.model.usable import unusable_reason
 from spa.openloop.paper import paper_case
 from spa.tuning.cost import DEFAULT_SWEEPS, PAPER_SETTING, check_sweeps, paper_setting, setting
-from spa.tuning.recommend import TuningOptions, candidate_frame, recommend, setting_metrics
+from spa.tuning.recommend import (
+    TuningOptions,
+    TuningSetup,
+    candidate_frame,
+    recommend,
+    setting_metrics,
+)
 from spa.tuning.sentence import recommendation_sentence
 from spa.tuning.tables import equilibrium_frame, sweep_frame, tuning_table
 
@@ -171,7 +177,7 @@ def tune(
         for k, v in zip(table2["modulator"], table2["optimum"], strict=True)
     ]
     curves = equilibrium_frame({m.kind: m.value for m in optima}, p, n, exact=True)
-    rec = dict(recommend(candidates, p, n, opts, linearity))
+    rec = dict(recommend(candidates, TuningSetup(p, n, opts, linearity or {})))
     best = rec["recommended"]
     chosen = Modulator.from_mapping(best["setting"]) if best else None
     if selected is None:
