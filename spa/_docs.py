@@ -52,25 +52,6 @@ log : logging.Logger, optional
     "figure_check": (
         "Parameters\n----------\nfig : matplotlib.figure.Figure\n\nReturns\n-------\nlist of str"
     ),
-    "derivative_fit": """\
-window : float, default 0.1
-    Savitzky–Golay window in s for the smoothed pressure and its derivative. A run whose fit
-    span is shorter than about three windows gets the largest odd window of about a third of
-    its span instead (at least ``polyorder + 2`` samples); the fit's ``window`` and method
-    say so.
-polyorder : int, default 3
-    Savitzky–Golay polynomial order.
-skip : float, default 0.03
-    Time in s after the edge that is never used: covers the opening delay ``t_on`` and the
-    ringing after the edge.
-onset_fraction : float, default 0.02
-    The response has started once the smoothed pressure has covered this fraction of the
-    total rise.
-n_boot : int, default 200
-    Not used (the intervals come from the fit covariance); checked (>= 20) and kept so that
-    configurations written for the earlier bootstrap stay valid.
-seed : int, default 0
-    Not used (the fits are deterministic); kept likewise.""",
 }
 
 #: Slots that stand for several parameters at once, in signature order.

@@ -17,6 +17,7 @@ import yaml
 
 from spa import ValveParams, modulate, simulate
 from spa.identification import (
+    DerivativeFit,
     IdentificationError,
     fit_charge,
     fit_delays,
@@ -269,16 +270,16 @@ def test_fallback_is_recorded_never_silent(nominal_runs):
 def test_pressure_never_near_supply(nominal_runs):
     short = nominal_runs["charge"].iloc[:700]  # valve open for 0.6 s only
     with pytest.raises(IdentificationError, match="never gets near the supply"):
-        fit_charge([short], n_boot=20)
+        fit_charge([short])
 
 
 def test_valve_never_opens_or_closes(nominal_runs):
     closed = nominal_runs["charge"].assign(valve=np.int8(0))
     with pytest.raises(IdentificationError, match="never opens"):
-        fit_charge({"x": closed}, n_boot=20)
+        fit_charge({"x": closed})
     opened = nominal_runs["discharge"].assign(valve=np.int8(1))
     with pytest.raises(IdentificationError, match="never closes"):
-        fit_discharge({"y": opened}, n_boot=20)
+        fit_discharge({"y": opened})
 
 
 def test_too_few_edges(nominal_runs):
@@ -293,15 +294,15 @@ def test_too_few_edges(nominal_runs):
 def test_settings_errors_name_the_argument(nominal_runs):
     charge = [nominal_runs["charge"]]
     with pytest.raises(ValueError, match="window"):
-        fit_charge(charge, window=0.002)
+        fit_charge(charge, settings=DerivativeFit(window=0.002))
     with pytest.raises(ValueError, match="polyorder"):
-        fit_charge(charge, polyorder=0)
+        DerivativeFit(polyorder=0)
     with pytest.raises(ValueError, match="supply_fraction"):
         fit_charge(charge, supply_fraction=1.5)
     with pytest.raises(ValueError, match="tail_fraction"):
         fit_discharge([nominal_runs["discharge"]], tail_fraction=0.0)
     with pytest.raises(ValueError, match="n_boot"):
-        fit_charge(charge, n_boot=5)
+        identify(charge, None, None, n_boot=5)
     with pytest.raises(ValueError, match="max_delay"):
         fit_delays([nominal_runs["pulse"]], NOMINAL, max_delay=-1.0)
     with pytest.raises(ValueError, match="prior_sd"):

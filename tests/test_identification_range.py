@@ -63,7 +63,7 @@ def test_small_fast_valve_discharge_gives_c1():
     truth = SMALL_FAST
     assert 2 * truth.c1 * math.sqrt(truth.k2) < 0.14  # the time to empty, Eq. A1
     runs, _kinds = _runs(truth, seed=3)
-    fit = fit_discharge({"discharge": runs["discharge"]}, n_boot=100, seed=3)
+    fit = fit_discharge({"discharge": runs["discharge"]})
     assert fit.c1.contains(truth.c1), fit.c1
     assert fit.window < 0.1  # shortened from the configured 0.1 s ...
     assert fit.window >= 5 * DT  # ... never below polyorder + 2 samples
@@ -93,7 +93,7 @@ def test_discharge_too_short_for_any_window_is_a_named_error():
     runs, _ = _runs(CORNER, seed=0)
     tiny = runs["discharge"].iloc[:40]  # 40 ms: the actuator is still half full
     with pytest.raises(IdentificationError, match=r"discharge run 'd'.*lengthen the run"):
-        fit_discharge({"d": tiny}, n_boot=20)
+        fit_discharge({"d": tiny})
 
 
 # ---------------------------------------------------------------------------------------------

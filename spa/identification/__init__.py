@@ -51,6 +51,7 @@ _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
 #: What a notebook user calls (the API reference lists these); every other name of the
 #: submodules above stays importable from here but is not presented as public API.
 __all__ = [
+    "DerivativeFit",
     "IdentificationError",
     "IdentificationResult",
     "fit_charge",

@@ -12,7 +12,7 @@ import pandas as pd
 
 from spa.identification.convention import choose_convention
 from spa.identification.delays import _FALLBACK_PRIOR_REL_SD, fit_delays
-from spa.identification.rate_fits import fit_charge, fit_discharge
+from spa.identification.rate_fits import DerivativeFit, fit_charge, fit_discharge
 from spa.identification.results import (
     _Z95,
     UNITS,
@@ -74,8 +74,8 @@ def identify(
         (sensor ringing; see :func:`fit_delays`).
     n_boot, seed : int, optional
         Not used: every interval now comes from a fit covariance and the result is
-        deterministic; kept (and recorded in ``settings``) so that configurations written
-        for the earlier bootstrap stay valid.
+        deterministic; kept (``n_boot`` checked >= 20, both recorded in ``settings``) so
+        that configurations written for the earlier bootstrap stay valid.
     fallback : ValveParams, optional
         Nominal parameters. Without it any experiment that cannot support its fit raises
         :class:`IdentificationError`. With it, the parameters of that experiment take the
@@ -90,6 +90,8 @@ def identify(
     IdentificationError
         When data are missing or insufficient and no ``fallback`` is given; the message names
         the experiment and what is missing.
+    ValueError
+        For an invalid setting (the message names it).
 
     Notes
     -----
@@ -110,7 +112,9 @@ def identify(
         "n_boot": int(n_boot),
         "seed": int(seed),
     }
-    common = {"window": window, "polyorder": polyorder, "skip": skip, "n_boot": n_boot}
+    derivative = DerivativeFit(window, polyorder, skip, onset_fraction)
+    if not (isinstance(n_boot, int | np.integer) and n_boot >= 20):
+        raise ValueError(f"n_boot must be an integer >= 20, got {n_boot!r}")
     reasons: dict[str, str] = {}
 
     def nominal(name: str, reason: str) -> Estimate:
@@ -132,11 +136,11 @@ def identify(
 
     cf, (k2, tau2) = attempt(
         fit_charge, ("k2", "tau2"), charge or {},
-        onset_fraction=onset_fraction, supply_fraction=supply_fraction, seed=seed, **common,
+        settings=derivative, supply_fraction=supply_fraction,
     )  # fmt: skip
     df, (c1,) = attempt(
         fit_discharge, ("c1",), discharge or {},
-        onset_fraction=onset_fraction, tail_fraction=tail_fraction, seed=seed, **common,
+        settings=derivative, tail_fraction=tail_fraction,
     )  # fmt: skip
 
     prior_sd = {}

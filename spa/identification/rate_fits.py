@@ -5,14 +5,13 @@ fit covariance."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 from scipy.optimize import curve_fit
 
-from spa._docs import fill_doc
 from spa.identification.rates import _as_runs, _line, _r2, _Segment, _segment
 from spa.identification.results import (
     UNITS,
@@ -24,7 +23,7 @@ from spa.identification.results import (
     Runs,
 )
 
-__all__ = ["fit_charge", "fit_discharge"]
+__all__ = ["DerivativeFit", "fit_charge", "fit_discharge"]
 
 
 def _sqrt_law(taus: Sequence[FloatArray], ps: Sequence[FloatArray], iters: int = 30) -> FloatArray:
@@ -169,70 +168,58 @@ def _sqrt_law_interval(segments: Sequence[_Segment], c1: float) -> tuple[float, 
     return 0.5 / (beta + q), (0.5 / (beta - q) if beta > q else math.inf)
 
 
-def _shortened(segments: Sequence[_Segment], window: float) -> str:
-    """The note added to the method when a short run got a shorter derivative window."""
-    short = [s for s in segments if s.shortened]
-    if not short:
-        return ""
-    w = min(s.w * s.dt for s in short)
-    return f"; Savitzky-Golay window shortened from {window:g} s to {w:.3g} s for a short run"
-
-
 def _check_fraction(name: str, value: float) -> float:
     if not (math.isfinite(value) and 0.0 < value < 1.0):
         raise ValueError(f"{name} must be in (0, 1), got {value!r}")
     return float(value)
 
 
-@fill_doc
 @dataclass(frozen=True)
-class _DerivativeFit:
-    """Settings shared by :func:`fit_charge` and :func:`fit_discharge` (checked by :meth:`checked`).
+class DerivativeFit:
+    """Settings shared by :func:`fit_charge` and :func:`fit_discharge`, checked on construction.
 
     Parameters
     ----------
-    %(derivative_fit)s
+    window : float, default 0.1
+        Savitzky–Golay window in s for the smoothed pressure and its derivative. A run whose
+        fit span is shorter than about three windows gets the largest odd window of about a
+        third of its span instead (at least ``polyorder + 2`` samples); the fit's ``window``
+        and method say so.
+    polyorder : int, default 3
+        Savitzky–Golay polynomial order.
+    skip : float, default 0.03
+        Time in s after the edge that is never used: covers the opening delay ``t_on`` and
+        the ringing after the edge.
+    onset_fraction : float, default 0.02
+        The response has started once the smoothed pressure has covered this fraction of the
+        total rise.
+
+    Raises
+    ------
+    ValueError
+        For an invalid setting (the message names it), checked in the order above.
+
+    Examples
+    --------
+    >>> DerivativeFit(window=0.05).polyorder
+    3
     """
 
-    window: float
-    polyorder: int
-    skip: float
-    onset_fraction: float
-    n_boot: int
-    seed: int
+    window: float = 0.1
+    polyorder: int = 3
+    skip: float = 0.03
+    onset_fraction: float = 0.02
 
-    @classmethod
-    def checked(
-        cls,
-        window: float,
-        polyorder: int,
-        skip: float,
-        onset_fraction: float,
-        n_boot: int,
-        seed: int,
-    ) -> _DerivativeFit:
-        """The settings, checked in this order (the public functions hold the defaults).
-
-        Returns
-        -------
-        _DerivativeFit
-
-        Raises
-        ------
-        ValueError
-            For an invalid setting (the message names it).
-        """
-        opts = cls(window, polyorder, skip, onset_fraction, n_boot, seed)
-        window, polyorder, skip, n_boot = opts.window, opts.polyorder, opts.skip, opts.n_boot
+    def __post_init__(self) -> None:
+        window, polyorder, skip = self.window, self.polyorder, self.skip
         if not (math.isfinite(window) and window > 0):
             raise ValueError(f"window must be finite and > 0 s, got {window!r}")
         if not (isinstance(polyorder, int | np.integer) and polyorder >= 1):
             raise ValueError(f"polyorder must be an integer >= 1, got {polyorder!r}")
         if not (math.isfinite(skip) and skip >= 0):
             raise ValueError(f"skip must be finite and >= 0 s, got {skip!r}")
-        if not (isinstance(n_boot, int | np.integer) and n_boot >= 20):
-            raise ValueError(f"n_boot must be an integer >= 20, got {n_boot!r}")
-        return replace(opts, onset_fraction=_check_fraction("onset_fraction", opts.onset_fraction))
+        onset = _check_fraction("onset_fraction", self.onset_fraction)
+        object.__setattr__(self, "onset_fraction", onset)
 
     def pooled(
         self, runs: Runs, kind: str, tail_fraction: float, missing: str
@@ -266,18 +253,36 @@ class _DerivativeFit:
         y = np.concatenate([s.d[s.used] for s in segs])
         return segs, x, y
 
+    def estimator(
+        self, segments: Sequence[_Segment], method: str
+    ) -> Callable[[str, float, float, float], Estimate]:
+        """The maker of a fit's estimates, all from the runs of ``segments`` by ``method``.
 
-@fill_doc
+        Parameters
+        ----------
+        segments : sequence of _Segment
+            The fitted runs (from :meth:`pooled`).
+        method : str
+            How the estimates were found; a note is added when a short run got a shorter
+            derivative window than :attr:`window`.
+
+        Returns
+        -------
+        callable
+            ``(name, value, lo, hi) -> Estimate`` in the units of ``name``.
+        """
+        rids = tuple(s.rid for s in segments)
+        short = [s.w * s.dt for s in segments if s.shortened]
+        if short:
+            method += (
+                f"; Savitzky-Golay window shortened from {self.window:g} s to {min(short):.3g} s "
+                "for a short run"
+            )
+        return lambda name, value, lo, hi: Estimate(value, lo, hi, UNITS[name], rids, method)
+
+
 def fit_charge(
-    runs: Runs,
-    *,
-    window: float = 0.1,
-    polyorder: int = 3,
-    skip: float = 0.03,
-    onset_fraction: float = 0.02,
-    supply_fraction: float = 0.9,
-    n_boot: int = 200,
-    seed: int = 0,
+    runs: Runs, *, settings: DerivativeFit | None = None, supply_fraction: float = 0.9
 ) -> ChargeFit:
     """Identify ``k2`` and ``tau2`` from charge runs (experiment 1, Fig. 2a).
 
@@ -290,7 +295,9 @@ def fit_charge(
     supply_fraction : float, default 0.9
         The run must end above this fraction of the fitted ``k2``, otherwise ``k2`` is an
         extrapolation and :class:`IdentificationError` is raised.
-    %(derivative_fit)s
+    settings : DerivativeFit, optional
+        The derivative window and the span's start (``window``, ``polyorder``, ``skip``,
+        ``onset_fraction``); the defaults when omitted.
 
     Returns
     -------
@@ -302,7 +309,7 @@ def fit_charge(
         No run, the valve never opens, the pressure does not rise, too few usable points, or
         the pressure never gets near the fitted supply.
     ValueError
-        For invalid settings (the message names the argument).
+        For an invalid ``supply_fraction``.
 
     Notes
     -----
@@ -329,10 +336,9 @@ def fit_charge(
     variance ``RSS/(N - p)`` inflated for residual autocorrelation up to 20 ms (Bartlett
     weights: 1 for white sensor noise, more with ringing), with Student's t quantile at
     ``N - p`` degrees of freedom. ``benchmarks/identification_coverage.py`` checks their
-    coverage across the valve range. ``n_boot`` and ``seed`` are accepted for configurations
-    written for the earlier bootstrap and not used.
+    coverage across the valve range.
     """
-    opts = _DerivativeFit.checked(window, polyorder, skip, onset_fraction, n_boot, seed)
+    opts = settings or DerivativeFit()
     supply_fraction = _check_fraction("supply_fraction", supply_fraction)
     segs, x, y = opts.pooled(
         runs,
@@ -359,18 +365,18 @@ def fit_charge(
     # The estimate: the closed form fitted to the pressure, from the derivative line's start.
     k2, tau2, _amps, jacs, resid = _exp_law(segs, k2, tau2)
     se, z = _covariance_se(segs, jacs, resid)
-    rids = tuple(s.rid for s in segs)
-    method = (
+    estimate = opts.estimator(
+        segs,
         "least-squares fit of the closed form P = k2 - A*exp(-t/tau2) (Eq. A2) to the "
         "pressure, started from the line fit of dP/dt against P (Savitzky-Golay); 95% from "
-        "the fit covariance"
-    ) + _shortened(segs, window)
+        "the fit covariance",
+    )
     k2_lo, k2_hi = k2 - z * float(se[-2]), k2 + z * float(se[-2])
     t_lo, t_hi = tau2 - z * float(se[-1]), tau2 + z * float(se[-1])
     slope, icept = -1.0 / tau2, k2 / tau2
     return ChargeFit(
-        k2=Estimate(k2, k2_lo, k2_hi, UNITS["k2"], rids, method),
-        tau2=Estimate(tau2, t_lo, t_hi, UNITS["tau2"], rids, method),
+        k2=estimate("k2", k2, k2_lo, k2_hi),
+        tau2=estimate("tau2", tau2, t_lo, t_hi),
         slope=slope,
         intercept=icept,
         r2=_r2(y, slope * x + icept),
@@ -380,17 +386,8 @@ def fit_charge(
     )
 
 
-@fill_doc
 def fit_discharge(
-    runs: Runs,
-    *,
-    window: float = 0.1,
-    polyorder: int = 3,
-    skip: float = 0.03,
-    onset_fraction: float = 0.02,
-    tail_fraction: float = 0.05,
-    n_boot: int = 200,
-    seed: int = 0,
+    runs: Runs, *, settings: DerivativeFit | None = None, tail_fraction: float = 0.05
 ) -> DischargeFit:
     """Identify ``c1`` (and the free power law) from discharge runs (experiment 2, Fig. 2b).
 
@@ -404,7 +401,8 @@ def fit_discharge(
         The near-zero tail is excluded: the fit stops where the smoothed pressure first falls
         below ``tail_fraction`` times the pressure at the edge (default 5 %, about 0.04 bar
         from 0.84 bar).
-    %(derivative_fit)s
+    settings : DerivativeFit, optional
+        As in :func:`fit_charge`.
 
     Returns
     -------
@@ -415,7 +413,7 @@ def fit_discharge(
     IdentificationError
         No run, the valve never closes, the pressure does not fall, or too few usable points.
     ValueError
-        For invalid settings.
+        For an invalid ``tail_fraction``.
 
     Notes
     -----
@@ -438,7 +436,7 @@ def fit_discharge(
     *Interval.* From the Gauss–Newton covariance of ``1/(2*c1)`` (the slope of ``sqrt(P)``),
     as in :func:`fit_charge`, mapped to ``c1``.
     """
-    opts = _DerivativeFit.checked(window, polyorder, skip, onset_fraction, n_boot, seed)
+    opts = settings or DerivativeFit()
     tail_fraction = _check_fraction("tail_fraction", tail_fraction)
     segs, x, y = opts.pooled(
         runs,
@@ -482,14 +480,14 @@ def fit_discharge(
         a, b = math.exp(la0), b0
     r2_power = _r2(yp, -a * xp**b)
     lo, hi = _sqrt_law_interval(segs, c1)
-    rids = tuple(s.rid for s in segs)
-    method = (
+    estimate = opts.estimator(
+        segs,
         "least-squares fit of the closed form P = (sqrt(P0) - t/(2*c1))**2 (Eq. A1) to the "
         "pressure; 95% from the fit covariance; the free power law from dP/dt "
-        "(Savitzky-Golay)"
-    ) + _shortened(segs, window)
+        "(Savitzky-Golay)",
+    )
     return DischargeFit(
-        c1=Estimate(c1, lo, hi, UNITS["c1"], rids, method),
+        c1=estimate("c1", c1, lo, hi),
         a=float(a),
         b=float(b),
         r2_power=r2_power,
