@@ -21,7 +21,7 @@ import numpy as np
 import yaml
 
 from spa import _checks as checks
-from spa._yaml import load_yaml
+from spa._yaml import read_yaml
 from spa.identification.results import _delay_of
 from spa.model.params import ValveParams
 
@@ -249,7 +249,7 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
                 "failed (see its log), so it gets no tuning"
             )
         try:
-            source = load_yaml(path.read_text(encoding="utf-8"))
+            source = read_yaml(path)
         except yaml.YAMLError as exc:
             raise TuningError(f"{where}: not valid YAML ({exc}); no tuning") from None
     if not isinstance(source, Mapping):
