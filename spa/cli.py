@@ -152,7 +152,7 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
 
     from spa.datasets import DatasetError, read_runs
     from spa.datasets.checks import k2_warning
-    from spa.identification import identify_with_config, run_context
+    from spa.identification import identify_with_config
     from spa.report.params import fits_note, identification_notes, params_table
 
     try:
@@ -160,10 +160,7 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
         with tempfile.TemporaryDirectory(prefix="spa-identify-") as tmp:
             runs, metas = read_runs(_run_folder(Path(args.dataset), Path(tmp)))
         kinds = {rid: m["kind"] for rid, m in metas.items()}
-        modulators, command_dt = run_context(metas)
-        result = identify_with_config(
-            runs, kinds, config, seed=args.seed, modulators=modulators, command_dt=command_dt
-        ).to_dict()
+        result = identify_with_config(runs, kinds, config, seed=args.seed, metas=metas).to_dict()
     except DatasetError as exc:
         for p in exc.problems:
             print(p, file=out)

@@ -32,6 +32,7 @@ def params_table(params: Mapping[str, Any]) -> pd.DataFrame:
         Columns ``parameter``, ``value``, ``95 % lo``, ``95 % hi``, ``unit``, ``method``,
         ``fallback`` (``"no"`` or the reason), in the order of :data:`PARAM_NAMES`; then
         ``t_off - t_on`` when the file has a ``delay_difference`` (a transport-delay valve).
+        A delay marked ``resolved: false`` has no value (NaN): it is its interval.
 
     Raises
     ------
@@ -60,10 +61,14 @@ def params_table(params: Mapping[str, Any]) -> pd.DataFrame:
         if missing:
             raise ValueError(f"params[{name!r}] lacks {missing}")
         fallback = entry.get("fallback")
+        unresolved = entry.get("resolved") is False
+        if unresolved:
+            # an unresolved delay is its interval: no point value is shown or used
+            fallback = "unresolved: designs use the interval"
         rows.append(
             {
                 "parameter": "t_off - t_on" if name == "delay_difference" else name,
-                "value": float(entry["value"]),
+                "value": math.nan if unresolved else float(entry["value"]),
                 # a fallback value has no interval: NaN, shown as a blank
                 "95 % lo": math.nan if entry["lo"] is None else float(entry["lo"]),
                 "95 % hi": math.nan if entry["hi"] is None else float(entry["hi"]),

@@ -39,7 +39,16 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
     'max_chattering (0.06 bar, limit 0.05 bar, 20 % over).'
     """
     best = rec.get("recommended")
+    unresolved = _unresolved_note(rec)
     if not best:
+        if unresolved:
+            return (
+                "No setting of any swept modulator can be recommended: "
+                + unresolved
+                + ", and no setting works over the whole interval. Record the valve command "
+                "on the pressure's clock (a pulse train logged with its valve column) and "
+                "identify again."
+            )
         return (
             "No setting of any swept modulator works on this valve: nothing to recommend "
             "(every setting's pulses are shorter than the valve's delays, or leave no input "
@@ -65,7 +74,20 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
         + _edge_note(best)
         + _passed_note(rec)
         + _adequacy_note(rec, best)
+        + (
+            f" Unverified: {unresolved}; record the valve command on the pressure's clock to "
+            "resolve it."
+            if unresolved
+            else ""
+        )
     )
+
+
+def _unresolved_note(rec: Mapping[str, Any]) -> str:
+    """The delays the data do not resolve and the interval designed over (``""``: none)."""
+    from spa.identification.identified import unresolved_clause
+
+    return unresolved_clause(rec.get("unresolved"))
 
 
 #: Units of the limits a recommendation can break, for its sentence.
