@@ -141,7 +141,9 @@ def test_no_falling_edge_is_never_silent() -> None:
     from spa.identification.refined import refine_result
 
     only_rising = {"charge": runs["charge"]}
-    res = refine_result(base, only_rising, kinds)
+    # the simulated controller's step: the log starts with the command (a run without an edge
+    # is replayed from its first sample only then)
+    res = refine_result(base, only_rising, kinds, command_dt={"charge": 1e-3})
     assert any("t_off is not resolved: no falling valve edge" in w for w in res.warnings)
     assert res.t_off.lo == 0.0 and res.t_off.hi == pytest.approx(0.05)
     assert "params.yaml" not in res.to_dict()  # plain content

@@ -260,7 +260,7 @@ def _second_difference_sd(p: FloatArray) -> float:
 
 
 def sensor_noise(
-    plateaus: Sequence[FloatArray], moving: Sequence[FloatArray], min_samples: int = 20
+    plateaus: Sequence[FloatArray], moving: Sequence[FloatArray], min_samples: int = 8
 ) -> tuple[float, str, bool]:
     """The sensor's noise standard deviation, estimated where nothing moves.
 

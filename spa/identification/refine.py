@@ -55,6 +55,9 @@ NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
 # A run informs a parameter when it carries at least this share of the parameter's
 # information (its squared Jacobian column).
 _INFORM_SHARE = 0.01
+# The rule of a run nothing decided (:mod:`spa.identification.edges`).
+_UNDECIDED = EdgeTiming("undecided", "not decidable", 0.0)
+
 # Noise floor (bar) so that noise-free synthetic data stay well posed.
 _NOISE_FLOOR = 1e-6
 
@@ -249,6 +252,17 @@ def prepare_runs(
     """
     out = []
     usable = [r for r in sorted(runs) if "valve" in runs[r].columns and len(runs[r]) >= 10]
+    # A run whose valve never switches shows no edge. Only a log on the command's tick starts
+    # where its command did (a simulated run, a controller that logs itself from the command
+    # on); any other (a charge logged from some time after the command) cannot be replayed
+    # from its first sample, and the closed-form fits take its onset as a nuisance instead.
+    usable = [
+        r
+        for r in usable
+        if runs[r]["valve"].nunique() > 1
+        or (edges or {}).get(r, _UNDECIDED).rule == "on_tick"
+        or (command_dt or {}).get(r)
+    ]
     cap = max(1000, min(max_samples, total_samples // max(len(usable), 1)))
     for rid in usable:
         table = runs[rid]

@@ -125,10 +125,12 @@ def _repeat_checks(
             continue
         per: dict[str, dict[str, float]] = {n: {} for n in names}
         ses: dict[str, dict[str, float]] = {n: {} for n in names}
+        failed: dict[str, str] = {}
         for rid in ids:
             try:
                 one = fit({rid: runs[rid]}, settings=derivative, **kw)
-            except (IdentificationError, ValueError, np.linalg.LinAlgError):
+            except (IdentificationError, ValueError, np.linalg.LinAlgError) as err:
+                failed[rid] = str(err)
                 continue
             for n in names:
                 est = getattr(one, n)
@@ -139,6 +141,9 @@ def _repeat_checks(
             check = repeats_agree(n, per[n], ses[n], floor=0.01)
             if check is not None:
                 out[n] = check
+        if failed and len(failed) < len(ids):
+            # the others fit alone and this one does not: it is unlike its repeats
+            out[f"{kind}_alone"] = failed
     return out
 
 
@@ -209,6 +214,7 @@ def _checks(
     tests = [whiteness(t.run, residuals[t.run], alpha=level) for t in tests]
     failed = [t.run for t in tests if not t.white]
     repeats = _repeat_checks(result, runs, kinds)
+    alone = {k: repeats.pop(k) for k in list(repeats) if k.endswith("_alone")}
     disagree = [c for c in repeats.values() if not c.agree]
     sentences = []
     if failed:
@@ -219,11 +225,19 @@ def _checks(
             "the paper's)"
         )
     sentences += [c.sentence() for c in disagree]
+    for key, runs_failed in alone.items():
+        kind = key.removesuffix("_alone")
+        for rid, why in sorted(runs_failed.items()):
+            sentences.append(
+                f"the {kind} run {rid} cannot be fitted alone while its repeats can ({why}): "
+                "check that run (a throttled or kinked line, another supply)"
+            )
     return {
         "whiteness": {t.run: t.to_dict() for t in tests},
         "white": not failed,
         "repeats": {n: c.to_dict() for n, c in repeats.items()},
-        "repeats_agree": not disagree,
+        "repeats_unfitted": {k: dict(v) for k, v in alone.items()},
+        "repeats_agree": not disagree and not alone,
         "sentences": sentences,
     }
 
