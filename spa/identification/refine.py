@@ -15,8 +15,9 @@ parameter (six simulations of the exact model per iteration, no ODE solver); the
 come from the fit's sandwich covariance with a Newey–West long-run variance of each run's
 scores (Bartlett kernel, bandwidth chosen from the run's residual autocorrelation by Andrews'
 AR(1) rule), widened to the run-jackknife variance (leave one run out: the spread between
-runs) where that is larger, and, for the delays, by the logging step (each logged edge lies
-uniformly within its step: bias corrected, ``w**2/12`` added). The same leave-one-run-out
+runs) where that is larger, and, for the delays, by the log's clock (an edge logged off the
+log's ticks lies uniformly within its step: it is taken at the step's middle, and
+``w**2/12`` is added; :mod:`spa.identification.edges`). The same leave-one-run-out
 estimates give each run's held-out FIT (:mod:`spa.identification.adequacy`).
 """
 
