@@ -26,11 +26,11 @@ import pandas as pd
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from identification_coverage import draw_valves, summary  # noqa: E402
+from identification_coverage import draw_valves, summary
 
-from spa.identification import IdentificationError, identify_with_config  # noqa: E402
-from spa.model.params import ValveParams  # noqa: E402
-from spa.synthetic.coarse import coarse_runs  # noqa: E402
+from spa.identification import IdentificationError, identify_with_config
+from spa.model.params import ValveParams
+from spa.synthetic.coarse import coarse_runs
 
 ROOT = Path(__file__).resolve().parents[1]
 NAMES = ("c1", "k2", "tau2", "t_on", "t_off")

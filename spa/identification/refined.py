@@ -351,9 +351,10 @@ def refine_result(
         )
         if name in result.fallback and name not in _DELAY_EDGE:
             # Started from a nominal value, not an estimate: its distance to the data says
-            # nothing about the error. Refined only where runs inform it; else the fallback.
-            fallback[name] = result.fallback[name]
-            if name not in _DELAY_EDGE and not informed:
+            # nothing about the error. Refined only where runs inform it; else the fallback
+            # stays, its value the nominal one (the top-level fallback lists only those).
+            if not informed:
+                fallback[name] = result.fallback[name]
                 old = getattr(result, name)
                 ests[name] = replace(old, method=old.method + "; no run informs it")
                 continue
@@ -370,6 +371,9 @@ def refine_result(
                 n_edges[name], dt, max_delay, chosen,
                 name in result.fallback and not search_delays,
             )  # fmt: skip
+            fb = result.fallback.get(name)
+            if fb is not None and not search_delays and est.resolved:
+                est = replace(est, fallback=f"started from the nominal value ({fb}); refined")
             est = replace(est, spread=getattr(result, name).spread)
             warnings += notes
             ests[name] = est
