@@ -260,7 +260,9 @@ def assess(
     required = a.required_fit
     ok = math.isfinite(held) and held >= required
     ok = ok and all(v >= required for v in per_held.values() if math.isfinite(v))
-    held_out = ", ".join(use)
+    # the runs by name when a reader can take them in; params.yaml lists them all
+    named = len(use) <= 4
+    held_out = ", ".join(use) if named else f"{len(use)} runs"
     if not use:
         sentence = "Model adequacy not assessed: no run with a valve command to predict."
         ok = True
@@ -277,14 +279,17 @@ def assess(
     elif ok:
         sentence = (
             f"The model describes this valve: held-out FIT {_pct(held)} (in-sample "
-            f"{_pct(ins)}) against {_pct(ceil)} the sensor noise allows, on the modulated "
-            f"runs {held_out}, each predicted from the parameters fitted without it."
+            f"{_pct(ins)}) against {_pct(ceil)} the sensor noise allows, on "
+            f"{'the modulated runs ' if named else ''}{held_out}"
+            f"{'' if named else ' with a modulator'}, each predicted from the parameters "
+            "fitted without it."
         )
     else:
         sentence = (
             f"The model does not describe this valve well enough: held-out FIT {_pct(held)} "
             f"(in-sample {_pct(ins)}) against {_pct(ceil)} the sensor noise allows "
-            f"(required {threshold:.0f} % of it) on the runs {held_out}, each predicted from "
+            f"(required {threshold:.0f} % of it) on {'the runs ' if named else ''}{held_out}, "
+            "each predicted from "
             f"the parameters fitted without it; worst run {worst} at {_pct(a.worst_fit)}."
         )
     return replace(
