@@ -103,6 +103,11 @@ def _modulator_text(modulator: Mapping[str, Any] | None) -> str:
     return f"{modulator['type']} {settings}"
 
 
+#: Time steps kept for :meth:`_RunCheck.median_step` (8 MiB): the median of the first million
+#: steps stands for a whole recording.
+_STEPS_KEPT = 1 << 20
+
+
 class _RunCheck:
     """Checks of one run's samples, fed chunk by chunk, in the file's own units."""
 
@@ -117,6 +122,8 @@ class _RunCheck:
         self.p_lo = math.inf
         self.p_hi = -math.inf
         self.valve = _ValveTrace()  # for the kind check (:meth:`kind_problems`)
+        self.steps: list[npt.NDArray[np.float64]] = []  # the first _STEPS_KEPT time steps
+        self.steps_kept = 0
 
     @property
     def failed(self) -> bool:
@@ -213,6 +220,10 @@ class _RunCheck:
                     ),
                 )
                 self.t_prev = float(t[-1])
+                if self.steps_kept < _STEPS_KEPT:
+                    kept = step[np.isfinite(step)][: _STEPS_KEPT - self.steps_kept]
+                    self.steps.append(kept)
+                    self.steps_kept += kept.size
 
             p = values["p"]
             p_bar = _to_bar(p, pu)
@@ -265,6 +276,14 @@ class _RunCheck:
         if "r" in values:  # a closed-loop run's set-point, in the file's pressure unit
             out["r"] = _to_bar(values["r"], pu)
         return out
+
+    def median_step(self) -> float:
+        """The median time step in s, over the first :data:`_STEPS_KEPT` steps (NaN when
+        there are none)."""
+        if not self.steps_kept:
+            return math.nan
+        step = np.float64(np.median(np.concatenate(self.steps)))
+        return float(_to_seconds(step, self.time_unit))
 
     def kind_problems(self, file: str | None, run: str | None, kind: str) -> list[Problem]:
         """The run's declared kind against its valve trace (errors naming the run): see

@@ -233,29 +233,41 @@ PRESSURE_LIMITS: tuple[tuple[str, float], ...] = (
 )
 
 
-def guess_time_unit(t: npt.ArrayLike) -> Guess:
-    """Guess whether time is in s or ms from its median step.
+def guess_time_unit(t: npt.ArrayLike, name: str | None = None) -> Guess:
+    """Guess whether time is in s or ms: from the time column's name, else its median step.
 
     Parameters
     ----------
     t : array_like
         Time stamps in the file's unit (pooled steps of several files may be passed as
         ``np.cumsum(steps)``; only the steps count).
+    name : str, optional
+        The time column's name: a unit written in it as a word (``time_ms``, ``t[s]``,
+        ``Time (ms)``: :func:`~spa.datasets.contract.time_unit_in_name`) is taken.
 
     Returns
     -------
     Guess
-        ``"s"`` for a median step in [1e-6, 1e-2], ``"ms"`` in (1e-2, 10], else None.
+        The unit the name states; else ``"s"`` for a median step in [1e-6, 1e-2], ``"ms"``
+        in (1e-2, 10], else None.
 
     Examples
     --------
     >>> guess_time_unit([0, 1, 2, 3]).value, guess_time_unit([0, 1e-3, 2e-3]).value
     ('ms', 's')
+    >>> guess_time_unit([0, 20, 40], "time_ms").reason
+    "named 'time_ms': median step 20 ms, 50 Hz"
     """
+    from spa.datasets.contract import TIME_UNITS, time_unit_in_name
+
     t = np.asarray(t, dtype=np.float64).ravel()
     if t.size < 2:
         return Guess(None, "fewer than 2 time stamps")
     step = float(np.median(np.diff(t)))
+    named = time_unit_in_name(name)
+    if named is not None:
+        rate = f", {1 / (step * TIME_UNITS[named]):.4g} Hz" if step > 0 else ""
+        return Guess(named, f"named {name!r}: median step {step:.4g} {named}{rate}")
     low, mid, high = TIME_STEP_BOUNDS
     if low <= step <= mid * (1 + 1e-9):
         return Guess("s", f"median step {step:.4g}: {1 / step:.4g} Hz if in s")

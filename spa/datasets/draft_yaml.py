@@ -52,6 +52,23 @@ _MAX_DEPTH = 2  # sub-folder levels searched for data files
 
 _ROLES = ("t", "p", "valve", "u", "r")
 
+#: The reason given for a time unit when the files have no time column.
+NO_TIME = "no time column"
+
+#: The line drafted for a log without time stamps (its value a ``TODO``).
+_SAMPLE_STEP_TODO = (
+    f"sample_step: {TODO}  # no time column: the logging step in s (e.g. 0.02 for 50 Hz)"
+)
+
+#: The comment drafted when the files log a valve command: what ``valve_edges`` declares.
+_VALVE_EDGES_NOTE = (
+    "# valve_edges: on_tick  # or sampled; how the logged valve command relates to the log's "
+    "clock: on_tick, the controller issued every command on a logging tick (it logs itself: "
+    "dSpace, an Arduino loop), so a logged edge is the true edge time; sampled, the command "
+    "ran on its own faster clock and the log samples it, so a true edge lies within the step "
+    "before the sample that shows it. Left out, the data decide"
+)
+
 #: The kind of a run with a set-point column, and what its draft asks for.
 CLOSED_LOOP = "closed_loop"
 _CONTROLLER_TODO = (
@@ -209,10 +226,11 @@ def _pooled_units(drafts: list[FileDraft]) -> dict[str, Guess]:
     """Units guessed from every file's time steps and pressures together."""
     steps = [np.diff(d.data[d.roles["t"].value]) for d in drafts if d.roles["t"].decided]
     pressures = [d.data[d.roles["p"].value] for d in drafts if d.roles["p"].decided]
+    t_name = next((d.roles["t"].value for d in drafts if d.roles["t"].decided), None)
     if steps:
-        t = guess_time_unit(np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]))
+        t = guess_time_unit(np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]), t_name)
     else:
-        t = Guess(None, "no time column found")
+        t = Guess(None, NO_TIME)
     name = next((d.roles["p"].value for d in drafts if d.roles["p"].decided), None)
     p = guess_pressure_unit(np.concatenate(pressures), name) if pressures else Guess(None, "no p")
     many = f" (over {len(drafts)} files)" if len(drafts) > 1 else ""
@@ -223,20 +241,28 @@ def _pooled_units(drafts: list[FileDraft]) -> dict[str, Guess]:
 
 
 def _guess_run(draft: FileDraft, time_unit: str | None) -> None:
-    """Fill ``kind`` and ``modulator`` of a read file."""
+    """Fill ``kind`` and ``modulator`` of a read file; without a time column the kind is
+    guessed against the row index (the pressure's trend needs no clock)."""
     col = {k: g.value for k, g in draft.roles.items()}
-    if col["t"] is None:
-        draft.kind = Guess(None, "could not tell: no time column")
-        return
-    t = draft.data[col["t"]] * (1e-3 if time_unit == "ms" else 1.0)
     arrays = {k: None if col[k] is None else draft.data[col[k]] for k in ("p", "valve", "u")}
+    if col["t"] is None:
+        rows = next(len(a) for a in arrays.values() if a is not None) if col["p"] else 0
+        t = np.arange(rows, dtype=np.float64)
+    else:
+        t = draft.data[col["t"]] * (1e-3 if time_unit == "ms" else 1.0)
     if col.get("r") is not None:
         draft.kind = Guess(CLOSED_LOOP, f"a set-point column {col['r']!r} beside the pressure")
     else:
         draft.kind = guess_kind(t, arrays["p"], arrays["valve"], arrays["u"])
+        if col["t"] is None and draft.kind.decided:
+            draft.kind = Guess(draft.kind.value, f"{draft.kind.reason} (by row: no time column)")
     if draft.kind.value in MODULATED_KINDS or (draft.kind.value is None and col["u"]):
         if arrays["valve"] is None:
             draft.modulator = Guess(None, "could not tell the modulator: no valve column")
+        elif col["t"] is None:
+            draft.modulator = Guess(
+                None, "could not tell the modulator: no time column, so no edge times"
+            )
         else:
             draft.modulator = guess_modulator(t, arrays["valve"], arrays["u"])
 
@@ -330,7 +356,10 @@ def _columns_block(indent: str, roles: Mapping[str, Guess]) -> list[str]:
         g = roles[role]
         if g.decided and g.value != role:
             lines.append(_line(indent + "  ", role, g))
-        elif not g.decided and role in ("t", "p"):
+        elif not g.decided and role == "t":
+            why = f"{g.reason}: t = row index * sample_step"
+            lines.append(f"{indent}  t: null{_comment(why)}")
+        elif not g.decided and role == "p":
             lines.append(_line(indent + "  ", role, g))
         elif not g.decided and taken.get(role, role) != role:
             if role == "u" and taken[role] == "valve":
@@ -342,7 +371,23 @@ def _columns_block(indent: str, roles: Mapping[str, Guess]) -> list[str]:
 
 
 def _units_block(indent: str, units: Mapping[str, Guess]) -> list[str]:
-    return [f"{indent}units:", *(_line(indent + "  ", k, units[k]) for k in ("time", "pressure"))]
+    """The ``units:`` lines; no time unit for files without a time column (their step,
+    ``sample_step``, is in s)."""
+    keys = [k for k in ("time", "pressure") if k != "time" or units[k].reason != NO_TIME]
+    return [f"{indent}units:", *(_line(indent + "  ", k, units[k]) for k in keys)]
+
+
+def _clock_block(indent: str, drafts: list[FileDraft]) -> list[str]:
+    """``sample_step: TODO`` when none of ``drafts`` has a time column; the commented
+    ``valve_edges`` when one logs a valve command."""
+    out = []
+    if drafts and not any(d.roles["t"].decided for d in drafts):
+        out.append(indent + _SAMPLE_STEP_TODO)
+    if any(d.roles["valve"].decided for d in drafts):
+        width = 92 - len(indent)
+        wrap = textwrap.wrap(_VALVE_EDGES_NOTE[2:], width, break_on_hyphens=False)
+        out += [f"{indent}# {wrap[0]}", *(f"{indent}#   {x}" for x in wrap[1:])]
+    return out
 
 
 def _options_block(indent: str, options: Mapping[str, Any]) -> list[str]:
@@ -389,7 +434,8 @@ def render_draft(
     same_opts, options = _shared(csvs, lambda d: d.options)
     rate = ""
     if read and same_units and units["time"]:
-        rate = read[0].units["time"].reason.split(":")[1].split(" if")[0].strip()
+        found = re.search(r"[\d.e+-]+ Hz", read[0].units["time"].reason)
+        rate = found.group(0) if found else ""
     out = [
         "# Draft written by `spa init`: every guess has its reason as a comment.",
         "# Check each one, describe the dataset and the rig, then run `spa validate`. A TODO",
@@ -414,6 +460,9 @@ def render_draft(
         out += _columns_block("", roles)
     if csvs and same_opts:
         out += _options_block("", options)
+    same_clock = roles is not None and len({d.roles["t"].decided for d in read}) <= 1
+    if same_clock:
+        out += _clock_block("", read)
     out.append("runs:")
     for d in drafts:
         out.append(f"  - id: {_scalar(d.id)}")
@@ -435,8 +484,12 @@ def render_draft(
             out += [
                 f"    # {TODO}: {_comment(d.roles[r].reason)[4:]} (needs {r!r})"
                 for r in ("t", "p")
-                if not d.roles[r].decided
+                if not d.roles[r].decided and r == "p"
             ]
+        if not same_clock:
+            if roles is not None and not d.roles["t"].decided:
+                out.append(f"    columns: {{t: null}}{_comment(NO_TIME)}")
+            out += _clock_block("    ", [d])
         if not same_opts and d in csvs:
             out += _options_block("    ", d.options)
     return "\n".join(out) + "\n"
