@@ -180,6 +180,8 @@ def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
         return -float(np.std(d) / np.mean(d))
 
     out["t"] = _pick("t", increasing, {k: even(k) for k in increasing}, "strictly increasing")
+    if out["t"].decided and len(finite) == 1:  # a rising pressure logged alone, not a clock
+        out["t"] = Guess(None, f"no time column (the only column, {out['t'].value!r}, is p)")
     rest = [k for k in finite if k != out["t"].value]
     binary = [k for k in rest if _binary(finite[k])]
     switches = {k: float(np.count_nonzero(np.diff(finite[k]))) for k in binary}

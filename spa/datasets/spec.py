@@ -277,6 +277,8 @@ def _parse_spec(folder: Path) -> _Parsed:
     _top_value(parsed, doc, "recorded", _recorded_problem, recorded_date)
     _top_value(parsed, doc, "sample_step", lambda v: check_sample_step(v)[1], float)
     _top_value(parsed, doc, "valve_edges", lambda v: check_valve_edges(v)[1], str)
+    if any(p.key == "sample_step" for p in parsed.problems):
+        parsed.data_ok = False  # the runs' time is unknown
 
     _parse_options(parsed, doc)
     if "runs" in doc:
