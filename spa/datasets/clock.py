@@ -108,7 +108,7 @@ def check_valve_edges(value: Any) -> tuple[str | None, str | None]:
     --------
     >>> check_valve_edges("on_tick")
     ('on_tick', None)
-    >>> check_valve_edges("ontick")[1][:50]
+    >>> check_valve_edges("ontick")[1][:51]
     "valve_edges 'ontick' is not one of on_tick, sampled"
     """
     if _is_one_of(value, VALVE_EDGES):

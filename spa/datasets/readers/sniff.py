@@ -179,7 +179,7 @@ def prefix_hint(path: Path) -> str:
     --------
     >>> import tempfile, pathlib
     >>> f = pathlib.Path(tempfile.mkdtemp()) / "log.txt"
-    >>> _ = f.write_text("12:00:01.123 -> 0.52\n12:00:01.143 -> 0.61\n")
+    >>> _ = f.write_text("12:00:01.123 -> 0.52\\n12:00:01.143 -> 0.61\\n")
     >>> prefix_hint(f)[:60]
     '; every line starts with a time of day and an arrow, `12:00:'
     """
