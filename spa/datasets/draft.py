@@ -7,10 +7,12 @@ Every function here is pure: it takes the columns of one file as arrays and retu
 
 The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
 
-* **roles**: a strictly increasing column is time; a column holding only 0 and 1 is the valve
-  command; a column named like a pressure set-point (``r``, ``sp``, ``setpoint``, ``p_ref``,
-  ``p_set``, ``p_target``, ``p_des``, ...) is the closed loop's set-point ``r``; one within
-  [0, 1] is the input fraction ``u``; the others are pressure candidates,
+* **roles**: a strictly increasing column is time (but a file's only column, unless named
+  like time, is the pressure: a rising charge logged alone); a column holding only 0 and 1
+  is the valve command; a column named like a pressure set-point (``r``, ``sp``,
+  ``setpoint``, ``p_ref``, ``p_set``, ``p_target``, ``p_des``, ...) is the closed loop's
+  set-point ``r``; one within [0, 1] is the input fraction ``u``; the others are pressure
+  candidates,
   of which the one named like a pressure (``p``, ``pressure``, ``kPa``, ...) or else the one of
   largest variance is the pressure. Names break ties (``time``, ``valve``, ``xi``, ...).
 * **time unit**: a bench samples at 100 Hz to 100 kHz, so a median step in
@@ -180,7 +182,8 @@ def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
         return -float(np.std(d) / np.mean(d))
 
     out["t"] = _pick("t", increasing, {k: even(k) for k in increasing}, "strictly increasing")
-    if out["t"].decided and len(finite) == 1:  # a rising pressure logged alone, not a clock
+    alone = len(finite) == 1 and not _named("t", list(finite))
+    if out["t"].decided and alone:  # a rising pressure logged alone, not a clock
         out["t"] = Guess(None, f"no time column (the only column, {out['t'].value!r}, is p)")
     rest = [k for k in finite if k != out["t"].value]
     binary = [k for k in rest if _binary(finite[k])]
