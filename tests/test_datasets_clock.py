@@ -285,3 +285,21 @@ def test_validate_names_the_serial_prefix_too(tmp_path: Path) -> None:
     assert errors and "a serial monitor's time stamps" in errors[0]
     with pytest.raises(DatasetError):
         ingest_dataset(folder, tmp_path / "results" / "runs")
+
+
+def test_init_drafts_one_step_for_unstamped_files_of_different_columns(
+    tmp_path: Path, capsys
+) -> None:
+    folder = tmp_path / "raw" / "mixed"
+    folder.mkdir(parents=True)
+    (folder / "inflate.txt").write_text(_pressure_only(header="pressure_psi"))
+    (folder / "deflate.log").write_text("".join(f"{p:.4f}\n" for p in _charge()[::-1]))
+    assert main(["init", str(folder)]) == 0
+    assert "drafted 2 run(s), 1 TODO(s)" in capsys.readouterr().out
+    text = (folder / "dataset.yaml").read_text()
+    doc = yaml.safe_load(text.replace("sample_step: TODO", f"sample_step: {STEP}"))
+    assert doc["sample_step"] == STEP
+    assert {r["id"]: r["columns"] for r in doc["runs"]} == {
+        "deflate": {"t": None, "p": "col1"},
+        "inflate": {"t": None, "p": "pressure_psi"},
+    }

@@ -221,7 +221,7 @@ def render_draft(
         out += _columns_block("", roles)
     if csvs and same_opts:
         out += _options_block("", options)
-    same_clock = roles is not None and len({d.roles["t"].decided for d in read}) <= 1
+    same_clock = len({d.roles["t"].decided for d in read}) <= 1  # all stamped, or none
     if same_clock:
         out += _clock_block("", read)
     out.append("runs:")
