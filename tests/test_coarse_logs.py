@@ -139,3 +139,39 @@ def test_a_time_column_and_sample_step_must_agree(
         line = next(x for x in said.splitlines() if "sample_step" in x)
         assert "run 'deflate_1'" in line and "column 'time_ms'" in line
         assert "0.02 s" in line and "0.025 s" in line
+
+
+def test_physical_plant_logged_at_20_hz_without_header(tmp_path: Path, capsys) -> None:
+    """Five charge and five discharge repeats of the physical plant (not the model), logged
+    at 20 Hz in kPa as headerless one-column .log files: init leaves only the step."""
+    from spa.synthetic._physical_core import PhysicalPlant
+    from spa.synthetic.physical import simulate_physical
+
+    plant, dt, fs, n = PhysicalPlant(), 1e-3, 20.0, 2000
+    folder = tmp_path / "raw" / "arduino"
+    folder.mkdir(parents=True)
+    rng = np.random.default_rng(8)
+    logged = {}
+    for i in range(1, REPEATS + 1):
+        charge = np.ones(n, dtype=np.int8)
+        charge[0] = 0
+        up = simulate_physical(plant, charge, dt, fs=fs, rng=rng)["p"].to_numpy()
+        down = simulate_physical(plant, 1 - charge, dt, fs=fs, p0=float(up[-1]), rng=rng)
+        for stem, p in (("fill", up), ("vent", down["p"].to_numpy())):
+            kpa = np.round(p * 100.0, 1)
+            (folder / f"{stem}{i}.log").write_text("".join(f"{x:.1f}\n" for x in kpa))
+            logged[f"{stem}{i}"] = kpa
+    assert main(["init", str(folder)]) == 0
+    assert "drafted 10 run(s), 1 TODO(s)" in capsys.readouterr().out
+    text = (folder / "dataset.yaml").read_text()
+    doc = yaml.load(text.replace("sample_step: TODO", "sample_step: 0.0"), Loader=_UniqueKeyLoader)
+    assert doc["columns"] == {"t": None, "p": "col1"} and doc["units"] == {"pressure": "kPa"}
+    pairs = (("fill", "charge"), ("vent", "discharge"))
+    assert _kinds(doc) == {f"{s}{i}": k for i in range(1, REPEATS + 1) for s, k in pairs}
+    step = 1 / fs
+    (folder / "dataset.yaml").write_text(text.replace("sample_step: TODO", f"sample_step: {step}"))
+    _ingest(folder, tmp_path / "results" / "runs", capsys)
+    table, meta = read_run_table(tmp_path / "results" / "runs" / "vent4.parquet")
+    assert table["t"].tolist() == (np.arange(len(logged["vent4"])) * step).tolist()
+    np.testing.assert_allclose(table["p"], logged["vent4"] / 100.0, rtol=1e-12)
+    assert meta["sample_step"] == step
