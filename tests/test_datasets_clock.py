@@ -303,3 +303,12 @@ def test_init_drafts_one_step_for_unstamped_files_of_different_columns(
         "deflate": {"t": None, "p": "col1"},
         "inflate": {"t": None, "p": "pressure_psi"},
     }
+
+
+def test_a_missing_name_in_a_headerless_file_says_how_its_columns_are_named(
+    tmp_path: Path,
+) -> None:
+    spec = {"sample_step": STEP, "columns": {"t": None, "p": "pressure"}}
+    (message,) = _errors(_dataset(tmp_path, spec, {"r.csv": _pressure_only(header=None)}))
+    assert "missing column 'pressure'" in message and "the file has 'col1'" in message
+    assert "no header line" in message and "csv: {header: true}" in message

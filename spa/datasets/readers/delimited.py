@@ -130,6 +130,7 @@ class _CsvSource(Source):
         self.units: list[str] = []
         self.columns: list[str] = []
         self.header_line = 0
+        self.headerless = False  # no header line: columns named by position
         self._size = 1 << 16  # the first read is small: only the lines above the data
         above = self._data()
         next(above, None)
@@ -255,6 +256,7 @@ class _CsvSource(Source):
                             )
                         fields = self._split(text.lstrip("\ufeff"))
                         if self._headerless(fields):  # the line is data: put it back
+                            self.headerless = True
                             self.columns = [POSITIONAL.format(i + 1) for i in range(len(fields))]
                             block = raw + block
                             stage = 3
@@ -276,6 +278,18 @@ class _CsvSource(Source):
         if header is not None:
             return not header
         return not self.options["units_row"] and numbers_only(fields, self.options["decimal"])
+
+    def describe(self, name: str) -> str:
+        """The columns the file has, and, for a file without a header line, how they are
+        named."""
+        said = super().describe(name)
+        if not self.headerless:
+            return said
+        return (
+            f"{said} (no header line: the first line holds only numbers, so the columns are "
+            f"named by position, {POSITIONAL.format(1)}, {POSITIONAL.format(2)}, ...; "
+            "csv: {header: true} reads it as the header)"
+        )
 
     def _prepare(self, block: bytes, line: int) -> tuple[bytes, npt.NDArray[np.int64] | None]:
         """A block as UTF-8 ``pyarrow`` reads; the numbers of its lines when some were
