@@ -312,3 +312,25 @@ def test_a_missing_name_in_a_headerless_file_says_how_its_columns_are_named(
     (message,) = _errors(_dataset(tmp_path, spec, {"r.csv": _pressure_only(header=None)}))
     assert "missing column 'pressure'" in message and "the file has 'col1'" in message
     assert "no header line" in message and "csv: {header: true}" in message
+
+
+@pytest.mark.parametrize(
+    "name, unit",
+    [
+        ("time_ms", "ms"),
+        ("t_s", "s"),
+        ("Time [ms]", "ms"),
+        ("time (s)", "s"),
+        ("t[s]", "s"),
+        ("Zeit(ms)", "ms"),
+        ("millis", "ms"),
+        ("timestamp", None),  # no unit in the name: the median step decides
+    ],
+)
+def test_init_reads_the_time_unit_from_the_time_columns_name(name: str, unit: str | None) -> None:
+    from spa.datasets.draft import guess_time_unit
+
+    steps = np.arange(50) * 20.0  # 20: ms by the median-step rule, 0.02 s if named so
+    guess = guess_time_unit(steps, name)
+    assert guess.value == (unit or "ms")
+    assert (f"named {name!r}" in guess.reason) == (unit is not None)
