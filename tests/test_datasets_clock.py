@@ -330,7 +330,7 @@ def test_a_missing_name_in_a_headerless_file_says_how_its_columns_are_named(
 def test_init_reads_the_time_unit_from_the_time_columns_name(name: str, unit: str | None) -> None:
     from spa.datasets.draft import guess_time_unit
 
-    steps = np.arange(50) * 20.0  # 20: ms by the median-step rule, 0.02 s if named so
+    steps = np.arange(50) * 2.0  # 2: ms by the median-step rule (500 Hz), 0.5 Hz in s
     guess = guess_time_unit(steps, name)
     assert guess.value == (unit or "ms")
     assert (f"named {name!r}" in guess.reason) == (unit is not None)
