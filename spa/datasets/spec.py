@@ -35,6 +35,10 @@ from spa.datasets.fields import (
     _rig_problem,
     recorded_date,
 )
+
+# The dataset folders of raw/, importable from here as before.
+from spa.datasets.folders import find_datasets as find_datasets
+from spa.datasets.folders import undecodable_datasets as undecodable_datasets
 from spa.datasets.options import check_columns, check_csv, check_units, csv_options
 from spa.datasets.problems import DatasetError, Problem, _is_one_of, _one_of, _suggest, _unknown_key
 from spa.datasets.yaml_loader import (
@@ -521,56 +525,6 @@ def _clock(
                 "sample_step",
             )
     return step, edges
-
-
-def find_datasets(raw_dir: str | Path) -> list[str]:
-    """Names of the dataset folders in ``raw_dir``: its sub-folders holding a ``dataset.yaml``.
-
-    Parameters
-    ----------
-    raw_dir : str or path-like
-        The folder of datasets, usually ``raw``. A missing folder holds no datasets.
-
-    Returns
-    -------
-    list of str
-        Sorted folder names (hidden folders, starting with ``.``, and names that are not
-        UTF-8, :func:`undecodable_datasets`, are skipped).
-    """
-    return [name for name in _dataset_folders(raw_dir) if _is_text(name)]
-
-
-def undecodable_datasets(raw_dir: str | Path) -> list[str]:
-    """Folders of ``raw_dir`` holding a ``dataset.yaml`` whose names are not UTF-8 (a
-    Windows zip's Latin-1, say): no dataset can be named so; shown with ``\\x`` escapes.
-
-    They are left out of :func:`find_datasets`, so that one such folder stops nothing; the
-    workflow warns about them.
-    """
-    return [
-        os.fsencode(name).decode("utf-8", "backslashreplace")
-        for name in _dataset_folders(raw_dir)
-        if not _is_text(name)
-    ]
-
-
-def _is_text(name: str) -> bool:
-    try:
-        name.encode("utf-8")
-    except UnicodeEncodeError:
-        return False
-    return True
-
-
-def _dataset_folders(raw_dir: str | Path) -> list[str]:
-    root = Path(raw_dir)
-    if not root.is_dir():
-        return []
-    return sorted(
-        p.name
-        for p in root.iterdir()
-        if p.is_dir() and not p.name.startswith(".") and (p / SPEC_FILE).is_file()
-    )
 
 
 @fill_doc
