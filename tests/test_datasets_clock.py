@@ -334,3 +334,17 @@ def test_init_reads_the_time_unit_from_the_time_columns_name(name: str, unit: st
     guess = guess_time_unit(steps, name)
     assert guess.value == (unit or "ms")
     assert (f"named {name!r}" in guess.reason) == (unit is not None)
+
+
+def test_init_takes_a_coarse_unnamed_time_column_for_s(tmp_path: Path, capsys) -> None:
+    """A step of 0.02 is 50 Hz in s or 50 kHz in ms; files of 50 samples would last 1 ms in
+    ms, too short for a valve's response: s."""
+    folder = tmp_path / "raw" / "coarse"
+    folder.mkdir(parents=True)
+    rows = "".join(f"{k * STEP:.2f},{p:.4f}\n" for k, p in enumerate(_charge(50)))
+    (folder / "charge.csv").write_text("t,p\n" + rows)
+    assert main(["init", str(folder)]) == 0
+    doc = yaml.safe_load((folder / "dataset.yaml").read_text())
+    assert doc["units"]["time"] == "s"
+    assert main(["validate", str(folder)]) == 0
+    assert "at 50 Hz" in capsys.readouterr().out

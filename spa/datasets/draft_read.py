@@ -194,7 +194,10 @@ def _pooled_units(drafts: list[FileDraft]) -> dict[str, Guess]:
     pressures = [d.data[d.roles["p"].value] for d in drafts if d.roles["p"].decided]
     t_name = next((d.roles["t"].value for d in drafts if d.roles["t"].decided), None)
     if steps:
-        t = guess_time_unit(np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]), t_name)
+        span = float(np.median([s.sum() for s in steps]))  # the files' median duration
+        t = guess_time_unit(
+            np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]), t_name, span
+        )
     else:
         t = Guess(None, NO_TIME)
     name = next((d.roles["p"].value for d in drafts if d.roles["p"].decided), None)
