@@ -70,9 +70,13 @@ def _expected_kinds() -> dict[str, str]:
     }
 
 
-def _ingest(folder: Path, out: Path, capsys) -> None:
+def _ingest(folder: Path, out: Path, capsys) -> str:
+    """Validate and ingest ``folder``; return what validate printed."""
+    capsys.readouterr()
     assert main(["validate", str(folder)]) == 0, capsys.readouterr().out
+    said = capsys.readouterr().out
     assert main(["ingest", str(folder), str(out)]) == 0, capsys.readouterr().out
+    return said
 
 
 def test_init_validate_unstamped(tmp_path: Path, capsys) -> None:
@@ -93,7 +97,8 @@ def test_init_validate_unstamped(tmp_path: Path, capsys) -> None:
     assert "valve_edges" not in text  # no valve column: nothing to say about its edges
 
     (folder / "dataset.yaml").write_text(text.replace(todo, f"sample_step: {STEP}"))
-    _ingest(folder, tmp_path / "results" / "runs", capsys)
+    said = _ingest(folder, tmp_path / "results" / "runs", capsys)
+    assert said.count("at 50 Hz (t = row index * sample_step 0.02 s)") == 2 * REPEATS
     for rid, values in psi.items():
         table, meta = read_run_table(tmp_path / "results" / "runs" / f"{rid}.parquet")
         assert table["t"].tolist() == (np.arange(SAMPLES) * STEP).tolist()
@@ -115,7 +120,8 @@ def test_init_reads_ms_from_the_time_column_name(tmp_path: Path, capsys) -> None
     assert doc["columns"]["t"] == "time_ms"
     assert "sample_step" not in doc
     assert _kinds(doc) == _expected_kinds()
-    _ingest(folder, tmp_path / "results" / "runs", capsys)
+    said = _ingest(folder, tmp_path / "results" / "runs", capsys)
+    assert said.count("at 50 Hz, ") == 2 * REPEATS and "row index" not in said
     table, meta = read_run_table(tmp_path / "results" / "runs" / "deflate_3.parquet")
     np.testing.assert_allclose(table["t"], np.arange(SAMPLES) * STEP, rtol=0, atol=1e-12)
     np.testing.assert_allclose(table["p"], psi["deflate_3"] * PRESSURE_UNITS["psi"], rtol=1e-12)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from spa.datasets.clock import INDEX_TIME
 from spa.datasets.contract import (
     _MAX_ROWS_LISTED,
     CANONICAL_COLUMNS,
@@ -67,6 +68,9 @@ class RunSummary:
         Mean sample rate ``(rows - 1) / (t_end - t_start)`` in Hz.
     p_min, p_max : float
         Pressure range in bar gauge.
+    sample_step : float or None
+        The logging step (s) that made ``t`` (row index times it) for a log without time
+        stamps; None when ``t`` was read.
     """
 
     run: str
@@ -80,16 +84,22 @@ class RunSummary:
     rate_hz: float
     p_min: float
     p_max: float
+    sample_step: float | None = None
 
     @property
     def duration(self) -> float:
         """``t_end - t_start`` in s."""
         return self.t_end - self.t_start
 
+    def _clock(self) -> str:
+        if self.sample_step is None:
+            return ""
+        return f" (t = row index * sample_step {self.sample_step:g} s)"
+
     def __str__(self) -> str:
         return (
             f"{self.run}: {self.kind}, {_modulator_text(self.modulator)}, "
-            f"{self.duration:.6g} s at {self.rate_hz:.6g} Hz, "
+            f"{self.duration:.6g} s at {self.rate_hz:.6g} Hz{self._clock()}, "
             f"p {self.p_min:.4g} to {self.p_max:.4g} bar "
             f"({self.file}, {self.rows} rows, columns {' '.join(self.columns)})"
         )
@@ -369,6 +379,7 @@ class _RunCheck:
             rate_hz=(self.rows - 1) / (t1 - t0) if t1 > t0 else math.nan,
             p_min=float(_to_bar(self.p_lo, self.pressure_unit)),
             p_max=float(_to_bar(self.p_hi, self.pressure_unit)),
+            sample_step=run.sample_step if self.columns["t"] == INDEX_TIME else None,
         )
 
 
