@@ -85,16 +85,19 @@ def _init(args: argparse.Namespace, out: TextIO) -> int:
 
     Read every data file of FOLDER and write FOLDER/dataset.yaml: a draft with guessed columns,
     units, kinds and modulators, each with its reason as a comment, and TODO where a guess
-    failed. This is the one file spa writes into raw/; it never overwrites an existing
-    dataset.yaml without --force and never touches data files.
+    failed; say, for each file it could not read, why. This is the one file spa writes into
+    raw/; it never overwrites an existing dataset.yaml without --force and never touches data
+    files.
     """
     from spa.datasets.draft_yaml import TODO, write_draft
 
     try:
-        path, text = write_draft(args.folder, force=args.force)
+        path, text, unread = write_draft(args.folder, force=args.force)
     except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=out)
         return 1
+    for file, why in unread.items():
+        print(f"not read: {file}: {why}", file=out)
     todos = sum(f": {TODO}" in line for line in text.splitlines())
     runs = sum(line.startswith("  - id:") for line in text.splitlines())
     print(f"{path}: drafted {runs} run(s), {todos} TODO(s)", file=out)
