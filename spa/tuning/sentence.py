@@ -62,8 +62,22 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
     score = rec.get("score", "J")
     j, other = (best["J"], best["J_exact"]) if score == "J" else (best["J_exact"], best["J"])
     other_name = "J_exact" if score == "J" else "J"
+    lead = ""
+    if unresolved:
+        items = dict(rec.get("unresolved") or {})
+        names = " and ".join(items)
+        spans = ", ".join(
+            f"{n} in [{1e3 * lo:.3g}, {1e3 * hi:.3g}] ms" for n, (lo, hi) in items.items()
+        )
+        verb = "is" if len(items) == 1 else "are"
+        lead = (
+            f"{names} {verb} not resolved by the data: this is designed for the worst case of "
+            f"{spans}. Record the valve command on the pressure's clock (a pulse train logged "
+            "with its valve column) and identify again before relying on it. "
+        )
     return (
-        _violation_note(best)
+        lead
+        + _violation_note(best)
         + f"Use {best['description']} (dataset.yaml modulator: {{{setting}}}): "
         f"{score} = {n(j, '.2f', ' bar')} ({other_name} = {n(other, '.2f')}), dead-zone up to "
         f"xi = {n(pred['dead_zone'], '.2f')}, saturation from xi = "
@@ -74,12 +88,6 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
         + _edge_note(best)
         + _passed_note(rec)
         + _adequacy_note(rec, best)
-        + (
-            f" Unverified: {unresolved}; record the valve command on the pressure's clock to "
-            "resolve it."
-            if unresolved
-            else ""
-        )
     )
 
 
