@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import html
 import re
 import shutil
 from datetime import date, timedelta
@@ -222,7 +223,6 @@ def test_a_failed_stage_leaves_every_other_result_on_the_page(fake_results, brok
 
 
 def test_fix_the_data_only_when_the_data_is_at_fault(broken_closed_loop, site, tmp_path):
-    from spa.identification import IdentificationError
 
     page = build_dataset_page(broken_closed_loop, "sim", META)
     assert "fix it" not in page.lower() and "spa validate" not in page
@@ -233,12 +233,27 @@ def test_fix_the_data_only_when_the_data_is_at_fault(broken_closed_loop, site, t
 
     root = tmp_path / "bad_data"
     shutil.copytree(site, root)
-    _run_dataset_stages(
-        root, "sim", "identify", IdentificationError("discharge run 'd1': 80 samples")
-    )
+    _run_dataset_stages(root, "sim", "runs", _dataset_error())
     page = build_dataset_page(root, "sim", META)
     assert "The data is at fault: fix it" in page and "spa validate raw/sim" in page
-    assert "discharge run &#x27;d1&#x27;: 80 samples" in page
+
+
+def test_data_that_pass_validation_are_not_at_fault(site, tmp_path):
+    """An IdentificationError on data that validation accepted: what the data lack, in the
+    error's words, and that validation passed; never "the data is at fault"."""
+    from spa.identification import IdentificationError
+    from spa.pipeline.status import dataset_failures, failure_summary
+
+    root = tmp_path / "lacking"
+    shutil.copytree(site, root)
+    lack = "discharge run 'd1': only 5 samples between the response start and the tail"
+    _run_dataset_stages(root, "sim", "identify", IdentificationError(lack))
+    page = build_dataset_page(root, "sim", META)
+    assert "at fault: fix it" not in page and "The data is at fault" not in page
+    assert "<code>spa validate raw/sim</code> accepts this dataset" in page
+    assert f"lack what the stage needs: <code>IdentificationError: {html.escape(lack)}" in page
+    text = failure_summary(dataset_failures(root, ["sim"]))
+    assert "fix it" not in text and "validation passed" in text
 
 
 def test_stages_skipped_for_a_failed_one_say_so_in_one_line(site, tmp_path):
@@ -329,10 +344,10 @@ def _dataset_error() -> Exception:
 @pytest.mark.parametrize(
     ("make", "fault"),
     [
-        (_identification_error, "data"),
+        (_identification_error, "lacking"),
         (_dataset_error, "data"),
         (lambda: _wrapped(ValueError("u goes down")), "stage"),  # a bare ValueError: not spa's
-        (lambda: _wrapped(_identification_error()), "data"),
+        (lambda: _wrapped(_identification_error()), "lacking"),
         (lambda: IndexError("index 0 is out of bounds"), "stage"),
         (_tuning_error, "stage"),
         (_config_error, "stage"),
@@ -341,10 +356,16 @@ def _dataset_error() -> Exception:
 def test_whose_fault_a_failure_is_follows_the_error_class(make, fault, tmp_path):
     """The rule of spa.pipeline.status.data_fault, recorded by run_stage in the status."""
     from spa.errors import RunError
-    from spa.pipeline.status import data_fault, dataset_failures, failure_summary, read_status
+    from spa.pipeline.status import (
+        data_fault,
+        dataset_failures,
+        failure_summary,
+        fault_of,
+        read_status,
+    )
 
     error = make()
-    assert data_fault(error) is (fault == "data")
+    assert data_fault(error) is (fault == "data") and fault_of(error) == fault
     _run_dataset_stages(tmp_path, "d1", "sine", error)
     status = read_status(tmp_path / "d1" / "status" / "sine.json")
     assert status["ok"] is False and status["fault"] == fault

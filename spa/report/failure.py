@@ -4,10 +4,12 @@ A dataset's page shows the outputs of every stage that worked. In place of a fai
 outputs (placeholders, :func:`spa.pipeline.status.write_placeholder`) it names the stage and
 its one-line message; a stage skipped because an earlier one failed says so in one line
 (:func:`stage_note`). The box naming the failure (:func:`failure_box`, on the page and in the
-index's *Failed datasets*) says "fix the data" only when the data is at fault: the stage
-recorded ``"fault": "data"`` (:func:`spa.pipeline.status.data_fault`, by the error's class);
-otherwise it says that the stage failed on data the earlier stages accepted, and where its
-log is.
+index's *Failed datasets*) says "fix the data" only when the data is at fault, that is when
+validation fails: the stage recorded ``"fault": "data"`` (:func:`spa.pipeline.status.fault_of`,
+by the error's class). Data that ``spa validate`` accepts but that lack what a stage needs
+(``"fault": "lacking"``: an identification that the runs cannot support) get what they lack,
+in the error's own words, and that validation passed; otherwise the box says that the stage
+failed on data the earlier stages accepted, and where its log is.
 """
 
 from __future__ import annotations
@@ -118,8 +120,22 @@ def skipped_note(stage: str, status: Mapping[str, Any] | None) -> str:
 
 
 def _advice(name: str, first: Mapping[str, Any]) -> str:
-    """Fix the data when it is at fault; else say the stage failed on accepted data."""
+    """Fix the data when validation fails; say what the data lack when they passed it but
+    the stage needs more; else say the stage failed on accepted data.
+
+    Examples
+    --------
+    >>> print(_advice("d", {"fault": "lacking", "errors": ["IdentificationError: no charge run"]}))
+    <code>spa validate raw/d</code> accepts this dataset, so the data are not at fault: they lack what the stage needs: <code>IdentificationError: no charge run</code> Record what it names and run <code>snakemake reproduce-all</code> again.
+    """  # noqa: E501
     e = html.escape
+    if first.get("fault") == "lacking":
+        lack = one_line((first.get("errors") or [""])[0])
+        return (
+            f"<code>spa validate raw/{e(name)}</code> accepts this dataset, so the data are not "
+            f"at fault: they lack what the stage needs: <code>{e(lack)}</code> Record what it "
+            "names and run <code>snakemake reproduce-all</code> again."
+        )
     if first.get("fault") == "data":
         return (
             "The data is at fault: fix it (check a bench dataset with <code>spa validate "
