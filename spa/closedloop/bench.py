@@ -33,6 +33,7 @@ from spa.closedloop.controller import PIController
 from spa.closedloop.disturbance import disturbances
 from spa.closedloop.experiments import LoopUnderTest, Staircase
 from spa.closedloop.export import arduino_sketch, controller_header
+from spa.closedloop.noise import NOISE_FALLBACK, SensorNoise, sensor_noise
 from spa.closedloop.robust import robust_design
 from spa.closedloop.shipped import ShippedLoop, ship_lengthened, shipped_loop
 from spa.model.modulators import Modulator
@@ -42,13 +43,11 @@ __all__ = [
     "NOISE_FALLBACK",
     "ROBUST_COLUMNS",
     "BenchOutputs",
+    "SensorNoise",
     "apply_bench",
     "bench_outputs",
     "sensor_noise",
 ]
-
-#: The sensor noise assumed when the identification gives none, bar (the simulated bench's).
-NOISE_FALLBACK = 0.005
 
 #: Seed of the sensor noise of the disturbance runs.
 NOISE_SEED = 0
@@ -80,32 +79,6 @@ ROBUST_COLUMNS = (
 )
 
 _NO_DESIGN = '#error "spa: no modulator setting could be designed for this valve"\n'
-
-
-def sensor_noise(identified: Mapping[str, Any] | None) -> float:
-    """The sensor's noise, bar: the pulse fit's residual RMS of ``params.yaml``.
-
-    Parameters
-    ----------
-    identified : mapping or None
-        ``params.yaml``'s content; its ``fits.pulse.rmse`` (sensor noise and what the model
-        misses of the pulse runs) is used when positive and finite.
-
-    Returns
-    -------
-    float
-        That RMS, else :data:`NOISE_FALLBACK`.
-
-    Examples
-    --------
-    >>> sensor_noise({"fits": {"pulse": {"rmse": 0.0061}}}), sensor_noise(None)
-    (0.0061, 0.005)
-    """
-    try:
-        value = float(identified["fits"]["pulse"]["rmse"])  # type: ignore[index]
-    except (KeyError, TypeError, ValueError):
-        return NOISE_FALLBACK
-    return value if math.isfinite(value) and value > 0.0 else NOISE_FALLBACK
 
 
 @dataclass
@@ -223,7 +196,7 @@ def bench_outputs(
     params: ValveParams,
     intervals: Mapping[str, tuple[float, float]] | None,
     cfg: Mapping[str, Any] | None = None,
-    noise: float = NOISE_FALLBACK,
+    noise: float | SensorNoise = NOISE_FALLBACK,
     *,
     model_error: Mapping[str, tuple[float, float]] | None = None,
     adequacy: Mapping[str, Any] | None = None,
@@ -242,8 +215,9 @@ def bench_outputs(
         The 95 % intervals, ``name -> (lo, hi)``.
     cfg : mapping, optional
         The config's ``closed_loop:`` section, as the stage had it.
-    noise : float, optional
-        The sensor's noise, bar (:func:`sensor_noise`).
+    noise : float or SensorNoise, optional
+        The sensor's noise, bar (:func:`spa.closedloop.noise.sensor_noise`: measured, an
+        upper bound, or unknown and bounded by the model residual; the sentence says which).
     model_error : mapping, optional
         Parameter ranges covering the model error measured on the dataset
         (:func:`spa.closedloop.model_error.error_intervals`); merged with ``intervals``
@@ -274,6 +248,8 @@ def bench_outputs(
     from spa.closedloop.model_error import widen
 
     c = {**DEFAULTS, **dict(cfg or {})}
+    said = noise if isinstance(noise, SensorNoise) else SensorNoise(float(noise))
+    noise = said.value
     ctl = result.controllers
     dt = float(ctl.get("dt", c["dt"]))
     levels = [float(v) for v in ctl.get("levels", [])]
@@ -379,6 +355,7 @@ def bench_outputs(
                 "comparison: not shipped (its worst case over the box breaks the promise)"
             ),
         }
+    summary["sensor_noise"] = said.to_mapping()
     summary["tau_c_tried"] = [[t, o] for t, o in rd.tried]
     summary["max_overshoot"] = limit
     summary["box"] = {k: [float(v[0]), float(v[1])] for k, v in box.items()}

@@ -94,5 +94,34 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
         f" the pressure {back}"
     )  # fmt: skip
     if math.isfinite(noise) and math.isfinite(added):
-        tail += f"; sensor noise of {noise * 1e3:.1f} mbar adds {added * 1e3:.2f} mbar RMS ripple"
+        tail += "; " + _noise_words(summary, noise, added)
     return f"{text}{tail}. The C header is closed_loop/controller.h."
+
+
+def _noise_words(summary: Mapping[str, Any], noise: float, added: float) -> str:
+    """The sensor noise's clause: measured, an upper bound or unknown (``sensor_noise`` of
+    the summary, :meth:`spa.closedloop.noise.SensorNoise.to_mapping`), and the model residual
+    under its own name.
+
+    Examples
+    --------
+    >>> _noise_words({}, 0.005, 0.001)
+    'sensor noise of 5.0 mbar adds 1.00 mbar RMS ripple'
+    >>> _noise_words({"sensor_noise": {"value": 0.006, "source": "measured", "method": "still"
+    ...     " levels", "model_residual": 0.117}}, 0.006, 0.001)
+    'sensor noise of 6.0 mbar (still levels) adds 1.00 mbar RMS ripple (the model residual of the pulse fit, 117.0 mbar, is the model error and the noise together)'
+    """  # noqa: E501
+    from spa.closedloop.noise import SensorNoise
+
+    given = summary.get("sensor_noise")
+    given = given if isinstance(given, Mapping) else {}
+    residual = _num(given.get("model_residual"))
+    said = SensorNoise(noise, str(given.get("source") or "given"), str(given.get("method") or ""))
+    verb = "adds at most" if said.bound else "adds"
+    text = f"{said.words()} {verb} {added * 1e3:.2f} mbar RMS ripple"
+    if math.isfinite(residual) and said.source != "model_residual":
+        text += (
+            f" (the model residual of the pulse fit, {residual * 1e3:.1f} mbar, is the model "
+            "error and the noise together)"
+        )
+    return text
