@@ -256,6 +256,55 @@ def test_data_that_pass_validation_are_not_at_fault(site, tmp_path):
     assert "fix it" not in text and "validation passed" in text
 
 
+def _run_with_notes(root, dataset: str, notes: dict) -> None:
+    """Every stage of ``dataset`` run through spa.pipeline.status.run_stage, its outputs on
+    disk; the stages in ``notes`` return those warnings."""
+    import logging
+    from types import SimpleNamespace
+
+    from spa.pipeline.jobs import Names
+    from spa.pipeline.outputs import STAGES, stage_outputs
+    from spa.pipeline.status import run_stage
+
+    for stage in STAGES:
+        if not stage.per_dataset or stage.name in ("raw_manifest", "page"):
+            continue
+        job = SimpleNamespace(
+            output=Names(stage_outputs(stage.name, root, dataset)),
+            wildcards=Names({"dataset": dataset}),
+        )
+        said = notes.get(stage.name)
+        run_stage(job, stage.name, lambda s=said: s, logging.getLogger("test_site"))
+
+
+def test_a_stage_without_runs_of_its_kind_says_no_runs_not_ok(site, tmp_path):
+    """Issue 46: staircase, sine and chirp stages without runs, and the closed loop's
+    comparison of recorded runs without closed_loop runs, say "no runs" on the page and in
+    the status, in place of empty tables and figures."""
+    from spa.pipeline.status import NoRuns, read_status
+
+    root = tmp_path / "results"
+    shutil.copytree(site, root)
+    notes = {k: [NoRuns(k)] for k in ("staircase", "sine", "chirp")}
+    notes["closed_loop"] = [NoRuns("closed_loop", ("closed_loop/runs.csv",))]
+    _run_with_notes(root, "sim", notes)
+    status = read_status(root / "sim" / "status" / "staircase.json")
+    assert status["ok"] and status["no_runs"][0]["message"] == "no staircase runs in this dataset"
+    page = build_dataset_page(root, "sim", META)
+    for kind in ("staircase", "sine", "chirp", "closed_loop"):
+        line = f"no {kind} runs in this dataset; nothing to show."
+        assert page.count(line) == 1, kind
+    for title in ("Table 3: static linearity", "Fig. 6", "Fig. 7a", "Fig. 8", "Fig. 9",
+                  "Closed loop: recorded runs against the model"):  # fmt: skip
+        assert title not in page, title
+    assert "Fig. 10" in page and "Fig. 2a" in page  # the stages' other outputs are shown
+    before = build_dataset_page(site, "sim", META)
+    assert before.count("<img ") - page.count("<img ") == 5  # Figs. 6, 7a, 7b, 8, 9
+    row = overview_row(root / "sim", "sim", "2025-01-01", "bench")
+    assert row["status"] == "ok; no runs: staircase, sine, chirp, closed_loop"
+    assert overview_row(site / "sim", "sim", "2025-01-01", "bench")["status"] == "ok"
+
+
 def test_stages_skipped_for_a_failed_one_say_so_in_one_line(site, tmp_path):
     from spa.identification import IdentificationError
 
@@ -441,3 +490,35 @@ def test_a_dataset_removed_from_the_run_loses_its_page(fake_results, site, tmp_p
     from spa.report.site import remove_stale_pages
 
     assert remove_stale_pages(report, ["sim"]) == []  # nothing more to remove
+
+
+def test_an_open_loop_stage_without_runs_records_no_runs(tmp_path, monkeypatch):
+    """spa.stages.script.run_open_loop: a stage whose result is empty (no runs of its kind)
+    records NoRuns in its status; one with runs does not."""
+    from types import SimpleNamespace
+
+    import spa.stages.script as script
+    from spa.pipeline.jobs import Names
+    from spa.pipeline.status import read_status
+
+    monkeypatch.setattr(script, "read_runs", lambda _: ({}, {}))
+    monkeypatch.setattr(script, "read_params", lambda _: None)
+    for empty in (True, False):
+        status = tmp_path / f"{empty}" / "status" / "sine.json"
+        smk = SimpleNamespace(
+            input=Names({"runs": "r", "params": "p"}),
+            params=Names({"cfg": {}}),
+            output=Names({"status": str(status)}),
+            wildcards=Names({"dataset": "d"}),
+            log=[str(tmp_path / f"{empty}.log")],
+        )
+        result = SimpleNamespace(empty=empty, warnings=[])
+        assert script.run_open_loop(smk, "sine", lambda i, log, r=result: r, lambda *a: None)
+        record = read_status(status)
+        assert record["ok"]
+        if empty:
+            assert record["no_runs"] == [
+                {"kind": "sine", "message": "no sine runs in this dataset", "paths": []}
+            ]
+        else:
+            assert "no_runs" not in record

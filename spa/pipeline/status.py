@@ -12,7 +12,8 @@ datasets with their first errors (:func:`dataset_failures`), and the final ``che
 
 A status file is ``{"stage", "dataset", "ok", "errors": [...], "upstream"}`` (with
 ``warnings`` and ``skipped``, the parts of a stage that worked left out by name with their
-reason: :class:`Skipped`, when there are any); ``upstream`` names
+reason: :class:`Skipped`, when there are any, and ``no_runs``, what of the stage had no runs
+of its kind to analyse: :class:`NoRuns`); ``upstream`` names
 the earlier stage that failed when this one was skipped for it. A stage that failed itself also
 records whose fault it was (:func:`fault_of`): ``"data"`` when the dataset breaks the contract
 that ``spa validate`` checks, ``"lacking"`` when the data pass validation but lack what the
@@ -38,11 +39,11 @@ import sys
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from spa.errors import ENVIRONMENT_ERRNOS, RunError
+from spa.pipeline.notes import NoRuns, Skipped
 
 __all__ = [
     "DATA_ERRORS",
@@ -50,6 +51,7 @@ __all__ = [
     "LACKING_ERRORS",
     "STATUS_DIR",
     "EnvironmentFailure",
+    "NoRuns",
     "RunError",
     "Skipped",
     "anticipated",
@@ -67,29 +69,6 @@ __all__ = [
     "write_placeholder",
     "write_status",
 ]
-
-
-@dataclass(frozen=True)
-class Skipped:
-    """A stage's warning that names a part of its work left out on this dataset, and why.
-
-    A stage's work returns it among its warnings (:func:`run_stage`) when a property of the
-    valve or the data rules one part out (the sine stage's linear reference of a setting
-    that cannot work on the valve) while the rest is done. The status records it under
-    ``skipped`` (``part -> reason``) and, as text, among ``warnings``; the report names it
-    on the page.
-
-    Examples
-    --------
-    >>> str(Skipped("linear reference", "no setting gives a finite tau_m"))
-    'linear reference skipped: no setting gives a finite tau_m'
-    """
-
-    part: str
-    reason: str
-
-    def __str__(self) -> str:
-        return f"{self.part} skipped: {self.reason}"
 
 
 #: Folder of a dataset's results holding one ``<stage>.json`` per stage.
@@ -308,7 +287,8 @@ def write_status(
 ) -> dict[str, Any]:
     """Write a stage's status file; ``errors`` empty means it worked (``warnings``, such as
     an implausible supply pressure, are recorded when there are any, the :class:`Skipped`
-    among them also as ``skipped``, part -> reason; ``fault``, ``"data"``, ``"lacking"`` or
+    among them also as ``skipped``, part -> reason, the :class:`NoRuns` as ``no_runs``;
+    ``fault``, ``"data"``, ``"lacking"`` or
     ``"stage"``, whose fault a failure is: :func:`fault_of`)."""
     errs = [str(e) for e in errors][:_MAX_ERRORS]
     status: dict[str, Any] = {
@@ -320,13 +300,16 @@ def write_status(
     }
     if errs and fault is not None:
         status["fault"] = fault
-    given = [w for w in warnings if isinstance(w, str | Skipped)]
+    given = [w for w in warnings if isinstance(w, str | Skipped | NoRuns)]
     notes = [str(w) for w in given][:_MAX_ERRORS]
     if notes:
         status["warnings"] = notes
     skipped = {w.part: w.reason for w in given if isinstance(w, Skipped)}
     if skipped:
         status["skipped"] = skipped
+    empty = [w.to_mapping() for w in given if isinstance(w, NoRuns)]
+    if empty and not errs:
+        status["no_runs"] = empty
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(status, indent=1) + "\n")
@@ -399,8 +382,9 @@ def run_stage(
         The stage's name in :data:`spa.pipeline.outputs.STAGES`.
     work : callable
         Does the stage's work and writes every output but ``status``; it may return a list
-        of warnings (str, or :class:`Skipped` for a part left out), which the status records
-        (``warnings``, and ``skipped``).
+        of warnings (str, :class:`Skipped` for a part left out, :class:`NoRuns` for runs of
+        a kind the dataset lacks), which the status records (``warnings``, ``skipped``,
+        ``no_runs``).
     log : logging.Logger
         The job's log: the error and its traceback go there.
 

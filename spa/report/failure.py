@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import html
 from collections.abc import Mapping
+from pathlib import PurePosixPath
 from typing import Any
 
 from spa.pipeline.outputs import STAGES
@@ -24,6 +25,8 @@ __all__ = [
     "failed_here",
     "failure_box",
     "first_failure",
+    "no_runs_for",
+    "no_runs_note",
     "one_line",
     "skipped_note",
     "stage_note",
@@ -95,6 +98,44 @@ def stage_note(stage: str, status: Mapping[str, Any], anchor: str) -> str:
     return (
         f'<p class="note stage-failed" id="{anchor}">Stage {_label(stage)} failed: '
         f"<code>{message}</code>; its outputs are not shown.</p>\n"
+    )
+
+
+def no_runs_for(status: Mapping[str, Any] | None, path: str) -> dict[str, Any] | None:
+    """The ``no_runs`` record of a stage's status (:class:`spa.pipeline.status.NoRuns`) that
+    covers the output ``path`` (relative to ``results/<dataset>``), or None: that output is
+    an empty table or a figure saying "no runs", not shown.
+
+    Examples
+    --------
+    >>> status = {"ok": True, "no_runs": [{"kind": "staircase", "message": "no staircase "
+    ...     "runs in this dataset", "paths": []}]}
+    >>> no_runs_for(status, "staircase/table3.csv")["kind"]
+    'staircase'
+    >>> no_runs_for({"ok": True}, "staircase/table3.csv") is None
+    True
+    """
+    for record in (status or {}).get("no_runs") or []:
+        if not isinstance(record, Mapping):
+            continue
+        paths = [str(p) for p in record.get("paths") or []]
+        if not paths or path in paths or str(PurePosixPath(path).parent) in paths:
+            return dict(record)
+    return None
+
+
+def no_runs_note(stage: str, record: Mapping[str, Any], anchor: str) -> str:
+    """One line in place of the outputs of a stage (or part of one) with no runs of its kind.
+
+    Examples
+    --------
+    >>> print(no_runs_note("sine", {"message": "no sine runs in this dataset"}, "a"), end="")
+    <p class="note stage-no-runs" id="a">Stage <code>sine</code> (Sine): no sine runs in this dataset; nothing to show.</p>
+    """  # noqa: E501
+    message = html.escape(str(record.get("message") or "no runs"))
+    return (
+        f'<p class="note stage-no-runs" id="{anchor}">Stage {_label(stage)}: {message}; '
+        "nothing to show.</p>\n"
     )
 
 
