@@ -30,6 +30,7 @@ from spa.closedloop.box import PromiseBox, box_hold, box_levels, promise_levels
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
 from spa.closedloop.controller import PIController
+from spa.closedloop.delays import unresolved_sentence
 from spa.closedloop.disturbance import disturbances
 from spa.closedloop.experiments import LoopUnderTest, Staircase
 from spa.closedloop.export import arduino_sketch, controller_header
@@ -201,6 +202,7 @@ def bench_outputs(
     model_error: Mapping[str, tuple[float, float]] | None = None,
     adequacy: Mapping[str, Any] | None = None,
     choice: tuple[str, str] | None = None,
+    unresolved: Mapping[str, tuple[float, float]] | None = None,
 ) -> BenchOutputs:
     """The header of the chosen loop, its promise over the box and the model error, and the
     disturbances.
@@ -227,6 +229,10 @@ def bench_outputs(
     choice : (str, str), optional
         The (setting label, controller) to check and export instead of the stage's choice
         (one of the designed loops, :func:`spa.closedloop.promise.design_for_dataset`).
+    unresolved : mapping, optional
+        The delays the data do not resolve, ``name -> (lo, hi)`` s
+        (:func:`spa.closedloop.delays.unresolved_delays`): the header's comment and the
+        sentence say so, with what to record (:func:`spa.closedloop.delays.unresolved_sentence`).
 
     Returns
     -------
@@ -400,6 +406,13 @@ def bench_outputs(
             f"The closed_loop stage's choice (controllers.yaml), tau_c = {shipped_tau:g} s; "
             "no promise: no tau_c tried kept the overshoot and settling over the box."
         )
+    unresolved_said = unresolved_sentence(unresolved or {})
+    if unresolved_said:
+        note += " " + unresolved_said
+        summary["unresolved_delays"] = {
+            "delays": {k: [float(lo), float(hi)] for k, (lo, hi) in (unresolved or {}).items()},
+            "sentence": unresolved_said,
+        }
     header = controller_header(
         mod, ctrl, dt, note=note, precision=str(c.get("precision", "double"))
     )

@@ -64,6 +64,9 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
             f". No promise: no τ_c tried keeps the overshoot within {limit:.3g} % with every "
             "level settled on every plant of the box"
         )
+    unresolved = summary.get("unresolved_delays") or {}
+    if isinstance(unresolved, Mapping) and unresolved.get("sentence"):
+        text += ". " + str(unresolved["sentence"]).rstrip(".")
     margins = summary.get("margins") or {}
     gm, dm = _num(margins.get("gain_margin")), _num(margins.get("delay_margin"))
     if math.isfinite(gm) or math.isfinite(dm):
