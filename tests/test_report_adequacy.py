@@ -60,3 +60,18 @@ def test_the_flag_wins_over_the_measured_modulators():
     flagged = {"measured_modulators": ["pwm"], "modulated_assessed": False}
     assert modulated_assessed(flagged) is False
     assert adequacy_notes({}) == [] and adequacy_notes(None) == []
+
+
+def test_no_run_held_out_is_said_once():
+    """Logs without a valve command: nothing is held out; the page does not speak of runs
+    held out, and says once that the modulated use is not assessed."""
+    sentence = (
+        "Model adequacy not assessed: no run carries the valve command, so no run can be "
+        "predicted from the others' parameters; the modulated use is not assessed."
+    )
+    none_held = {"heldout_runs": [], "modulated_assessed": False, "sentence": sentence}
+    text = _page_text(none_held)
+    assert "held out was made" not in text and text.count("not assessed") == 2
+    assert adequacy_notes({**none_held, "sentence": ""}) == [
+        "Modulated use not assessed: no run was held out."
+    ]

@@ -125,8 +125,10 @@ def adequacy_notes(adequacy: Mapping[str, Any] | None) -> list[str]:
     >>> adequacy_notes({"heldout_runs": ["c1", "c2"], "modulated_assessed": False,
     ...                 "heldout_fit": {"median": 97.0}})[0]
     'Held out: runs c1, c2 (each predicted by the model fitted without it).'
-    >>> print(adequacy_notes({"measured_modulators": []})[-1][:60])
+    >>> print(adequacy_notes({"measured_modulators": [], "heldout_fit": {"median": 96.0}})[-1][:60])
     Modulated use not assessed: none of the runs held out was ma
+    >>> adequacy_notes({"heldout_runs": [], "modulated_assessed": False})
+    ['Modulated use not assessed: no run was held out.']
     >>> adequacy_notes({"heldout_runs": ["s1"], "modulated_assessed": True})
     ['Held out: the modulated runs s1 (each predicted by the model fitted without it).']
     >>> adequacy_notes(None)
@@ -142,13 +144,21 @@ def adequacy_notes(adequacy: Mapping[str, Any] | None) -> list[str]:
         out.append(
             f"Held out: {which} {', '.join(runs)} (each predicted by the model fitted without it)."
         )
-    if not modulated:
+    if modulated:
+        return out
+    held = adequacy.get("heldout_fit")
+    median = held.get("median") if isinstance(held, Mapping) else None
+    # runs were held out: named, or (an older params.yaml) a held-out FIT to show for them
+    some = bool(runs) if "heldout_runs" in adequacy else isinstance(median, int | float)
+    if some:
         out.append(
             "Modulated use not assessed: none of the runs held out was made through a "
             "modulator. They repeat the identification's own experiments, so their FIT says "
             "how well the model reproduces those experiments, not how it predicts a modulated "
             "valve; record a staircase through a modulator to assess that."
         )
+    elif "modulated use is not assessed" not in str(adequacy.get("sentence") or ""):
+        out.append("Modulated use not assessed: no run was held out.")
     return out
 
 
