@@ -281,9 +281,11 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
     C99: init and step(r, p) -> valve, xi, the step as a constant) and OUT/controller.ino (where
     the sensor read and valve write go).
     """
+    from spa.closedloop.delays import unresolved_delays
     from spa.closedloop.describe import parse_modulator_spec
     from spa.closedloop.export import export_designed
     from spa.identification.identified import read_identified
+    from spa.io import read_yaml
     from spa.model.modulators import Modulator
 
     try:
@@ -322,6 +324,7 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
             levels=levels,
             dt=args.dt,
             precision=args.precision,
+            unresolved=unresolved_delays(read_yaml(args.params)),
         )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)
