@@ -281,15 +281,14 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
     C99: init and step(r, p) -> valve, xi, the step as a constant) and OUT/controller.ino (where
     the sensor read and valve write go).
     """
-    from spa.closedloop.delays import unresolved_delays
     from spa.closedloop.describe import parse_modulator_spec
     from spa.closedloop.export import export_designed
     from spa.identification.identified import read_identified
-    from spa.io import read_yaml
     from spa.model.modulators import Modulator
 
     try:
-        valve = read_identified(str(args.params)).params
+        identified = read_identified(str(args.params))
+        valve = identified.params
         stage = stage_choice(args.params) or {}
         chosen = (
             Modulator.from_mapping(stage["setting"]).bind(valve) if "setting" in stage else None
@@ -324,7 +323,7 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
             levels=levels,
             dt=args.dt,
             precision=args.precision,
-            unresolved=unresolved_delays(read_yaml(args.params)),
+            unresolved=identified.unresolved,
         )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)

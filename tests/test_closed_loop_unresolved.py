@@ -7,8 +7,8 @@ import pytest
 
 from spa.closedloop.bench import apply_bench, bench_outputs
 from spa.closedloop.comparison import closed_loop
-from spa.closedloop.delays import unresolved_delays
 from spa.closedloop.export import export_designed
+from spa.identification.identified import read_identified
 from spa.model.params import ValveParams
 
 CFG = {
@@ -18,9 +18,14 @@ CFG = {
 }
 SELECTED = [{"type": "iipfm", "t_l": 0.02, "gain": 1.15}]
 IDENTIFIED = {
-    "t_on": {"value": 0.0515, "lo": 0.0, "hi": 0.05, "unit": "s", "resolved": False},
+    **ValveParams().as_dict(),
+    "t_on": {"value": 0.05, "lo": 0.0, "hi": 0.05, "unit": "s", "resolved": False},
     "t_off": {"value": 0.009, "lo": 0.008, "hi": 0.010, "unit": "s"},
 }
+
+
+def unresolved_delays(identified):
+    return read_identified(identified).unresolved
 SAID = "t_on is not resolved by the data (interval [0, 50] ms)"
 
 
@@ -32,7 +37,8 @@ def result():
 def test_only_delays_marked_unresolved_are_read():
     assert unresolved_delays(IDENTIFIED) == {"t_on": (0.0, 0.05)}
     resolved = {**IDENTIFIED, "t_on": {**IDENTIFIED["t_on"], "resolved": True}}
-    assert unresolved_delays(resolved) == {} and unresolved_delays({}) == {}
+    assert unresolved_delays(resolved) == {}
+    assert unresolved_delays(ValveParams().as_dict()) == {}
 
 
 def test_header_and_sentence_say_the_delay_is_unresolved(result):
@@ -70,10 +76,6 @@ def test_design_for_dataset_reads_the_mark(monkeypatch):
         "spa.closedloop.model_error.dataset_error", lambda *a, **k: {}, raising=True
     )
     identified = {"k2": {"value": 0.84, "lo": 0.83, "hi": 0.85}, **IDENTIFIED}
-    monkeypatch.setattr(
-        "spa.identification.identified.read_identified",
-        lambda _: type("V", (), {"params": ValveParams(), "intervals": {}})(),
-    )
     with pytest.raises(Stop):
         promise.design_for_dataset(identified, {}, {}, SELECTED, CFG)
     assert seen["unresolved"] == {"t_on": (0.0, 0.05)}

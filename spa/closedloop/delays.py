@@ -1,7 +1,9 @@
 """Delays the data do not resolve: what a controller exported on them says.
 
 The identification marks a delay of ``params.yaml`` it could not resolve with
-``resolved: false`` (``t_on: {value, lo, hi, ..., resolved: false}``; absent means resolved).
+``resolved: false`` (``t_on: {value, lo, hi, ..., resolved: false}``; absent means resolved),
+and :func:`spa.identification.identified.read_identified` gives them with their intervals
+(``Identified.unresolved``).
 A controller designed for such a valve is designed at a value the data do not fix, and its
 promise is checked over the delay's interval (the corners of the box). The header's comment
 and the closed-loop sentence say so, with what to record (:func:`unresolved_sentence`).
@@ -11,9 +13,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
 
-__all__ = ["DELAYS", "unresolved_delays", "unresolved_sentence"]
+__all__ = ["DELAYS", "unresolved_sentence"]
 
 #: The delays of ``params.yaml`` that may be unresolved.
 DELAYS = ("t_on", "t_off")
@@ -23,43 +24,6 @@ RECORD = (
     "record the valve command on the pressure's clock (with the edge inside the log, the fit "
     "resolves the delay below one logging step) to resolve it"
 )
-
-
-def _bound(value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return math.nan
-    return v if math.isfinite(v) else math.nan
-
-
-def unresolved_delays(identified: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
-    """The delays ``params.yaml`` marks ``resolved: false``, with their intervals, s.
-
-    Parameters
-    ----------
-    identified : mapping or None
-        ``params.yaml``'s content; a delay without ``resolved`` is resolved.
-
-    Returns
-    -------
-    dict
-        ``name -> (lo, hi)`` in s (NaN for a bound not given), in :data:`DELAYS` order.
-
-    Examples
-    --------
-    >>> unresolved_delays({"t_on": {"value": 0.0515, "lo": 0.0, "hi": 0.05, "resolved": False},
-    ...                    "t_off": {"value": 0.009, "lo": 0.008, "hi": 0.01}})
-    {'t_on': (0.0, 0.05)}
-    >>> unresolved_delays(None)
-    {}
-    """
-    out = {}
-    for name in DELAYS:
-        entry = (identified or {}).get(name)
-        if isinstance(entry, Mapping) and entry.get("resolved", True) is False:
-            out[name] = (_bound(entry.get("lo")), _bound(entry.get("hi")))
-    return out
 
 
 def unresolved_sentence(unresolved: Mapping[str, tuple[float, float]], checked: bool = True) -> str:

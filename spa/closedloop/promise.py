@@ -67,7 +67,6 @@ def design_for_dataset(
         sensor_noise,
     )
     from spa.closedloop.comparison import DEFAULTS, closed_loop
-    from spa.closedloop.delays import unresolved_delays
     from spa.closedloop.model_error import dataset_error
     from spa.identification.identified import read_identified
 
@@ -112,7 +111,7 @@ def design_for_dataset(
             model_error=errors[equilibrium],
             adequacy=adequacy,
             choice=choice,
-            unresolved=unresolved_delays(identified),
+            unresolved=valve.unresolved,
         )
         benches.append((choice, bench))
         if bench.summary.get("verified"):
