@@ -93,3 +93,17 @@ def test_nothing_was_written_under_raw(coarse_run) -> None:
     assert names == sorted(
         ["dataset.yaml", *(f"{k}_{i}.txt" for k in ("inflate", "deflate") for i in range(1, 6))]
     )
+
+
+def test_the_page_says_only_what_is_true(coarse_run) -> None:
+    import html
+    import re
+
+    page = (coarse_run["out"].parent / "report" / "arduino.html").read_text()
+    text = html.unescape(re.sub(r"<[^>]+>", " ", re.sub(r"<(style|script).*?</\1>", "", page,
+                                                         flags=re.S)))  # fmt: skip
+    assert "at fault" not in text
+    for stage in ("staircase", "sine", "chirp"):
+        assert re.search(rf"Stage {stage}: no runs", text), stage
+    assert "()" not in text
+    assert "t_on and t_off are not resolved by the data" in text
