@@ -585,16 +585,18 @@ def _delay_estimate(
         )
         method += f"; unresolved (the {what} edges do not show it): [0, max_delay]"
         value = max_delay
-    elif value < dt or lo <= 0.0:
+    elif lo <= 0.0:
+        # With the edge in the log the output-error fit resolves a delay below one step; a
+        # delay whose interval reaches 0 is not told from none.
         resolved = False
         lo, hi = 0.0, max(hi, 2.0 * dt)
         notes.append(
-            f"{name} is not resolved: {1e3 * value:.2g} ms is within a logging step "
-            f"({1e3 * dt:.3g} ms) or its interval of 0; log pressure and valve command at "
+            f"{name} is not resolved: its interval reaches 0 ({1e3 * value:.2g} ms, logging "
+            f"step {1e3 * dt:.3g} ms); log pressure and valve command at "
             f">= {_hz(4.0 / max(value + dt, dt))} to resolve it. Designs use the "
             f"interval [0, {1e3 * min(hi, max_delay):.3g}] ms (its worst case)."
         )
-        method += "; unresolved (within a logging step of 0)"
+        method += "; unresolved (its interval reaches 0)"
     # No estimate outside its own bounds, no bound outside the searched domain.
     lo, hi = max(lo, 0.0), min(hi, max_delay)
     value = min(max(value, lo), hi)
