@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from spa.model.laws._kernel import law_chain, law_step
 from spa.model.laws.rates import law_rates, valve_laws
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -90,40 +91,29 @@ class LawTables:
         return self.charge if on else self.discharge
 
     @cached_property
-    def _lists(self) -> tuple[list[list[float]], ...]:
-        return tuple(
-            (md.ty.tolist(), md.wy.tolist(), md.coef.tolist())
-            for md in (self.discharge, self.charge)
+    def kernel_args(self) -> tuple:
+        """The tables as the arguments ``k2 ... coef`` of :func:`~spa.model.laws._kernel.law_step`
+        (mode 0 charging, 1 exhausting)."""
+        ch, dis = self.charge, self.discharge
+        return (
+            self.k2,
+            self.m,
+            self.g_top,
+            self.h_top,
+            _EPS,
+            np.array([ch.y0, dis.y0]),
+            np.array([ch.hy, dis.hy]),
+            np.stack((ch.ty, dis.ty)),
+            np.stack((ch.wy, dis.wy)),
+            np.array([ch.t_end, dis.t_end]),
+            np.array([ch.inv_h, dis.inv_h]),
+            np.ascontiguousarray(self.coef.T),
         )
 
     def step(self, on: bool, p: float, active: float) -> float:
-        """One mode's pressure after ``active`` s from ``p``, on plain floats (the chain of
-        run starts): the same table and formulas as :func:`law_segment_pressure`."""
-        md = self.charge if on else self.discharge
-        ty, wy, coef = self._lists[int(on)]
-        k2 = self.k2
-        e = max(active, 0.0)
-        if on and p >= coef[-1][0]:
-            return float(_above(self, np.float64(p), np.float64(e), True))
-        if not on and p > k2:
-            reach = float(_reach_k2(self, np.float64(p)))
-            if e < reach:
-                return float(_above(self, np.float64(p), np.float64(e), False))
-            t0 = -reach
-        else:
-            y = -math.log(max(k2 - p, k2 * _EPS)) if on else -math.log(max(p, k2 * _EPS))
-            u = min(max((y - md.y0) / md.hy, 0.0), len(ty) - 1.0)
-            i = min(int(u), len(ty) - 2)
-            s = u - i
-            t_a, t_b, w_a, w_b = ty[i], ty[i + 1], wy[i], wy[i + 1]
-            c2 = 3.0 * (t_b - t_a) - 2.0 * w_a - w_b
-            c3 = 2.0 * (t_a - t_b) + w_a + w_b
-            t0 = t_a + s * (w_a + s * (c2 + s * c3))
-        u = max((t0 + min(e, md.t_end - t0)) * md.inv_h, 0.0)
-        i = int(u)
-        s = u - i
-        c = coef[i]
-        return ((c[3] * s + c[2]) * s + c[1]) * s + c[0]
+        """One mode's pressure after ``active`` s from ``p``, on plain floats: the same table
+        and formulas as :func:`law_segment_pressure`, compiled."""
+        return float(law_step(bool(on), float(p), float(active), *self.kernel_args))
 
 
 def _dtdy(y: np.ndarray, params: ValveParams, on: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -288,13 +278,14 @@ def law_segment_pressure(
     np.maximum(u, 0.0, out=u)
     i = u.astype(np.int64)
     u -= i
-    c = tab.coef[i]
-    out = c[:, 3] * u
-    out += c[:, 2]
+    c0, c1, c2, c3 = tab.kernel_args[-1]
+    out = c3.take(i)
     out *= u
-    out += c[:, 1]
+    out += c2.take(i)
     out *= u
-    out += c[:, 0]
+    out += c1.take(i)
+    out *= u
+    out += c0.take(i)
     # Charges from at or above the supply pressure: f_open = (k2 - p)*g(k2) there, exactly
     # exponential (g is held constant beyond k2).
     above = lv & (p0 >= tab.charge.coef[-1, 0])
@@ -315,10 +306,9 @@ def law_run_start_pressures(
     """:func:`spa.model.plant.run_start_pressures` for a valve with general laws: one
     scalar step per run, ``p = T⁻¹(T(p) + active)`` of the run's mode."""
     tab = law_tables(params)
-    out = [0.0] * level.size
-    p = float(p0)
-    step = tab.step
-    for j, (on, a) in enumerate(zip(level.tolist(), active.tolist(), strict=True)):
-        out[j] = p
-        p = step(on, p, a)
-    return np.asarray(out, dtype=np.float64)
+    return law_chain(
+        np.asarray(level, dtype=np.bool_),
+        np.asarray(active, dtype=np.float64),
+        float(p0),
+        *tab.kernel_args,
+    )
