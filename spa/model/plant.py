@@ -100,7 +100,7 @@ def segment_pressure(
     >>> float(segment_pressure(False, 0.25, 2 * prm.c1 * 0.5, prm))  # empty after 2*c1*sqrt(p)
     0.0
     """
-    if params.laws is not None:
+    if getattr(params, "laws", None) is not None:  # duck-typed valves carry none
         return _laws().law_segment_pressure(on, p_start, elapsed, params, repeats)
     e = np.maximum(np.asarray(elapsed, dtype=np.float64), 0.0)
     p0 = np.asarray(p_start, dtype=np.float64)
@@ -421,7 +421,7 @@ def run_start_pressures(
     numpy.ndarray
         ``p_start[j]``; run ``j + 1`` starts where the closed form of run ``j`` ends.
     """
-    if params.laws is not None:
+    if getattr(params, "laws", None) is not None:  # duck-typed valves carry none
         return _laws().law_run_start_pressures(level, active, p0, params)
     decay = np.exp(-active / params.tau2).tolist()
     drop = (active / (2.0 * params.c1)).tolist()
