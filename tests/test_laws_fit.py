@@ -76,6 +76,10 @@ def test_other_laws_are_recovered_and_chosen():
     p = np.linspace(0.05, 0.95, 19) * truth.k2
     np.testing.assert_allclose(open_rate(p, got), open_rate(p, truth), rtol=0.02)
     assert abs(got.k2 - truth.k2) < 0.005
+    # The one-step held-out fits (as the refinement's) agree with the refits here.
+    assert set(choice.fit.heldout) == {r.rid for r in runs}
+    quick = choose_laws(runs, ValveParams(), fit=choice.fit, refit=False)
+    assert abs(quick.gain - choice.gain) < 1.0
     # The covariance is a covariance: symmetric, positive semi-definite.
     np.testing.assert_allclose(choice.fit.cov, choice.fit.cov.T, atol=1e-15)
     assert np.min(np.linalg.eigvalsh(choice.fit.cov)) > -1e-12

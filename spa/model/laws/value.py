@@ -19,7 +19,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -79,6 +79,9 @@ class Laws:
     log_h: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
     m: float = 0.5
     knots: tuple[float, ...] = DEFAULT_KNOTS
+    _coef: tuple[np.ndarray, np.ndarray] = field(
+        init=False, repr=False, compare=False, hash=False, default=(np.zeros(1), np.zeros(1))
+    )
 
     def __post_init__(self) -> None:
         knots = _floats("knots", self.knots)
@@ -104,6 +107,7 @@ class Laws:
         if not 0.5 <= m <= 1.0:
             raise ValueError(f"Laws.m must be in [0.5, 1], got {self.m!r}")
         object.__setattr__(self, "m", m)
+        object.__setattr__(self, "_coef", (self._poly(self.log_g), self._poly(self.log_h)))
 
     @property
     def is_paper(self) -> bool:
@@ -135,8 +139,7 @@ class Laws:
         inside = (x >= 0.0) & (x <= 1.0)
         x = np.clip(x, 0.0, 1.0)
         out = []
-        for values in (self.log_g, self.log_h):
-            c = self._poly(values)
+        for c in self._coef:
             if derivative:
                 c = np.polynomial.polynomial.polyder(c) if c.size > 1 else np.zeros(1)
                 out.append(np.where(inside, np.polynomial.polynomial.polyval(x, c), 0.0))
