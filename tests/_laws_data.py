@@ -18,6 +18,14 @@ MODULATED = {
 }
 
 
+def _step(n: int, level: int, before: int = 50) -> np.ndarray:
+    """``before`` samples at the other level, then ``level``: a charge or discharge with its
+    command edge (the refinement uses runs whose valve switches)."""
+    u = np.full(n, level, np.int8)
+    u[:before] = 1 - level
+    return u
+
+
 def _table(u: np.ndarray, p: np.ndarray) -> pd.DataFrame:
     return pd.DataFrame({"t": np.arange(u.size) * DT, "p": p, "valve": u})
 
@@ -36,8 +44,8 @@ def bench_runs(
         if mod:
             mods[rid] = mod
 
-    add("charge", "charge", np.ones(n // 2, np.int8), 0.0)
-    add("discharge", "discharge", np.zeros(n // 2, np.int8), truth.k2)
+    add("charge", "charge", _step(n // 2, 1), 0.0)
+    add("discharge", "discharge", _step(n // 2, 0), truth.k2)
     stair = np.minimum(np.floor(t / (seconds / 8)) / 7, 1.0)
     sine = 0.5 + 0.35 * np.sin(2 * np.pi * 0.4 * t)
     for j, (kind, settings) in enumerate(MODULATED.items()):
@@ -87,8 +95,8 @@ def plant_runs(
         if mod:
             mods[rid] = mod
 
-    add("charge", "charge", np.ones(n // 2, np.int8), 0.0)
-    add("discharge", "discharge", np.zeros(n // 2, np.int8), plant.supply)
+    add("charge", "charge", _step(n // 2, 1), 0.0)
+    add("discharge", "discharge", _step(n // 2, 0), plant.supply)
     stair = np.minimum(np.floor(t / (seconds / 8)) / 7, 1.0)
     sine = 0.5 + 0.35 * np.sin(2 * np.pi * 0.25 * t)
     for j, (kind, s) in enumerate(settings):

@@ -30,6 +30,7 @@ def test_charges_from_three_pressures_fall_on_one_f_open():
     runs, kinds = {}, {}
     for j, p0 in enumerate((0.0, 0.25 * truth.k2, 0.5 * truth.k2)):
         u = np.ones(n, np.int8)
+        u[:20] = 0  # 20 ms closed, then the charge: a run with its command edge
         p = simulate(u, DT, truth, p0=p0) + rng.normal(0.0, 0.001, n)
         runs[f"charge{j}"] = pd.DataFrame({"t": np.arange(n) * DT, "p": p, "valve": u})
         kinds[f"charge{j}"] = "charge"

@@ -34,6 +34,8 @@ __all__ = ["LawsChoice", "LawsFit", "choose_laws", "fit_laws", "law_model", "law
 _NOISE_FLOOR = 1e-6  # bar, as the refinement's
 _STEP = 1e-3  # forward-difference step of the log-rates and of m
 _M_BOUNDS = (0.5, 1.0)
+#: Bound of the log-rates: rates within a factor e**6 (about 400) of the paper's scales.
+_LOG_BOUND = 6.0
 #: The choice rule: mean held-out gain over this many standard errors and FIT points.
 GAIN_SE = 2.0
 GAIN_POINTS = 2.0
@@ -234,6 +236,7 @@ def fit_laws(
     free = np.array([i for i in range(len(names)) if i not in held])
     lo = np.full(len(names), -np.inf)
     hi = np.full(len(names), np.inf)
+    lo[:im], hi[:im] = -_LOG_BOUND, _LOG_BOUND
     lo[im], hi[im] = _M_BOUNDS
     lo[im + 2 :], hi[im + 2 :] = 0.0, max_delay
     scale = np.full(len(names), 0.1)
@@ -368,8 +371,8 @@ class LawsChoice:
         and its standard error; NaN with fewer than two modulated runs.
     fit_paper, fit_identified : dict
         Modulated run id → held-out FIT % under each.
-    fit : LawsFit
-        The fit on every run.
+    fit : LawsFit or None
+        The fit on every run (None when there were too few modulated runs to fit for).
     reason : str
         The rule's outcome in a sentence.
     """
@@ -380,7 +383,7 @@ class LawsChoice:
     se: float
     fit_paper: Mapping[str, float]
     fit_identified: Mapping[str, float]
-    fit: LawsFit = field(repr=False)
+    fit: LawsFit | None = field(repr=False)
     reason: str
 
 
@@ -438,10 +441,21 @@ def choose_laws(
     """
     paper = dataclasses.replace(start, laws=None)
     dl = paper.delay if delay is None else delay
+    held = [r for r in runs if r.modulator]
+    if len(held) < 2:
+        return LawsChoice(
+            "paper",
+            paper,
+            math.nan,
+            math.nan,
+            {},
+            {},
+            fit,
+            f"{len(held)} modulated run(s): too few to compare the laws; the paper's are kept",
+        )
     full = (
         fit if fit is not None else fit_laws(runs, paper, delay=dl, knots=knots, max_nfev=max_nfev)
     )
-    held = [r for r in runs if r.modulator]
     fit_p: dict[str, float] = {}
     fit_i: dict[str, float] = {}
     for r in held:
@@ -459,18 +473,6 @@ def choose_laws(
             prm = _valve(paper, full.heldout[r.rid], full.laws.knots)
         fit_i[r.rid] = fit_percent(r.y, law_model(r, prm, dl))
     d = np.array([fit_i[k] - fit_p[k] for k in fit_p])
-    if d.size < 2:
-        gain, se = (float(d[0]) if d.size else math.nan), math.nan
-        return LawsChoice(
-            "paper",
-            paper,
-            gain,
-            se,
-            fit_p,
-            fit_i,
-            full,
-            f"{d.size} modulated run(s): too few to compare the laws; the paper's are kept",
-        )
     gain = float(d.mean())
     se = float(d.std(ddof=1) / math.sqrt(d.size))
     chosen = gain > GAIN_SE * se and gain > GAIN_POINTS
