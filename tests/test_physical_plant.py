@@ -6,6 +6,7 @@ the exported headers are checked on."""
 from __future__ import annotations
 
 import ast
+import dataclasses
 import math
 import shutil
 
@@ -211,7 +212,7 @@ def test_a_missing_compiler_is_an_error_not_a_skip():
 
 def test_random_plants_cover_the_required_ranges():
     rng = np.random.default_rng(11)
-    plants = [random_plant(rng) for _ in range(300)]
+    plants = [random_plant(rng, full=False) for _ in range(300)]
     supply = np.array([p.supply for p in plants])
     t_open = np.array([p.t_open for p in plants])
     t_close = np.array([p.t_close for p in plants])
@@ -227,6 +228,114 @@ def test_random_plants_cover_the_required_ranges():
     assert lag.max() <= 0.005 and lag.max() > 0.004
     one = random_plant(np.random.default_rng(5))
     assert one == random_plant(np.random.default_rng(5))  # seeded
+
+
+def test_random_plants_draw_balloons_and_every_effect():
+    rng = np.random.default_rng(12)
+    plants = [random_plant(rng) for _ in range(300)]
+    low = [p for p in plants if p.droop == 0.0 and p.mains == 0.0]  # balloons: no sag, no hum
+    assert 30 <= len(low) <= 90  # one in five is a compliant low-supply balloon
+    for p in low:
+        assert 0.4 <= p.supply <= 0.8 and p.compliance >= p.volume  # >= 100 % per bar
+        ratio = p.atmosphere / (p.atmosphere + p.supply)
+        assert max(p.b_supply, p.b_exhaust) < ratio  # subsonic both ways
+    for name in ("leak", "heat_tau", "creep", "tube_tau", "hose_volume", "bounce"):
+        share = np.mean([getattr(p, name) > 0 for p in plants])
+        assert share == pytest.approx(0.35, abs=0.08), name
+    assert all(p.polytropic == 1.4 for p in plants if p.heat_tau > 0)
+    # the base draw is kept: the same generator state gives the same base plant
+    a, b = np.random.default_rng(5), np.random.default_rng(5)
+    base = random_plant(a, full=False)
+    full = random_plant(b)
+    if full.supply >= 0.5:
+        assert full.c_supply == base.c_supply and full.t_open == base.t_open
+
+
+EFFECTS = PhysicalPlant(
+    leak=0.002, heat_tau=1.0, polytropic=1.4, creep=6.0, creep_tau=1.0, tube_tau=0.004,
+    hose_volume=30.0, c_line=0.1, bounce=0.2, bounce_time=0.001, t_open=0.004,
+    t_close=0.006, sensor_lag=0.002,
+)  # fmt: skip
+
+
+def test_every_effect_off_is_the_plant_without_it():
+    u = _command(600, 3)
+    base = simulate_physical(PhysicalPlant(), u, DT, p0=0.3).attrs["p_true"]
+    for field, value in (("creep_tau", 1.0), ("c_line", 0.1), ("bounce_time", 0.001)):
+        other = dataclasses.replace(PhysicalPlant(), **{field: value})  # scale without amount
+        assert np.array_equal(simulate_physical(other, u, DT, p0=0.3).attrs["p_true"], base)
+    with pytest.raises(ValueError, match="creep_tau must be > 0 when creep"):
+        PhysicalPlant(creep=1.0)
+    with pytest.raises(ValueError, match="c_line must be > 0 when hose_volume"):
+        PhysicalPlant(hose_volume=1.0)
+
+
+def test_a_leak_holds_the_open_chamber_below_the_supply_and_empties_the_closed_one():
+    on = np.ones(8000, dtype=np.int8)
+    tight = simulate_physical(PhysicalPlant(droop=0.0), on, DT).attrs["p_true"]
+    leaky = simulate_physical(PhysicalPlant(droop=0.0, leak=0.003), on, DT).attrs["p_true"]
+    assert abs(tight[-1] - 0.85) < 1e-3 and 0.0 < 0.85 - leaky[-1] < 0.2
+
+
+def test_wall_heat_exchange_is_a_second_state_after_a_charge():
+    """Adiabatic filling heats the gas; at rest with the valve shut... the chamber then
+    cools and its pressure relaxes, with no flow, over heat_tau: a state the laws lack."""
+    plant = PhysicalPlant(heat_tau=0.5, polytropic=1.4, droop=0.0, c_exhaust=1e-9)
+    u = np.ones(3000, dtype=np.int8)
+    u[300:] = 0  # charge 0.3 s, then closed: the exhaust port is (almost) shut
+    p = simulate_physical(plant, u, DT).attrs["p_true"]
+    rest = p[400:]
+    assert np.all(np.diff(rest) < 0)  # the gas cools: the pressure falls with no flow
+    drop = rest[0] - rest[-1]
+    assert drop > 0.02
+    # exponential at the wall's time constant: after heat_tau, about 1/e of the drop left
+    gone = (rest[0] - rest[500]) / drop
+    assert 0.5 < gone < 0.75
+
+
+def test_a_viscoelastic_chamber_keeps_creeping_after_the_valve_shuts():
+    plant = PhysicalPlant(creep=10.0, creep_tau=0.5, droop=0.0, c_exhaust=1e-9)
+    u = np.ones(3000, dtype=np.int8)
+    u[500:] = 0
+    p = simulate_physical(plant, u, DT).attrs["p_true"]
+    assert np.all(np.diff(p[520:]) < 0)  # the volume grows: the pressure sags
+    rigid = simulate_physical(PhysicalPlant(droop=0.0, c_exhaust=1e-9), u, DT).attrs["p_true"]
+    assert abs(rigid[-1] - rigid[520]) < 1e-4 < p[520] - p[-1]
+
+
+def test_a_tube_lags_the_sensor_and_a_hose_slows_the_charge():
+    u = np.ones(4000, dtype=np.int8)
+    u[0] = 0
+    base = simulate_physical(PhysicalPlant(), u, DT)
+    tube = simulate_physical(PhysicalPlant(tube_tau=0.01), u, DT)
+    assert np.array_equal(base.attrs["p_true"], tube.attrs["p_true"])  # no mass drawn
+    assert np.all(tube.attrs["p_lagged"][20:200] < base.attrs["p_lagged"][20:200])
+    hose = simulate_physical(PhysicalPlant(hose_volume=40.0, c_line=0.05), u, DT)
+    assert np.all(hose.attrs["p_true"][20:300] < base.attrs["p_true"][20:300])
+    assert abs(hose.attrs["p_true"][-1] - base.attrs["p_true"][-1]) < 0.01
+
+
+def test_a_bouncing_valve_reopens_briefly_after_each_end_stop():
+    plant = PhysicalPlant(bounce=0.3, bounce_time=0.002, transit=0.001, sensor_lag=0.0)
+    x = np.zeros(physical.NX)
+    c = physical._constants(plant)
+    x[3], x[4], x[5] = 0.0, 0.0, 1.0  # opening from closed at t = 0
+    s = np.array([physical._spool.py_func(t, x, c) for t in np.linspace(0, 0.01, 1001)])
+    assert np.all(np.diff(s[:101]) > 0)  # the transit, then the end stop at 1 ms
+    after = s[101:]
+    # it rebounds: by bounce*max(exp(-x)*|sin(pi*x)|) = 0.3*0.64 of the stroke at most
+    assert 1.0 - 0.3 < after.min() < 0.85
+    assert np.all(after <= 1.0) and abs(after[-1] - 1.0) < 0.01  # and settles
+
+
+def test_c_twin_equals_the_python_plant_with_every_effect():
+    cc = _cc()
+    u = _command(3000, 4)
+    py = simulate_physical(EFFECTS, u, DT, p0=0.2)
+    p_c, y_c = run_plant_in_c(EFFECTS, u, DT, p0=0.2, cc=cc)
+    assert np.ptp(py.attrs["p_true"]) > 0.2
+    np.testing.assert_allclose(p_c, py.attrs["p_true"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(y_c, py.attrs["p_lagged"], rtol=0, atol=1e-9)
 
 
 # ---- closed loops -------------------------------------------------------------------------

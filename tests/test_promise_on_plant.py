@@ -166,7 +166,7 @@ def test_a_valve_the_hold_convention_misses_is_identified_in_the_one_that_descri
     describes the valve and that the designs are unverified."""
     from spa.synthetic.physical import random_plant
 
-    plant = random_plant(np.random.default_rng([1, 6]))
+    plant = random_plant(np.random.default_rng([1, 6]), full=False)  # the base draw
     assert min(plant.t_open, plant.t_close) > 0.015
     modulators = [{"type": "pwm", "f_w": 20.0}, {"type": "dsm", "period": 0.02}]
     runs, metas, mods = _runs_of(plant, modulators, 3, "p6")

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
+from typing import Any
 
 from spa._checks import ArgumentTypeError
+from spa.model.laws.value import Laws, laws_from
 
 __all__ = ["DELAY_CONVENTIONS", "PHYSICAL_RANGE", "ValveParams"]
 
@@ -71,6 +73,7 @@ class ValveParams:
     t_on: float = 0.003
     t_off: float = 0.010
     delay: str = "hold"
+    laws: Laws | None = None
 
     def __post_init__(self) -> None:
         if self.delay not in DELAY_CONVENTIONS:
@@ -78,8 +81,10 @@ class ValveParams:
                 f"ValveParams.delay must be one of {', '.join(DELAY_CONVENTIONS)}, "
                 f"got {self.delay!r}"
             )
+        if self.laws is not None:
+            object.__setattr__(self, "laws", laws_from(self.laws))
         for f in fields(self):
-            if f.name == "delay":
+            if f.name in ("delay", "laws"):
                 continue
             value = getattr(self, f.name)
             try:
@@ -94,15 +99,21 @@ class ValveParams:
                 )
             object.__setattr__(self, f.name, number)
 
-    def as_dict(self) -> dict[str, float]:
+    def as_dict(self) -> dict[str, Any]:
         """Return the parameters as a plain ``{name: value}`` dictionary.
 
-        ``delay`` is included only when it is not the default ``"hold"``, so the paper's
-        valves keep their five-number form; ``ValveParams(**p.as_dict()) == p`` always.
+        ``delay`` is included only when it is not the default ``"hold"`` and ``laws`` (as
+        :meth:`~spa.model.laws.Laws.as_dict`) only when they are not the paper's, so the
+        paper's valves keep their five-number form; ``ValveParams(**p.as_dict()) == p``
+        always.
         """
         out = asdict(self)
         if self.delay == "hold":
             del out["delay"]
+        if self.laws is None:
+            del out["laws"]
+        else:
+            out["laws"] = self.laws.as_dict()
         return out
 
     @property

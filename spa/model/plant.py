@@ -9,6 +9,7 @@ sample times at once with numpy.
 from __future__ import annotations
 
 import math
+from types import ModuleType
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +28,13 @@ __all__ = [
     "simulate",
     "transport_runs",
 ]
+
+
+def _laws() -> ModuleType:
+    """The general laws' time maps, imported when a valve carries laws."""
+    from spa.model.laws import timemap
+
+    return timemap
 
 
 def _check_delay(delay: str | None, params: ValveParams | None = None) -> str:
@@ -79,7 +87,9 @@ def segment_pressure(
     -----
     Evaluated as ``k2 + (p_start - k2) * exp(-elapsed/tau2)`` and
     ``max(sqrt(p_start) - elapsed/(2*c1), 0)**2`` in every path, so that a simulation and a
-    replay of it agree to the last bit.
+    replay of it agree to the last bit. A valve with general laws (``params.laws`` not None)
+    is evaluated by its time maps instead
+    (:func:`spa.model.laws.timemap.law_segment_pressure`).
 
     Examples
     --------
@@ -90,6 +100,8 @@ def segment_pressure(
     >>> float(segment_pressure(False, 0.25, 2 * prm.c1 * 0.5, prm))  # empty after 2*c1*sqrt(p)
     0.0
     """
+    if getattr(params, "laws", None) is not None:  # duck-typed valves carry none
+        return _laws().law_segment_pressure(on, p_start, elapsed, params, repeats)
     e = np.maximum(np.asarray(elapsed, dtype=np.float64), 0.0)
     p0 = np.asarray(p_start, dtype=np.float64)
     if np.ndim(on) == 0:
@@ -409,6 +421,8 @@ def run_start_pressures(
     numpy.ndarray
         ``p_start[j]``; run ``j + 1`` starts where the closed form of run ``j`` ends.
     """
+    if getattr(params, "laws", None) is not None:  # duck-typed valves carry none
+        return _laws().law_run_start_pressures(level, active, p0, params)
     decay = np.exp(-active / params.tau2).tolist()
     drop = (active / (2.0 * params.c1)).tolist()
     out = [0.0] * level.size

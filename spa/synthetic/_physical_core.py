@@ -73,6 +73,31 @@ class PhysicalPlant:
         Atmospheric pressure, bar absolute, in [0.5, 1.2].
     temperature : float
         Supply air temperature ``T0``, K, in [200, 400].
+    leak : float
+        Chamber leak to atmosphere, a laminar conductance in dm³/(s·bar) (ANR), in [0, 50]
+        (0: none): mass flow ``leak*rho0*(P - p_atm)``.
+    heat_tau : float
+        Wall heat exchange, s, in [0, 100] (0: none, the polytropic chamber). When set the
+        chamber is a thermal state: the gas temperature ``T`` follows the energy balance
+        with ``polytropic`` as the ratio of specific heats, air entering at ``T0``, leaving
+        at ``T``, and exchanging ``m*cv*(T0 - T)/heat_tau`` with the wall.
+    creep, creep_tau : float
+        Viscoelastic chamber: an extra volume ``Vc`` creeping towards ``creep*(P - p_atm)``
+        (cm³/bar, in [0, 1e5]) with time constant ``creep_tau`` (s, in [0, 1000]; needed
+        when ``creep > 0``) after each change of pressure.
+    tube_tau : float
+        Connecting tube between the chamber and the sensor, s, in [0, 0.5] (0: none): the
+        sensor's port follows the chamber's pressure through a first-order pneumatic lag,
+        ahead of the sensor's own lag.
+    hose_volume, c_line : float
+        Supply hose behind a line conductance: a volume (cm³, in [0, 1e5]; 0: none) fed by
+        the regulator through an ISO 6358 conductance ``c_line`` (dm³/(s·bar), in [0, 50];
+        needed when ``hose_volume > 0``; ``b = 0.3``, ``m = 0.5``), from which the valve
+        draws.
+    bounce, bounce_time : float
+        Valve bounce: when the spool reaches its end stop it rebounds by ``bounce`` of its
+        stroke (in [0, 0.5]), decaying as ``exp(-t/bounce_time)*|sin(pi*t/bounce_time)|``
+        (``bounce_time`` s, in [0, 0.01]; needed when ``bounce > 0``).
 
     Raises
     ------
@@ -112,6 +137,15 @@ class PhysicalPlant:
     mains_phase: float = 0.0
     atmosphere: float = 1.01325
     temperature: float = 293.15
+    leak: float = 0.0
+    heat_tau: float = 0.0
+    creep: float = 0.0
+    creep_tau: float = 0.0
+    tube_tau: float = 0.0
+    hose_volume: float = 0.0
+    c_line: float = 0.0
+    bounce: float = 0.0
+    bounce_time: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -127,6 +161,15 @@ class PhysicalPlant:
                     f"PhysicalPlant.{f.name} = {value!r}: must be in {bra}{lo:g}, {hi:g}] ({what})"
                 )
             object.__setattr__(self, f.name, v)
+        for amount, scale in (
+            ("creep", "creep_tau"),
+            ("hose_volume", "c_line"),
+            ("bounce", "bounce_time"),
+        ):
+            if getattr(self, amount) > 0.0 and not getattr(self, scale) > 0.0:
+                raise ValueError(
+                    f"PhysicalPlant.{scale} must be > 0 when {amount} = {getattr(self, amount)!r}"
+                )
 
     @classmethod
     def from_mapping(cls, cfg: Mapping[str, Any]) -> PhysicalPlant:
@@ -171,6 +214,15 @@ _RANGES: dict[str, tuple[float, float, bool, str]] = {
     "mains_phase": (-2 * math.pi, 2 * math.pi, False, "mains phase, rad"),
     "atmosphere": (0.5, 1.2, False, "atmospheric pressure, bar absolute"),
     "temperature": (200.0, 400.0, False, "supply air temperature, K"),
+    "leak": (0.0, 50.0, False, "chamber leak, dm^3/(s*bar)"),
+    "heat_tau": (0.0, 100.0, False, "wall heat exchange time constant, s"),
+    "creep": (0.0, 1e5, False, "creeping volume, cm^3/bar"),
+    "creep_tau": (0.0, 1000.0, False, "creep time constant, s"),
+    "tube_tau": (0.0, 0.5, False, "sensor tube time constant, s"),
+    "hose_volume": (0.0, 1e5, False, "supply hose volume, cm^3"),
+    "c_line": (0.0, 50.0, False, "line conductance, dm^3/(s*bar)"),
+    "bounce": (0.0, 0.5, False, "valve bounce, fraction of the stroke"),
+    "bounce_time": (0.0, 0.01, False, "valve bounce time, s"),
 }
 
 #: The settings of a physical plant (config keys), in order.
@@ -200,6 +252,16 @@ _C = (
     "t_open",  # s
     "t_close",  # s
     "blam",  # laminar ratio
+    "leak",  # m^3/(s*Pa) (0: none)
+    "heat_tau",  # s (0: polytropic chamber)
+    "creep",  # m^3/Pa
+    "creep_tau",  # s
+    "tube_tau",  # s (0: none)
+    "hose_v",  # m^3 (0: none)
+    "c_line",  # m^3/(s*Pa)
+    "bounce",  # fraction of the stroke
+    "bounce_time",  # s
+    "t0",  # K
 )
 N_CONST = len(_C)
 
@@ -229,6 +291,16 @@ def _constants(plant: PhysicalPlant) -> np.ndarray:
             plant.t_open,
             plant.t_close,
             LAMINAR_RATIO,
+            plant.leak * _DM3_PER_S_BAR,
+            plant.heat_tau,
+            plant.creep * _CM3 / _BAR,
+            plant.creep_tau,
+            plant.tube_tau,
+            plant.hose_volume * _CM3,
+            plant.c_line * _DM3_PER_S_BAR,
+            plant.bounce,
+            plant.bounce_time,
+            plant.temperature,
         ],
         dtype=np.float64,
     )
@@ -257,6 +329,14 @@ def substeps(plant: PhysicalPlant, dt: float) -> int:
     lam = max(lam, 1.0 / plant.regulator_tau)
     if plant.sensor_lag > 0:
         lam = max(lam, 1.0 / plant.sensor_lag)
+    if plant.tube_tau > 0:
+        lam = max(lam, 1.0 / plant.tube_tau)
+    if plant.hose_volume > 0:
+        phi = (1.0 - ((LAMINAR_RATIO - 0.3) / 0.7) ** 2) ** 0.5
+        slope = c[26] * RHO0 * phi / (1.0 - LAMINAR_RATIO)
+        lam = max(lam, c[3] * slope / c[25])
+    if plant.bounce > 0:
+        lam = max(lam, 10.0 / plant.bounce_time)
     return max(math.ceil(dt * lam - 1e-9), math.ceil(dt / 1e-4 - 1e-9), 1)
 
 

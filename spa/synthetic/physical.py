@@ -42,7 +42,7 @@ import numpy.typing as npt
 import pandas as pd
 from numba import njit
 
-from spa.synthetic._physical_core import (  # the plant's settings and constants
+from spa.synthetic._physical_core import (  # noqa: F401  (the plant's settings and constants)
     _BAR,
     _CM3,
     _DM3_PER_S_BAR,
@@ -74,8 +74,15 @@ __all__ = [
 
 # ---- the kernels (compiled; the tests run them as plain Python too) ------------------------
 # State x: [P (Pa abs), Ps (Pa abs), y (sensor, Pa gauge), s_ref, t_ref, v_ref, last command,
-#           time of the next controller step]; queue: pending armature switches (time, value)
-# in a ring buffer qt/qv with qi = [head, count].
+#           spare, T (gas, K), Vc (creeping volume, m^3), Pt (sensor port, Pa abs),
+#           Ph (supply hose, Pa abs)]; queue: pending armature switches (time, value) in a
+# ring buffer qt/qv with qi = [head, count]. The integrated states are x[_Z]; the work
+# array w (5, NZ) holds the derivative (w[0]), the stages k1..k3 and the stage's state.
+
+#: Indices of the integrated states in x.
+_Z = (0, 1, 2, 8, 9, 10, 11)
+NZ = 7
+NX = 12
 
 
 @njit(cache=True)
@@ -100,10 +107,17 @@ def _flow(p1, p2, cond, b, m, rho0, blam):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _spool(t, x, transit):  # pragma: no cover (compiled)
-    """Spool position at time t of the current segment (x[3] at x[4], towards x[5])."""
+def _spool(t, x, c):  # pragma: no cover (compiled)
+    """Spool position at time t of the current segment (x[3] at x[4], towards x[5]), with
+    its rebound at the end stop when the valve bounces (c[27] > 0)."""
     direction = 1.0 if x[5] > 0.5 else -1.0
-    s = x[3] + (t - x[4]) * direction / transit
+    s = x[3] + (t - x[4]) * direction / c[16]
+    if c[27] > 0.0:
+        hit = x[4] + abs(x[5] - x[3]) * c[16]
+        if abs(x[5] - x[3]) > 0.0 and t > hit:
+            a = t - hit
+            b = c[27] * math.exp(-a / c[28]) * abs(math.sin(math.pi * a / c[28]))
+            return 1.0 - b if direction > 0.0 else b
     if s < 0.0:
         return 0.0
     if s > 1.0:
@@ -112,11 +126,11 @@ def _spool(t, x, transit):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _events(t, x, qt, qv, qi, transit):  # pragma: no cover (compiled)
+def _events(t, x, qt, qv, qi, c):  # pragma: no cover (compiled)
     """Apply every pending armature switch due by time t (the spool segment restarts)."""
     while qi[1] > 0 and qt[qi[0]] <= t:
         tau = qt[qi[0]]
-        x[3] = _spool(tau, x, transit)
+        x[3] = _spool(tau, x, c)
         x[4] = tau
         x[5] = qv[qi[0]]
         qi[0] = (qi[0] + 1) % qt.size
@@ -124,15 +138,52 @@ def _events(t, x, qt, qv, qi, transit):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _rhs(p, ps, y, s, c, d):  # pragma: no cover (compiled)
-    """Derivatives of (P, Ps, y) at spool position s into d."""
-    q_in = _flow(ps, p, c[5] * s, c[6], c[7], c[4], c[19])
+def _rhs(z, s, c, d):  # pragma: no cover (compiled)
+    """Derivatives of the integrated states z = (P, Ps, y, T, Vc, Pt, Ph) at spool position
+    s into d. Each effect whose constant is 0 drops out exactly (the plant without them
+    computes the same operations as before they existed)."""
+    p, ps, y = z[0], z[1], z[2]
+    up = z[6] if c[25] > 0.0 else ps
+    q_in = _flow(up, p, c[5] * s, c[6], c[7], c[4], c[19])
     q_out = _flow(p, c[0], c[8] * (1.0 - s), c[9], c[10], c[4], c[19])
+    if c[20] > 0.0:
+        q_out = q_out + c[20] * c[4] * (p - c[0])
     vol = c[11] + c[12] * (p - c[0])
-    d[0] = c[2] * c[3] * (q_in - q_out) / (vol + c[2] * p * c[12])
-    d[1] = (c[1] - c[13] * q_in / c[4] - ps) / c[14]
+    dvc = 0.0
+    if c[22] > 0.0:
+        vol = vol + z[4]
+        dvc = (c[22] * (p - c[0]) - z[4]) / c[23]
+    d[4] = dvc
+    if c[21] > 0.0:
+        tg = z[3]
+        r_gas = c[3] / c[29]
+        heat = p * vol * (c[29] - tg) / (tg * c[21])
+        d[0] = (c[2] * r_gas * (q_in * c[29] - q_out * tg) + heat - c[2] * p * dvc) / (
+            vol + c[2] * p * c[12]
+        )
+        mass = p * vol / (r_gas * tg)
+        d[3] = tg * (d[0] / p + (c[12] * d[0] + dvc) / vol - (q_in - q_out) / mass)
+    else:
+        if c[22] > 0.0:
+            d[0] = (c[2] * c[3] * (q_in - q_out) - c[2] * p * dvc) / (vol + c[2] * p * c[12])
+        else:
+            d[0] = c[2] * c[3] * (q_in - q_out) / (vol + c[2] * p * c[12])
+        d[3] = 0.0
+    q_reg = q_in
+    if c[25] > 0.0:
+        q_reg = _flow(ps, z[6], c[26], 0.3, 0.5, c[4], c[19])
+        d[6] = c[3] * (q_reg - q_in) / c[25]
+    else:
+        d[6] = 0.0
+    d[1] = (c[1] - c[13] * q_reg / c[4] - ps) / c[14]
+    src = p
+    if c[24] > 0.0:
+        d[5] = (p - z[5]) / c[24]
+        src = z[5]
+    else:
+        d[5] = 0.0
     if c[15] > 0.0:
-        d[2] = (p - c[0] - y) / c[15]
+        d[2] = (src - c[0] - y) / c[15]
     else:
         d[2] = 0.0
 
@@ -157,29 +208,36 @@ def _command(x, qt, qv, qi, tk, u, c):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _advance(x, qt, qv, qi, tk, dt, nsub, c, d):  # pragma: no cover (compiled)
+def _advance(x, qt, qv, qi, tk, dt, nsub, c, w):  # pragma: no cover (compiled)
     """Integrate the plant from tk over one controller step dt (nsub RK4 steps)."""
     h = dt / nsub
+    d, k1, k2, k3, zt = w[0], w[1], w[2], w[3], w[4]
+    z = np.empty(NZ)
     for i in range(nsub):
         t = tk + i * h
-        p, ps, y = x[0], x[1], x[2]
-        _events(t, x, qt, qv, qi, c[16])
-        _rhs(p, ps, y, _spool(t, x, c[16]), c, d)
-        k1p, k1s, k1y = d[0], d[1], d[2]
-        _events(t + 0.5 * h, x, qt, qv, qi, c[16])
-        s2 = _spool(t + 0.5 * h, x, c[16])
-        _rhs(p + 0.5 * h * k1p, ps + 0.5 * h * k1s, y + 0.5 * h * k1y, s2, c, d)
-        k2p, k2s, k2y = d[0], d[1], d[2]
-        _rhs(p + 0.5 * h * k2p, ps + 0.5 * h * k2s, y + 0.5 * h * k2y, s2, c, d)
-        k3p, k3s, k3y = d[0], d[1], d[2]
-        _events(t + h, x, qt, qv, qi, c[16])
-        _rhs(p + h * k3p, ps + h * k3s, y + h * k3y, _spool(t + h, x, c[16]), c, d)
-        x[0] = p + h / 6.0 * (k1p + 2.0 * k2p + 2.0 * k3p + d[0])
-        x[1] = ps + h / 6.0 * (k1s + 2.0 * k2s + 2.0 * k3s + d[1])
-        if c[15] > 0.0:
-            x[2] = y + h / 6.0 * (k1y + 2.0 * k2y + 2.0 * k3y + d[2])
-        else:
-            x[2] = x[0] - c[0]
+        for j in range(NZ):
+            z[j] = x[_Z[j]]
+        _events(t, x, qt, qv, qi, c)
+        _rhs(z, _spool(t, x, c), c, d)
+        for j in range(NZ):
+            k1[j] = d[j]
+            zt[j] = z[j] + 0.5 * h * k1[j]
+        _events(t + 0.5 * h, x, qt, qv, qi, c)
+        s2 = _spool(t + 0.5 * h, x, c)
+        _rhs(zt, s2, c, d)
+        for j in range(NZ):
+            k2[j] = d[j]
+            zt[j] = z[j] + 0.5 * h * k2[j]
+        _rhs(zt, s2, c, d)
+        for j in range(NZ):
+            k3[j] = d[j]
+            zt[j] = z[j] + h * k3[j]
+        _events(t + h, x, qt, qv, qi, c)
+        _rhs(zt, _spool(t + h, x, c), c, d)
+        for j in range(NZ):
+            x[_Z[j]] = z[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + d[j])
+        if c[15] <= 0.0:
+            x[2] = (x[10] if c[24] > 0.0 else x[0]) - c[0]
 
 
 @njit(cache=True)
@@ -192,6 +250,11 @@ def _init(x, qi, p0, c, u0):  # pragma: no cover (compiled)
     x[4] = 0.0
     x[5] = x[3]
     x[6] = x[3]
+    x[7] = 0.0
+    x[8] = c[29]
+    x[9] = c[22] * p0
+    x[10] = x[0]
+    x[11] = c[1]
     qi[0] = 0
     qi[1] = 0
 
@@ -200,11 +263,11 @@ def _init(x, qi, p0, c, u0):  # pragma: no cover (compiled)
 def _run(u, dt, nsub, every, c, p0, u0, p_out, y_out):  # pragma: no cover (compiled)
     """The open-loop run: command u[k] over [k*dt, (k+1)*dt); samples every `every` steps
     of the chamber's gauge pressure (p_out) and of the lagged sensor (y_out), Pa."""
-    x = np.zeros(8)
+    x = np.zeros(NX)
     qt = np.zeros(QUEUE)
     qv = np.zeros(QUEUE)
     qi = np.zeros(2, dtype=np.int64)
-    d = np.zeros(3)
+    d = np.zeros((5, NZ))
     _init(x, qi, p0, c, u0)
     j = 0
     for k in range(u.size):
@@ -418,77 +481,6 @@ def equivalent_params(plant: PhysicalPlant, dt: float = 1e-3):
     return ValveParams(c1=c1, k2=k2, tau2=tau2, t_on=t_on, t_off=t_off)
 
 
-def random_plant(rng: np.random.Generator) -> PhysicalPlant:
-    """A physical plant drawn over the range a lab meets.
-
-    Supply log-uniform 0.5–6 bar gauge; dead times uniform 2–25 ms each, opening and closing
-    at least 1 ms apart; transit 1–2 ms; chamber 5–200 cm³ (log-uniform) growing by 30–100 %
-    of its volume over 0 bar..supply; polytropic index 1–1.4; supply conductance set so that
-    the choked charge from 0 bar would fill the chamber in 0.05–1.5 s (log-uniform), exhaust
-    conductance 0.7–2 times it; ``b`` 0.15–0.5, ``m`` 0.4–0.6 each port; regulator 5–50 ms,
-    sagging 0–5 % of the supply at choked flow; sensor lag 0–5 ms, noise 0.1–0.4 % of
-    max(supply, 1 bar), ADC step a 4096th of 1.5 times the supply, mains pickup 0–3 mbar at
-    a random phase.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-
-    Returns
-    -------
-    PhysicalPlant
-
-    Examples
-    --------
-    >>> p = random_plant(np.random.default_rng(1))
-    >>> 0.5 <= p.supply <= 6.0 and p.t_open != p.t_close
-    True
-    """
-
-    def logu(lo: float, hi: float) -> float:
-        return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
-
-    supply = logu(0.5, 6.0)
-    while True:
-        t_open, t_close = (float(v) for v in rng.uniform(0.002, 0.025, 2))
-        if abs(t_open - t_close) >= 0.001:
-            break
-    volume = logu(5.0, 200.0)
-    growth = float(rng.uniform(0.3, 1.0))
-    compliance = growth * volume / supply
-    n = float(rng.uniform(1.0, 1.4))
-    fill = logu(0.05, 1.5)
-    patm = 1.01325
-    # choked charge rate at 0 bar: n*R*T*rho0*C*Ps/(V0 + n*patm*kv); fill = supply/rate
-    cap = (volume * _CM3 + n * patm * _BAR * compliance * _CM3 / _BAR) / (n * R_AIR * 293.15)
-    c_si = cap * supply / (fill * RHO0 * (supply + patm))  # m^3/(s*Pa)
-    c_supply = c_si / _DM3_PER_S_BAR
-    c_exhaust = c_supply * float(rng.uniform(0.7, 2.0))
-    sag = float(rng.uniform(0.0, 0.05)) * supply
-    return PhysicalPlant(
-        supply=supply,
-        c_supply=c_supply,
-        b_supply=float(rng.uniform(0.15, 0.5)),
-        m_supply=float(rng.uniform(0.4, 0.6)),
-        c_exhaust=c_exhaust,
-        b_exhaust=float(rng.uniform(0.15, 0.5)),
-        m_exhaust=float(rng.uniform(0.4, 0.6)),
-        volume=volume,
-        compliance=compliance,
-        polytropic=n,
-        t_open=t_open,
-        t_close=t_close,
-        transit=float(rng.uniform(0.001, 0.002)),
-        droop=sag / (c_supply * (supply + patm)),
-        regulator_tau=float(rng.uniform(0.005, 0.05)),
-        sensor_lag=float(rng.uniform(0.0, 0.005)),
-        noise=float(rng.uniform(0.001, 0.004)) * max(supply, 1.0),
-        quantum=1.5 * supply / 4096.0,
-        mains=float(rng.uniform(0.0, 0.003)),
-        mains_phase=float(rng.uniform(-math.pi, math.pi)),
-    )
-
-
 from spa.synthetic._physical_c import (  # noqa: E402  (they use the plant above)
     c_plant_source,
     close_loop_in_c,
@@ -496,6 +488,7 @@ from spa.synthetic._physical_c import (  # noqa: E402  (they use the plant above
     measure_staircase,
     run_plant_in_c,
 )
+from spa.synthetic.draws import random_plant  # noqa: E402
 
 
 def closed_loop_physical(
@@ -547,8 +540,8 @@ def closed_loop_physical(
     noise = rng.normal(0.0, plant.noise, n) if noisy else np.zeros(n)
     c = _constants(plant)
     nsub = substeps(plant, dt)
-    x, qt, qv = np.zeros(8), np.zeros(QUEUE), np.zeros(QUEUE)
-    qi, d = np.zeros(2, dtype=np.int64), np.zeros(3)
+    x, qt, qv = np.zeros(NX), np.zeros(QUEUE), np.zeros(QUEUE)
+    qi, d = np.zeros(2, dtype=np.int64), np.zeros((5, NZ))
     _init(x, qi, 0.0, c, 0)
     p_read, p_true, xi = np.zeros(n), np.zeros(n), np.zeros(n)
     valve = np.zeros(n, dtype=np.int8)

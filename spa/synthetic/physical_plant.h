@@ -8,21 +8,27 @@
  * Constants (SI, absolute pressures), in this order (spa.synthetic.physical._C):
  *   0 p_atm Pa, 1 p_set Pa, 2 n, 3 R*T0 J/kg, 4 rho0 kg/m^3, 5 C_s m^3/(s*Pa), 6 b_s, 7 m_s,
  *   8 C_e m^3/(s*Pa), 9 b_e, 10 m_e, 11 V0 m^3, 12 k_v m^3/Pa, 13 droop Pa/(m^3/s),
- *   14 tau_r s, 15 tau_s s, 16 transit s, 17 t_open s, 18 t_close s, 19 laminar ratio.
+ *   14 tau_r s, 15 tau_s s, 16 transit s, 17 t_open s, 18 t_close s, 19 laminar ratio,
+ *   20 leak m^3/(s*Pa), 21 heat_tau s, 22 creep m^3/Pa, 23 creep_tau s, 24 tube_tau s,
+ *   25 hose volume m^3, 26 C_line m^3/(s*Pa), 27 bounce, 28 bounce time s, 29 T0 K.
+ * Each effect 20-28 is off at 0 and then drops out exactly.
  */
 #ifndef SPA_PHYS_H
 #define SPA_PHYS_H
 
-#define SPA_PHYS_N_CONST 20
+#define SPA_PHYS_N_CONST 30
+#define SPA_PHYS_NZ 7
+#define SPA_PHYS_PI 3.14159265358979323846
 #define SPA_PHYS_QUEUE 4096
 
 typedef struct {
-    double x[8]; /* P, Ps (Pa abs), y (Pa gauge), spool s_ref, t_ref, v_ref, command, spare */
+    double x[12]; /* P, Ps (Pa abs), y (Pa gauge), spool s_ref, t_ref, v_ref, command, spare,
+                     T (K), Vc (m^3), Pt, Ph (Pa abs) */
     double qt[SPA_PHYS_QUEUE]; /* pending armature switches: time, s */
     double qv[SPA_PHYS_QUEUE]; /* ... and the connection they make (1 supply, 0 exhaust) */
     long qhead, qcount;
     double c[SPA_PHYS_N_CONST];
-    double d[3];
+    double d[SPA_PHYS_NZ];
     double dt; /* controller step, s */
     int nsub;  /* Runge-Kutta steps per controller step */
     long k;    /* controller steps done */
