@@ -22,6 +22,7 @@ ROOT = HERE.parent
 sys.path[:0] = [str(ROOT), str(HERE)]  # this checkout's spa, whatever the venv points at
 
 from _cli import write_cli_page  # noqa: E402
+from _summaries import extend_abbreviations  # noqa: E402
 
 import spa  # noqa: E402
 
@@ -64,6 +65,7 @@ root_doc = "index"
 write_cli_page(HERE / "reference" / "cli.md")
 
 autosummary_generate = True
+extend_abbreviations()  # a summary does not stop at "(Eq." or "(App."
 autosummary_imported_members = False
 autodoc_default_options = {"members": False}
 autodoc_typehints = "none"  # numpydoc's Parameters section states the types
@@ -73,7 +75,7 @@ numpydoc_xref_param_type = False
 
 # Markdown (MyST); the pages of docs/getting-started and explanation/figures run at build
 # time, offline, on the bundled example; an error in a cell fails the build.
-myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
+myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
 nb_execution_mode = "force"
 nb_execution_timeout = 600

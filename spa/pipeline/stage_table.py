@@ -61,7 +61,7 @@ STAGES: tuple[Stage, ...] = (
             "analytic/fig4.png",
             FIGURE,
             "Fig. 4: linearity cost",
-            "Linearity cost J against the modulator parameter, all four modulators on one axis. "
+            "Linearity cost J against the modulator parameter, every modulator kind on one axis. "
             "Grey: PWM periods below t_on + t_off (above 76.9 Hz for the nominal valve), where "
             "PWM has no linear range (dead-zone and saturation meet): P_eq is a 0 → k2 step, "
             "and J moves in plateaus and jumps as the step passes the points of the ξ grid.",

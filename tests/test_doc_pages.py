@@ -1,0 +1,218 @@
+"""The documentation's pages, checked from their sources without building the site.
+
+Each check keeps one kind of defect out: an API summary cut at an abbreviation's full stop or
+showing raw markup, a doubled word, ``%%`` on the CLI page, a caption that counts the
+modulators differently from its legend, a page with two titles, a definition list that does
+not render, an equation written as code, and developer vocabulary on the pages for users.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import itertools
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+if str(DOCS) not in sys.path:
+    sys.path.append(str(DOCS))  # docs/_cli.py and docs/_summaries.py, as conf.py imports them
+
+#: Pages for users: they name commands, files in results/ and raw/, configuration keys.
+USER_PARTS = ("getting-started", "howto", "explanation")
+#: The contributor's pages of the explanation part: they may name modules and test files.
+CONTRIBUTOR_PAGES = ("explanation/architecture.md", "explanation/dependencies.md")
+
+
+def _resolve(dotted: str):
+    """The object or module a dotted name names."""
+    try:
+        return importlib.import_module(dotted)
+    except ImportError:
+        module, _, name = dotted.rpartition(".")
+        return getattr(importlib.import_module(module), name)
+
+
+def _api_entries() -> list[str]:
+    """Every name the API reference summarises: the public entries and the internal modules."""
+    from test_docs_site import API, reference_entries
+
+    text = API.read_text(encoding="utf-8")
+    internals = re.findall(r"^   (spa(?:\.\w+)*)$", text.split("\nInternals\n")[1], flags=re.M)
+    return reference_entries(text) + internals
+
+
+def summary(obj) -> str:
+    """The one-line summary Sphinx's autosummary shows for ``obj``'s docstring."""
+    from _summaries import extend_abbreviations
+    from docutils.frontend import get_default_settings
+    from docutils.parsers.rst import Parser
+    from sphinx.ext.autosummary import extract_summary
+    from sphinx.util.docutils import docutils_namespace
+
+    extend_abbreviations()  # as docs/conf.py does
+
+    lines = inspect.cleandoc(obj.__doc__ or "").splitlines()
+    if not lines:
+        return ""
+    with docutils_namespace():
+        settings = get_default_settings(Parser)
+        settings.pep_references = settings.rfc_references = False
+        settings.tab_width = 8
+        settings.language_code = "en"
+        return extract_summary(lines, settings)
+
+
+#: An abbreviation whose full stop ends a summary: the sentence was cut at it.
+_ABBREVIATION = re.compile(r"\b(?:Eqs?|Apps?|Figs?|Secs?|Refs?|e\.g|i\.e|cf|vs|etc|approx)\.$")
+
+
+def _rendered_words(text: str) -> list[str]:
+    """The words a reader sees, a literal (````snakemake --report r.zip````) being one word."""
+    tokens = re.findall(r"``[^`]+``|:\w+:`[^`]+`|[\w'-]+", text)
+    return [re.sub(r"^:\w+:`~?|`", "", t).lower() for t in tokens]
+
+
+def summary_problems(text: str) -> list[str]:
+    """What is wrong with one summary line.
+
+    Examples
+    --------
+    >>> summary_problems("The equilibrium (Eq.")
+    ['ends at an abbreviation']
+    >>> summary_problems("Staircase: 0, ``step``, 2*``step``, ...")
+    ['shows raw markup']
+    >>> summary_problems("Worst case of the controller ``controller``.")
+    ["doubles 'controller'"]
+    >>> summary_problems("What ``snakemake --report report.zip`` shows.")
+    []
+    >>> summary_problems("The equilibrium pressure (Eq. 5).")
+    []
+    """
+    problems = []
+    if _ABBREVIATION.search(text.strip()):
+        problems.append("ends at an abbreviation")
+    if re.search(r"\w\*``|[^\s(`]``\w", text):  # 2*``step``: markup glued to a word
+        problems.append("shows raw markup")
+    words = _rendered_words(text)
+    problems += [f"doubles {a!r}" for a, b in itertools.pairwise(words) if a == b and a.isalpha()]
+    return problems
+
+
+def test_the_summary_check_finds_each_defect():
+    assert summary_problems("Fit the valve (App. B) to the runs (Table 3, Figs.") == [
+        "ends at an abbreviation"
+    ]
+    assert summary_problems("Sweep ``f_w`` and ``t_l``.") == []
+    assert summary_problems("Inputs 2*``step``.") == ["shows raw markup"]
+
+
+def test_no_api_summary_is_cut_at_an_abbreviation_shows_markup_or_doubles_a_word():
+    pytest.importorskip("sphinx")
+    bad = {}
+    for entry in _api_entries():
+        text = summary(_resolve(entry))
+        if problems := summary_problems(text):
+            bad[entry] = (text, problems)
+    assert bad == {}, "\n".join(f"{e}: {t!r}: {p}" for e, (t, p) in bad.items())
+
+
+def test_the_cli_page_shows_no_escaped_percent():
+    from _cli import cli_page
+
+    text = cli_page()
+    assert "%%" not in text
+    assert "95 % intervals" in text  # spa identify's summary, as the reader sees it
+
+
+_NUMBER_WORDS = {"two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7}
+
+
+def modulator_counts(text: str) -> list[int]:
+    """The counts a caption gives for "all/every N modulators" (the series of a legend).
+
+    >>> modulator_counts("J for all four modulators on one axis, and the five modulators.")
+    [4, 5]
+    """
+    pattern = r"\b(?:all|the|of) (two|three|four|five|six|seven|\d+) modulators\b"
+    return [
+        int(w) if w.isdigit() else _NUMBER_WORDS[w]
+        for w in re.findall(pattern, text, flags=re.IGNORECASE)
+    ]
+
+
+def test_each_caption_counts_the_modulators_its_legend_shows():
+    """Figures that draw every kind (Fig. 4 and 5) have one legend entry per registered kind."""
+    from spa.model.modulators import kinds
+    from spa.pipeline.stage_table import STAGES
+
+    legend = len(kinds())
+    captions = {
+        f"{s.name}: {o.path}": o.caption
+        for s in STAGES
+        for o in s.outputs
+        if getattr(o, "caption", None)
+    }
+    captions |= {
+        str(p.relative_to(ROOT)): p.read_text(encoding="utf-8")
+        for p in (ROOT / "workflow" / "report").glob("*.rst")
+    }
+    captions["docs/reference/outputs.md"] = (DOCS / "reference" / "outputs.md").read_text()
+    wrong = {k: c for k, text in captions.items() if (c := modulator_counts(text)) and
+             any(n != legend for n in c)}  # fmt: skip
+    assert captions, "no caption found"
+    assert wrong == {}, f"captions counting other than the legend's {legend} modulators: {wrong}"
+
+
+def _markdown_pages() -> list[Path]:
+    return sorted(p for p in DOCS.rglob("*.md") if "_build" not in p.parts and p.name != "cli.md")
+
+
+def _without_code(text: str) -> str:
+    """The text with its fenced code blocks removed."""
+    return re.sub(r"^(```|~~~).*?^\1", "", text, flags=re.S | re.M)
+
+
+def _expanded(page: Path) -> str:
+    """The page's text with its ``{include}`` directives replaced by the included file."""
+    text = page.read_text(encoding="utf-8")
+
+    def include(m: re.Match) -> str:
+        return (page.parent / m.group(1).strip()).read_text(encoding="utf-8")
+
+    return re.sub(r"```\{include\} ([^\n]+)\n(?::[^\n]*\n)*```", include, text)
+
+
+@pytest.mark.parametrize(
+    "page",
+    [p for p in _markdown_pages() if p != DOCS / "model.md"],
+    ids=lambda p: str(p.relative_to(DOCS)),
+)
+def test_every_page_has_one_title(page):
+    text = _without_code(_expanded(page))
+    titles = re.findall(r"^# .+", text, flags=re.M)
+    assert len(titles) == 1, f"{page.relative_to(ROOT)} has {len(titles)} H1 headings: {titles}"
+
+
+def test_the_front_pages_definition_list_renders():
+    """MyST renders ``term`` / ``: definition`` as <dl> only with its deflist extension."""
+    from markdown_it.renderer import RendererHTML
+    from myst_parser.config.main import MdParserConfig
+    from myst_parser.parsers.mdit import create_md_parser
+
+    conf: dict = {}
+    exec(
+        compile(
+            re.search(r"^myst_enable_extensions = .*$", (DOCS / "conf.py").read_text(), re.M)[0],
+            "conf.py",
+            "exec",
+        ),
+        conf,
+    )
+    config = MdParserConfig(enable_extensions=set(conf["myst_enable_extensions"]))
+    html = create_md_parser(config, RendererHTML).render((DOCS / "index.md").read_text())
+    assert html.count("<dt>") >= 4, "the front page's definition list is not rendered"
