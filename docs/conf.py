@@ -22,6 +22,7 @@ ROOT = HERE.parent
 sys.path[:0] = [str(ROOT), str(HERE)]  # this checkout's spa, whatever the venv points at
 
 from _cli import write_cli_page  # noqa: E402
+from _source import icon_links, repository_url, write_source_section  # noqa: E402
 from _summaries import extend_abbreviations  # noqa: E402
 
 import spa  # noqa: E402
@@ -58,11 +59,16 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb"}
 # docs/model.md is included by explanation/model.md; the generated pages of the old layout
 # (docs/api/) are not part of the site.
-exclude_patterns = ["_build", "**/.ipynb_checkpoints", "model.md", "api", "**/_work"]
+exclude_patterns = [
+    "_build", "**/.ipynb_checkpoints", "model.md", "api", "**/_work", "getting-started/_source.md"
+]  # fmt: skip
 root_doc = "index"
 
 # The CLI page, written before Sphinx reads the sources.
 write_cli_page(HERE / "reference" / "cli.md")
+# Where the source comes from: [project.urls] of pyproject.toml, the one place that says.
+REPOSITORY = repository_url(ROOT / "pyproject.toml")
+write_source_section(ROOT / "pyproject.toml", HERE / "getting-started" / "_source.md")
 
 autosummary_generate = True
 extend_abbreviations()  # a summary does not stop at "(Eq." or "(App."
@@ -93,6 +99,7 @@ html_theme_options = {
     "secondary_sidebar_items": ["page-toc"],
     "footer_start": ["copyright"],
     "footer_end": [],
+    "icon_links": icon_links(REPOSITORY),  # none until [project.urls] names the repository
 }
 html_sidebars = {"index": []}
 # Offline: MathJax is loaded by the reader's browser; the build fetches nothing.

@@ -216,3 +216,105 @@ def test_the_front_pages_definition_list_renders():
     config = MdParserConfig(enable_extensions=set(conf["myst_enable_extensions"]))
     html = create_md_parser(config, RendererHTML).render((DOCS / "index.md").read_text())
     assert html.count("<dt>") >= 4, "the front page's definition list is not rendered"
+
+
+# --- equations are math, and user pages speak plainly ---------------------------------------
+
+#: A code span that holds an equation or a formula: a relation, a Greek letter or a math sign.
+_FORMULA = re.compile(r"[ξαβτθρΣσΔφπΩΓ√²³⁻¹∞≤≥≈‖⟨⟩·]| [=<>] |\S [+*/] \S|\S - \S|/dt\b")
+
+
+def _prose(text: str) -> str:
+    """The page's text without fenced blocks (code, directives' bodies are kept) and math."""
+    text = re.sub(r"^(```+|~~~+)(?!\{).*?^\1", "", text, flags=re.S | re.M)
+    text = re.sub(r"\$\$.*?\$\$", "", text, flags=re.S)
+    return re.sub(r"(?<![\\$])\$[^$\n]+\$", "", text)
+
+
+def code_spans(text: str) -> list[str]:
+    """The inline code spans of a page's prose (not those of a role such as {term}`x`).
+
+    >>> code_spans("Run `spa tune` for {term}`FIT`, with ``a `b` c`` too.\\n```\\n`no`\\n```")
+    ['spa tune', 'a `b` c']
+    """
+    text = re.sub(r"^(```+|~~~+).*?^\1", "", text, flags=re.S | re.M)
+    spans = re.findall(r"(?<![`}])(`+)(?!`)(.+?)(?<!`)\1(?!`)", text)
+    return [s.strip() for _, s in spans]
+
+
+def formulas_in_code(text: str) -> list[str]:
+    """The code spans that hold a formula.
+
+    >>> formulas_in_code("`dP/dt = -P/τ1(P)` and `k2·ξ` beside `spa tune raw/x` and `f_w: 20`")
+    ['dP/dt = -P/τ1(P)', 'k2·ξ']
+    """
+    commands = ("spa ", "snakemake ")
+    return [s for s in code_spans(text) if _FORMULA.search(s) and not s.startswith(commands)]
+
+
+def _site_pages(parts: tuple[str, ...]) -> list[Path]:
+    return [p for p in _markdown_pages() if p.relative_to(DOCS).parts[0] in parts]
+
+
+USER_PAGES = [
+    p
+    for p in _site_pages(USER_PARTS)
+    if str(p.relative_to(DOCS)) not in CONTRIBUTOR_PAGES
+]
+
+
+def _id(p: Path) -> str:
+    return str(p.relative_to(DOCS))
+
+
+@pytest.mark.parametrize("page", [DOCS / "model.md", *USER_PAGES], ids=_id)
+def test_equations_are_math_not_code(page):
+    found = formulas_in_code(page.read_text(encoding="utf-8"))
+    assert found == [], f"{_id(page)}: equations written as code, not math: {found}"
+
+
+#: What a user page must not name: test files, source modules, the pipeline's stage table.
+_DEVELOPER = re.compile(
+    r"\btests?/\S*|\btest_\w+\.py\b|\bspa/[\w/<>.]+\.py\b|`spa(?:\.\w+){2,}`|\bstages?\b",
+    re.IGNORECASE,
+)
+
+
+def developer_words(text: str) -> list[str]:
+    """Test files, module paths and "stage" in a page's text (its code blocks included).
+
+    >>> developer_words("checked in tests/test_x.py by spa/model/plant.py, stage `spa.a.b`")
+    ['tests/test_x.py', 'spa/model/plant.py', 'stage', '`spa.a.b`']
+    >>> developer_words("run `spa tune`, see {func}`~spa.closedloop.design_pi`; staged")
+    []
+    """
+    text = re.sub(r"\{\w+\}`~[^`]+`", "", text)  # a cross-reference shows its last name only
+    return [m.group(0) for m in _DEVELOPER.finditer(text)]
+
+
+@pytest.mark.parametrize("page", [DOCS / "model.md", *USER_PAGES], ids=_id)
+def test_user_pages_name_no_test_file_module_path_or_stage(page):
+    found = developer_words(page.read_text(encoding="utf-8"))
+    assert found == [], f"{_id(page)} names {found}"
+
+
+def page_names(text: str) -> list[str]:
+    """Pages named as plain text (``docs/model.md``, ```config/README.md```, "the README"),
+    not as a link (``[the model](../model.md)``, ``{doc}`model```).
+
+    >>> page_names("See docs/model.md and `config/README.md`, the README, [x](../a.md).")
+    ['docs/model.md', 'config/README.md', 'README']
+    """
+    text = re.sub(r"^```.*$", "", text, flags=re.M)  # directive lines ({include} ../model.md)
+    text = re.sub(r"\]\([^)]*\)|\{\w+\}`[^`]*`", "]", _prose(text))
+    return re.findall(r"(?:[\w.-]+/)*[\w.-]+\.md\b|\bREADME\b(?!\.md)", text)
+
+
+def test_cross_references_between_pages_are_links():
+    """A page names another page by a link, not as plain text (docs/x.md, README.md)."""
+    bare = {
+        _id(p): m
+        for p in [DOCS / "model.md", *USER_PAGES]
+        if (m := page_names(p.read_text(encoding="utf-8")))
+    }  # fmt: skip
+    assert bare == {}, f"pages naming other pages as text: {bare}"
