@@ -169,7 +169,11 @@ def test_each_caption_counts_the_modulators_its_legend_shows():
 
 
 def _markdown_pages() -> list[Path]:
-    return sorted(p for p in DOCS.rglob("*.md") if "_build" not in p.parts and p.name != "cli.md")
+    return sorted(
+        p
+        for p in DOCS.rglob("*.md")
+        if "_build" not in p.parts and p.name != "cli.md" and not p.name.startswith("_")
+    )
 
 
 def _without_code(text: str) -> str:
@@ -238,7 +242,8 @@ def code_spans(text: str) -> list[str]:
     ['spa tune', 'a `b` c']
     """
     text = re.sub(r"^(```+|~~~+).*?^\1", "", text, flags=re.S | re.M)
-    spans = re.findall(r"(?<![`}])(`+)(?!`)(.+?)(?<!`)\1(?!`)", text)
+    text = re.sub(r"\{[\w:-]+\}`[^`]*`", "", text)  # roles: {term}`FIT`, {doc}`model`
+    spans = re.findall(r"(?<!`)(`+)(?!`)(.+?)(?<!`)\1(?!`)", text)
     return [s.strip() for _, s in spans]
 
 
@@ -275,7 +280,7 @@ def test_equations_are_math_not_code(page):
 
 #: What a user page must not name: test files, source modules, the pipeline's stage table.
 _DEVELOPER = re.compile(
-    r"\btests?/\S*|\btest_\w+\.py\b|\bspa/[\w/<>.]+\.py\b|`spa(?:\.\w+){2,}`|\bstages?\b",
+    r"\btests?/\S*|\btest_\w+\.py\b|\bspa/[\w/<>.]+\.py\b|`spa(?:\.\w+){2,}`|(?<!--)\bstages?\b",
     re.IGNORECASE,
 )
 
@@ -289,6 +294,8 @@ def developer_words(text: str) -> list[str]:
     []
     """
     text = re.sub(r"\{\w+\}`~[^`]+`", "", text)  # a cross-reference shows its last name only
+    hidden = r"^```\{code-cell\}[^\n]*\n:tags: \[remove-(?:cell|input)\]\n.*?^```"
+    text = re.sub(hidden, "", text, flags=re.S | re.M)  # cells the reader never sees
     return [m.group(0) for m in _DEVELOPER.finditer(text)]
 
 

@@ -27,8 +27,16 @@ def shared_folder() -> Path | None:
     return None
 
 
+#: A page's math names Greek letters as LaTeX commands (``\\xi``); the letter is the word.
+GREEK = {"alpha": "α", "beta": "β", "tau": "τ", "theta": "θ", "rho": "ρ", "sigma": "σ",
+         "Sigma": "Σ", "Delta": "Δ", "varphi": "φ", "phi": "φ", "pi": "π", "xi": "ξ",
+         "Omega": "Ω", "Gamma": "Γ"}  # fmt: skip
+
+
 def words(text: str) -> list[str]:
-    """Lower-case words, punctuation and underscores ignored (``t_on`` is ``t on``)."""
+    """Lower-case words, punctuation and underscores ignored (``t_on`` is ``t on``), a LaTeX
+    Greek letter read as the letter (``\\xi`` is ``ξ``, as the page shows it)."""
+    text = re.sub(r"\\([A-Za-z]+)", lambda m: f" {GREEK.get(m[1], m[1])} ", text)
     return re.findall(r"[^\W_]+", text.lower())
 
 
@@ -56,6 +64,7 @@ def test_the_checker_finds_a_run_of_ten_words_and_not_of_nine():
     ]
     assert shared_runs(nine, source) == []
     assert words("t_on = 3 ms; P+ - P-") == ["t", "on", "3", "ms", "p", "p"]
+    assert words(r"$\xi/f_W$") == ["ξ", "f", "w"]
 
 
 def documents() -> list[Path]:

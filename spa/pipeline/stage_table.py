@@ -155,7 +155,11 @@ STAGES: tuple[Stage, ...] = (
             "The modulator setting that minimises the linearity cost for this dataset's "
             "identified valve within the tuning: constraints, as a dataset.yaml modulator entry, "
             "with its predicted dead-zone, saturation, chattering and switching rate; the full "
-            "record, with the best setting of each other modulator, is tuning/recommendation.yaml.",
+            "record, with the best setting of each other modulator, is tuning/recommendation.yaml. "
+            "It is the open-loop recommendation: run without feedback, a constant input "
+            "fraction then gives a pressure closest to proportional to it. The closed loop's "
+            "choice (Closed loop: the PI to use) answers another question and may name "
+            "another modulator.",
             required=False,
         ),
         Output(
@@ -382,7 +386,11 @@ STAGES: tuple[Stage, ...] = (
             "chosen), for this dataset's identified valve (SIMC on the averaged model's local "
             "gain, time constant and dead time); closed_loop/controllers.yaml holds the gains "
             "of every setting (fixed, gain-scheduled, and gain-scheduled with feed-forward) "
-            "and the settings left out on this valve, each with its reason.",
+            "and the settings left out on this valve, each with its reason. It is the "
+            "closed-loop recommendation, judged on the promise verified over the 95 % box "
+            "(worst overshoot and settling), not on open-loop linearity: feedback corrects a "
+            "curved static map but not the modulator's delay and ripple, so it may differ from "
+            "the open-loop recommendation above.",
             required=False,
         ),
         Output(
