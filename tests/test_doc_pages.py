@@ -280,7 +280,7 @@ def test_equations_are_math_not_code(page):
 
 #: What a user page must not name: test files, source modules, the pipeline's stage table.
 _DEVELOPER = re.compile(
-    r"\btests?/\S*|\btest_\w+\.py\b|\bspa/[\w/<>.]+\.py\b|`spa(?:\.\w+){2,}`|(?<!--)\bstages?\b",
+    r"\btests?/\S*|\btest_\w+\.py\b|\bspa/[\w/<>.]+\.py\b|`(?-i:spa\.[a-z_]+\.)\w[^`]*`|(?<!--)\bstages?\b",
     re.IGNORECASE,
 )
 
