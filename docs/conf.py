@@ -22,6 +22,7 @@ ROOT = HERE.parent
 sys.path[:0] = [str(ROOT), str(HERE)]  # this checkout's spa, whatever the venv points at
 
 from _cli import write_cli_page  # noqa: E402
+from _gallery import write_gallery  # noqa: E402
 from _source import icon_links, repository_url, write_source_section  # noqa: E402
 from _summaries import extend_abbreviations  # noqa: E402
 
@@ -69,6 +70,8 @@ write_cli_page(HERE / "reference" / "cli.md")
 # Where the source comes from: [project.urls] of pyproject.toml, the one place that says.
 REPOSITORY = repository_url(ROOT / "pyproject.toml")
 write_source_section(ROOT / "pyproject.toml", HERE / "getting-started" / "_source.md")
+# The gallery: every example of docs/gallery/ run now, its picture and page written.
+write_gallery(HERE / "gallery", ROOT)
 
 autosummary_generate = True
 extend_abbreviations()  # a summary does not stop at "(Eq." or "(App."

@@ -54,8 +54,15 @@ _PLACEHOLDERS = {
 
 
 def documents() -> list[Path]:
-    """README.md and every Markdown page of the site."""
-    return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    """README.md and every Markdown page of the site, but the pages executed at build (their
+    shell blocks run there, in order, and in tests/test_getting_started.py)."""
+    pages = sorted((ROOT / "docs").rglob("*.md"))
+    return [ROOT / "README.md", *(p for p in pages if not _executed(p))]
+
+
+def _executed(page: Path) -> bool:
+    """Whether the page runs at build (a myst-nb notebook: ``file_format: mystnb``)."""
+    return "file_format: mystnb" in page.read_text(encoding="utf-8")[:300]
 
 
 def commands(text: str) -> list[str]:
