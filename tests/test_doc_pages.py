@@ -312,6 +312,7 @@ def page_names(text: str) -> list[str]:
     >>> page_names("See docs/model.md and `config/README.md`, the README, [x](../a.md).")
     ['docs/model.md', 'config/README.md', 'README']
     """
+    text = re.sub(r"^```\{code-cell\}.*?^```", "", text, flags=re.S | re.M)  # code, not prose
     text = re.sub(r"^```.*$", "", text, flags=re.M)  # directive lines ({include} ../model.md)
     text = re.sub(r"\]\([^)]*\)|\{\w+\}`[^`]*`", "]", _prose(text))
     return re.findall(r"(?:[\w.-]+/)*[\w.-]+\.md\b|\bREADME\b(?!\.md)", text)
