@@ -326,3 +326,58 @@ def test_cross_references_between_pages_are_links():
         if (m := page_names(p.read_text(encoding="utf-8")))
     }  # fmt: skip
     assert bare == {}, f"pages naming other pages as text: {bare}"
+
+
+# --- the glossary, linked where each term first appears -------------------------------------
+
+#: Glossary terms a user page links where it first uses them: ``term -> pattern``.
+GLOSSARY_TERMS = {
+    "FIT": r"\bFIT\b",
+    "promise": r"\b[Pp]romis(?:e|es|ed)\b",
+    "held-out": r"\b[Hh]eld[- ]out\b",
+    "unverified": r"\b[Uu]nverified\b",
+    "box": r"(?<=95 % )box\b|(?<=merged )box\b",
+}
+
+#: What is not running prose: fenced blocks, headings, math, code, roles, links, bold.
+_NOT_PROSE = re.compile(
+    r"^(```+|~~~+).*?^\1[^\n]*$|^#[^\n]*$|\$\$.*?\$\$|(?<![\\$])\$[^$\n]+\$|\{\w+\}`[^`]*`"
+    r"|``[^`]+``|`[^`\n]+`|\[[^\]]*\]\([^)]*\)|\*\*[^*]+\*\*",
+    flags=re.S | re.M,
+)
+
+
+def unlinked_terms(text: str) -> list[str]:
+    """The glossary terms whose first use in a page's prose is not a {term} link.
+
+    >>> unlinked_terms("A {term}`FIT` of 90 %; the FIT again. The promise holds.")
+    ['promise']
+    >>> unlinked_terms("# The promise\\n\\nIts {term}`promise` holds; `FIT` is code.")
+    []
+    """
+    plain = text
+    for m in _NOT_PROSE.finditer(text):  # keep roles, blank out everything else not prose
+        if not m.group(0).startswith("{term}"):
+            plain = plain[: m.start()] + " " * len(m.group(0)) + plain[m.end() :]
+    missing = []
+    for term, pattern in GLOSSARY_TERMS.items():
+        first = re.search(pattern, plain)  # its first use (a role's text counts too)
+        links = [m.start() for m in re.finditer(r"\{term\}`([^`]*)`", plain)
+                 if re.sub(r".*<([^>]+)>$", r"\1", m[1]) == term]  # fmt: skip
+        if first and not (links and links[0] <= first.start()):
+            missing.append(term)
+    return missing
+
+
+@pytest.mark.parametrize("page", [DOCS / "model.md", *USER_PAGES], ids=_id)
+def test_each_glossary_term_is_linked_where_the_page_first_uses_it(page):
+    assert unlinked_terms(page.read_text(encoding="utf-8")) == [], _id(page)
+
+
+def test_the_glossary_defines_every_linked_term():
+    glossary = (DOCS / "reference" / "glossary.md").read_text(encoding="utf-8")
+    terms = set(re.findall(r"^(\S[^\n]*)$", glossary.split("```{glossary}")[1], flags=re.M))
+    for page in [DOCS / "model.md", *USER_PAGES]:
+        for link in re.findall(r"\{term\}`([^`]*)`", page.read_text(encoding="utf-8")):
+            target = re.search(r"<([^>]+)>$", link)
+            assert (target[1] if target else link) in terms, (_id(page), link)
