@@ -21,7 +21,7 @@ from pathlib import Path
 import yaml
 
 from spa.identification import identify_with_config
-from spa.identification.identify import refine_result
+from spa.identification.refined import refine_result
 from spa.model.params import ValveParams
 from spa.synthetic import Sensor
 from spa.synthetic.runs import dataset_experiments, dataset_runs, run_seed, simulate_run

@@ -85,16 +85,19 @@ def _init(args: argparse.Namespace, out: TextIO) -> int:
 
     Read every data file of FOLDER and write FOLDER/dataset.yaml: a draft with guessed columns,
     units, kinds and modulators, each with its reason as a comment, and TODO where a guess
-    failed. This is the one file spa writes into raw/; it never overwrites an existing
-    dataset.yaml without --force and never touches data files.
+    failed; say, for each file it could not read, why. This is the one file spa writes into
+    raw/; it never overwrites an existing dataset.yaml without --force and never touches data
+    files.
     """
     from spa.datasets.draft_yaml import TODO, write_draft
 
     try:
-        path, text = write_draft(args.folder, force=args.force)
+        path, text, unread = write_draft(args.folder, force=args.force)
     except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=out)
         return 1
+    for file, why in unread.items():
+        print(f"not read: {file}: {why}", file=out)
     todos = sum(f": {TODO}" in line for line in text.splitlines())
     runs = sum(line.startswith("  - id:") for line in text.splitlines())
     print(f"{path}: drafted {runs} run(s), {todos} TODO(s)", file=out)
@@ -152,7 +155,7 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
 
     from spa.datasets import DatasetError, read_runs
     from spa.datasets.checks import k2_warning
-    from spa.identification import identify_with_config, run_context
+    from spa.identification import identify_with_config
     from spa.report.params import fits_note, identification_notes, params_table
 
     try:
@@ -160,10 +163,7 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
         with tempfile.TemporaryDirectory(prefix="spa-identify-") as tmp:
             runs, metas = read_runs(_run_folder(Path(args.dataset), Path(tmp)))
         kinds = {rid: m["kind"] for rid, m in metas.items()}
-        modulators, command_dt = run_context(metas)
-        result = identify_with_config(
-            runs, kinds, config, seed=args.seed, modulators=modulators, command_dt=command_dt
-        ).to_dict()
+        result = identify_with_config(runs, kinds, config, seed=args.seed, metas=metas).to_dict()
     except DatasetError as exc:
         for p in exc.problems:
             print(p, file=out)
@@ -287,7 +287,8 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
     from spa.model.modulators import Modulator
 
     try:
-        valve = read_identified(str(args.params)).params
+        identified = read_identified(str(args.params))
+        valve = identified.params
         stage = stage_choice(args.params) or {}
         chosen = (
             Modulator.from_mapping(stage["setting"]).bind(valve) if "setting" in stage else None
@@ -322,6 +323,7 @@ def _export_controller(args: argparse.Namespace, out: TextIO) -> int:
             levels=levels,
             dt=args.dt,
             precision=args.precision,
+            unresolved=identified.unresolved,
         )
     except (ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)

@@ -376,12 +376,21 @@ def validate_runs(
         Columns ``run``, ``kind``, ``modulator`` (type) and ``setting``
         (:attr:`spa.model.modulators.Modulator.label`; both empty for a run without a
         modulator), ``fit_percent``, ``rmse``, ``max_abs_error``, ``n``, ``p0``, in the order
-        of ``runs``.
+        of ``runs``. A run whose log holds no command to replay (neither ``valve`` nor ``u``
+        with a modulator: a charge logged without its valve, whose onset the log does not
+        show) has no row; ``attrs["not_replayed"]`` maps its id to why.
     """
     items = list(runs.items()) if isinstance(runs, Mapping) else list(enumerate(runs))
     rows = []
+    not_replayed: dict[str, str] = {}
     for rid, table in progress(items, "replaying runs"):
         mod = None if modulators is None else modulators.get(str(rid))
+        if "valve" not in table.columns and not ("u" in table.columns and mod):
+            not_replayed[str(rid)] = (
+                "no valve command in the log: when the valve switched is not known, so the "
+                "model cannot replay it"
+            )
+            continue
         res = validate_run(table, params, mod)
         kind = None if kinds is None else kinds.get(str(rid))
         setting = Modulator.from_mapping(mod) if mod else None
@@ -395,7 +404,9 @@ def validate_runs(
             }
         )
     columns = ["run", "kind", "modulator", "setting", "fit_percent", "rmse", "max_abs_error"]
-    return pd.DataFrame(rows, columns=[*columns, "n", "p0"])
+    out = pd.DataFrame(rows, columns=[*columns, "n", "p0"])
+    out.attrs["not_replayed"] = not_replayed
+    return out
 
 
 def with_fit_before_refinement(

@@ -119,11 +119,41 @@ def test_nothing_designed_gives_an_error_header():
     assert empty.controllers == {"sentence": "x"}
 
 
-def test_sensor_noise_reads_the_pulse_fit():
-    assert sensor_noise({"fits": {"pulse": {"rmse": 0.007}}}) == 0.007
+def test_sensor_noise_is_the_sensors_and_the_residual_is_only_an_upper_bound():
+    """Issue 46: the sensor noise is params.yaml's noise.sensor; the pulse fit's residual
+    (model error included) is never called the sensor's noise."""
+    both = {"noise": {"sensor": 0.006, "method": "still levels", "upper_bound": False,
+                      "model_residual": 0.117},
+            "fits": {"pulse": {"rmse": 0.117}}}  # fmt: skip
+    measured = sensor_noise(both)
+    assert measured.value == 0.006 and measured.source == "measured" and not measured.bound
+    assert measured.model_residual == 0.117
+    bounded = sensor_noise({"noise": {"sensor": 0.009, "upper_bound": True}})
+    assert bounded.value == 0.009 and bounded.bound
+    old = sensor_noise({"fits": {"pulse": {"rmse": 0.117}}})  # a params.yaml without noise
+    assert old.source == "model_residual" and old.bound and old.value == 0.117
+    assert "unknown" in old.words() and "upper bound" in old.words()
     for bad in (None, {}, {"fits": {}}, {"fits": {"pulse": {"rmse": float("nan")}}}):
-        assert sensor_noise(bad) == NOISE_FALLBACK
+        assert sensor_noise(bad).value == NOISE_FALLBACK
+        assert sensor_noise(bad).source == "assumed"
     assert math.isfinite(NOISE_FALLBACK) and np.isclose(NOISE_FALLBACK, 0.005)
+
+
+def test_the_sentence_says_what_the_sensor_noise_is(one):
+    measured = {"noise": {"sensor": 0.006, "method": "still levels", "upper_bound": False},
+                "fits": {"pulse": {"rmse": 0.117}}}  # fmt: skip
+    text = bench_outputs(one, ValveParams(), None, ONE, sensor_noise(measured)).sentence
+    assert "sensor noise of 6.0 mbar (still levels) adds" in text
+    assert "model residual of the pulse fit, 117.0 mbar" in text
+    assert "sensor noise of 117.0 mbar" not in text
+    bounded = {"noise": {"sensor": 0.009, "method": "second differences", "upper_bound": True}}
+    text = bench_outputs(one, ValveParams(), None, ONE, sensor_noise(bounded)).sentence
+    assert "sensor noise of at most 9.0 mbar (an upper bound, second differences)" in text
+    old = {"fits": {"pulse": {"rmse": 0.117}}}
+    bench = bench_outputs(one, ValveParams(), None, ONE, sensor_noise(old))
+    assert "sensor noise of 117.0 mbar" not in bench.sentence
+    assert "sensor noise unknown" in bench.sentence and "an upper bound of it" in bench.sentence
+    assert bench.summary["sensor_noise"]["source"] == "model_residual"
 
 
 def test_table_csv_holds_the_box_worst_case_and_the_disturbances(staged):

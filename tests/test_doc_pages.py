@@ -253,7 +253,7 @@ def formulas_in_code(text: str) -> list[str]:
     >>> formulas_in_code("`dP/dt = -P/τ1(P)` and `k2·ξ` beside `spa tune raw/x` and `f_w: 20`")
     ['dP/dt = -P/τ1(P)', 'k2·ξ']
     """
-    commands = ("spa ", "snakemake ")
+    commands = ("spa ", "snakemake ", "sed ", "column ", "python ", "cat ", "make ")
     return [s for s in code_spans(text) if _FORMULA.search(s) and not s.startswith(commands)]
 
 

@@ -90,10 +90,14 @@ def test_corner_valve_empties_in_90_ms_and_is_identified():
 
 
 def test_discharge_too_short_for_any_window_is_a_named_error():
+    """A run too short for the Savitzky-Golay derivative is fitted on its samples, but one
+    that stops before the pressure has fallen by half cannot give c1: named, with the fix."""
     runs, _ = _runs(CORNER, seed=0)
     tiny = runs["discharge"].iloc[:40]  # 40 ms: the actuator is still half full
-    with pytest.raises(IdentificationError, match=r"discharge run 'd'.*lengthen the run"):
+    with pytest.raises(IdentificationError, match=r"discharge runs \['d'\].*discharge longer"):
         fit_discharge({"d": tiny})
+    with pytest.raises(IdentificationError, match=r"run 'd' has only 3 samples"):
+        fit_discharge({"d": tiny.iloc[:3]})
 
 
 # ---------------------------------------------------------------------------------------------

@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 import yaml
 
+import spa.datasets.draft_read as draft_read
 import spa.datasets.draft_yaml as dy
 from spa.cli import main
 from spa.datasets import check_dataset
@@ -246,7 +247,7 @@ def test_the_detected_options_reach_the_reader(monkeypatch, tmp_path: Path) -> N
         def __init__(self, path: Path, options: dict[str, Any] | None = None) -> None:
             seen.append(options)
 
-    monkeypatch.setattr(dy, "READERS", {"new": Reader})
+    monkeypatch.setattr(draft_read, "READERS", {"new": Reader})
     dy._open(tmp_path, "new", {"sep": ";"})
     dy._open(tmp_path, "new", {})
     assert seen == [{"sep": ";"}, None]
@@ -345,11 +346,11 @@ def test_files_with_different_columns_get_per_run_columns(tmp_path: Path) -> Non
 def test_detected_file_options_are_written_once_or_per_run(
     example: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(dy, "_detect_options", lambda path: {"sep": ",", "skip_rows": 0})
+    monkeypatch.setattr(draft_read, "_detect_options", lambda path: {"sep": ",", "skip_rows": 0})
     doc = yaml.load(dy.draft_dataset(example), Loader=_UniqueKeyLoader)
     assert doc["csv"] == {"sep": ",", "skip_rows": 0}
     assert all("csv" not in r for r in doc["runs"])
-    monkeypatch.setattr(dy, "_detect_options", lambda path: {"skip_rows": len(path.stem)})
+    monkeypatch.setattr(draft_read, "_detect_options", lambda path: {"skip_rows": len(path.stem)})
     doc = yaml.load(dy.draft_dataset(example), Loader=_UniqueKeyLoader)
     assert "csv" not in doc
     assert {r["file"]: r.get("csv") for r in doc["runs"]} == {

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import html
 import re
 import shutil
 from datetime import date, timedelta
@@ -222,7 +223,6 @@ def test_a_failed_stage_leaves_every_other_result_on_the_page(fake_results, brok
 
 
 def test_fix_the_data_only_when_the_data_is_at_fault(broken_closed_loop, site, tmp_path):
-    from spa.identification import IdentificationError
 
     page = build_dataset_page(broken_closed_loop, "sim", META)
     assert "fix it" not in page.lower() and "spa validate" not in page
@@ -233,12 +233,76 @@ def test_fix_the_data_only_when_the_data_is_at_fault(broken_closed_loop, site, t
 
     root = tmp_path / "bad_data"
     shutil.copytree(site, root)
-    _run_dataset_stages(
-        root, "sim", "identify", IdentificationError("discharge run 'd1': 80 samples")
-    )
+    _run_dataset_stages(root, "sim", "runs", _dataset_error())
     page = build_dataset_page(root, "sim", META)
     assert "The data is at fault: fix it" in page and "spa validate raw/sim" in page
-    assert "discharge run &#x27;d1&#x27;: 80 samples" in page
+
+
+def test_data_that_pass_validation_are_not_at_fault(site, tmp_path):
+    """An IdentificationError on data that validation accepted: what the data lack, in the
+    error's words, and that validation passed; never "the data is at fault"."""
+    from spa.identification import IdentificationError
+    from spa.pipeline.status import dataset_failures, failure_summary
+
+    root = tmp_path / "lacking"
+    shutil.copytree(site, root)
+    lack = "discharge run 'd1': only 5 samples between the response start and the tail"
+    _run_dataset_stages(root, "sim", "identify", IdentificationError(lack))
+    page = build_dataset_page(root, "sim", META)
+    assert "at fault: fix it" not in page and "The data is at fault" not in page
+    assert "<code>spa validate raw/sim</code> accepts this dataset" in page
+    assert f"lack what the stage needs: <code>IdentificationError: {html.escape(lack)}" in page
+    text = failure_summary(dataset_failures(root, ["sim"]))
+    assert "fix it" not in text and "validation passed" in text
+
+
+def _run_with_notes(root, dataset: str, notes: dict) -> None:
+    """Every stage of ``dataset`` run through spa.pipeline.status.run_stage, its outputs on
+    disk; the stages in ``notes`` return those warnings."""
+    import logging
+    from types import SimpleNamespace
+
+    from spa.pipeline.jobs import Names
+    from spa.pipeline.outputs import STAGES, stage_outputs
+    from spa.pipeline.status import run_stage
+
+    for stage in STAGES:
+        if not stage.per_dataset or stage.name in ("raw_manifest", "page"):
+            continue
+        job = SimpleNamespace(
+            output=Names(stage_outputs(stage.name, root, dataset)),
+            wildcards=Names({"dataset": dataset}),
+        )
+        said = notes.get(stage.name)
+        run_stage(job, stage.name, lambda s=said: s, logging.getLogger("test_site"))
+
+
+def test_a_stage_without_runs_of_its_kind_says_no_runs_not_ok(site, tmp_path):
+    """Issue 46: staircase, sine and chirp stages without runs, and the closed loop's
+    comparison of recorded runs without closed_loop runs, say "no runs" on the page and in
+    the status, in place of empty tables and figures."""
+    from spa.pipeline.status import NoRuns, read_status
+
+    root = tmp_path / "results"
+    shutil.copytree(site, root)
+    notes = {k: [NoRuns(k)] for k in ("staircase", "sine", "chirp")}
+    notes["closed_loop"] = [NoRuns("closed_loop", ("closed_loop/runs.csv",))]
+    _run_with_notes(root, "sim", notes)
+    status = read_status(root / "sim" / "status" / "staircase.json")
+    assert status["ok"] and status["no_runs"][0]["message"] == "no staircase runs in this dataset"
+    page = build_dataset_page(root, "sim", META)
+    for kind in ("staircase", "sine", "chirp", "closed_loop"):
+        line = f"no {kind} runs in this dataset; nothing to show."
+        assert page.count(line) == 1, kind
+    for title in ("Table 3: static linearity", "Fig. 6", "Fig. 7a", "Fig. 8", "Fig. 9",
+                  "Closed loop: recorded runs against the model"):  # fmt: skip
+        assert title not in page, title
+    assert "Fig. 10" in page and "Fig. 2a" in page  # the stages' other outputs are shown
+    before = build_dataset_page(site, "sim", META)
+    assert before.count("<img ") - page.count("<img ") == 5  # Figs. 6, 7a, 7b, 8, 9
+    row = overview_row(root / "sim", "sim", "2025-01-01", "bench")
+    assert row["status"] == "ok; no runs: staircase, sine, chirp, closed_loop"
+    assert overview_row(site / "sim", "sim", "2025-01-01", "bench")["status"] == "ok"
 
 
 def test_stages_skipped_for_a_failed_one_say_so_in_one_line(site, tmp_path):
@@ -329,10 +393,10 @@ def _dataset_error() -> Exception:
 @pytest.mark.parametrize(
     ("make", "fault"),
     [
-        (_identification_error, "data"),
+        (_identification_error, "lacking"),
         (_dataset_error, "data"),
         (lambda: _wrapped(ValueError("u goes down")), "stage"),  # a bare ValueError: not spa's
-        (lambda: _wrapped(_identification_error()), "data"),
+        (lambda: _wrapped(_identification_error()), "lacking"),
         (lambda: IndexError("index 0 is out of bounds"), "stage"),
         (_tuning_error, "stage"),
         (_config_error, "stage"),
@@ -341,10 +405,16 @@ def _dataset_error() -> Exception:
 def test_whose_fault_a_failure_is_follows_the_error_class(make, fault, tmp_path):
     """The rule of spa.pipeline.status.data_fault, recorded by run_stage in the status."""
     from spa.errors import RunError
-    from spa.pipeline.status import data_fault, dataset_failures, failure_summary, read_status
+    from spa.pipeline.status import (
+        data_fault,
+        dataset_failures,
+        failure_summary,
+        fault_of,
+        read_status,
+    )
 
     error = make()
-    assert data_fault(error) is (fault == "data")
+    assert data_fault(error) is (fault == "data") and fault_of(error) == fault
     _run_dataset_stages(tmp_path, "d1", "sine", error)
     status = read_status(tmp_path / "d1" / "status" / "sine.json")
     assert status["ok"] is False and status["fault"] == fault
@@ -420,3 +490,35 @@ def test_a_dataset_removed_from_the_run_loses_its_page(fake_results, site, tmp_p
     from spa.report.site import remove_stale_pages
 
     assert remove_stale_pages(report, ["sim"]) == []  # nothing more to remove
+
+
+def test_an_open_loop_stage_without_runs_records_no_runs(tmp_path, monkeypatch):
+    """spa.stages.script.run_open_loop: a stage whose result is empty (no runs of its kind)
+    records NoRuns in its status; one with runs does not."""
+    from types import SimpleNamespace
+
+    import spa.stages.script as script
+    from spa.pipeline.jobs import Names
+    from spa.pipeline.status import read_status
+
+    monkeypatch.setattr(script, "read_runs", lambda _: ({}, {}))
+    monkeypatch.setattr(script, "read_params", lambda _: None)
+    for empty in (True, False):
+        status = tmp_path / f"{empty}" / "status" / "sine.json"
+        smk = SimpleNamespace(
+            input=Names({"runs": "r", "params": "p"}),
+            params=Names({"cfg": {}}),
+            output=Names({"status": str(status)}),
+            wildcards=Names({"dataset": "d"}),
+            log=[str(tmp_path / f"{empty}.log")],
+        )
+        result = SimpleNamespace(empty=empty, warnings=[])
+        assert script.run_open_loop(smk, "sine", lambda i, log, r=result: r, lambda *a: None)
+        record = read_status(status)
+        assert record["ok"]
+        if empty:
+            assert record["no_runs"] == [
+                {"kind": "sine", "message": "no sine runs in this dataset", "paths": []}
+            ]
+        else:
+            assert "no_runs" not in record

@@ -25,15 +25,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from spa._checks import float_or_nan as _num
+from spa.closedloop.bench_text import bench_sentence
 from spa.closedloop.box import PromiseBox, box_hold, box_levels, promise_levels
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
 from spa.closedloop.controller import PIController
-from spa.closedloop.disturbance import DROP, disturbances
+from spa.closedloop.delays import unresolved_sentence
+from spa.closedloop.disturbance import disturbances
 from spa.closedloop.experiments import LoopUnderTest, Staircase
 from spa.closedloop.export import arduino_sketch, controller_header
+from spa.closedloop.noise import NOISE_FALLBACK, SensorNoise, sensor_noise
 from spa.closedloop.robust import robust_design
+from spa.closedloop.shipped import ShippedLoop, ship_lengthened, shipped_loop
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
@@ -41,13 +44,11 @@ __all__ = [
     "NOISE_FALLBACK",
     "ROBUST_COLUMNS",
     "BenchOutputs",
+    "SensorNoise",
     "apply_bench",
     "bench_outputs",
     "sensor_noise",
 ]
-
-#: The sensor noise assumed when the identification gives none, bar (the simulated bench's).
-NOISE_FALLBACK = 0.005
 
 #: Seed of the sensor noise of the disturbance runs.
 NOISE_SEED = 0
@@ -81,32 +82,6 @@ ROBUST_COLUMNS = (
 _NO_DESIGN = '#error "spa: no modulator setting could be designed for this valve"\n'
 
 
-def sensor_noise(identified: Mapping[str, Any] | None) -> float:
-    """The sensor's noise, bar: the pulse fit's residual RMS of ``params.yaml``.
-
-    Parameters
-    ----------
-    identified : mapping or None
-        ``params.yaml``'s content; its ``fits.pulse.rmse`` (sensor noise and what the model
-        misses of the pulse runs) is used when positive and finite.
-
-    Returns
-    -------
-    float
-        That RMS, else :data:`NOISE_FALLBACK`.
-
-    Examples
-    --------
-    >>> sensor_noise({"fits": {"pulse": {"rmse": 0.0061}}}), sensor_noise(None)
-    (0.0061, 0.005)
-    """
-    try:
-        value = float(identified["fits"]["pulse"]["rmse"])  # type: ignore[index]
-    except (KeyError, TypeError, ValueError):
-        return NOISE_FALLBACK
-    return value if math.isfinite(value) and value > 0.0 else NOISE_FALLBACK
-
-
 @dataclass
 class BenchOutputs:
     """What :func:`bench_outputs` gives.
@@ -121,6 +96,11 @@ class BenchOutputs:
         The chosen loop's numbers for ``controllers.yaml`` (empty when nothing was chosen).
     sentence : str
         One sentence for the recommendation (empty when nothing was chosen).
+    shipped : ShippedLoop or None
+        The loop the header ships, evaluated as the stage evaluates its designs, when the
+        promise lengthened ``tau_c`` past the stage's (None when the header ships the stage's
+        own design): :func:`apply_bench` makes ``controllers.yaml``, the sentence and the
+        tables name it.
     """
 
     robust: pd.DataFrame
@@ -128,6 +108,7 @@ class BenchOutputs:
     sketch: str
     summary: dict[str, Any] = field(default_factory=dict)
     sentence: str = ""
+    shipped: ShippedLoop | None = None
 
 
 def _chosen(controllers: Mapping[str, Any]) -> tuple[str, str] | None:
@@ -216,11 +197,12 @@ def bench_outputs(
     params: ValveParams,
     intervals: Mapping[str, tuple[float, float]] | None,
     cfg: Mapping[str, Any] | None = None,
-    noise: float = NOISE_FALLBACK,
+    noise: float | SensorNoise = NOISE_FALLBACK,
     *,
     model_error: Mapping[str, tuple[float, float]] | None = None,
     adequacy: Mapping[str, Any] | None = None,
     choice: tuple[str, str] | None = None,
+    unresolved: Mapping[str, tuple[float, float]] | None = None,
 ) -> BenchOutputs:
     """The header of the chosen loop, its promise over the box and the model error, and the
     disturbances.
@@ -235,8 +217,9 @@ def bench_outputs(
         The 95 % intervals, ``name -> (lo, hi)``.
     cfg : mapping, optional
         The config's ``closed_loop:`` section, as the stage had it.
-    noise : float, optional
-        The sensor's noise, bar (:func:`sensor_noise`).
+    noise : float or SensorNoise, optional
+        The sensor's noise, bar (:func:`spa.closedloop.noise.sensor_noise`: measured, an
+        upper bound, or unknown and bounded by the model residual; the sentence says which).
     model_error : mapping, optional
         Parameter ranges covering the model error measured on the dataset
         (:func:`spa.closedloop.model_error.error_intervals`); merged with ``intervals``
@@ -246,6 +229,10 @@ def bench_outputs(
     choice : (str, str), optional
         The (setting label, controller) to check and export instead of the stage's choice
         (one of the designed loops, :func:`spa.closedloop.promise.design_for_dataset`).
+    unresolved : mapping, optional
+        The delays the data do not resolve, ``name -> (lo, hi)`` s
+        (:func:`spa.closedloop.delays.unresolved_delays`): the header's comment and the
+        sentence say so, with what to record (:func:`spa.closedloop.delays.unresolved_sentence`).
 
     Returns
     -------
@@ -267,6 +254,8 @@ def bench_outputs(
     from spa.closedloop.model_error import widen
 
     c = {**DEFAULTS, **dict(cfg or {})}
+    said = noise if isinstance(noise, SensorNoise) else SensorNoise(float(noise))
+    noise = said.value
     ctl = result.controllers
     dt = float(ctl.get("dt", c["dt"]))
     levels = [float(v) for v in ctl.get("levels", [])]
@@ -334,10 +323,12 @@ def bench_outputs(
     gm, dm = _margins(mod, ctrl, params, own)
     clause = adequacy_clause(adequacy, mod.kind)
     verified = rd.tau_c_robust is not None and (adequacy is None or clause == "")
+    lengthened = shipped_tau != tau_c
     info = {
         "n_corners": rd.n_corners,
-        "tau_c": rd.tau_c,
-        **{f"worst_{k}": v for k, v in rd.worst.items() if f"worst_{k}" in ROBUST_COLUMNS},
+        # the chosen row is the shipped loop's: at the stage's tau_c only when it is shipped
+        "tau_c": shipped_tau,
+        **{f"worst_{k}": v for k, v in worst.items() if f"worst_{k}" in ROBUST_COLUMNS},
         "tau_c_robust": math.nan if rd.tau_c_robust is None else rd.tau_c_robust,
         "robust_rise_time": rd.worst_robust.get("rise_time", math.nan),
         "robust_overshoot": rd.worst_robust.get("overshoot", math.nan),
@@ -345,7 +336,32 @@ def bench_outputs(
     for row in rows:
         row.update(info if row["chosen"] else dict.fromkeys(info, math.nan))
     chosen_row = next(r for r in rows if r["chosen"])
+    shipped = None
+    if lengthened:
+        # the disturbances of the loop the header ships, not of the stage's design
+        entry_hold = float(entry.get("hold", c["hold"] if c["hold"] is not None else 3.0))
+        own_levels = [float(v) for v in entry.get("levels", levels)]
+        d = disturbances(
+            LoopUnderTest(mod, ctrl, params),
+            Staircase(own_levels, entry_hold, dt),
+            noise,
+            seed=NOISE_SEED,
+        )
+        d["steady_state_error_after_drop"] = d.pop("steady_state_error")
+        chosen_row.update(d)
+        shipped = shipped_loop(mod, name, ctrl, params, own_levels, c, shipped_tau, tau_c)
     summary = {k: chosen_row[k] for k in ROBUST_COLUMNS[4:]}
+    if lengthened:
+        summary["design"] = {
+            "tau_c": tau_c,
+            "controller": PIController.from_mapping(entry[name]).to_mapping(),
+            **{f"worst_{k}": v for k, v in rd.worst.items() if f"worst_{k}" in ROBUST_COLUMNS},
+            "note": (
+                f"the {name} PI designed at the stage's tau_c = {tau_c:g} s, shown for "
+                "comparison: not shipped (its worst case over the box breaks the promise)"
+            ),
+        }
+    summary["sensor_noise"] = said.to_mapping()
     summary["tau_c_tried"] = [[t, o] for t, o in rd.tried]
     summary["max_overshoot"] = limit
     summary["box"] = {k: [float(v[0]), float(v[1])] for k, v in box.items()}
@@ -390,6 +406,13 @@ def bench_outputs(
             f"The closed_loop stage's choice (controllers.yaml), tau_c = {shipped_tau:g} s; "
             "no promise: no tau_c tried kept the overshoot and settling over the box."
         )
+    unresolved_said = unresolved_sentence(unresolved or {})
+    if unresolved_said:
+        note += " " + unresolved_said
+        summary["unresolved_delays"] = {
+            "delays": {k: [float(lo), float(hi)] for k, (lo, hi) in (unresolved or {}).items()},
+            "sentence": unresolved_said,
+        }
     header = controller_header(
         mod, ctrl, dt, note=note, precision=str(c.get("precision", "double"))
     )
@@ -407,6 +430,7 @@ def bench_outputs(
         arduino_sketch(setpoint=float(f"{mid:.3g}")),
         plain,
         bench_sentence(plain),
+        shipped,
     )
 
 
@@ -426,90 +450,6 @@ def _plain(summary: dict[str, Any]) -> dict[str, Any]:
         return v
 
     return {k: one(v) for k, v in summary.items()}
-
-
-def bench_sentence(summary: Mapping[str, Any]) -> str:
-    """The chosen loop's promise, margins, verdict and disturbances, in words; never a NaN.
-
-    Examples
-    --------
-    >>> s = bench_sentence({"n_corners": 32, "tau_c": 0.2, "worst_rise_time": None,
-    ...   "worst_overshoot": 14.0, "tau_c_robust": None, "drop_level": 0.35,
-    ...   "recovery_time": None, "dip": 0.01, "noise": 0.005, "added_ripple_rms": 0.002})
-    >>> "nan" in s, "does not reach 90 %" in s
-    (False, True)
-    """
-
-    def num(key: str) -> float:
-        return _num(summary.get(key))
-
-    limit = num("max_overshoot")
-    if not math.isfinite(limit):
-        limit = MAX_OVERSHOOT
-    corners = num("n_corners")
-    n = int(corners) if math.isfinite(corners) else 0
-    over, rise = num("worst_overshoot"), num("worst_rise_time")
-    where = f"Over the identification's 95 % box ({n} corners)"
-    if summary.get("model_error"):
-        where += " merged with the model error measured on this dataset"
-    rise_text = (
-        f"its worst rise time is {rise:.2f} s" if math.isfinite(rise) else
-        "a step of one of its plants does not reach 90 %"
-    )  # fmt: skip
-    over_text = f"overshoot {over:.0f} %" if math.isfinite(over) else "overshoot unknown"
-    text = f"{where} at τ_c = {num('tau_c'):.3g} s, {rise_text} and {over_text}"
-    promise = summary.get("promise") or {}
-    if promise.get("kept"):
-        tau, hold = _num(promise.get("tau_c")), _num(promise.get("hold"))
-        settle, ripple = _num(promise.get("settling_time")), _num(promise.get("ripple_pp"))
-        text += (
-            f". Promise (the header, τ_c = {tau:.3g} s): on any plant within that box, overshoot "
-            f"≤ {_num(promise.get('overshoot')):.0f} % and every level within 2 % of its step "
-            f"by the end of a {hold:.1f} s hold"
-        )
-        if math.isfinite(settle):
-            text += f", settling (2 %) ≤ {settle:.2f} s"
-        elif math.isfinite(ripple):
-            text += ", though its cycle-mean pressure does not stay within 2 % on every level"
-        if math.isfinite(ripple):
-            text += f", ripple ≤ {ripple * 1e3:.0f} mbar peak-to-peak"
-    elif promise:
-        text += (
-            f". No promise: no τ_c tried keeps the overshoot within {limit:.3g} % with every "
-            "level settled on every plant of the box"
-        )
-    margins = summary.get("margins") or {}
-    gm, dm = _num(margins.get("gain_margin")), _num(margins.get("delay_margin"))
-    if math.isfinite(gm) or math.isfinite(dm):
-        parts = []
-        if math.isfinite(gm):
-            parts.append(f"gain margin {gm:.2g}")
-        if math.isfinite(dm):
-            parts.append(f"delay margin {dm * 1e3:.0f} ms")
-        text += f"; {' and '.join(parts)} on the averaged model"
-    clause = str(summary.get("adequacy_clause") or "")
-    if "verified" in summary:
-        if summary.get("verified"):
-            text += ". Controller verified" + (f" ({clause})" if clause else "")
-        else:
-            text += ". Controller unverified" + (f": {clause}" if clause else "")
-    rec = num("recovery_time")
-    if math.isnan(rec):
-        back = "is not back within 2 % before the level ends"
-    elif rec == 0.0:
-        back = "stays within 2 % of the undisturbed run"
-    else:
-        back = f"is back within 2 % after {rec:.2f} s"
-    dip, noise, added = num("dip"), num("noise"), num("added_ripple_rms")
-    tail = f". After a {DROP * 100:.0f} % supply drop"
-    if math.isfinite(num("drop_level")):
-        tail += f" at {num('drop_level'):.2f} bar"
-    tail += f" the pressure dips {dip * 1e3:.0f} mbar and {back}" if math.isfinite(dip) else (
-        f" the pressure {back}"
-    )  # fmt: skip
-    if math.isfinite(noise) and math.isfinite(added):
-        tail += f"; sensor noise of {noise * 1e3:.1f} mbar adds {added * 1e3:.2f} mbar RMS ripple"
-    return f"{text}{tail}. The C header is closed_loop/controller.h."
 
 
 #: ``robust.csv`` columns as rows of ``table.csv``: experiment -> (column, metric) pairs.
@@ -583,9 +523,13 @@ def table_rows(robust: pd.DataFrame) -> pd.DataFrame:
 def apply_bench(result: ClosedLoopResult, bench: BenchOutputs) -> None:
     """Add the bench numbers to ``controllers.yaml`` (key ``bench``; ``verified`` and
     ``adequacy`` also at the top level), its sentence and ``table.csv`` (:func:`table_rows`:
-    the box's worst case and the disturbances)."""
+    the box's worst case and the disturbances). When the header ships a loop at a longer
+    ``tau_c`` than the stage's (``bench.shipped``), the chosen entry, the sentence and the
+    tables name that loop first (:func:`spa.closedloop.shipped.ship_lengthened`)."""
     if not bench.summary:
         return
+    if bench.shipped is not None:
+        ship_lengthened(result, bench.shipped)
     result.controllers["bench"] = bench.summary
     result.controllers["verified"] = bool(bench.summary.get("verified", False))
     result.controllers["adequacy"] = bench.summary.get("adequacy")

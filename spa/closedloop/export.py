@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from string import Template
 from typing import Any
@@ -392,6 +392,7 @@ def export_designed(
     dt: float = 0.001,
     note: str = "",
     precision: str = "double",
+    unresolved: Mapping[str, tuple[float, float]] | None = None,
 ) -> tuple[Path, Path]:
     """Design the PIs for a valve and a setting (as the ``closed_loop`` stage does) and write
     the header and sketch of one of them (``spa export-controller``).
@@ -413,6 +414,10 @@ def export_designed(
         A line for the header's comment.
     precision : {"double", "single"}, optional
         The header's PI arithmetic (:func:`controller_header`).
+    unresolved : mapping, optional
+        The delays the data do not resolve, ``name -> (lo, hi)`` s
+        (:func:`spa.closedloop.delays.unresolved_delays`): the header's comment says the
+        controller was designed at a value they do not fix, and what to record.
 
     Returns
     -------
@@ -443,6 +448,10 @@ def export_designed(
         raise ValueError(f"levels: need at least two set-points, got {list(levels)}")
     designs = design_pi(modulator, params, levels=levels, tau_c=tau)
     text = note or f"SIMC, tau_c = {tau:g} s, schedule over {list(levels)} bar."
+    if unresolved:
+        from spa.closedloop.delays import unresolved_sentence
+
+        text += " " + unresolved_sentence(unresolved, checked=False)
     mid = float(f"{float(np.median(levels)):.3g}")
     return write_controller(
         folder, modulator, designs[controller], dt, note=text, precision=precision, setpoint=mid

@@ -111,6 +111,7 @@ def design_for_dataset(
             model_error=errors[equilibrium],
             adequacy=adequacy,
             choice=choice,
+            unresolved=valve.unresolved,
         )
         benches.append((choice, bench))
         if bench.summary.get("verified"):

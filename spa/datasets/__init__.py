@@ -13,6 +13,7 @@ metadata key ``b"spa"``.
 The folder follows the stages of that work: ``contract`` (the vocabulary: kinds, columns,
 units), ``problems`` (what is wrong, with suggestions), ``spec`` (``dataset.yaml``),
 ``options`` (``columns:``, ``units:`` and ``csv:``, which a run may override key by key),
+``clock`` (``sample_step``, for logs without time stamps, and ``valve_edges``),
 ``readers`` (one module per file family, each a ``Source``, in one table ``READERS``, and ``sniff``,
 which guesses how a delimited file is written, for messages), ``checks``
 (the data of one run, chunk by chunk), ``kind_check`` (a run's kind against its valve trace),

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from spa.datasets.clock import INDEX_TIME
 from spa.datasets.contract import (
     _MAX_ROWS_LISTED,
     CANONICAL_COLUMNS,
@@ -67,6 +68,9 @@ class RunSummary:
         Mean sample rate ``(rows - 1) / (t_end - t_start)`` in Hz.
     p_min, p_max : float
         Pressure range in bar gauge.
+    sample_step : float or None
+        The logging step (s) that made ``t`` (row index times it) for a log without time
+        stamps; None when ``t`` was read.
     """
 
     run: str
@@ -80,16 +84,22 @@ class RunSummary:
     rate_hz: float
     p_min: float
     p_max: float
+    sample_step: float | None = None
 
     @property
     def duration(self) -> float:
         """``t_end - t_start`` in s."""
         return self.t_end - self.t_start
 
+    def _clock(self) -> str:
+        if self.sample_step is None:
+            return ""
+        return f" (t = row index * sample_step {self.sample_step:g} s)"
+
     def __str__(self) -> str:
         return (
             f"{self.run}: {self.kind}, {_modulator_text(self.modulator)}, "
-            f"{self.duration:.6g} s at {self.rate_hz:.6g} Hz, "
+            f"{self.duration:.6g} s at {self.rate_hz:.6g} Hz{self._clock()}, "
             f"p {self.p_min:.4g} to {self.p_max:.4g} bar "
             f"({self.file}, {self.rows} rows, columns {' '.join(self.columns)})"
         )
@@ -101,6 +111,11 @@ def _modulator_text(modulator: Mapping[str, Any] | None) -> str:
     units = {"f_w": " Hz", "t_h": " s", "t_l": " s", "period": " s", "gain": ""}
     settings = " ".join(f"{k}={v:g}{units.get(k, '')}" for k, v in modulator.items() if k != "type")
     return f"{modulator['type']} {settings}"
+
+
+#: Time steps kept for :meth:`_RunCheck.median_step` (8 MiB): the median of the first million
+#: steps stands for a whole recording.
+_STEPS_KEPT = 1 << 20
 
 
 class _RunCheck:
@@ -117,6 +132,8 @@ class _RunCheck:
         self.p_lo = math.inf
         self.p_hi = -math.inf
         self.valve = _ValveTrace()  # for the kind check (:meth:`kind_problems`)
+        self.steps: list[npt.NDArray[np.float64]] = []  # the first _STEPS_KEPT time steps
+        self.steps_kept = 0
 
     @property
     def failed(self) -> bool:
@@ -213,6 +230,10 @@ class _RunCheck:
                     ),
                 )
                 self.t_prev = float(t[-1])
+                if self.steps_kept < _STEPS_KEPT:
+                    kept = step[np.isfinite(step)][: _STEPS_KEPT - self.steps_kept]
+                    self.steps.append(kept)
+                    self.steps_kept += kept.size
 
             p = values["p"]
             p_bar = _to_bar(p, pu)
@@ -265,6 +286,14 @@ class _RunCheck:
         if "r" in values:  # a closed-loop run's set-point, in the file's pressure unit
             out["r"] = _to_bar(values["r"], pu)
         return out
+
+    def median_step(self) -> float:
+        """The median time step in s, over the first :data:`_STEPS_KEPT` steps (NaN when
+        there are none)."""
+        if not self.steps_kept:
+            return math.nan
+        step = np.float64(np.median(np.concatenate(self.steps)))
+        return float(_to_seconds(step, self.time_unit))
 
     def kind_problems(self, file: str | None, run: str | None, kind: str) -> list[Problem]:
         """The run's declared kind against its valve trace (errors naming the run): see
@@ -350,6 +379,7 @@ class _RunCheck:
             rate_hz=(self.rows - 1) / (t1 - t0) if t1 > t0 else math.nan,
             p_min=float(_to_bar(self.p_lo, self.pressure_unit)),
             p_max=float(_to_bar(self.p_hi, self.pressure_unit)),
+            sample_step=run.sample_step if self.columns["t"] == INDEX_TIME else None,
         )
 
 

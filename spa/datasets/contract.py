@@ -103,18 +103,43 @@ _FORMATS = {
     ".txt": "csv",
     ".tsv": "csv",
     ".dat": "csv",
+    ".log": "csv",
     ".lvm": "lvm",
     ".tdms": "tdms",
 }
 
 
-_TOP_KEYS = ("name", "description", "origin", "rig", "recorded", "units", "columns", "csv", "runs")
+_TOP_KEYS = (
+    "name",
+    "description",
+    "origin",
+    "rig",
+    "recorded",
+    "units",
+    "columns",
+    "csv",
+    "sample_step",
+    "valve_edges",
+    "runs",
+)
 
 
 _REQUIRED_TOP = ("name", "description", "origin", "rig", "runs")
 
 
-_RUN_KEYS = ("id", "kind", "file", "modulator", "controller", "notes", "columns", "units", "csv")
+_RUN_KEYS = (
+    "id",
+    "kind",
+    "file",
+    "modulator",
+    "controller",
+    "notes",
+    "columns",
+    "units",
+    "csv",
+    "sample_step",
+    "valve_edges",
+)
 
 
 _UNIT_KEYS = ("time", "pressure")
@@ -192,6 +217,37 @@ def unit_in_name(name: str | None) -> str | None:
         return None
     units = {u.lower(): u for u in PRESSURE_UNITS}
     found = {units[w.lower()] for w in _UNIT_TOKEN.findall(name) if w.lower() in units}
+    return found.pop() if len(found) == 1 else None
+
+
+#: Words naming a time unit in a column's name, and the unit (a key of :data:`TIME_UNITS`).
+_TIME_WORDS: Mapping[str, str] = {
+    "s": "s",
+    "sec": "s",
+    "secs": "s",
+    "second": "s",
+    "seconds": "s",
+    "ms": "ms",
+    "msec": "ms",
+    "msecs": "ms",
+    "millis": "ms",
+    "millisecond": "ms",
+    "milliseconds": "ms",
+}
+
+
+def time_unit_in_name(name: str | None) -> str | None:
+    """The time unit a column's name states, as a separate word (``time_ms``, ``t[s]``,
+    ``Time (ms)``, ``t_s``, ``millis``), or None.
+
+    Examples
+    --------
+    >>> [time_unit_in_name(n) for n in ("time_ms", "t[s]", "Zeit (ms)", "millis", "time", "ts")]
+    ['ms', 's', 'ms', 'ms', None, None]
+    """
+    if not name:
+        return None
+    found = {_TIME_WORDS[w.lower()] for w in _UNIT_TOKEN.findall(name) if w.lower() in _TIME_WORDS}
     return found.pop() if len(found) == 1 else None
 
 

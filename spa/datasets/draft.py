@@ -7,14 +7,19 @@ Every function here is pure: it takes the columns of one file as arrays and retu
 
 The rules, in order (see ``raw/README.md``, "Start from ``spa init``"):
 
-* **roles**: a strictly increasing column is time; a column holding only 0 and 1 is the valve
-  command; a column named like a pressure set-point (``r``, ``sp``, ``setpoint``, ``p_ref``,
-  ``p_set``, ``p_target``, ``p_des``, ...) is the closed loop's set-point ``r``; one within
-  [0, 1] is the input fraction ``u``; the others are pressure candidates,
+* **roles**: a strictly increasing column is time (but a file's only column, unless named
+  like time, is the pressure: a rising charge logged alone); a column holding only 0 and 1
+  is the valve command; a column named like a pressure set-point (``r``, ``sp``,
+  ``setpoint``, ``p_ref``, ``p_set``, ``p_target``, ``p_des``, ...) is the closed loop's
+  set-point ``r``; one within [0, 1] is the input fraction ``u``; the others are pressure
+  candidates,
   of which the one named like a pressure (``p``, ``pressure``, ``kPa``, ...) or else the one of
   largest variance is the pressure. Names break ties (``time``, ``valve``, ``xi``, ...).
-* **time unit**: a bench samples at 100 Hz to 100 kHz, so a median step in
-  [1e-6, 1e-2] is in s, in (1e-2, 10] in ms; outside, undecided.
+* **time unit** (:mod:`spa.datasets.draft_units`, like the pressure unit): a unit written
+  as a word in the time column's name (``time_ms``, ``t[s]``); else a bench samples at
+  100 Hz to 100 kHz, so a median step in [1e-6, 1e-2] is in s, in (1e-2, 10] in ms, except
+  that a step up to 0.1 in files lasting under 100 in all is s (a coarse log at 10-100 Hz:
+  no valve responds within 100 ms); outside, undecided.
 * **pressure unit**: a unit written as a word in the column's name (``P_kPa``) when it
   puts the supply within 0.05-20 bar; else the largest magnitude (99.9th percentile, robust
   to a spike) is the supply, typically 0.2-6 bar: of the units putting it there, the first
@@ -46,12 +51,14 @@ from __future__ import annotations
 import itertools
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from spa.datasets.draft_units import PRESSURE_LIMITS as PRESSURE_LIMITS
+from spa.datasets.draft_units import TIME_STEP_BOUNDS as TIME_STEP_BOUNDS
+from spa.datasets.draft_units import guess_pressure_unit, guess_time_unit
+from spa.datasets.guess import Guess
 from spa.model.modulators import MODULATOR_ORDER, get_kind
 from spa.model.modulators.trace import Trace
 
@@ -83,27 +90,6 @@ _NAME_HINTS: Mapping[str, re.Pattern[str]] = {
 
 #: Set-point names that an input fraction may carry too ("ref", "reference", with a suffix).
 _WEAK_SETPOINT = re.compile(r"^(ref|reference)([_ .\-\[(].*)?$", re.I)
-
-
-@dataclass(frozen=True, slots=True)
-class Guess:
-    """One guess and why.
-
-    Attributes
-    ----------
-    value : Any
-        The guess (a column name, unit, kind or modulator mapping), or None if undecided.
-    reason : str
-        Why this value, or why none could be given (one line, for a YAML comment).
-    """
-
-    value: Any
-    reason: str
-
-    @property
-    def decided(self) -> bool:
-        """True when a value was guessed."""
-        return self.value is not None
 
 
 # --------------------------------------------------------------------------- roles
@@ -180,6 +166,9 @@ def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
         return -float(np.std(d) / np.mean(d))
 
     out["t"] = _pick("t", increasing, {k: even(k) for k in increasing}, "strictly increasing")
+    alone = len(finite) == 1 and not _named("t", list(finite))
+    if out["t"].decided and alone:  # a rising pressure logged alone, not a clock
+        out["t"] = Guess(None, f"no time column (the only column, {out['t'].value!r}, is p)")
     rest = [k for k in finite if k != out["t"].value]
     binary = [k for k in rest if _binary(finite[k])]
     switches = {k: float(np.count_nonzero(np.diff(finite[k]))) for k in binary}
@@ -214,134 +203,6 @@ def guess_roles(columns: Mapping[str, npt.ArrayLike]) -> dict[str, Guess]:
         p = Guess(p.value, "the only numeric column left (within [0, 1]: pressure in bar?)")
     out["p"] = p
     return out
-
-
-# --------------------------------------------------------------------------- units
-
-
-#: Median time step (in the file's unit) bounding s and ms: a bench samples at 100 Hz to
-#: 100 kHz; a step of 0.01 is 100 Hz in s (taken) or 100 kHz in ms.
-TIME_STEP_BOUNDS = (1e-6, 1e-2, 10.0)
-
-
-#: Largest pressure magnitude for each unit (soft actuators run at 0 to ~4 bar).
-PRESSURE_LIMITS: tuple[tuple[str, float], ...] = (
-    ("bar", 6.0),
-    ("psi", 90.0),
-    ("kPa", 600.0),
-    ("mbar", 6000.0),
-)
-
-
-def guess_time_unit(t: npt.ArrayLike) -> Guess:
-    """Guess whether time is in s or ms from its median step.
-
-    Parameters
-    ----------
-    t : array_like
-        Time stamps in the file's unit (pooled steps of several files may be passed as
-        ``np.cumsum(steps)``; only the steps count).
-
-    Returns
-    -------
-    Guess
-        ``"s"`` for a median step in [1e-6, 1e-2], ``"ms"`` in (1e-2, 10], else None.
-
-    Examples
-    --------
-    >>> guess_time_unit([0, 1, 2, 3]).value, guess_time_unit([0, 1e-3, 2e-3]).value
-    ('ms', 's')
-    """
-    t = np.asarray(t, dtype=np.float64).ravel()
-    if t.size < 2:
-        return Guess(None, "fewer than 2 time stamps")
-    step = float(np.median(np.diff(t)))
-    low, mid, high = TIME_STEP_BOUNDS
-    if low <= step <= mid * (1 + 1e-9):
-        return Guess("s", f"median step {step:.4g}: {1 / step:.4g} Hz if in s")
-    if mid < step <= high:
-        return Guess("ms", f"median step {step:.4g}: {1e3 / step:.4g} Hz if in ms")
-    return Guess(
-        None,
-        f"median step {step:.4g} fits neither s ({low:g} to {mid:g}) nor ms ({mid:g} to {high:g})",
-    )
-
-
-def guess_pressure_unit(p: npt.ArrayLike, name: str | None = None) -> Guess:
-    """Guess the pressure unit from the supply pressure the readings reach.
-
-    Parameters
-    ----------
-    p : array_like
-        Pressure readings in the file's unit (NaN ignored); pooled over the files of a
-        session, whose highest reading is the supply (a charge run's plateau).
-    name : str, optional
-        The column's name: a unit written in it as a word (``P_act_kPa``) is taken when it
-        puts the supply within the plausible range (``datasets.plausible_supply_bar``'s
-        default, 0.05-20 bar).
-
-    Returns
-    -------
-    Guess
-        The unit, else None.
-
-    Notes
-    -----
-    The supply is taken as the 99.9th percentile of ``|p|`` (robust to a spike). Unless the
-    name states the unit, of the
-    units that put it within a soft actuator's typical supply, 0.2-6 bar
-    (:data:`~spa.datasets.contract.TYPICAL_SUPPLY_BAR`), the first of bar, psi, kPa, mbar is
-    taken unless another reading is more than twice nearer the middle of that range, 1.1
-    bar, by ratio (:func:`~spa.datasets.checks.likelier_unit`, the rule ``spa validate``
-    warns by): 80 is kPa (0.8 bar), not psi (5.5 bar). When several units fit, the reason
-    names them all. When none does, the first unit of :data:`PRESSURE_LIMITS` whose limit
-    holds the supply.
-
-    Examples
-    --------
-    >>> [guess_pressure_unit([0, x]).value for x in (2.5, 40, 80, 250, 2500, 1e5)]
-    ['bar', 'psi', 'kPa', 'kPa', 'mbar', None]
-    """
-    from spa.datasets.checks import likelier_unit, typical_readings
-    from spa.datasets.contract import (
-        PLAUSIBLE_SUPPLY_BAR,
-        PRESSURE_UNITS,
-        TYPICAL_SUPPLY_BAR,
-        unit_in_name,
-    )
-
-    lo, hi = TYPICAL_SUPPLY_BAR
-    p = np.asarray(p, dtype=np.float64).ravel()
-    p = p[np.isfinite(p)]
-    if p.size == 0:
-        return Guess(None, "no pressure readings")
-    top = float(np.percentile(np.abs(p), 99.9, method="higher"))
-    named = unit_in_name(name)
-    if named is not None:
-        bar = top * PRESSURE_UNITS[named]
-        if PLAUSIBLE_SUPPLY_BAR[0] <= bar <= PLAUSIBLE_SUPPLY_BAR[1]:
-            return Guess(named, f"named {name!r}; |p| up to {top:.4g}, the supply: {bar:.3g} bar")
-    fits = typical_readings(top)
-    if fits:
-        unit = next(u for u in fits if likelier_unit(top, u) is None)
-        first = next(iter(fits))
-        reason = f"|p| up to {top:.4g}, the supply (a charge run's plateau): "
-        reason += f"{fits[unit]:.3g} bar in {unit}"
-        others = [f"{bar:.3g} bar in {u}" for u, bar in fits.items() if u != unit]
-        if not others:
-            return Guess(unit, reason + f" (a typical supply is {lo:g}-{hi:g} bar)")
-        reason += f", or {', or '.join(others)}: all typical ({lo:g}-{hi:g} bar)"
-        if unit == first:
-            return Guess(unit, reason + ", check")
-        return Guess(
-            unit,
-            f"{reason}; {unit}, as a supply is most often near 1 bar and {fits[first]:.3g} "
-            f"bar is more than twice as far from it (likely {unit} read as {first})",
-        )
-    for unit, limit in PRESSURE_LIMITS:
-        if top <= limit:
-            return Guess(unit, f"|p| up to {top:.4g}: within {limit:g} {unit} (0 to ~4 bar)")
-    return Guess(None, f"|p| up to {top:.4g}: above {PRESSURE_LIMITS[-1][1]:g} mbar")
 
 
 # --------------------------------------------------------------------------- kind

@@ -1,10 +1,10 @@
-"""``spa init``: read every data file of a dataset folder and draft its ``dataset.yaml``.
+"""``spa init``: draft the ``dataset.yaml`` of a folder of recordings.
 
-The guesses come from :mod:`spa.datasets.draft`; this module reads the files (through the
-readers of :mod:`spa.datasets.readers`, so every format they know is drafted), pools what the
-files share (units, column names, file options) at the dataset level, and writes YAML text
-with the reason of every guess as a comment and ``TODO`` where a guess failed (a value the
-parser rejects, so ``spa validate`` lists it).
+The files are read and their guesses made by :mod:`spa.datasets.draft_read` (the guesses
+themselves are :mod:`spa.datasets.draft`'s); this module pools what the files share (units,
+column names, file options) at the dataset level, and writes YAML text with the reason of
+every guess as a comment and ``TODO`` where a guess failed (a value the parser rejects, so
+``spa validate`` lists it). Every file it could not read is listed with the reason.
 
 Each file is read whole (its numeric columns as float64: 8 bytes per value), once: drafting
 an hour at 10 kHz with four columns takes about 1.2 GB; ``spa validate`` and ``spa ingest``
@@ -19,266 +19,53 @@ from __future__ import annotations
 import re
 import textwrap
 from collections.abc import Mapping
-from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
 import yaml
 
 from spa._docs import fill_doc
-from spa.datasets.contract import _FORMATS, _ID_RE, MODULATED_KINDS, SPEC_FILE
-from spa.datasets.draft import (
-    Guess,
-    guess_kind,
-    guess_modulator,
-    guess_pressure_unit,
-    guess_roles,
-    guess_time_unit,
-)
-from spa.datasets.readers import READERS
-from spa.datasets.readers.base import Source, _ReadError, _Retry
+from spa.datasets.contract import SPEC_FILE
+from spa.datasets.draft import Guess
+
+# The reading half, importable from here as before.
+from spa.datasets.draft_read import CLOSED_LOOP, NO_TIME, FileDraft, draft_files
+from spa.datasets.draft_read import READERS as READERS
+from spa.datasets.draft_read import _detect_options as _detect_options
+from spa.datasets.draft_read import _open as _open
+from spa.datasets.draft_read import _run_ids as _run_ids
+from spa.datasets.draft_read import data_files as data_files
+from spa.datasets.draft_read import read_file as read_file
 from spa.datasets.recorded import session_date
 from spa.datasets.yaml_loader import _UniqueKeyLoader
 from spa.io import dump_yaml
 
-__all__ = ["FileDraft", "draft_dataset", "draft_files", "write_draft"]
+__all__ = ["FileDraft", "draft_dataset", "draft_files", "draft_report", "write_draft"]
 
 #: Marker written where a guess failed; every place it goes, the parser rejects it.
 TODO = "TODO"
 
-_MAX_DEPTH = 2  # sub-folder levels searched for data files
-
 _ROLES = ("t", "p", "valve", "u", "r")
 
-#: The kind of a run with a set-point column, and what its draft asks for.
-CLOSED_LOOP = "closed_loop"
+#: The line drafted for a log without time stamps (its value a ``TODO``).
+_SAMPLE_STEP_TODO = (
+    f"sample_step: {TODO}  # no time column: the logging step in s (e.g. 0.02 for 50 Hz)"
+)
+
+#: The comment drafted when the files log a valve command: what ``valve_edges`` declares.
+_VALVE_EDGES_NOTE = (
+    "# valve_edges: on_tick  # or sampled; how the logged valve command relates to the log's "
+    "clock: on_tick, the controller issued every command on a logging tick (it logs itself: "
+    "dSpace, an Arduino loop), so a logged edge is the true edge time; sampled, the command "
+    "ran on its own faster clock and the log samples it, so a true edge lies within the step "
+    "before the sample that shows it. Left out, the data decide"
+)
+
+#: What a closed-loop run's draft asks for.
 _CONTROLLER_TODO = (
     "the PI that ran, not in the data: {kp: <1/bar>, ki: <1/(bar s)>, dt: <s>} "
     "(raw/README.md, controller)"
 )
-
-
-@dataclass
-class FileDraft:
-    """What was read and guessed of one data file.
-
-    Attributes
-    ----------
-    file : str
-        Path relative to the dataset folder, ``/`` as separator.
-    id : str
-        Run id (the file's stem, made filename-safe and unique).
-    options : dict
-        File options detected (e.g. a CSV separator); empty when none.
-    roles : dict of str to Guess
-        File column for ``t``, ``p``, ``valve`` and ``u``.
-    error : str or None
-        Why the file could not be read.
-    data : dict of str to numpy.ndarray
-        The numeric columns (dropped once the guesses are made).
-    kind : Guess
-        Kind of run.
-    modulator : Guess or None
-        Modulator, for a run whose input ``u`` moves.
-    units : dict of str to Guess
-        ``time`` and ``pressure`` units, pooled over the files sharing its columns.
-    """
-
-    file: str
-    id: str = ""
-    options: dict[str, Any] = field(default_factory=dict)
-    roles: dict[str, Guess] = field(default_factory=dict)
-    error: str | None = None
-    data: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict, repr=False)
-    kind: Guess = field(default_factory=lambda: Guess(None, "not guessed"))
-    modulator: Guess | None = None
-    units: dict[str, Guess] = field(default_factory=dict)
-
-
-# --------------------------------------------------------------------------- reading
-
-
-def _detect_options(path: Path) -> dict[str, Any]:
-    """The ``csv:`` options of a delimited text file that differ from its ending's defaults
-    (separator, decimal mark, ...), as the delimited reader's sniffer finds them."""
-    from spa.datasets.options import csv_options
-    from spa.datasets.readers.sniff import sniff_delimited
-
-    try:
-        found = dict(sniff_delimited(path))
-    except Exception:  # a sniffer that cannot decide leaves the defaults
-        return {}
-    if str(found.get("encoding", "")).lower().replace("_", "-") in ("utf-8", "utf-8-sig"):
-        found["encoding"] = None  # the default: UTF-8, with or without a byte-order mark
-    defaults = csv_options({}, path.suffix)
-    return {k: v for k, v in found.items() if v is not None and v != defaults.get(k)}
-
-
-def _open(path: Path, fmt: str, options: Mapping[str, Any]) -> Source:
-    """The reader for ``fmt`` (:data:`spa.datasets.readers.READERS`), with ``options``."""
-    return READERS[fmt](path, dict(options) if options else None)
-
-
-def _numeric_names(source: Source) -> list[str]:
-    """The file's columns whose type is numeric (:meth:`Source.check_types` finds no problem)."""
-    return [str(name) for name in source.columns if not source.check_types([str(name)])]
-
-
-def _read_columns(source: Any, names: list[str]) -> dict[str, npt.NDArray[np.float64]]:
-    for as_text in (False, True):
-        parts: dict[str, list[npt.NDArray[np.float64]]] = {n: [] for n in names}
-        try:
-            for _, values, _ in source.chunks(names, as_text=as_text):
-                for n in names:
-                    parts[n].append(np.asarray(values[n], dtype=np.float64))
-        except _Retry:
-            continue
-        return {n: np.concatenate(p) if p else np.empty(0) for n, p in parts.items()}
-    raise _ReadError("no numeric columns")  # pragma: no cover - the text pass never retries
-
-
-def read_file(folder: Path, rel: str) -> FileDraft:
-    """Read the numeric columns of one data file (``folder/rel``) into a :class:`FileDraft`.
-
-    A file that cannot be read gets ``error`` set, never an exception.
-    """
-    path = folder / rel
-    fmt = _FORMATS[path.suffix.lower()]
-    draft = FileDraft(rel)
-    draft.options = _detect_options(path) if fmt == "csv" else {}
-    try:
-        source = _open(path, fmt, draft.options)
-        names = list(dict.fromkeys(_numeric_names(source)))
-        data = _read_columns(source, names)
-    except _ReadError as exc:
-        draft.error = f"cannot read it: {exc}"
-        return draft
-    except Exception as exc:  # a damaged file: say so in the draft, keep going
-        draft.error = f"cannot read it: {type(exc).__name__}: {exc}"
-        return draft
-    draft.data = {k: v for k, v in data.items() if v.size and np.all(np.isfinite(v))}
-    if not draft.data:
-        draft.error = "no column holds only numbers"
-    return draft
-
-
-def data_files(folder: Path) -> tuple[list[str], list[str]]:
-    """Data files of a dataset folder and the files skipped.
-
-    Returns
-    -------
-    files : list of str
-        Paths relative to ``folder`` with a known ending (:data:`_FORMATS`), sorted; hidden
-        files and folders are skipped, sub-folders searched :data:`_MAX_DEPTH` levels deep.
-    skipped : list of str
-        Other files (not ``dataset.yaml``), sorted.
-    """
-    files, skipped = [], []
-    for path in sorted(folder.rglob("*")):
-        rel = path.relative_to(folder)
-        if any(part.startswith(".") for part in rel.parts) or not path.is_file():
-            continue
-        if len(rel.parts) > _MAX_DEPTH + 1 or rel.as_posix() == SPEC_FILE:
-            continue
-        (files if path.suffix.lower() in _FORMATS else skipped).append(rel.as_posix())
-    return files, skipped
-
-
-# --------------------------------------------------------------------------- guessing
-
-
-def _run_ids(files: list[str]) -> list[str]:
-    """A filename-safe, case-insensitively unique id per file: its stem, else its path."""
-    stems = [Path(f).stem for f in files]
-    folded = [s.casefold() for s in stems]
-    ids, seen = [], set()
-    for f, stem in zip(files, stems, strict=True):
-        base = stem if folded.count(stem.casefold()) == 1 else str(Path(f).with_suffix(""))
-        rid = re.sub(r"[^A-Za-z0-9._-]+", "_", base.replace("/", "-")).lstrip(".")[:100] or "run"
-        unique, k = rid, 2
-        while unique.casefold() in seen or not _ID_RE.fullmatch(unique):
-            unique, k = f"{rid[:95]}-{k}", k + 1
-        seen.add(unique.casefold())
-        ids.append(unique)
-    return ids
-
-
-def _pooled_units(drafts: list[FileDraft]) -> dict[str, Guess]:
-    """Units guessed from every file's time steps and pressures together."""
-    steps = [np.diff(d.data[d.roles["t"].value]) for d in drafts if d.roles["t"].decided]
-    pressures = [d.data[d.roles["p"].value] for d in drafts if d.roles["p"].decided]
-    if steps:
-        t = guess_time_unit(np.concatenate([[0.0], np.cumsum(np.concatenate(steps))]))
-    else:
-        t = Guess(None, "no time column found")
-    name = next((d.roles["p"].value for d in drafts if d.roles["p"].decided), None)
-    p = guess_pressure_unit(np.concatenate(pressures), name) if pressures else Guess(None, "no p")
-    many = f" (over {len(drafts)} files)" if len(drafts) > 1 else ""
-    return {
-        "time": Guess(t.value, t.reason + (many if t.decided else "")),
-        "pressure": Guess(p.value, p.reason + (many if p.decided else "")),
-    }
-
-
-def _guess_run(draft: FileDraft, time_unit: str | None) -> None:
-    """Fill ``kind`` and ``modulator`` of a read file."""
-    col = {k: g.value for k, g in draft.roles.items()}
-    if col["t"] is None:
-        draft.kind = Guess(None, "could not tell: no time column")
-        return
-    t = draft.data[col["t"]] * (1e-3 if time_unit == "ms" else 1.0)
-    arrays = {k: None if col[k] is None else draft.data[col[k]] for k in ("p", "valve", "u")}
-    if col.get("r") is not None:
-        draft.kind = Guess(CLOSED_LOOP, f"a set-point column {col['r']!r} beside the pressure")
-    else:
-        draft.kind = guess_kind(t, arrays["p"], arrays["valve"], arrays["u"])
-    if draft.kind.value in MODULATED_KINDS or (draft.kind.value is None and col["u"]):
-        if arrays["valve"] is None:
-            draft.modulator = Guess(None, "could not tell the modulator: no valve column")
-        else:
-            draft.modulator = guess_modulator(t, arrays["valve"], arrays["u"])
-
-
-def draft_files(folder: str | Path) -> tuple[list[FileDraft], list[str]]:
-    """Read and guess every data file of ``folder``.
-
-    Returns
-    -------
-    drafts : list of FileDraft
-        One per data file, sorted by path, with roles, units, kind and modulator guessed.
-    skipped : list of str
-        Files not drafted: an unknown ending, or ``.txt``/``.dat`` text that holds no table
-        of numbers (notes).
-    """
-    folder = Path(folder)
-    files, skipped = data_files(folder)
-    drafts = [read_file(folder, f) for f in files]
-    # .txt and .dat are as often notes as data: one that holds no table of numbers is skipped
-    notes = {
-        d.file
-        for d in drafts
-        if d.error is not None and PurePosixPath(d.file).suffix.lower() in (".txt", ".dat")
-    }
-    skipped += sorted(notes)
-    files = [f for f in files if f not in notes]
-    drafts = [d for d in drafts if d.file not in notes]
-    for d, rid in zip(drafts, _run_ids(files), strict=True):
-        d.id = rid
-        if d.error is None:
-            d.roles = guess_roles(d.data)
-    read = [d for d in drafts if d.error is None]
-    groups: dict[tuple[Any, ...], list[FileDraft]] = {}
-    for d in read:
-        groups.setdefault((d.roles["t"].value, d.roles["p"].value), []).append(d)
-    for group in groups.values():
-        units = _pooled_units(group)
-        for d in group:
-            d.units = units
-            _guess_run(d, units["time"].value)
-            d.data = {}
-    return drafts, skipped
 
 
 # --------------------------------------------------------------------------- YAML text
@@ -330,7 +117,10 @@ def _columns_block(indent: str, roles: Mapping[str, Guess]) -> list[str]:
         g = roles[role]
         if g.decided and g.value != role:
             lines.append(_line(indent + "  ", role, g))
-        elif not g.decided and role in ("t", "p"):
+        elif not g.decided and role == "t":
+            why = f"{g.reason}: t = row index * sample_step"
+            lines.append(f"{indent}  t: null{_comment(why)}")
+        elif not g.decided and role == "p":
             lines.append(_line(indent + "  ", role, g))
         elif not g.decided and taken.get(role, role) != role:
             if role == "u" and taken[role] == "valve":
@@ -342,7 +132,23 @@ def _columns_block(indent: str, roles: Mapping[str, Guess]) -> list[str]:
 
 
 def _units_block(indent: str, units: Mapping[str, Guess]) -> list[str]:
-    return [f"{indent}units:", *(_line(indent + "  ", k, units[k]) for k in ("time", "pressure"))]
+    """The ``units:`` lines; no time unit for files without a time column (their step,
+    ``sample_step``, is in s)."""
+    keys = [k for k in ("time", "pressure") if k != "time" or units[k].reason != NO_TIME]
+    return [f"{indent}units:", *(_line(indent + "  ", k, units[k]) for k in keys)]
+
+
+def _clock_block(indent: str, drafts: list[FileDraft]) -> list[str]:
+    """``sample_step: TODO`` when none of ``drafts`` has a time column; the commented
+    ``valve_edges`` when one logs a valve command."""
+    out = []
+    if drafts and not any(d.roles["t"].decided for d in drafts):
+        out.append(indent + _SAMPLE_STEP_TODO)
+    if any(d.roles["valve"].decided for d in drafts):
+        width = 92 - len(indent)
+        wrap = textwrap.wrap(_VALVE_EDGES_NOTE[2:], width, break_on_hyphens=False)
+        out += [f"{indent}# {wrap[0]}", *(f"{indent}#   {x}" for x in wrap[1:])]
+    return out
 
 
 def _options_block(indent: str, options: Mapping[str, Any]) -> list[str]:
@@ -389,7 +195,8 @@ def render_draft(
     same_opts, options = _shared(csvs, lambda d: d.options)
     rate = ""
     if read and same_units and units["time"]:
-        rate = read[0].units["time"].reason.split(":")[1].split(" if")[0].strip()
+        found = re.search(r"[\d.e+-]+ Hz", read[0].units["time"].reason)
+        rate = found.group(0) if found else ""
     out = [
         "# Draft written by `spa init`: every guess has its reason as a comment.",
         "# Check each one, describe the dataset and the rig, then run `spa validate`. A TODO",
@@ -414,6 +221,9 @@ def render_draft(
         out += _columns_block("", roles)
     if csvs and same_opts:
         out += _options_block("", options)
+    same_clock = len({d.roles["t"].decided for d in read}) <= 1  # all stamped, or none
+    if same_clock:
+        out += _clock_block("", read)
     out.append("runs:")
     for d in drafts:
         out.append(f"  - id: {_scalar(d.id)}")
@@ -435,11 +245,53 @@ def render_draft(
             out += [
                 f"    # {TODO}: {_comment(d.roles[r].reason)[4:]} (needs {r!r})"
                 for r in ("t", "p")
-                if not d.roles[r].decided
+                if not d.roles[r].decided and r == "p"
             ]
+        if not same_clock:
+            if roles is not None and not d.roles["t"].decided:
+                out.append(f"    columns: {{t: null}}{_comment(NO_TIME)}")
+            out += _clock_block("    ", [d])
         if not same_opts and d in csvs:
             out += _options_block("    ", d.options)
     return "\n".join(out) + "\n"
+
+
+def draft_report(folder: str | Path) -> tuple[str, dict[str, str]]:
+    """Draft the ``dataset.yaml`` of a dataset folder, and say what could not be read.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        The dataset folder, ``raw/<name>``; only read.
+
+    Returns
+    -------
+    text : str
+        YAML text, readable by :mod:`spa.datasets.yaml_loader`.
+    unread : dict of str to str
+        Each file not drafted, or drafted with ``kind: TODO`` because it could not be read,
+        with why (an unknown ending, no table of numbers, a serial monitor's time stamps, a
+        damaged file, ...).
+
+    Raises
+    ------
+    ValueError
+        If ``folder`` is not a folder, or holds no file spa can read (naming every file and
+        why, or saying that the folder is empty).
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"{folder} is not a folder; give the dataset folder, raw/<name>")
+    drafts, skipped = draft_files(folder)
+    unread = {**skipped, **{d.file: d.error for d in drafts if d.error is not None}}
+    unread = dict(sorted(unread.items()))
+    if not drafts:
+        if not unread:
+            raise ValueError(f"{folder} holds no files; copy the recordings into it first")
+        why = "; ".join(f"{f}: {reason}" for f, reason in unread.items())
+        raise ValueError(f"{folder} holds no data file spa can read, nothing to draft: {why}")
+    recorded = session_date(folder, [d.file for d in drafts])
+    return render_draft(folder.resolve().name, drafts, list(skipped), recorded), unread
 
 
 @fill_doc
@@ -458,21 +310,13 @@ def draft_dataset(folder: str | Path) -> str:
     Raises
     ------
     ValueError
-        If ``folder`` is not a folder or holds no data file.
+        As :func:`draft_report`, which also says what could not be read.
     """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise ValueError(f"{folder} is not a folder; give the dataset folder, raw/<name>")
-    drafts, skipped = draft_files(folder)
-    if not drafts:
-        known = ", ".join(sorted(_FORMATS))
-        raise ValueError(f"{folder} holds no data file ({known}); nothing to draft")
-    recorded = session_date(folder, [d.file for d in drafts])
-    return render_draft(folder.resolve().name, drafts, skipped, recorded)
+    return draft_report(folder)[0]
 
 
-def write_draft(folder: str | Path, force: bool = False) -> tuple[Path, str]:
-    """Write ``<folder>/dataset.yaml`` drafted by :func:`draft_dataset`.
+def write_draft(folder: str | Path, force: bool = False) -> tuple[Path, str, dict[str, str]]:
+    """Write ``<folder>/dataset.yaml`` drafted by :func:`draft_report`.
 
     This is the one write into a dataset folder the project makes: only that file, and only
     when it does not exist yet or ``force`` is given. Data files are never touched.
@@ -483,13 +327,15 @@ def write_draft(folder: str | Path, force: bool = False) -> tuple[Path, str]:
         The file written.
     text : str
         Its content.
+    unread : dict of str to str
+        The files that could not be read, each with why (:func:`draft_report`).
 
     Raises
     ------
     FileExistsError
         If ``dataset.yaml`` exists and ``force`` is false.
     ValueError
-        As :func:`draft_dataset`.
+        As :func:`draft_report`.
     """
     path = Path(folder) / SPEC_FILE
     if path.exists() and not force:
@@ -497,6 +343,6 @@ def write_draft(folder: str | Path, force: bool = False) -> tuple[Path, str]:
             f"{path} exists; spa init never overwrites it: move it away, or give --force to "
             "replace it with a new draft"
         )
-    text = draft_dataset(folder)
+    text, unread = draft_report(folder)
     path.write_text(text, encoding="utf-8")
-    return path, text
+    return path, text, unread

@@ -11,6 +11,7 @@ from typing import Any
 from spa._docs import fill_doc
 from spa._progress import progress
 from spa.datasets.checks import RunSummary, _RunCheck, supply_warning
+from spa.datasets.clock import INDEX_TIME, SAMPLE_STEP_EXAMPLE, index_time, step_problem
 from spa.datasets.contract import (
     _FORMATS,
     _MAX_ROWS_LISTED,
@@ -84,8 +85,12 @@ def _scan_run(
     what = source.what  # a MATLAB file may hold a dSpace recording
     problems: list[Problem] = []
     present: dict[str, str] = {}
+    index_t = False  # t is made from sample_step: the log has no time stamps
     for canon in CANONICAL_COLUMNS:
         name = run.columns[canon]
+        if name is None and canon == "t" and run.sample_step is not None:
+            index_t = True
+            continue
         if name is None:  # left out under columns: (null)
             if canon in REQUIRED_COLUMNS[run.kind]:
                 problems.append(problem(_left_out(run.kind, canon)))
@@ -100,8 +105,16 @@ def _scan_run(
                 problems.append(problem(f"{what} {name!r} appears more than once", name))
             present[canon] = name
             continue
+        if canon == "t" and name == canon and run.sample_step is not None:
+            index_t = True  # t not mapped and not in the file: a log without time stamps
+            continue
         mapped = "" if name == canon else f" (mapped from {canon!r} under columns:)"
         hint_names = f"{source.describe(name)}; map names under columns: in {SPEC_FILE}"
+        if canon == "t":
+            hint_names += (
+                "; a log without time stamps declares its logging step instead: "
+                f"columns: {{t: null}} and {SAMPLE_STEP_EXAMPLE}"
+            )
         if canon in REQUIRED_COLUMNS[run.kind]:
             problems.append(
                 problem(
@@ -148,27 +161,30 @@ def _scan_run(
                 },
             },
             "units": dict(run.units),
+            **({"sample_step": run.sample_step} if index_t else {}),
+            **({"valve_edges": run.valve_edges} if run.valve_edges is not None else {}),
         }
         if fmt == "csv" and run.csv != csv_options({}, path.suffix):
             info["source"]["csv"] = run.csv  # how the text was read, when not the default
         meta = _meta_bytes(info)
     rename = {v: k for k, v in present.items()}
-    check = _RunCheck(present, run.time_unit, run.pressure_unit)
+    columns = {"t": INDEX_TIME, **present} if index_t else present
+    time_unit = "s" if index_t else run.time_unit  # sample_step is in s
+    check = _RunCheck(columns, time_unit, run.pressure_unit)
 
     def scan(as_text: bool) -> _RunCheck:
         nonlocal check
-        check = _RunCheck(present, run.time_unit, run.pressure_unit)
+        check = _RunCheck(columns, time_unit, run.pressure_unit)
         writer = None
         if out is not None:
-            writer = _RunWriter(out, tuple(present), meta or b"")
+            writer = _RunWriter(out, tuple(columns), meta or b"")
         try:
             blocks = progress(source.chunks(names, as_text), f"reading {run.file}", unit="block")
             for offset, values, bad in blocks:
-                clean = check.feed(
-                    offset,
-                    {rename[k]: v for k, v in values.items()},
-                    {rename[k]: v for k, v in bad.items()},
-                )
+                named = {rename[k]: v for k, v in values.items()}
+                if index_t and run.sample_step is not None:
+                    named["t"] = index_time(offset, len(named["p"]), run.sample_step)
+                clean = check.feed(offset, named, {rename[k]: v for k, v in bad.items()})
                 if writer is not None:
                     if clean is None:
                         writer.abort()
@@ -213,6 +229,7 @@ def _scan_run(
             )
         )
     found = check.problems(run.file, run.id) + check.kind_problems(run.file, run.id, run.kind)
+    found += _step_problems(run, check, index_t)
     found += check.warnings(run.file, run.id, run.kind)
     found = [replace(p, line=source.line_of(p.row)) if p.line is None else p for p in found]
     problems += found
@@ -224,6 +241,18 @@ def _scan_run(
             out.unlink(missing_ok=True)
         return problems, None
     return problems, check.summary(run)
+
+
+def _step_problems(run: RunEntry, check: _RunCheck, index_t: bool) -> list[Problem]:
+    """An error when a run has both a time column and ``sample_step``, and the column's
+    median step disagrees with it (:func:`spa.datasets.clock.step_problem`)."""
+    if index_t or run.sample_step is None or check.failed or check.rows < 2:
+        return []
+    column = check.columns["t"]
+    message = step_problem(check.median_step(), run.sample_step, column)
+    if message is None:
+        return []
+    return [Problem(run.file, run.id, column, None, message)]
 
 
 def _left_out(kind: str, canon: str) -> str:

@@ -29,7 +29,15 @@ CSV_KEYS: Mapping[str, str] = {
     "skip_rows": "an integer >= 0 (lines above the header)",
     "comment": "a non-empty prefix such as '#'",
     "units_row": "true or false",
+    "header": "true or false (absent: a first line of numbers only is data, and the columns "
+    "are named by position, col1, col2, ...)",
 }
+
+#: Other names of ``csv:`` keys, accepted as the key they stand for.
+CSV_ALIASES: Mapping[str, str] = {"delimiter": "sep"}
+
+#: The name of the column at (1-based) position ``i`` of a file without a header line.
+POSITIONAL = "col{}"
 
 #: The options of delimited text when ``csv:`` says nothing (``encoding: None`` is UTF-8,
 #: with or without a byte-order mark, or UTF-16 with one).
@@ -79,7 +87,7 @@ def _check_csv_value(key: str, value: Any) -> str | None:
     if key == "comment":
         ok = isinstance(value, str) and value.strip() and "\n" not in value
         return None if ok else f"comment {value!r} is not {CSV_KEYS[key]}"
-    return None if isinstance(value, bool) else f"units_row {value!r} is not {CSV_KEYS[key]}"
+    return None if isinstance(value, bool) else f"{key} {value!r} is not {CSV_KEYS[key]}"
 
 
 def check_csv(value: Any, base: Mapping[str, Any], where: str) -> tuple[dict[str, Any], Found]:
@@ -107,6 +115,8 @@ def check_csv(value: Any, base: Mapping[str, Any], where: str) -> tuple[dict[str
     ({'sep': ';', 'decimal': ','}, [])
     >>> check_csv({"sep": "::"}, {}, "csv")[1][0][0]
     'csv.sep'
+    >>> check_csv({"delimiter": ";"}, {}, "csv")  # another name for sep
+    ({'sep': ';'}, [])
     """
     merged = dict(base)
     if value is None:
@@ -115,17 +125,35 @@ def check_csv(value: Any, base: Mapping[str, Any], where: str) -> tuple[dict[str
         example = "{sep: ';', decimal: ','}"
         return merged, [(where, f"csv must be a mapping such as {example}, got {value!r}")]
     found: Found = []
-    for key, item in value.items():
+    for alias, key in CSV_ALIASES.items():
+        if alias in value and key in value and value[alias] != value[key]:
+            found.append(
+                (
+                    f"{where}.{alias}",
+                    f"{alias} {value[alias]!r} and {key} {value[key]!r} are given and differ; "
+                    f"{alias} is another name for {key}: give one",
+                )
+            )
+    for given, item in value.items():
+        key = CSV_ALIASES.get(given, given) if isinstance(given, str) else given
         if key not in CSV_KEYS:
-            found.append((f"{where}.{key}", _unknown_key(key, CSV_KEYS)))
+            found.append((f"{where}.{given}", _unknown_key(given, [*CSV_KEYS, *CSV_ALIASES])))
             continue
         message = _check_csv_value(str(key), item)
         if message:
-            found.append((f"{where}.{key}", message))
+            found.append((f"{where}.{given}", message))
         else:
             merged[str(key)] = item
     if not found and merged.get("decimal") == "," and merged.get("sep", ",") == ",":
         found.append((f"{where}.decimal", "decimal ',' needs a sep other than ',', e.g. sep: ';'"))
+    if not found and merged.get("header") is False and merged.get("units_row"):
+        found.append(
+            (
+                f"{where}.units_row",
+                "units_row: true needs a header line above it, but header: false says the "
+                "file has none",
+            )
+        )
     return merged, found
 
 
@@ -177,6 +205,10 @@ def check_units(value: Any, base: Mapping[str, str], where: str) -> tuple[dict[s
 #: read for every run).
 OPTIONAL_COLUMNS: tuple[str, ...] = tuple(c for c in CANONICAL_COLUMNS if c not in ("t", "p"))
 
+#: Columns ``null`` may leave out: the optional ones, and ``t`` for a log without time stamps
+#: (its ``sample_step`` then gives the time: :mod:`spa.datasets.clock`).
+NULLABLE_COLUMNS: tuple[str, ...] = ("t", *OPTIONAL_COLUMNS)
+
 
 def check_columns(
     value: Any, base: Mapping[str, str | None], where: str
@@ -189,8 +221,10 @@ def check_columns(
     Notes
     -----
     ``null`` for an optional canonical column (``valve``, ``u``, ``r``) leaves it out: the
-    files have no such column (merged value None). A canonical name standing for itself
-    (not mapped, or mapped to its own name by ``base``) gives way to a name of this mapping
+    files have no such column (merged value None); so does ``t: null`` for a log without
+    time stamps, which then needs ``sample_step`` (checked by :mod:`spa.datasets.spec`). A
+    canonical name standing for itself (not mapped, or mapped to its own name by ``base``)
+    gives way to a name of this mapping
     that claims the same file column: ``{valve: u}`` on a ``time,u,pressure`` log, whose
     only command column is the 0/1 valve, leaves ``u`` out. Two names of one mapping (or of
     ``base``) given the same file column are a problem.
@@ -225,7 +259,7 @@ def check_columns(
                     f"allowed: {_one_of(CANONICAL_COLUMNS)}",
                 )
             )
-        elif name is None and key in OPTIONAL_COLUMNS:
+        elif name is None and key in NULLABLE_COLUMNS:
             merged[key] = None
         elif name is None:
             found.append(

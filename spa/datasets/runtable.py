@@ -17,6 +17,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from spa.datasets.checks import _RunCheck
+from spa.datasets.clock import check_sample_step, check_valve_edges
 from spa.datasets.contract import (
     _ARROW_TYPES,
     _ID_RE,
@@ -146,6 +147,9 @@ def _normalise_meta(meta: Mapping[str, Any], columns: tuple[str, ...]) -> dict[s
         out["modulator"] = None
     if out["kind"] == "closed_loop" and not isinstance(out.get("controller"), Mapping):
         raise ValueError("meta['controller'] is required for a closed_loop run (kp, ki, dt)")
+    for key, check in (("sample_step", check_sample_step), ("valve_edges", check_valve_edges)):
+        if out.get(key) is not None and check(out[key])[1] is not None:
+            raise ValueError(f"meta[{key!r}]: {check(out[key])[1]}")
     units = out.setdefault("units", {"time": "s", "pressure": "bar"})
     if (
         not isinstance(units, Mapping)
@@ -190,7 +194,10 @@ def write_run_table(path: str | Path, table: pd.DataFrame, meta: Mapping[str, An
         and ``modulator`` (``{"type": ..., settings}``) for staircase, sine and chirp runs.
         Defaults: ``units = {"time": "s", "pressure": "bar"}`` (the units converted from),
         ``source = None`` (else ``{"file", "sha256", ...}``), ``modulator = None``,
-        ``format =`` :data:`RUN_TABLE_FORMAT`. Other keys are kept as they are.
+        ``format =`` :data:`RUN_TABLE_FORMAT`. Optional, checked when given: ``sample_step``
+        (s: the run's ``t`` was made as row index times it) and ``valve_edges``
+        (``on_tick`` or ``sampled``: :mod:`spa.datasets.clock`). Other keys are kept as they
+        are.
 
     Raises
     ------

@@ -12,6 +12,7 @@ from typing import Any
 import yaml
 
 from spa._docs import fill_doc
+from spa.datasets.clock import SAMPLE_STEP_EXAMPLE, check_sample_step, check_valve_edges
 from spa.datasets.contract import (
     _FORMATS,
     _ID_RE,
@@ -34,6 +35,10 @@ from spa.datasets.fields import (
     _rig_problem,
     recorded_date,
 )
+
+# The dataset folders of raw/, importable from here as before.
+from spa.datasets.folders import find_datasets as find_datasets
+from spa.datasets.folders import undecodable_datasets as undecodable_datasets
 from spa.datasets.options import check_columns, check_csv, check_units, csv_options
 from spa.datasets.problems import DatasetError, Problem, _is_one_of, _one_of, _suggest, _unknown_key
 from spa.datasets.yaml_loader import (
@@ -78,6 +83,14 @@ class RunEntry:
         A ``closed_loop`` run's PI: ``dt`` (its step, s) and the mapping of
         :meth:`spa.closedloop.controller.PIController.to_mapping` (``kp``, ``ki``, optional
         ``schedule`` and ``feedforward``); None for other kinds.
+    sample_step : float or None
+        The logging step in s (the run's ``sample_step:``, else the dataset's), or None: a
+        run without a time column gets ``t = row index * sample_step``
+        (:mod:`spa.datasets.clock`).
+    valve_edges : str or None
+        How the logged valve command relates to the log's clock, ``on_tick`` or
+        ``sampled`` (the run's ``valve_edges:``, else the dataset's), or None (undeclared:
+        the data decide).
     """
 
     id: str
@@ -91,6 +104,8 @@ class RunEntry:
     units: dict[str, str] = field(default_factory=lambda: {"time": "s", "pressure": "bar"})
     csv: dict[str, Any] = field(default_factory=dict)
     controller: dict[str, Any] | None = None
+    sample_step: float | None = None
+    valve_edges: str | None = None
 
     @property
     def time_unit(self) -> str:
@@ -126,6 +141,9 @@ class DatasetSpec:
         The runs, in file order.
     recorded : str or None
         The day the session was recorded (``recorded:``, ISO 8601 ``YYYY-MM-DD``), or None.
+    sample_step, valve_edges : float or str or None
+        The dataset's ``sample_step:`` (s) and ``valve_edges:``, or None (runs hold the
+        resolved ones: :class:`RunEntry`).
     """
 
     folder: Path
@@ -139,6 +157,8 @@ class DatasetSpec:
     runs: tuple[RunEntry, ...]
     csv: dict[str, Any] = field(default_factory=dict)
     recorded: str | None = None
+    sample_step: float | None = None
+    valve_edges: str | None = None
 
     def run_path(self, run: RunEntry | str) -> Path:
         """Absolute path of a run's file."""
@@ -176,6 +196,8 @@ class _Parsed:
     csv: dict[str, Any] = field(default_factory=dict)
     runs: list[RunEntry] = field(default_factory=list)
     recorded: str | None = None
+    sample_step: float | None = None
+    valve_edges: str | None = None
     data_ok: bool = True  # units and columns are usable for checking the data
 
     def error(
@@ -258,6 +280,10 @@ def _parse_spec(folder: Path) -> _Parsed:
     _top_value(parsed, doc, "origin", _origin_problem)
     _top_value(parsed, doc, "rig", _rig_problem, _plain)
     _top_value(parsed, doc, "recorded", _recorded_problem, recorded_date)
+    _top_value(parsed, doc, "sample_step", lambda v: check_sample_step(v)[1], float)
+    _top_value(parsed, doc, "valve_edges", lambda v: check_valve_edges(v)[1], str)
+    if any(p.key == "sample_step" for p in parsed.problems):
+        parsed.data_ok = False  # the runs' time is unknown
 
     _parse_options(parsed, doc)
     if "runs" in doc:
@@ -452,65 +478,53 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
         options, csv_found = check_csv(entry.get("csv"), parsed.csv, f"{key}.csv")
         for where, message in found + more + csv_found:
             parsed.error(message, key=where, run=label)
+        sample_step, valve_edges = _clock(entry, parsed, columns, err)
         if len(parsed.problems) == before and rel is not None:
             suffix = PurePosixPath(rel).suffix.lower()
             delimited = _FORMATS[suffix] == "csv"
             options = csv_options(options, suffix) if delimited else {}
             parsed.runs.append(
                 RunEntry(
-                    rid, kind, rel, modulator, notes, columns, units, options, controller=controller
+                    rid,
+                    kind,
+                    rel,
+                    modulator,
+                    notes,
+                    columns,
+                    units,
+                    options,
+                    controller=controller,
+                    sample_step=sample_step,
+                    valve_edges=valve_edges,
                 )
             )
 
 
-def find_datasets(raw_dir: str | Path) -> list[str]:
-    """Names of the dataset folders in ``raw_dir``: its sub-folders holding a ``dataset.yaml``.
-
-    Parameters
-    ----------
-    raw_dir : str or path-like
-        The folder of datasets, usually ``raw``. A missing folder holds no datasets.
-
-    Returns
-    -------
-    list of str
-        Sorted folder names (hidden folders, starting with ``.``, and names that are not
-        UTF-8, :func:`undecodable_datasets`, are skipped).
-    """
-    return [name for name in _dataset_folders(raw_dir) if _is_text(name)]
-
-
-def undecodable_datasets(raw_dir: str | Path) -> list[str]:
-    """Folders of ``raw_dir`` holding a ``dataset.yaml`` whose names are not UTF-8 (a
-    Windows zip's Latin-1, say): no dataset can be named so; shown with ``\\x`` escapes.
-
-    They are left out of :func:`find_datasets`, so that one such folder stops nothing; the
-    workflow warns about them.
-    """
-    return [
-        os.fsencode(name).decode("utf-8", "backslashreplace")
-        for name in _dataset_folders(raw_dir)
-        if not _is_text(name)
-    ]
-
-
-def _is_text(name: str) -> bool:
-    try:
-        name.encode("utf-8")
-    except UnicodeEncodeError:
-        return False
-    return True
-
-
-def _dataset_folders(raw_dir: str | Path) -> list[str]:
-    root = Path(raw_dir)
-    if not root.is_dir():
-        return []
-    return sorted(
-        p.name
-        for p in root.iterdir()
-        if p.is_dir() and not p.name.startswith(".") and (p / SPEC_FILE).is_file()
-    )
+def _clock(
+    entry: Mapping[str, Any],
+    parsed: _Parsed,
+    columns: Mapping[str, str | None],
+    err: Callable[[str, str], None],
+) -> tuple[float | None, str | None]:
+    """A run's ``sample_step`` and ``valve_edges``: its own, else the dataset's; a time
+    column left out (``t: null``) without a step is a problem."""
+    step, edges = parsed.sample_step, parsed.valve_edges
+    if entry.get("sample_step") is not None:
+        step, message = check_sample_step(entry["sample_step"])
+        if message:
+            err(message, "sample_step")
+    if entry.get("valve_edges") is not None:
+        edges, message = check_valve_edges(entry["valve_edges"])
+        if message:
+            err(message, "valve_edges")
+    if columns["t"] is None and step is None and "sample_step" not in entry:
+        if not any(p.key == "sample_step" for p in parsed.problems):
+            err(
+                "columns: leaves out t (null), so the run has no time stamps: add its logging "
+                f"step, {SAMPLE_STEP_EXAMPLE}, to the run or the dataset",
+                "sample_step",
+            )
+    return step, edges
 
 
 @fill_doc
@@ -552,4 +566,6 @@ def _spec_from(parsed: _Parsed) -> DatasetSpec:
         runs=tuple(parsed.runs),
         csv=dict(parsed.csv),
         recorded=parsed.recorded,
+        sample_step=parsed.sample_step,
+        valve_edges=parsed.valve_edges,
     )

@@ -38,12 +38,15 @@ _MODULES = (
     "adequacy",
     "convention",
     "delays",
+    "diagnostics",
+    "edges",
     "experiments",
     "identified",
     "identify",
     "rate_fits",
     "rates",
     "refine",
+    "refined",
     "results",
 )
 _EXPORTS, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -44,6 +44,13 @@ class Adequacy:
         Modulator types run on this bench.
     sentence : str
         The verdict in words.
+    heldout_runs : tuple of str
+        The runs each left out in turn and predicted from the others' parameters.
+    modulated_assessed : bool
+        Whether modulated runs were among them: without, the verdict is about the runs the
+        valve was identified from (repeats of its experiments), not about modulated use.
+    checks_passed : bool
+        The residuals are white and the repeats agree (:mod:`spa.identification.diagnostics`).
     """
 
     threshold: float = 80.0
@@ -57,6 +64,27 @@ class Adequacy:
     adequate: bool = True
     measured_modulators: tuple[str, ...] = ()
     sentence: str = ""
+    heldout_runs: tuple[str, ...] = ()
+    modulated_assessed: bool = True
+    checks_passed: bool = True
+
+    def with_checks(self, checks: Mapping[str, Any]) -> Adequacy:
+        """This verdict with the statistical checks of :func:`spa.identification.refined`
+        added: repeats of one experiment that disagree make the model inadequate (it cannot
+        describe all of them); residuals that are not white are named, not judged (real
+        benches rarely give white residuals at a fine step)."""
+        sentences = list(checks.get("sentences") or ())
+        repeats_ok = bool(checks.get("repeats_agree", True))
+        adequate = self.adequate and repeats_ok
+        sentence = self.sentence
+        if sentences:
+            sentence = f"{sentence} Checks: " + "; ".join(sentences) + "."
+        return replace(
+            self,
+            adequate=adequate,
+            sentence=sentence,
+            checks_passed=repeats_ok and bool(checks.get("white", True)),
+        )
 
     @property
     def required_fit(self) -> float:
@@ -103,6 +131,9 @@ class Adequacy:
             adequate=bool(m.get("adequate", True)),
             measured_modulators=tuple(str(x) for x in m.get("measured_modulators") or ()),
             sentence=str(m.get("sentence") or ""),
+            heldout_runs=tuple(str(x) for x in m.get("heldout_runs") or ()),
+            modulated_assessed=bool(m.get("modulated_assessed", True)),
+            checks_passed=bool(m.get("checks_passed", True)),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -126,6 +157,9 @@ class Adequacy:
             "adequate": bool(self.adequate),
             "measured_modulators": list(self.measured_modulators),
             "sentence": self.sentence,
+            "heldout_runs": list(self.heldout_runs),
+            "modulated_assessed": bool(self.modulated_assessed),
+            "checks_passed": bool(self.checks_passed),
         }
 
 
@@ -226,18 +260,42 @@ def assess(
     required = a.required_fit
     ok = math.isfinite(held) and held >= required
     ok = ok and all(v >= required for v in per_held.values() if math.isfinite(v))
+    # the runs by name when a reader can take them in; params.yaml lists them all
+    named = len(use) <= 4
+    held_out = ", ".join(use) if named else f"{len(use)} runs"
     if not use:
         sentence = "Model adequacy not assessed: no run with a valve command to predict."
         ok = True
+    elif not modulated:
+        # Repeats of the identification's own experiments predict each other: that they do
+        # says the fits are consistent, not that the model describes modulated use.
+        verdict = "are consistent" if ok else "are not consistent"
+        sentence = (
+            f"The identification's runs {verdict}: each of {held_out} predicted from the "
+            f"others' parameters at held-out FIT {_pct(held)} (median; in-sample {_pct(ins)}, "
+            f"{_pct(ceil)} the sensor noise allows). The modulated use is not assessed: no "
+            "staircase, sine, chirp or closed-loop run was recorded."
+        )
     elif ok:
         sentence = (
             f"The model describes this valve: held-out FIT {_pct(held)} (in-sample "
-            f"{_pct(ins)}) against {_pct(ceil)} the sensor noise allows."
+            f"{_pct(ins)}) against {_pct(ceil)} the sensor noise allows, on "
+            f"{'the modulated runs ' if named else ''}{held_out}"
+            f"{'' if named else ' with a modulator'}, each predicted from the parameters "
+            "fitted without it."
         )
     else:
         sentence = (
             f"The model does not describe this valve well enough: held-out FIT {_pct(held)} "
             f"(in-sample {_pct(ins)}) against {_pct(ceil)} the sensor noise allows "
-            f"(required {threshold:.0f} % of it); worst run {worst} at {_pct(a.worst_fit)}."
+            f"(required {threshold:.0f} % of it) on {'the runs ' if named else ''}{held_out}, "
+            "each predicted from "
+            f"the parameters fitted without it; worst run {worst} at {_pct(a.worst_fit)}."
         )
-    return replace(a, adequate=ok, sentence=sentence)
+    return replace(
+        a,
+        adequate=ok,
+        sentence=sentence,
+        heldout_runs=tuple(use),
+        modulated_assessed=bool(modulated),
+    )

@@ -33,6 +33,7 @@ __all__ = [
     "corners",
     "read_identified",
     "read_intervals",
+    "unresolved_clause",
 ]
 
 #: The identified parameters, in ``params.yaml`` order.
@@ -176,6 +177,32 @@ def corners(
     ]
 
 
+def unresolved_clause(unresolved: Mapping[str, Any] | None) -> str:
+    """A clause naming the delays the data do not resolve and the interval designed over.
+
+    Parameters
+    ----------
+    unresolved : mapping or None
+        ``name -> (lo, hi)`` in s (:attr:`Identified.unresolved`).
+
+    Returns
+    -------
+    str
+        ``""`` when every delay is resolved.
+
+    Examples
+    --------
+    >>> unresolved_clause({"t_on": (0.0, 0.05)})
+    't_on is not resolved by the data: designed over its interval [0, 50] ms (worst case 50 ms)'
+    """
+    parts = [
+        f"{name} is not resolved by the data: designed over its interval "
+        f"[{1e3 * lo:.3g}, {1e3 * hi:.3g}] ms (worst case {1e3 * hi:.3g} ms)"
+        for name, (lo, hi) in (unresolved or {}).items()
+    ]
+    return "; ".join(parts)
+
+
 class TuningError(ValueError):
     """The valve cannot be tuned or a loop designed for it (no usable identification): the
     message says why. Its name is the tuning's, the first stage that reads the valve back."""
@@ -200,6 +227,10 @@ class Identified:
         (:func:`read_intervals`).
     adequacy : dict or None
         The identification's ``adequacy:`` (None: not assessed).
+    unresolved : dict
+        ``name -> (lo, hi)`` for the delays the data do not resolve (``resolved: false``):
+        ``params`` holds their worst case ``hi`` and the box spans the whole interval, so no
+        design rests on a point the data do not give.
     """
 
     params: ValveParams
@@ -208,6 +239,7 @@ class Identified:
     source: str = "arguments"
     clipped: Mapping[str, str] = field(default_factory=dict)
     adequacy: Mapping[str, Any] | None = None
+    unresolved: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
 
 def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
@@ -257,9 +289,14 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     if source.get("error"):
         raise TuningError(f"{where}: the identification failed: {source['error']}; no tuning")
     values = {}
+    unresolved: dict[str, tuple[float, float]] = {}
     for name in PARAMETERS:
         item = source.get(name)
         value = item.get("value") if isinstance(item, Mapping) else item
+        if isinstance(item, Mapping) and item.get("resolved") is False and name in DELAYS:
+            # not resolved: the interval is what is known, and its worst case is designed for
+            value = item.get("hi")
+            unresolved[name] = (float(item.get("lo") or 0.0), float(value or 0.0))
         if value is None:
             raise TuningError(
                 f"{where}: no value for {name!r}; the identification failed for it, so the "
@@ -275,4 +312,4 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     fallback = source.get("fallback") or {}
     adequacy = source.get("adequacy")
     adequacy = dict(adequacy) if isinstance(adequacy, Mapping) else None
-    return Identified(params, intervals, dict(fallback), where, clipped, adequacy)
+    return Identified(params, intervals, dict(fallback), where, clipped, adequacy, unresolved)

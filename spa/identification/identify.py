@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from spa.identification.convention import choose_convention
 from spa.identification.delays import _FALLBACK_PRIOR_REL_SD, fit_delays
 from spa.identification.rate_fits import DerivativeFit, fit_charge, fit_discharge
 from spa.identification.results import (
@@ -27,7 +26,6 @@ __all__ = [
     "identify",
     "identify_runs",
     "identify_with_config",
-    "refine_result",
     "run_context",
 ]
 
@@ -209,6 +207,7 @@ def identify_with_config(
     *,
     modulators: Mapping[str, str] | None = None,
     command_dt: Mapping[str, float] | None = None,
+    metas: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> IdentificationResult:
     """:func:`identify_runs` with the sections of a pipeline configuration, as the workflow's
     identify rule runs it (and ``spa identify``).
@@ -226,9 +225,14 @@ def identify_with_config(
         ``seed``, else 0.
     modulators, command_dt : mapping, optional
         Run id → modulator type and → the command's own step (s), for
-        :func:`refine_result`, which runs after the three fits unless
-        ``identification.refine`` is false (``identification.adequacy_threshold``: its
+        :func:`~spa.identification.refined.refine_result`, which runs after the three fits
+        unless ``identification.refine`` is false (``identification.adequacy_threshold``: its
         threshold).
+    metas : mapping, optional
+        Run id → the run's metadata (:func:`spa.datasets.read_runs`): the modulators, command
+        steps and declared ``valve_edges`` are read from it (``modulators`` and
+        ``command_dt`` then default to :func:`run_context`'s), and each run's edge-timing
+        rule is decided (:func:`spa.identification.edges.dataset_edge_timing`).
 
     Returns
     -------
@@ -274,6 +278,15 @@ def identify_with_config(
         search = True
     if not do_refine:
         return result
+    from spa.identification.edges import dataset_edge_timing
+    from spa.identification.refined import refine_result
+
+    edges = None
+    if metas is not None:
+        context = run_context(metas)
+        modulators = context[0] if modulators is None else modulators
+        command_dt = context[1] if command_dt is None else command_dt
+        edges = dataset_edge_timing(runs, metas)
     try:
         return refine_result(
             result,
@@ -285,6 +298,7 @@ def identify_with_config(
             max_delay=float(cfg.get("max_delay", 0.05)),
             search_delays=search,
             convention=convention,
+            edges=edges,
         )
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as err:
         if search:  # no estimate of the delays at all: nothing to fall back on
@@ -326,274 +340,3 @@ def run_context(
 
 # How the pulse fit's errors start (spa.identification.delays): the delays alone are missing.
 _DELAY_ERRORS = ("no pulse run", "pulse run")
-
-
-def _hz(x: float) -> str:
-    return f"{x:.0f} Hz" if x >= 10 else f"{x:.2g} Hz"
-
-
-def refine_result(
-    result: IdentificationResult,
-    runs: Mapping[str, pd.DataFrame],
-    kinds: Mapping[str, str],
-    *,
-    modulators: Mapping[str, str] | None = None,
-    command_dt: Mapping[str, float] | None = None,
-    threshold: float = 80.0,
-    max_delay: float = 0.05,
-    search_delays: bool = False,
-    convention: str = "auto",
-) -> IdentificationResult:
-    """Refine ``result`` on every run with a valve command; conventions, adequacy, warnings.
-
-    Parameters
-    ----------
-    result : IdentificationResult
-        The charge, discharge and pulse fits' result (the refinement's start).
-    runs, kinds : mapping
-        All runs of the dataset and their kinds.
-    modulators : mapping, optional
-        Run id → modulator type (``""`` or absent for none).
-    command_dt : mapping, optional
-        Run id → the command's own step, s (when known, e.g. a simulated controller's).
-    threshold : float, optional
-        ``identification.adequacy_threshold``, % of the noise ceiling.
-    max_delay : float, optional
-        Largest delay, s.
-    search_delays : bool, optional
-        The pulse fit gave no delays: start from a coarse search of each delay over
-        ``[0, max_delay]`` on the runs' cycle means instead of ``result``'s values.
-    convention : {"auto", "hold", "transport"}, optional
-        ``identification.delay_convention``: the delay convention of the five parameters;
-        ``"auto"`` chooses it (:func:`choose_convention`).
-
-    Returns
-    -------
-    IdentificationResult
-        The five top-level parameters from the chosen convention's refinement (the
-        logging-step rule applied to the delays), ``refinement``, ``delay_convention``,
-        ``adequacy`` and ``warnings`` filled in. When no run carries a valve command,
-        ``result`` unchanged but for a warning.
-
-    Notes
-    -----
-    *Delays and the logging step.* A logged edge lies somewhere within the logging step
-    before the sample that shows it (less the command's own step when that is known): its
-    time is taken as uniform over that width ``w``, so ``w/2`` is added to each delay and
-    ``w**2/12`` to its variance. A delay the data cannot resolve (no command edge in its
-    direction, an estimate within a logging step of 0 or an interval reaching 0) is reported
-    as the interval ``[0, k*dt]`` with ``k >= 2`` (``[0, max_delay]`` when the edges do not
-    show it) with a warning that says what to record.
-    """
-    from spa.identification.adequacy import assess
-    from spa.identification.refine import NAMES, delay_search, prepare_runs, refine
-
-    prepared = prepare_runs(runs, kinds, modulators, command_dt)
-    if not prepared:
-        note = "no run carries the valve command: the refinement and the adequacy were skipped"
-        return replace(result, warnings=(*result.warnings, note))
-    start = result.to_valve_params()
-    if search_delays:
-        start = delay_search(prepared, start, max_delay)
-        warnings_start = [
-            "the pulse fit gave no delays ("
-            + "; ".join(sorted(set(result.fallback.values())))
-            + "): t_on and t_off come from the refinement on the other runs' edges"
-        ]
-    else:
-        warnings_start = []
-    fits = {d: refine(prepared, start, delay=d, max_delay=max_delay) for d in ("hold", "transport")}
-    held_median = {d: f.heldout_median() for d, f in fits.items()}
-    mods_of = {r.rid: r.modulator for r in prepared}
-    verdicts = {
-        d: assess(f.fit_heldout, f.fit_after, f.noise_ceiling, mods_of, threshold)
-        for d, f in fits.items()
-    }
-    chosen = choose_convention(
-        {d: a.heldout_median for d, a in verdicts.items()}, held_median, convention
-    )
-    ref = fits[chosen]
-    dt = float(np.median([r.dt for r in prepared]))
-    width = float(np.median([r.edge_width for r in prepared]))
-    n_on = sum(r.n_on for r in prepared)
-    n_off = sum(r.n_off for r in prepared)
-    warnings = [*result.warnings, *warnings_start]
-    ests = {}
-    runs_all = tuple(r.rid for r in prepared)
-    for name in NAMES:
-        value = float(getattr(ref.params, name))
-        se = float(ref.se[name])
-        method = (
-            f"output-error refinement of the exact model ({chosen} convention) on the cycle means "
-            f"of {len(prepared)} run(s) with a valve command, from the charge/discharge/pulse "
-            "estimates; 95% from the sandwich covariance (Newey-West, bandwidth from the "
-            "data), widened to the leave-one-run-out spread"
-        )
-        if name not in ("t_on", "t_off"):
-            # Two estimators of one parameter (the experiment's own fit and the refinement
-            # on every run) that disagree by more than their errors show model error: it is
-            # added. Not for the delays beyond a sample step: the pulse fit's delay is the
-            # time to a visible response, which a valve that keeps its connection during
-            # its dead time, or a lagging sensor, moves away from the effective delay of
-            # modulated operation; the refinement fits the pulse runs too, and their
-            # disagreement with the other runs is the leave-one-run-out spread already.
-            gap = value - float(getattr(start, name))
-            se = math.sqrt(se * se + gap * gap)
-            method += " and by the gap to the start"
-        else:
-            # Within one sample step, the gap is the edges' timing resolution, and counts.
-            gap = min(abs(value - float(getattr(start, name))), dt)
-            se = math.sqrt(se * se + gap * gap)
-            method += "; by the gap to the start up to one sample step"
-            value += width / 2.0
-            se = math.sqrt(se * se + width * width / 12.0)
-            method += (
-                f"; logged edges uniform within {1e3 * width:.3g} ms (bias corrected, w^2/12 added)"
-            )
-        lo, hi = max(value - _Z95 * se, 0.0), value + _Z95 * se
-        if name in ("t_on", "t_off"):
-            edges = n_on if name == "t_on" else n_off
-            what = "rising" if name == "t_on" else "falling"
-            if edges == 0:
-                lo, hi = 0.0, max_delay
-                warnings.append(
-                    f"{name} is not resolved: no {what} valve edge in any run; record runs "
-                    f"with {what} edges (e.g. a pulse train) to identify it. Designs use "
-                    f"the interval [0, {1e3 * max_delay:g}] ms."
-                )
-                method += f"; unresolved (no {what} edge): interval [0, max_delay]"
-            elif _Z95 * se > max_delay / 4.0:
-                lo, hi = 0.0, max_delay
-                warnings.append(
-                    f"{name} is not resolved: the runs' {what} edges do not show it (95 % "
-                    f"half-width {1e3 * _Z95 * se:.3g} ms); record {what} edges followed by a "
-                    "visible response (e.g. a pulse train from a well-filled actuator with "
-                    f"pulses longer than the delay). Designs use the interval "
-                    f"[0, {1e3 * max_delay:g}] ms."
-                )
-                method += f"; unresolved (the {what} edges do not show it): [0, max_delay]"
-            elif value < dt or value - _Z95 * se <= 0.0:
-                lo, hi = 0.0, max(hi, 2.0 * dt)
-                warnings.append(
-                    f"{name} is not resolved: {1e3 * value:.2g} ms is within a logging step "
-                    f"({1e3 * dt:.3g} ms) or its interval of 0; log pressure and valve command at "
-                    f">= {_hz(4.0 / max(value + dt, dt))} to resolve it. Designs use the "
-                    f"interval [0, {1e3 * hi:.3g}] ms."
-                )
-                method += f"; unresolved (within a logging step of 0): interval [0, {hi:.4g}] s"
-            hi = min(hi, max_delay) if edges else hi
-            hi = max(hi, value)
-        old = getattr(result, name)
-        ests[name] = Estimate(
-            value,
-            lo,
-            hi,
-            UNITS[name],
-            tuple(ref.informed[name]) or runs_all,
-            method,
-            spread=old.spread,
-        )
-    difference = None
-    # The difference is known whenever both directions have edges, even when a delay is
-    # not resolved on its own: a lag the model does not have (a sensor's, a long line's)
-    # moves both delays together and leaves their difference (the corners clip at 0).
-    if chosen == "transport" and n_on > 0 and n_off > 0 and math.isfinite(ref.se_difference):
-        # Under the transport convention the averaged model moves with t_off - t_on (the
-        # time a pulse gains), the loop's dead time with the delays themselves: the box
-        # spans both (spa.identification.identified.corners).
-        d_value = ests["t_off"].value - ests["t_on"].value
-        d_se = math.sqrt(ref.se_difference**2 + 2.0 * width * width / 12.0)
-        difference = Estimate(
-            d_value,
-            d_value - _Z95 * d_se,
-            d_value + _Z95 * d_se,
-            "s",
-            tuple(sorted(set(ests["t_on"].runs) | set(ests["t_off"].runs))),
-            "the refinement's sandwich covariance of the two delays (Newey-West), widened "
-            "to the leave-one-run-out spread of their difference; logged edges uniform "
-            "within their step",
-        )
-    if result.delays is not None:
-        pulse = result.delays.summary()
-        for key, name, what in (
-            ("n_edges_on", "t_on", "rising"),
-            ("n_edges_off", "t_off", "falling"),
-        ):
-            if int(pulse.get(key, 1)) == 0:
-                warnings.append(
-                    f"the pulse runs have no {what} edge with a visible response "
-                    f"({key}: 0): {name} comes from the other runs' edges only; record a "
-                    f"pulse train whose {what} edges move the pressure"
-                )
-    # The verdict is about the model the downstream stages use: the five top-level
-    # parameters in the chosen convention. A convention forced by the config that misses
-    # the runs the other describes is said.
-    adequacy = verdicts[chosen]
-    other_name = "transport" if chosen == "hold" else "hold"
-    other = verdicts[other_name]
-    if not adequacy.adequate and other.adequate:
-        what = {
-            "transport": "the transport-delay convention (the valve keeps its previous "
-            "connection during its dead time)",
-            "hold": "the paper's hold convention",
-        }
-        better = (
-            f"{what[other_name]} describes the runs the designs are for: held-out FIT "
-            f"{other.heldout_median:.0f} % against {adequacy.heldout_median:.0f} % for "
-            f"{what[chosen]}, which identification.delay_convention sets and the tuning and "
-            "the closed loop use; their results on this valve are not verified"
-        )
-        adequacy = replace(adequacy, sentence=f"{adequacy.sentence} But {better}.")
-        warnings.append(better)
-
-    def clean(d: Mapping[str, float]) -> dict[str, float | None]:
-        return {k: (round(float(v), 3) if math.isfinite(v) else None) for k, v in d.items()}
-
-    refinement = {
-        "start": {n: float(getattr(start, n)) for n in NAMES},
-        "informed_by": {n: list(ref.informed[n]) for n in NAMES},
-        "fit_before": clean(ref.fit_before),
-        "fit_after": clean(ref.fit_after),
-        "fit_heldout": clean(ref.fit_heldout),
-        "noise_ceiling": clean(ref.noise_ceiling),
-        "bandwidth_blocks": {k: int(v) for k, v in ref.bandwidth.items()},
-        "block_samples": {r.rid: int(r.block * r.stride) for r in prepared},
-        "edge_width": width,
-        "n_edges_on": int(n_on),
-        "n_edges_off": int(n_off),
-        "simulations": int(sum(f.nfev for f in fits.values())),
-        "converged": bool(ref.converged),
-    }
-    record = {
-        "chosen": chosen,
-        **{
-            d: {
-                "t_on": float(f.params.t_on + width / 2.0),
-                "t_off": float(f.params.t_off + width / 2.0),
-            }
-            for d, f in fits.items()
-        },
-        "heldout_fit": {
-            d: (round(v, 3) if math.isfinite(v) else None) for d, v in held_median.items()
-        },
-        "heldout_fit_modulated": {
-            d: (round(a.heldout_median, 3) if math.isfinite(a.heldout_median) else None)
-            for d, a in verdicts.items()
-        },
-        "setting": convention,
-    }
-    if n_on == 0 or n_off == 0:
-        record["note"] = "a delay is unresolved; the conventions differ only in it"
-    if result.fallback:
-        refinement["started_from_fallback"] = dict(result.fallback)
-    return replace(
-        result,
-        **ests,
-        fallback={},
-        settings={**result.settings, "refine": True, "adequacy_threshold": float(threshold)},
-        refinement=refinement,
-        delay_convention=record,
-        delay_difference=difference,
-        adequacy=adequacy.to_dict(),
-        warnings=tuple(warnings),
-    )

@@ -170,6 +170,7 @@ class _Segment:
     shortened: bool = False  # w is shorter than the configured window (a short run)
     tf: FloatArray = field(default_factory=lambda: np.empty(0))  # fit span (no trims): times
     pf: FloatArray = field(default_factory=lambda: np.empty(0))  # ... and measured pressure
+    raw: bool = False  # too few samples for Savitzky-Golay: finite differences, raw samples
 
 
 def _select_edge(valve: np.ndarray | None, rising: bool, rid: str, kind: str) -> tuple[int, int]:
@@ -243,12 +244,98 @@ def _segment(
         if fits >= w or (w == w_min):
             break
         w = fits
-    need = max(3 * w_min, 20 + w_min)
-    raise IdentificationError(
-        f"{kind} run {rid!r}: only {span} samples between the response start and "
-        f"{'the end of the run' if rising else 'the near-zero tail'}; need at least {need} "
-        f"(a derivative window of {w_min} samples at polyorder {polyorder}); lengthen the run"
+    # Too few samples for a smoothed derivative (a coarse log: 20-50 Hz, a response of a few
+    # dozen samples): the closed-form fits need none. The derivative of Fig. 2 and the start
+    # line then come from finite differences of the samples themselves.
+    return _segment_raw(
+        rid, kind, tg, pg, dt, k_edge, k_end, rising, skip, onset_fraction, tail_fraction
     )
+
+
+#: Fewest samples of a run's fit span for the closed-form fits on raw samples (a coarse log):
+#: the run's own amplitude or start and the shared parameters leave at least two degrees of
+#: freedom.
+MIN_RAW_SPAN = 4
+
+
+def _segment_raw(
+    rid: str,
+    kind: str,
+    tg: FloatArray,
+    pg: FloatArray,
+    dt: float,
+    k_edge: int,
+    k_end: int,
+    rising: bool,
+    skip: float,
+    onset_fraction: float,
+    tail_fraction: float,
+) -> _Segment:
+    """:func:`_segment` for a run too short for the Savitzky–Golay derivative: the fit span
+    from the samples themselves, and finite differences for the figure and the start line.
+
+    The span starts at the first sample that has moved ``onset_fraction`` of the change (and
+    ``skip`` after the edge), so that the hold before the response stays out: the run's own
+    amplitude (charge) or start (discharge) of the closed form then absorbs the response's
+    unknown onset, a nuisance parameter, whether or not the log shows the valve's edge.
+    """
+    seg_p = pg[k_edge : k_end + 1]
+    head = max(1, min(3, seg_p.size // 10))
+    p_a = float(seg_p[:head].mean()) if rising else float(seg_p[:head].max())
+    p_b = float(seg_p[-head:].mean())
+    change = (p_b - p_a) if rising else (p_a - p_b)
+    noise = float(np.std(np.diff(seg_p, 2))) / math.sqrt(6.0) if seg_p.size > 3 else 0.0
+    if change <= max(10.0 * noise, 1e-6):
+        what = "rise" if rising else "fall"
+        raise IdentificationError(
+            f"{kind} run {rid!r}: the pressure does not {what} after the valve edge "
+            f"({p_a:.4g} -> {p_b:.4g} bar)"
+        )
+    moved = (seg_p - p_a) if rising else (p_a - seg_p)
+    crossed = np.flatnonzero(moved >= max(onset_fraction * change, 3.0 * noise))
+    k_onset = k_edge + (int(crossed[0]) if crossed.size else 0)
+    t_first = max(tg[k_edge] + skip, tg[k_onset])
+    t_last = tg[k_end]
+    if not rising:
+        below = np.flatnonzero(pg[k_onset : k_end + 1] < tail_fraction * p_a)
+        if below.size:
+            t_last = min(t_last, tg[k_onset + int(below[0])] - 0.5 * dt)
+    in_span = (tg >= t_first - 1e-9 * dt) & (tg <= t_last + 1e-9 * dt)
+    span = int(np.sum(in_span))
+    if span < MIN_RAW_SPAN:
+        raise IdentificationError(
+            f"{kind} run {rid!r}: only {span} sample(s) at {1.0 / dt:.3g} Hz between the "
+            f"response start and {'the end of the run' if rising else 'the near-zero tail'}; "
+            f"the closed-form fit needs at least {MIN_RAW_SPAN}: log at least "
+            f"{math.ceil(MIN_RAW_SPAN / max(span, 1)) * 1.0 / dt:.3g} Hz"
+        )
+    d = np.gradient(pg, dt)
+    used = in_span.copy()
+    points = pd.DataFrame(
+        {
+            "run": rid,
+            "t": tg[k_edge : k_end + 1],
+            "p": pg[k_edge : k_end + 1],
+            "dpdt": d[k_edge : k_end + 1],
+            "used": used[k_edge : k_end + 1],
+        }
+    )
+    seg = _Segment(
+        rid=rid,
+        t=tg[in_span],
+        ps=pg[in_span],
+        d=d[in_span],
+        p=pg[in_span],
+        w=1,
+        dt=dt,
+        used=np.ones(span, dtype=bool),
+        points=points,
+        tf=tg[in_span],
+        pf=pg[in_span],
+    )
+    seg.shortened = True
+    seg.raw = True
+    return seg
 
 
 def _segment_at(

@@ -15,8 +15,9 @@ parameter (six simulations of the exact model per iteration, no ODE solver); the
 come from the fit's sandwich covariance with a Newey–West long-run variance of each run's
 scores (Bartlett kernel, bandwidth chosen from the run's residual autocorrelation by Andrews'
 AR(1) rule), widened to the run-jackknife variance (leave one run out: the spread between
-runs) where that is larger, and, for the delays, by the logging step (each logged edge lies
-uniformly within its step: bias corrected, ``w**2/12`` added). The same leave-one-run-out
+runs) where that is larger, and, for the delays, by the log's clock (an edge logged off the
+log's ticks lies uniformly within its step: it is taken at the step's middle, and
+``w**2/12`` is added; :mod:`spa.identification.edges`). The same leave-one-run-out
 estimates give each run's held-out FIT (:mod:`spa.identification.adequacy`).
 """
 
@@ -32,6 +33,7 @@ import pandas as pd
 from numba import njit
 from scipy.optimize import least_squares
 
+from spa.identification.edges import EdgeTiming, edge_timing
 from spa.identification.longrun import andrews_bandwidth, newey_west
 from spa.identification.rates import _arrays
 from spa.identification.results import _Z95, FloatArray
@@ -54,6 +56,9 @@ NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
 # A run informs a parameter when it carries at least this share of the parameter's
 # information (its squared Jacobian column).
 _INFORM_SHARE = 0.01
+# The rule of a run nothing decided (:mod:`spa.identification.edges`).
+_UNDECIDED = EdgeTiming("undecided", "not decidable", 0.0)
+
 # Noise floor (bar) so that noise-free synthetic data stay well posed.
 _NOISE_FLOOR = 1e-6
 
@@ -86,9 +91,14 @@ class RefineRun:
         Median logging step, s.
     edge_width : float
         Width of the interval in which each logged edge lies, s (the logging step less the
-        command's own step when it is known).
+        command's own step when it is known; 0 for edges logged on the command's tick).
     n_on, n_off : int
         Rising and falling command edges.
+    timing : EdgeTiming
+        The run's edge-timing rule (:mod:`spa.identification.edges`).
+    edge_shift : numpy.ndarray
+        How much earlier than logged each command run starts, s (0 for the first; half the
+        logging step for an edge that lies off the log's ticks).
     """
 
     rid: str
@@ -107,12 +117,16 @@ class RefineRun:
     edge_width: float
     n_on: int
     n_off: int
+    timing: EdgeTiming = field(default_factory=lambda: EdgeTiming("undecided", "", 0.0))
+    edge_shift: FloatArray = field(default_factory=lambda: np.zeros(0), repr=False)
 
     def model(self, prm: ValveParams, delay: str = "hold") -> FloatArray:
         """Block means of the exact model's pressure at the run's sample times."""
         hold = np.where(self.level, prm.t_on, prm.t_off)
         hold[0] = 0.0
         starts, level = self.starts, self.level
+        if self.edge_shift.size == starts.size and self.edge_shift.any():
+            starts = starts - self.edge_shift
         if delay == "transport":
             starts, level = transport_runs(starts, level, hold)
             hold = np.zeros(starts.size)
@@ -206,6 +220,7 @@ def prepare_runs(
     window: float = 0.01,
     max_samples: int = 5000,
     total_samples: int = 150_000,
+    edges: Mapping[str, EdgeTiming] | None = None,
 ) -> list[RefineRun]:
     """The runs with a ``valve`` column, with their blocks, noise and edge uncertainty.
 
@@ -216,9 +231,8 @@ def prepare_runs(
     modulators : mapping, optional
         Run id → modulator type, for the per-modulator adequacy.
     command_dt : mapping, optional
-        Run id → the command's own step (the controller's), s. When it is known the logged
-        edges lie within ``dt_log - command_dt`` of their true time, else within a whole
-        logging step.
+        Run id → the command's own step (the controller's), s: at or above the logging step
+        the logged edges are the true ones (:func:`spa.identification.edges.edge_timing`).
     window : float, optional
         Block length in s on runs without a modulator (pulse, charge, discharge).
     max_samples : int, optional
@@ -227,6 +241,9 @@ def prepare_runs(
     total_samples : int, optional
         Samples over all runs: with many runs each keeps ``total_samples / runs`` (at least
         1 000, at most ``max_samples``).
+    edges : mapping, optional
+        Run id → its edge-timing rule (:func:`spa.identification.edges.dataset_edge_timing`);
+        a run without one is decided from ``command_dt`` alone, else ``undecided``.
 
     Returns
     -------
@@ -236,6 +253,17 @@ def prepare_runs(
     """
     out = []
     usable = [r for r in sorted(runs) if "valve" in runs[r].columns and len(runs[r]) >= 10]
+    # A run whose valve never switches shows no edge. Only a log on the command's tick starts
+    # where its command did (a simulated run, a controller that logs itself from the command
+    # on); any other (a charge logged from some time after the command) cannot be replayed
+    # from its first sample, and the closed-form fits take its onset as a nuisance instead.
+    usable = [
+        r
+        for r in usable
+        if runs[r]["valve"].nunique() > 1
+        or (edges or {}).get(r, _UNDECIDED).rule == "on_tick"
+        or (command_dt or {}).get(r)
+    ]
     cap = max(1000, min(max_samples, total_samples // max(len(usable), 1)))
     for rid in usable:
         table = runs[rid]
@@ -253,8 +281,11 @@ def prepare_runs(
         stride = max(1, math.ceil(tt.size / cap))
         block = max(1, round(span / (dt * stride)))
         ts, ps = tt[::stride], p[::stride]
-        cdt = (command_dt or {}).get(rid)
-        width = dt if cdt is None or not cdt > 0 else max(dt - float(cdt), 0.0)
+        timing = (edges or {}).get(rid)
+        if timing is None:
+            cdt = (command_dt or {}).get(rid)
+            timing = edge_timing(table, {"controller_dt": cdt} if cdt else {}, dt)
+        shift = np.concatenate(([0.0], timing.shifts(k.size - 1)))
         out.append(
             RefineRun(
                 rid=rid,
@@ -270,9 +301,11 @@ def prepare_runs(
                 y=block_means(ps, block),
                 noise=_noise_sd(p[:50_000]),
                 dt=dt,
-                edge_width=width,
+                edge_width=timing.width,
                 n_on=int(np.sum(level[1:])),
                 n_off=int(np.sum(~level[1:])),
+                timing=timing,
+                edge_shift=shift,
             )
         )
     return out
@@ -323,6 +356,10 @@ class RefineFit:
     converged: bool
     runs: tuple[RefineRun, ...] = field(repr=False, default=())
     se_difference: float = math.nan
+
+    def final_models(self) -> list[FloatArray]:
+        """Each run's model block means at the fitted parameters (residuals: ``y - model``)."""
+        return [r.model(self.params, self.delay) for r in self.runs]
 
     def heldout_median(self) -> float:
         """Median held-out FIT over the runs (NaN when none is finite)."""

@@ -73,6 +73,9 @@ class Estimate:
     spread : mapping or None
         For ``t_on``, ``t_off``: statistics of the per-edge delays (``n``, ``sd``, ``median``,
         ``min``, ``max``, in s).
+    resolved : bool
+        False for a delay the data do not resolve: the interval is what is known, and every
+        design uses it (its worst case, ``hi``, and the box's corners), never ``value`` alone.
     """
 
     value: float
@@ -83,6 +86,7 @@ class Estimate:
     method: str = ""
     fallback: str | None = None
     spread: Mapping[str, float] | None = None
+    resolved: bool = True
 
     def contains(self, x: float) -> bool:
         """Whether ``x`` lies in the 95 % interval (False for a fallback)."""
@@ -101,6 +105,8 @@ class Estimate:
         }
         if self.spread is not None:
             out["spread"] = {k: float(v) for k, v in self.spread.items()}
+        if not self.resolved:
+            out["resolved"] = False
         return out
 
 
@@ -142,6 +148,8 @@ class ChargeFit(_RateFit):
     points : pandas.DataFrame
         ``run``, ``t``, ``p`` (smoothed, bar), ``dpdt`` (bar/s), ``used`` (bool): every grid
         point of every run after the valve opened, for Fig. 2a.
+    residuals : mapping
+        Run id → residuals of the closed form over the run's fit span, bar.
     """
 
     k2: Estimate
@@ -152,6 +160,7 @@ class ChargeFit(_RateFit):
     n_points: int
     window: float
     points: pd.DataFrame = field(repr=False)
+    residuals: Mapping[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -174,6 +183,8 @@ class DischargeFit(_RateFit):
         Savitzky–Golay window used, s (the shortest over the runs; see :func:`fit_discharge`).
     points : pandas.DataFrame
         ``run``, ``t``, ``p``, ``dpdt``, ``used``, for Fig. 2b.
+    residuals : mapping
+        Run id → residuals of the closed form over the run's fit span, bar.
     """
 
     c1: Estimate
@@ -184,6 +195,7 @@ class DischargeFit(_RateFit):
     n_points: int
     window: float
     points: pd.DataFrame = field(repr=False)
+    residuals: Mapping[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -264,6 +276,15 @@ class IdentificationResult:
         :class:`spa.identification.adequacy.Adequacy` as a mapping.
     warnings : tuple of str
         What the data could not resolve and what to record to resolve it.
+    checks : dict or None
+        The residuals' whiteness (Ljung) per run and the repeats' agreement
+        (:mod:`spa.identification.diagnostics`).
+    noise : dict or None
+        ``sensor`` (bar, where nothing moves), ``method``, ``upper_bound`` and
+        ``model_residual`` (the refined model's RMS residual, bar: not the sensor's).
+    valve_edges : dict or None
+        The edge-timing rule used: ``rule`` and each run's
+        (:mod:`spa.identification.edges`).
     """
 
     c1: Estimate
@@ -281,6 +302,9 @@ class IdentificationResult:
     delay_difference: Estimate | None = None
     adequacy: Mapping[str, Any] | None = None
     warnings: tuple[str, ...] = ()
+    checks: Mapping[str, Any] | None = field(default=None, repr=False)
+    noise: Mapping[str, Any] | None = None
+    valve_edges: Mapping[str, Any] | None = None
 
     @property
     def delay(self) -> str:
@@ -335,6 +359,12 @@ class IdentificationResult:
             out["delay_difference"] = self.delay_difference.to_dict()
         if self.adequacy is not None:
             out["adequacy"] = dict(self.adequacy)
+        if self.valve_edges is not None:
+            out["valve_edges"] = dict(self.valve_edges)
+        if self.noise is not None:
+            out["noise"] = dict(self.noise)
+        if self.checks is not None:
+            out["checks"] = {k: v for k, v in self.checks.items() if k != "sentences"}
         out["warnings"] = list(self.warnings)
         return out
 

@@ -386,11 +386,13 @@ STAGES: tuple[Stage, ...] = (
             "chosen), for this dataset's identified valve (SIMC on the averaged model's local "
             "gain, time constant and dead time); closed_loop/controllers.yaml holds the gains "
             "of every setting (fixed, gain-scheduled, and gain-scheduled with feed-forward) "
-            "and the settings left out on this valve, each with its reason. It is the "
-            "closed-loop recommendation, judged on the promise verified over the 95 % box "
-            "(worst overshoot and settling), not on open-loop linearity: feedback corrects a "
-            "curved static map but not the modulator's delay and ripple, so it may differ from "
-            "the open-loop recommendation above.",
+            "and the settings left out on this valve, each with its reason. When the promise "
+            "over the 95 % box holds only at a longer tau_c, the chosen entry, the sentence and "
+            "the header are the loop designed there; the design at the stage's tau_c is kept "
+            "under for_comparison. It is the closed-loop recommendation, judged on the promise "
+            "verified over the 95 % box (worst overshoot and settling), not on open-loop "
+            "linearity: feedback corrects a curved static map but not the modulator's delay and "
+            "ripple, so it may differ from the open-loop recommendation above.",
             required=False,
         ),
         Output(
@@ -406,7 +408,8 @@ STAGES: tuple[Stage, ...] = (
             "experiment box_95: the chosen loop's worst case over the 95 % box (and its "
             "robust tau_c); supply_drop and sensor_noise: each setting's recovery from a 10 % "
             "drop of k2 and the ripple the sensor's noise adds (robust.csv has them by "
-            "setting).",
+            "setting). A controller named '... (for comparison, not shipped)' is the stage's "
+            "design at its tau_c, kept beside the shipped loop at a longer one.",
             required=False,
         ),
         Output(
@@ -419,9 +422,11 @@ STAGES: tuple[Stage, ...] = (
             "the time until the cycle-mean pressure is back within 2 % of it from the same "
             "run without the drop, NaN: not before the level ends; the dip and the "
             "steady-state error after it, bar) and the "
-            "sensor's noise (the pulse fit's RMS) read by the controller (the actuator's "
-            "added ripple, median over the steps, bar). The chosen setting's row also holds "
-            "the worst case over the staircase with the plant at every corner of the "
+            "sensor's noise (params.yaml's noise.sensor; without it, unknown, and the pulse "
+            "fit's residual is used as its upper bound) read by the controller (the "
+            "actuator's added ripple, median over the steps, bar). The chosen setting's row "
+            "is the shipped loop's (the header's) and also holds "
+            "its worst case over the staircase with the plant at every corner of the "
             "identification's 95 % box (PI designed at the estimate) and the robust tau_c: "
             "the shortest tau_c*1.5^j whose worst overshoot is at most 10 % (NaN: none up to "
             "8 tau_c; docs/model.md section 8).",

@@ -12,10 +12,13 @@ datasets with their first errors (:func:`dataset_failures`), and the final ``che
 
 A status file is ``{"stage", "dataset", "ok", "errors": [...], "upstream"}`` (with
 ``warnings`` and ``skipped``, the parts of a stage that worked left out by name with their
-reason: :class:`Skipped`, when there are any); ``upstream`` names
+reason: :class:`Skipped`, when there are any, and ``no_runs``, what of the stage had no runs
+of its kind to analyse: :class:`NoRuns`); ``upstream`` names
 the earlier stage that failed when this one was skipped for it. A stage that failed itself also
-records whose fault it was, ``"fault": "data"`` or ``"stage"`` (:func:`data_fault`): the report
-tells the user to fix the data only for the first.
+records whose fault it was (:func:`fault_of`): ``"data"`` when the dataset breaks the contract
+that ``spa validate`` checks, ``"lacking"`` when the data pass validation but lack what the
+stage needs (its error's message says what), ``"stage"`` otherwise. The report tells the user
+to fix the data only for the first.
 
 An error of the machine rather than of the data (a full disk or quota, a file too large for
 ``ulimit -f``, a read-only or forbidden results folder, memory exhausted:
@@ -36,17 +39,19 @@ import sys
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from spa.errors import ENVIRONMENT_ERRNOS, RunError
+from spa.pipeline.notes import NoRuns, Skipped
 
 __all__ = [
     "DATA_ERRORS",
     "ENVIRONMENT_ERRNOS",
+    "LACKING_ERRORS",
     "STATUS_DIR",
     "EnvironmentFailure",
+    "NoRuns",
     "RunError",
     "Skipped",
     "anticipated",
@@ -55,6 +60,7 @@ __all__ = [
     "dataset_statuses",
     "environment_error",
     "failure_summary",
+    "fault_of",
     "guard_environment",
     "naming_run",
     "read_status",
@@ -63,29 +69,6 @@ __all__ = [
     "write_placeholder",
     "write_status",
 ]
-
-
-@dataclass(frozen=True)
-class Skipped:
-    """A stage's warning that names a part of its work left out on this dataset, and why.
-
-    A stage's work returns it among its warnings (:func:`run_stage`) when a property of the
-    valve or the data rules one part out (the sine stage's linear reference of a setting
-    that cannot work on the valve) while the rest is done. The status records it under
-    ``skipped`` (``part -> reason``) and, as text, among ``warnings``; the report names it
-    on the page.
-
-    Examples
-    --------
-    >>> str(Skipped("linear reference", "no setting gives a finite tau_m"))
-    'linear reference skipped: no setting gives a finite tau_m'
-    """
-
-    part: str
-    reason: str
-
-    def __str__(self) -> str:
-        return f"{self.part} skipped: {self.reason}"
 
 
 #: Folder of a dataset's results holding one ``<stage>.json`` per stage.
@@ -169,42 +152,75 @@ def anticipated(exc: BaseException) -> bool:
     return isinstance(exc, ValueError) and type(exc).__module__.startswith("spa.")
 
 
-#: spa's error classes that say the recordings are at fault (:func:`data_fault`).
-DATA_ERRORS = frozenset({"DatasetError", "RunError", "IdentificationError"})
+#: spa's error classes that say the recordings break the contract ``spa validate`` checks
+#: (:func:`data_fault`).
+DATA_ERRORS = frozenset({"DatasetError"})
+
+#: spa's error classes that say data which ``spa validate`` accepts lack what a stage needs
+#: (a missing run, too few samples, a run that is not what its kind says): :func:`fault_of`.
+LACKING_ERRORS = frozenset({"RunError", "IdentificationError"})
+
+
+def _spa_classes(exc: BaseException) -> set[str]:
+    return {c.__name__ for c in type(exc).__mro__ if c.__module__.startswith("spa.")}
+
+
+def _wraps_a_bug(exc: BaseException) -> bool:
+    """A ``RunError`` that only wraps another library's error (:func:`naming_run` around an
+    ``IndexError`` from numpy): nothing says the data is wrong."""
+    cause = exc.__cause__
+    return isinstance(exc, RunError) and cause is not None and not anticipated(cause)
 
 
 def data_fault(exc: BaseException) -> bool:
-    """Whether a stage's failure is the data's: the user must fix the dataset.
+    """Whether a stage's failure is the data's: the dataset fails validation, and the user
+    must fix it.
 
-    The rule is the error's class. The data is at fault when spa raised one of
-    :data:`DATA_ERRORS` (or a subclass) about it: ``DatasetError`` (the dataset breaks the
-    contract of raw/README.md: what ``spa validate`` and the ingest refuse), ``RunError`` (a
-    run is not what its kind says) and ``IdentificationError`` (the recordings cannot
-    identify the valve: a missing run, too few samples, a valve that never opens). A
-    ``RunError`` that only wraps another library's error (:func:`naming_run` around an
-    ``IndexError`` from numpy) is not: nothing says the data is wrong. Every other error is
+    The rule is the error's class. The data is at fault only when spa raised one of
+    :data:`DATA_ERRORS` (or a subclass) about it: ``DatasetError``, the dataset breaks the
+    contract of raw/README.md (what ``spa validate`` and the ingest refuse). An
+    ``IdentificationError`` or a ``RunError`` is raised on data that validation accepted:
+    the data lack what the stage needs (:func:`fault_of` says ``"lacking"``), and the report
+    says what, in the error's own words, and that validation passed. Every other error is
     the stage's: a ``TuningError`` or a design that cannot use the identification's own
-    output, a ``ConfigError`` (the config, not the data), a bug. Then the data passed
-    validation, and the report says the stage failed on it rather than "fix the data".
+    output, a ``ConfigError`` (the config, not the data), a bug.
 
     Examples
     --------
-    >>> data_fault(RunError("run 's1' (staircase): u goes down"))
+    >>> from spa.datasets import DatasetError
+    >>> data_fault(DatasetError("raw/d", []))
     True
+    >>> data_fault(RunError("run 's1' (staircase): u goes down"))
+    False
     >>> data_fault(IndexError("index 0 is out of bounds for axis 0 with size 0"))
     False
+    """
+    return bool(_spa_classes(exc) & DATA_ERRORS) and not _wraps_a_bug(exc)
+
+
+def fault_of(exc: BaseException) -> str:
+    """Whose fault a stage's failure is: ``"data"`` (validation fails: :func:`data_fault`),
+    ``"lacking"`` (data that validation accepts lack what the stage needs:
+    :data:`LACKING_ERRORS`) or ``"stage"``.
+
+    Examples
+    --------
+    >>> fault_of(RunError("run 's1' is labelled staircase but u goes down"))
+    'lacking'
     >>> try:
     ...     with naming_run("s1", "staircase"):
     ...         [][0]
     ... except RunError as exc:
-    ...     data_fault(exc)
-    False
+    ...     fault_of(exc)
+    'stage'
+    >>> fault_of(KeyError("k2"))
+    'stage'
     """
-    own = [c for c in type(exc).__mro__ if c.__module__.startswith("spa.")]
-    if not any(c.__name__ in DATA_ERRORS for c in own):
-        return False
-    cause = exc.__cause__
-    return not (isinstance(exc, RunError) and cause is not None and not anticipated(cause))
+    if data_fault(exc):
+        return "data"
+    if _spa_classes(exc) & LACKING_ERRORS and not _wraps_a_bug(exc):
+        return "lacking"
+    return "stage"
 
 
 def _environment_message(what: str, cause: str) -> str:
@@ -271,8 +287,9 @@ def write_status(
 ) -> dict[str, Any]:
     """Write a stage's status file; ``errors`` empty means it worked (``warnings``, such as
     an implausible supply pressure, are recorded when there are any, the :class:`Skipped`
-    among them also as ``skipped``, part -> reason; ``fault``, ``"data"`` or ``"stage"``,
-    whose fault a failure is: :func:`data_fault`)."""
+    among them also as ``skipped``, part -> reason, the :class:`NoRuns` as ``no_runs``;
+    ``fault``, ``"data"``, ``"lacking"`` or
+    ``"stage"``, whose fault a failure is: :func:`fault_of`)."""
     errs = [str(e) for e in errors][:_MAX_ERRORS]
     status: dict[str, Any] = {
         "stage": stage,
@@ -283,13 +300,16 @@ def write_status(
     }
     if errs and fault is not None:
         status["fault"] = fault
-    given = [w for w in warnings if isinstance(w, str | Skipped)]
+    given = [w for w in warnings if isinstance(w, str | Skipped | NoRuns)]
     notes = [str(w) for w in given][:_MAX_ERRORS]
     if notes:
         status["warnings"] = notes
     skipped = {w.part: w.reason for w in given if isinstance(w, Skipped)}
     if skipped:
         status["skipped"] = skipped
+    empty = [w.to_mapping() for w in given if isinstance(w, NoRuns)]
+    if empty and not errs:
+        status["no_runs"] = empty
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(status, indent=1) + "\n")
@@ -362,8 +382,9 @@ def run_stage(
         The stage's name in :data:`spa.pipeline.outputs.STAGES`.
     work : callable
         Does the stage's work and writes every output but ``status``; it may return a list
-        of warnings (str, or :class:`Skipped` for a part left out), which the status records
-        (``warnings``, and ``skipped``).
+        of warnings (str, :class:`Skipped` for a part left out, :class:`NoRuns` for runs of
+        a kind the dataset lacks), which the status records (``warnings``, ``skipped``,
+        ``no_runs``).
     log : logging.Logger
         The job's log: the error and its traceback go there.
 
@@ -413,8 +434,7 @@ def run_stage(
         else:  # a bug: where it happened
             log.error("%s: stage %s failed:\n%s", dataset, stage, traceback.format_exc())
         _fill(smk, stage, errors[0])
-        fault = "data" if data_fault(exc) else "stage"
-        write_status(status_path, stage, dataset, errors, fault=fault)
+        write_status(status_path, stage, dataset, errors, fault=fault_of(exc))
         return False
     write_status(status_path, stage, dataset, warnings=notes or ())
     return True
@@ -510,13 +530,18 @@ def dataset_statuses(results: str | Path, dataset: str) -> dict[str, dict[str, A
 
 
 def failure_summary(failures: Mapping[str, list[dict[str, Any]]]) -> str:
-    """One paragraph per failed dataset: the stage that failed, whose fault (the data's or
-    the stage's, :func:`data_fault`) and its first errors."""
+    """One paragraph per failed dataset: the stage that failed, whose fault (the data's,
+    the data's lack on data that passed validation, or the stage's: :func:`fault_of`) and
+    its first errors."""
     lines = []
     for name, records in failures.items():
         first = next((r for r in records if not r.get("upstream")), records[0])
         fault = first.get("fault")
-        whose = {"data": " (the data: fix it)", "stage": " (the stage, not the data)"}
+        whose = {
+            "data": " (the data: fix it)",
+            "lacking": " (validation passed; the data lack what the stage needs)",
+            "stage": " (the stage, not the data)",
+        }
         lines.append(f"dataset {name}: stage {first['stage']} failed{whose.get(fault, '')}")
         lines += [f"  {e}" for e in first.get("errors", [])[:5]]
         skipped = [r["stage"] for r in records if r.get("upstream")]

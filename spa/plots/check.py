@@ -14,7 +14,10 @@ what is wrong; an empty list is a pass. :func:`figure_problems` runs them all.
 * :func:`shared_styles`: two series of one axes share colour, line style and marker;
 * :func:`cut_off`: a title, label, annotation or legend reaches past the figure's edge (the
   saved image would cut it);
-* :func:`legend_over_titles`: a legend's box covers an axes' title or the figure's title.
+* :func:`legend_over_titles`: a legend's box covers an axes' title or the figure's title;
+* :func:`empty_parentheses`: a text of the figure (a legend entry, a title, a label, a note)
+  holds parentheses with nothing inside, an optional remark left out
+  (:func:`spa.plots.words.noted`).
 
 :func:`caption_problems` (of :mod:`spa.plots.caption_check`, exported here too) reads a
 caption against the figure: each colour, line style and marker it names (in the words of
@@ -34,6 +37,7 @@ Examples
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -61,6 +65,7 @@ if TYPE_CHECKING:
 __all__ = [
     "caption_problems",
     "cut_off",
+    "empty_parentheses",
     "figure_problems",
     "legend_over_titles",
     "legend_overlaps",
@@ -106,7 +111,35 @@ def figure_problems(fig: Figure) -> list[str]:
         *shared_styles(fig),
         *_cut_off(fig, renderer),
         *_legend_over_titles(fig, renderer),
+        *empty_parentheses(fig),
     ]
+
+
+_EMPTY_PARENS = re.compile(r"\(\s*\)")
+
+
+def empty_parentheses(fig: Figure) -> list[str]:
+    """Every text of ``fig`` (legend entries and titles, axes titles and labels, notes, the
+    figure's title) that holds ``()``: an optional parenthetical left empty.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure(figsize=(4, 3))
+    >>> ax = fig.add_subplot()
+    >>> _ = ax.plot([0, 1], [0, 1], label="no discharge fit ()")
+    >>> _ = ax.legend()
+    >>> empty_parentheses(fig)
+    ["text 'no discharge fit ()' has empty parentheses"]
+    """
+    from matplotlib.text import Text
+
+    found = []
+    for text in fig.findobj(Text):
+        words = text.get_text()
+        if text.get_visible() and _EMPTY_PARENS.search(words):
+            found.append(f"text {words!r} has empty parentheses")
+    return list(dict.fromkeys(found))
 
 
 @fill_doc

@@ -32,6 +32,7 @@ __all__ = [
     "SETTING_MARKERS",
     "SET_POINT_STYLE",
     "STEP_STYLES",
+    "noted",
     "shade_words",
 ]
 
@@ -97,6 +98,21 @@ STEP_STYLES: Final[dict[str, tuple[str, str]]] = {"up": ("-", "filled"), "down":
 
 #: The set-point's line in Fig. 10: colour (grey), line style.
 SET_POINT_STYLE: Final = ("0.6", ":")
+
+
+def noted(text: str, note: str) -> str:
+    """``text`` with ``note`` in parentheses after it, or ``text`` alone when ``note`` is
+    blank: a legend or a title never shows empty parentheses.
+
+    Examples
+    --------
+    >>> noted("d: no discharge fit", "k2 from the fallback")
+    'd: no discharge fit (k2 from the fallback)'
+    >>> noted("d: no discharge fit", "")
+    'd: no discharge fit'
+    """
+    note = note.strip()
+    return f"{text} ({note})" if note else text
 
 
 def shade_words(amount: float) -> str:

@@ -15,7 +15,14 @@ from spa.io import PNG_DPI, dump_yaml, read_yaml
 from spa.pipeline.outputs import STAGES, section_outputs
 from spa.pipeline.stage_types import FIGURE, FIGURES, PARAMS, RECOMMENDATION, Output
 from spa.pipeline.status import dataset_failures, dataset_statuses
-from spa.report.failure import failed_here, failure_box, skipped_note, stage_note
+from spa.report.failure import (
+    failed_here,
+    failure_box,
+    no_runs_for,
+    no_runs_note,
+    skipped_note,
+    stage_note,
+)
 from spa.report.html import (
     STYLE,
     embed_png,
@@ -172,7 +179,9 @@ def _section(
     the outputs of a stage that failed or was skipped are placeholders, not shown; one line
     naming the stage and its message stands in their place (:func:`spa.report.failure.stage_note`).
     A stage that worked but left a part out names it before its first output
-    (:func:`spa.report.failure.skipped_note`).
+    (:func:`spa.report.failure.skipped_note`). The outputs of a stage (or part) with no runs
+    of its kind (its status's ``no_runs``) are not shown: one line says "no runs" in their
+    place (:func:`spa.report.failure.no_runs_note`).
     """
     parts: list[str] = []
     toc: list[tuple[str, str]] = []
@@ -184,7 +193,8 @@ def _section(
 
     def place(item: Output) -> tuple[bool, int]:
         # the key item (Table 3) first when its stage worked; else in its stage's place
-        first = item.key_item and not failed_here(states.get(owner(item)))
+        status = states.get(owner(item))
+        first = item.key_item and not failed_here(status) and no_runs_for(status, item.path) is None
         return not first, order.get(owner(item), -1)
 
     noted: set[str] = set()
@@ -198,6 +208,15 @@ def _section(
                 parts.append(stage_note(stage, status or {}, anchor))
                 what = "not run" if (status or {}).get("upstream") else "failed"
                 toc.append((anchor, f"Stage {stage}: {what}"))
+            continue
+        empty = no_runs_for(status, item.path)
+        if empty is not None:  # no runs of its kind: one line, not an empty table or figure
+            key = f"{stage}:{empty.get('kind')}"
+            if key not in noted:
+                noted.add(key)
+                anchor = unique_anchor(f"{prefix}-stage-{stage}-no-runs", taken)
+                parts.append(no_runs_note(stage, empty, anchor))
+                toc.append((anchor, f"Stage {stage}: no runs"))
             continue
         if not drawn and item.kind == FIGURE:
             continue

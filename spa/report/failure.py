@@ -4,16 +4,19 @@ A dataset's page shows the outputs of every stage that worked. In place of a fai
 outputs (placeholders, :func:`spa.pipeline.status.write_placeholder`) it names the stage and
 its one-line message; a stage skipped because an earlier one failed says so in one line
 (:func:`stage_note`). The box naming the failure (:func:`failure_box`, on the page and in the
-index's *Failed datasets*) says "fix the data" only when the data is at fault: the stage
-recorded ``"fault": "data"`` (:func:`spa.pipeline.status.data_fault`, by the error's class);
-otherwise it says that the stage failed on data the earlier stages accepted, and where its
-log is.
+index's *Failed datasets*) says "fix the data" only when the data is at fault, that is when
+validation fails: the stage recorded ``"fault": "data"`` (:func:`spa.pipeline.status.fault_of`,
+by the error's class). Data that ``spa validate`` accepts but that lack what a stage needs
+(``"fault": "lacking"``: an identification that the runs cannot support) get what they lack,
+in the error's own words, and that validation passed; otherwise the box says that the stage
+failed on data the earlier stages accepted, and where its log is.
 """
 
 from __future__ import annotations
 
 import html
 from collections.abc import Mapping
+from pathlib import PurePosixPath
 from typing import Any
 
 from spa.pipeline.outputs import STAGES
@@ -22,6 +25,8 @@ __all__ = [
     "failed_here",
     "failure_box",
     "first_failure",
+    "no_runs_for",
+    "no_runs_note",
     "one_line",
     "skipped_note",
     "stage_note",
@@ -96,6 +101,44 @@ def stage_note(stage: str, status: Mapping[str, Any], anchor: str) -> str:
     )
 
 
+def no_runs_for(status: Mapping[str, Any] | None, path: str) -> dict[str, Any] | None:
+    """The ``no_runs`` record of a stage's status (:class:`spa.pipeline.status.NoRuns`) that
+    covers the output ``path`` (relative to ``results/<dataset>``), or None: that output is
+    an empty table or a figure saying "no runs", not shown.
+
+    Examples
+    --------
+    >>> status = {"ok": True, "no_runs": [{"kind": "staircase", "message": "no staircase "
+    ...     "runs in this dataset", "paths": []}]}
+    >>> no_runs_for(status, "staircase/table3.csv")["kind"]
+    'staircase'
+    >>> no_runs_for({"ok": True}, "staircase/table3.csv") is None
+    True
+    """
+    for record in (status or {}).get("no_runs") or []:
+        if not isinstance(record, Mapping):
+            continue
+        paths = [str(p) for p in record.get("paths") or []]
+        if not paths or path in paths or str(PurePosixPath(path).parent) in paths:
+            return dict(record)
+    return None
+
+
+def no_runs_note(stage: str, record: Mapping[str, Any], anchor: str) -> str:
+    """One line in place of the outputs of a stage (or part of one) with no runs of its kind.
+
+    Examples
+    --------
+    >>> print(no_runs_note("sine", {"message": "no sine runs in this dataset"}, "a"), end="")
+    <p class="note stage-no-runs" id="a">Stage <code>sine</code> (Sine): no sine runs in this dataset; nothing to show.</p>
+    """  # noqa: E501
+    message = html.escape(str(record.get("message") or "no runs"))
+    return (
+        f'<p class="note stage-no-runs" id="{anchor}">Stage {_label(stage)}: {message}; '
+        "nothing to show.</p>\n"
+    )
+
+
 def skipped_note(stage: str, status: Mapping[str, Any] | None) -> str:
     """One line naming the parts a stage that worked left out on this dataset, with why
     (its status's ``skipped``, :class:`spa.pipeline.status.Skipped`); ``""`` when none.
@@ -118,8 +161,22 @@ def skipped_note(stage: str, status: Mapping[str, Any] | None) -> str:
 
 
 def _advice(name: str, first: Mapping[str, Any]) -> str:
-    """Fix the data when it is at fault; else say the stage failed on accepted data."""
+    """Fix the data when validation fails; say what the data lack when they passed it but
+    the stage needs more; else say the stage failed on accepted data.
+
+    Examples
+    --------
+    >>> print(_advice("d", {"fault": "lacking", "errors": ["IdentificationError: no charge run"]}))
+    <code>spa validate raw/d</code> accepts this dataset, so the data are not at fault: they lack what the stage needs: <code>IdentificationError: no charge run</code> Record what it names and run <code>snakemake reproduce-all</code> again.
+    """  # noqa: E501
     e = html.escape
+    if first.get("fault") == "lacking":
+        lack = one_line((first.get("errors") or [""])[0])
+        return (
+            f"<code>spa validate raw/{e(name)}</code> accepts this dataset, so the data are not "
+            f"at fault: they lack what the stage needs: <code>{e(lack)}</code> Record what it "
+            "names and run <code>snakemake reproduce-all</code> again."
+        )
     if first.get("fault") == "data":
         return (
             "The data is at fault: fix it (check a bench dataset with <code>spa validate "

@@ -132,6 +132,20 @@ def _lost_stages(folder: Path) -> set[str]:
     return lost
 
 
+def _no_runs(folder: Path) -> list[str]:
+    """The kinds of runs the stages of a dataset folder found none of (their status's
+    ``no_runs``, :class:`spa.pipeline.status.NoRuns`), in stage order."""
+    from spa.pipeline.outputs import STAGES
+    from spa.pipeline.status import STATUS_DIR, read_status
+
+    kinds: list[str] = []
+    for stage in STAGES:
+        status = read_status(folder / STATUS_DIR / f"{stage.name}.json") or {}
+        if status.get("ok", False):
+            kinds += [str(r.get("kind")) for r in status.get("no_runs") or [] if r.get("kind")]
+    return list(dict.fromkeys(kinds))
+
+
 def overview_row(
     folder: str | Path,
     name: str,
@@ -166,7 +180,8 @@ def overview_row(
     dict
         ``dataset``, ``recorded`` (ISO date or :data:`UNDATED`), ``rig``, ``valve``,
         ``status`` (``ok``
-        or ``failed: <stage>``), ``<p>``, ``<p>_lo``, ``<p>_hi`` for each parameter (SI units,
+        or ``failed: <stage>``, then ``; no runs: <kinds>`` when stages found no runs of
+        their kind), ``<p>``, ``<p>_lo``, ``<p>_hi`` for each parameter (SI units,
         NaN when missing), ``fit_median``, ``fit_min`` (%), ``recommended``, ``J``, ``J_exact``.
     """
     folder = Path(folder)
@@ -177,6 +192,9 @@ def overview_row(
         "valve": valve or rig,
         "status": f"failed: {failed}" if failed else "ok",
     }
+    missing = _no_runs(folder)
+    if missing:  # "ok" alone would stand over empty tables
+        row["status"] += f"; no runs: {', '.join(missing)}"
     lost = _lost_stages(folder) if failed else set()
     params = {} if "identify" in lost else _read_yaml(folder / "identification" / "params.yaml")
     for p in PARAM_NAMES:

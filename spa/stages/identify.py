@@ -13,6 +13,7 @@ from spa.io import dump_yaml, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
 from spa.plots.openloop import write_no_runs
 from spa.plots.save import draw
+from spa.plots.words import noted
 from spa.validation import validate_run
 
 __all__ = ["write_identification"]
@@ -56,14 +57,14 @@ def write_identification(
     ):
         png, csv = out.get(key), out.get(f"{key}_csv")
         if fit is None:
-            write_no_runs(f"{dataset}: no {kind} fit ({fallback})", [csv], [png])
+            write_no_runs(noted(f"{dataset}: no {kind} fit", fallback), [csv], [png])
             continue
         data = data_fn(fit)
         write_csv(data, csv)
         draw(png, fig_fn, data)
     pulse_ids = sorted(r for r, k in kinds.items() if k == "pulse")
     if not pulse_ids:
-        message = f"{dataset}: no pulse runs ({fallback})"
+        message = noted(f"{dataset}: no pulse runs", fallback)
         write_no_runs(message, [out.get("fig2c_csv")], [out.get("fig2c")])
         return
     trace = validate_run(runs[pulse_ids[0]], result.to_valve_params()).trace

@@ -11,7 +11,7 @@ from typing import Any
 
 from spa.datasets import read_runs
 from spa.io import get_logger, read_params
-from spa.pipeline.status import run_stage
+from spa.pipeline.status import NoRuns, run_stage
 from spa.stages._common import OpenLoopInputs
 
 __all__ = ["run_open_loop"]
@@ -37,7 +37,9 @@ def run_open_loop(
     Returns
     -------
     bool
-        :func:`spa.pipeline.status.run_stage`'s: True when the stage ran and succeeded.
+        :func:`spa.pipeline.status.run_stage`'s: True when the stage ran and succeeded. A
+        dataset without runs of the stage's kind succeeds with
+        :class:`~spa.pipeline.status.NoRuns` in its status (the report says "no runs").
     """
     log = get_logger(stage, smk.log[0])
 
@@ -46,6 +48,9 @@ def run_open_loop(
         inputs = OpenLoopInputs(runs, metas, read_params(smk.input.params), smk.params.cfg)
         result = run(inputs, log)
         write(result, smk.output, smk.wildcards.dataset, log)
-        return getattr(result, "warnings", None)
+        notes = list(getattr(result, "warnings", None) or [])
+        if getattr(result, "empty", False):  # no runs of its kind: said, not "ok"
+            notes.append(NoRuns(stage))
+        return notes or None
 
     return run_stage(smk, stage, work, log)

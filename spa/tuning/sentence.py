@@ -39,7 +39,16 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
     'max_chattering (0.06 bar, limit 0.05 bar, 20 % over).'
     """
     best = rec.get("recommended")
+    unresolved = _unresolved_note(rec)
     if not best:
+        if unresolved:
+            return (
+                "No setting of any swept modulator can be recommended: "
+                + unresolved
+                + ", and no setting works over the whole interval. Record the valve command "
+                "on the pressure's clock (a pulse train logged with its valve column) and "
+                "identify again."
+            )
         return (
             "No setting of any swept modulator works on this valve: nothing to recommend "
             "(every setting's pulses are shorter than the valve's delays, or leave no input "
@@ -53,8 +62,22 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
     score = rec.get("score", "J")
     j, other = (best["J"], best["J_exact"]) if score == "J" else (best["J_exact"], best["J"])
     other_name = "J_exact" if score == "J" else "J"
+    lead = ""
+    if unresolved:
+        items = dict(rec.get("unresolved") or {})
+        names = " and ".join(items)
+        spans = ", ".join(
+            f"{n} in [{1e3 * lo:.3g}, {1e3 * hi:.3g}] ms" for n, (lo, hi) in items.items()
+        )
+        verb = "is" if len(items) == 1 else "are"
+        lead = (
+            f"{names} {verb} not resolved by the data: this is designed for the worst case of "
+            f"{spans}. Record the valve command on the pressure's clock (a pulse train logged "
+            "with its valve column) and identify again before relying on it. "
+        )
     return (
-        _violation_note(best)
+        lead
+        + _violation_note(best)
         + f"Use {best['description']} (dataset.yaml modulator: {{{setting}}}): "
         f"{score} = {n(j, '.2f', ' bar')} ({other_name} = {n(other, '.2f')}), dead-zone up to "
         f"xi = {n(pred['dead_zone'], '.2f')}, saturation from xi = "
@@ -66,6 +89,13 @@ def recommendation_sentence(rec: Mapping[str, Any]) -> str:
         + _passed_note(rec)
         + _adequacy_note(rec, best)
     )
+
+
+def _unresolved_note(rec: Mapping[str, Any]) -> str:
+    """The delays the data do not resolve and the interval designed over (``""``: none)."""
+    from spa.identification.identified import unresolved_clause
+
+    return unresolved_clause(rec.get("unresolved"))
 
 
 #: Units of the limits a recommendation can break, for its sentence.

@@ -189,6 +189,11 @@ def tune(
         "intervals": {k: list(v) for k, v in ident.intervals.items()},
         "fallback": dict(ident.fallback),
         **({"intervals_clipped": dict(ident.clipped)} if ident.clipped else {}),
+        **(
+            {"unresolved": {k: list(v) for k, v in ident.unresolved.items()}}
+            if ident.unresolved
+            else {}
+        ),
         "n_xi": n,
         **rec,
     }
@@ -197,7 +202,9 @@ def tune(
 
         kind = str(best["setting"].get("type", "")) if best else ""
         rec["adequacy"] = dict(ident.adequacy)
-        rec["verified"] = bool(best) and not adequacy_clause(ident.adequacy, kind)
+        rec["verified"] = (
+            bool(best) and not adequacy_clause(ident.adequacy, kind) and not ident.unresolved
+        )
     rec["sentence"] = recommendation_sentence(rec)
     return TuningResult(ident, table1, data, table2, curves, candidates, rec)
 

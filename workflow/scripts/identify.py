@@ -2,7 +2,7 @@
 
 from spa.datasets import read_runs
 from spa.datasets.checks import k2_warning
-from spa.identification import identify_with_config, run_context
+from spa.identification import identify_with_config
 from spa.io import get_logger
 from spa.pipeline.status import run_stage
 from spa.stages.identify import write_identification
@@ -15,10 +15,9 @@ def main() -> list[str]:
     runs, metas = read_runs(snakemake.input.runs)
     kinds = {rid: m["kind"] for rid, m in metas.items()}
     config = {"identification": snakemake.params.cfg, "nominal": snakemake.params.nominal}
-    modulators, command_dt = run_context(metas)
     settings = {**config, "seed": snakemake.params.seed}
     result = identify_with_config(
-        runs, kinds, settings, modulators=modulators, command_dt=command_dt
+        runs, kinds, settings, metas=metas
     )
     for name, reason in result.fallback.items():
         log.warning("%s: FALLBACK to the nominal value for %s: %s", dataset, name, reason)

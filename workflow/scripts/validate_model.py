@@ -24,6 +24,8 @@ def main() -> None:
     write_csv(table.drop(columns="p0"), snakemake.output.fit)
     for row in table.itertuples():
         log.info("%s: FIT %.2f %%", row.run, row.fit_percent)
+    for rid, why in table.attrs.get("not_replayed", {}).items():
+        log.warning("%s: not replayed: %s", rid, why)
 
     if snakemake.output.get("figures") is None:  # the run draws no figures for this dataset
         return

@@ -1,12 +1,18 @@
-"""Delimited text (``.csv``, ``.txt``, ``.tsv``, ``.dat``): read in line-aligned blocks, each
-normalised (decoded, comment lines dropped, runs of blanks or decimal commas rewritten) and
-parsed by ``pyarrow.csv``. The options are those of ``csv:`` in ``dataset.yaml`` (see
-:mod:`spa.datasets.options`)."""
+"""Delimited text (``.csv``, ``.txt``, ``.tsv``, ``.dat``, ``.log``): read in line-aligned
+blocks, each normalised (decoded, comment lines dropped, runs of blanks or decimal commas
+rewritten) and parsed by ``pyarrow.csv``. The options are those of ``csv:`` in
+``dataset.yaml`` (see :mod:`spa.datasets.options`).
+
+A file whose first line (after ``skip_rows`` and comment lines) holds only numbers has no
+header: that line is data and the columns are named by position, ``col1``, ``col2``, ...
+(``csv: {header: false}`` says so whatever the first line holds; ``header: true`` reads it
+as the header whatever it holds)."""
 
 from __future__ import annotations
 
 import codecs
 import csv
+import re
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -16,7 +22,7 @@ import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from spa.datasets.options import WHITESPACE, csv_options
+from spa.datasets.options import POSITIONAL, WHITESPACE, csv_options
 from spa.datasets.readers.base import Source, _Chunk, _ReadError, _Retry, _text_to_float
 
 _CSV_BLOCK = 16 << 20  # bytes per CSV block read
@@ -37,6 +43,25 @@ def _ascii_compatible(codec: str) -> bool:
         return _PROBE.encode(codec) == _PROBE.encode("ascii")
     except (UnicodeError, LookupError):
         return False
+
+
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|[+-]?(nan|inf)", re.I)
+
+
+def numbers_only(fields: list[str], decimal: str = ".") -> bool:
+    """True when every field of a line is a number (or empty) and one at least is: a line of
+    data, not a header naming the columns.
+
+    Examples
+    --------
+    >>> numbers_only(["0.5", "12"]), numbers_only(["time_ms", "p"]), numbers_only(["0,5"], ",")
+    (True, False, True)
+    """
+    cells = [f.strip().strip('"').strip() for f in fields]
+    if decimal == ",":
+        cells = [c.replace(",", ".") for c in cells]
+    filled = [c for c in cells if c]
+    return bool(filled) and all(_NUMBER.fullmatch(c) for c in filled)
 
 
 def _squeeze_blanks(block: bytes) -> bytes:
@@ -105,6 +130,7 @@ class _CsvSource(Source):
         self.units: list[str] = []
         self.columns: list[str] = []
         self.header_line = 0
+        self.headerless = False  # no header line: columns named by position
         self._size = 1 << 16  # the first read is small: only the lines above the data
         above = self._data()
         next(above, None)
@@ -228,7 +254,14 @@ class _CsvSource(Source):
                                 f"line {line}, where the header should be, is empty; expected "
                                 "a header line naming the columns"
                             )
-                        self.columns = self._split(text.lstrip("\ufeff"))
+                        fields = self._split(text.lstrip("\ufeff"))
+                        if self._headerless(fields):  # the line is data: put it back
+                            self.headerless = True
+                            self.columns = [POSITIONAL.format(i + 1) for i in range(len(fields))]
+                            block = raw + block
+                            stage = 3
+                            continue
+                        self.columns = fields
                         self.header_line = line
                         stage = 2 if self.options["units_row"] else 3
                     else:
@@ -237,6 +270,26 @@ class _CsvSource(Source):
                 line += 1
             if block:
                 yield line, block
+
+    def _headerless(self, fields: list[str]) -> bool:
+        """True when the file has no header line: ``csv: {header: false}``, or, when
+        ``header`` is not given, a first line of numbers only (:func:`numbers_only`)."""
+        header = self.options.get("header")
+        if header is not None:
+            return not header
+        return not self.options["units_row"] and numbers_only(fields, self.options["decimal"])
+
+    def describe(self, name: str) -> str:
+        """The columns the file has, and, for a file without a header line, how they are
+        named."""
+        said = super().describe(name)
+        if not self.headerless:
+            return said
+        return (
+            f"{said} (no header line: the first line holds only numbers, so the columns are "
+            f"named by position, {POSITIONAL.format(1)}, {POSITIONAL.format(2)}, ...; "
+            "csv: {header: true} reads it as the header)"
+        )
 
     def _prepare(self, block: bytes, line: int) -> tuple[bytes, npt.NDArray[np.int64] | None]:
         """A block as UTF-8 ``pyarrow`` reads; the numbers of its lines when some were

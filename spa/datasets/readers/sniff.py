@@ -165,9 +165,53 @@ def _name(codec: str | None) -> str:
     return "UTF-8" if codec is None or codecs.lookup(codec).name == "utf-8" else codec
 
 
+#: A time of day and an arrow before every line: the Arduino IDE's serial monitor with
+#: "Show timestamp" on (``12:00:01.123 -> 0.52``).
+_SERIAL_PREFIX = re.compile(r"\s*\d{1,2}:\d{2}:\d{2}([.,]\d+)?\s*->\s?")
+
+
+def prefix_hint(path: Path) -> str:
+    """What to do when every line of a text file (but a header) starts with a serial
+    monitor's time stamp (``12:00:01.123 -> ``), which no ``csv:`` option reads; ``""``
+    otherwise.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "log.txt"
+    >>> _ = f.write_text("12:00:01.123 -> 0.52\\n12:00:01.143 -> 0.61\\n")
+    >>> prefix_hint(f)[:60]
+    '; every line starts with a time of day and an arrow, `12:00:'
+    """
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(_HEAD)
+    except OSError:
+        return ""
+    lines = _encoding(head)[1].splitlines()
+    if len(head) >= _HEAD and len(lines) > 1:
+        lines.pop()  # cut by the end of the head
+    lines = [x for x in lines if x.strip()]
+    body = lines[1:] if len(lines) > 1 else lines  # the first line may be a header
+    if not body or not all(_SERIAL_PREFIX.match(x) for x in body):
+        return ""
+    first = next(x for x in lines if _SERIAL_PREFIX.match(x))
+    example = _SERIAL_PREFIX.match(first).group(0).strip()  # type: ignore[union-attr]
+    return (
+        f"; every line starts with a time of day and an arrow, `{example} ` (a serial "
+        "monitor's time stamps, \"Show timestamp\" in the Arduino IDE), which spa does not "
+        "read: log without them, or strip them into a copy, e.g. "
+        "`sed -E 's/^ *[0-9:.,]+ *-> ?//' in.txt > out.txt` (keep the original), then "
+        "declare the step with sample_step"
+    )
+
+
 def csv_hint(path: Path, options: Mapping[str, Any]) -> str:
     """What the file looks like where it differs from ``options`` (the resolved ``csv:``
     options it was read with), and what to write; ``""`` when nothing differs."""
+    prefix = prefix_hint(path)
+    if prefix:  # no csv: option reads it: the other guesses would mislead
+        return prefix
     try:
         found = _sniff(path)
     except Exception:  # a hint is a courtesy: never let it hide the problem it explains

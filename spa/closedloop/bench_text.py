@@ -1,0 +1,130 @@
+"""The chosen loop's promise, margins, verdict and disturbances in one sentence
+(:func:`bench_sentence`, for :func:`spa.closedloop.bench.bench_outputs`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from spa._checks import float_or_nan as _num
+from spa.closedloop.choice import MAX_OVERSHOOT
+from spa.closedloop.disturbance import DROP
+
+__all__ = ["bench_sentence"]
+
+
+def bench_sentence(summary: Mapping[str, Any]) -> str:
+    """The chosen loop's promise, margins, verdict and disturbances, in words; never a NaN.
+
+    Examples
+    --------
+    >>> s = bench_sentence({"n_corners": 32, "tau_c": 0.2, "worst_rise_time": None,
+    ...   "worst_overshoot": 14.0, "tau_c_robust": None, "drop_level": 0.35,
+    ...   "recovery_time": None, "dip": 0.01, "noise": 0.005, "added_ripple_rms": 0.002})
+    >>> "nan" in s, "does not reach 90 %" in s
+    (False, True)
+    """
+
+    def num(key: str) -> float:
+        return _num(summary.get(key))
+
+    limit = num("max_overshoot")
+    if not math.isfinite(limit):
+        limit = MAX_OVERSHOOT
+    corners = num("n_corners")
+    n = int(corners) if math.isfinite(corners) else 0
+    over, rise = num("worst_overshoot"), num("worst_rise_time")
+    where = f"Over the identification's 95 % box ({n} corners)"
+    if summary.get("model_error"):
+        where += " merged with the model error measured on this dataset"
+    rise_text = (
+        f"its worst rise time is {rise:.2f} s" if math.isfinite(rise) else
+        "a step of one of its plants does not reach 90 %"
+    )  # fmt: skip
+    over_text = f"overshoot {over:.0f} %" if math.isfinite(over) else "overshoot unknown"
+    text = f"{where} at τ_c = {num('tau_c'):.3g} s, {rise_text} and {over_text}"
+    promise = summary.get("promise") or {}
+    if promise.get("kept"):
+        tau, hold = _num(promise.get("tau_c")), _num(promise.get("hold"))
+        settle, ripple = _num(promise.get("settling_time")), _num(promise.get("ripple_pp"))
+        text += (
+            f". Promise (the header, τ_c = {tau:.3g} s): on any plant within that box, overshoot "
+            f"≤ {_num(promise.get('overshoot')):.0f} % and every level within 2 % of its step "
+            f"by the end of a {hold:.1f} s hold"
+        )
+        if math.isfinite(settle):
+            text += f", settling (2 %) ≤ {settle:.2f} s"
+        elif math.isfinite(ripple):
+            text += ", though its cycle-mean pressure does not stay within 2 % on every level"
+        if math.isfinite(ripple):
+            text += f", ripple ≤ {ripple * 1e3:.0f} mbar peak-to-peak"
+    elif promise:
+        text += (
+            f". No promise: no τ_c tried keeps the overshoot within {limit:.3g} % with every "
+            "level settled on every plant of the box"
+        )
+    unresolved = summary.get("unresolved_delays") or {}
+    if isinstance(unresolved, Mapping) and unresolved.get("sentence"):
+        text += ". " + str(unresolved["sentence"]).rstrip(".")
+    margins = summary.get("margins") or {}
+    gm, dm = _num(margins.get("gain_margin")), _num(margins.get("delay_margin"))
+    if math.isfinite(gm) or math.isfinite(dm):
+        parts = []
+        if math.isfinite(gm):
+            parts.append(f"gain margin {gm:.2g}")
+        if math.isfinite(dm):
+            parts.append(f"delay margin {dm * 1e3:.0f} ms")
+        text += f"; {' and '.join(parts)} on the averaged model"
+    clause = str(summary.get("adequacy_clause") or "")
+    if "verified" in summary:
+        if summary.get("verified"):
+            text += ". Controller verified" + (f" ({clause})" if clause else "")
+        else:
+            text += ". Controller unverified" + (f": {clause}" if clause else "")
+    rec = num("recovery_time")
+    if math.isnan(rec):
+        back = "is not back within 2 % before the level ends"
+    elif rec == 0.0:
+        back = "stays within 2 % of the undisturbed run"
+    else:
+        back = f"is back within 2 % after {rec:.2f} s"
+    dip, noise, added = num("dip"), num("noise"), num("added_ripple_rms")
+    tail = f". After a {DROP * 100:.0f} % supply drop"
+    if math.isfinite(num("drop_level")):
+        tail += f" at {num('drop_level'):.2f} bar"
+    tail += f" the pressure dips {dip * 1e3:.0f} mbar and {back}" if math.isfinite(dip) else (
+        f" the pressure {back}"
+    )  # fmt: skip
+    if math.isfinite(noise) and math.isfinite(added):
+        tail += "; " + _noise_words(summary, noise, added)
+    return f"{text}{tail}. The C header is closed_loop/controller.h."
+
+
+def _noise_words(summary: Mapping[str, Any], noise: float, added: float) -> str:
+    """The sensor noise's clause: measured, an upper bound or unknown (``sensor_noise`` of
+    the summary, :meth:`spa.closedloop.noise.SensorNoise.to_mapping`), and the model residual
+    under its own name.
+
+    Examples
+    --------
+    >>> _noise_words({}, 0.005, 0.001)
+    'sensor noise of 5.0 mbar adds 1.00 mbar RMS ripple'
+    >>> _noise_words({"sensor_noise": {"value": 0.006, "source": "measured", "method": "still"
+    ...     " levels", "model_residual": 0.117}}, 0.006, 0.001)
+    'sensor noise of 6.0 mbar (still levels) adds 1.00 mbar RMS ripple (the model residual of the pulse fit, 117.0 mbar, is the model error and the noise together)'
+    """  # noqa: E501
+    from spa.closedloop.noise import SensorNoise
+
+    given = summary.get("sensor_noise")
+    given = given if isinstance(given, Mapping) else {}
+    residual = _num(given.get("model_residual"))
+    said = SensorNoise(noise, str(given.get("source") or "given"), str(given.get("method") or ""))
+    verb = "adds at most" if said.bound else "adds"
+    text = f"{said.words()} {verb} {added * 1e3:.2f} mbar RMS ripple"
+    if math.isfinite(residual) and said.source != "model_residual":
+        text += (
+            f" (the model residual of the pulse fit, {residual * 1e3:.1f} mbar, is the model "
+            "error and the noise together)"
+        )
+    return text
