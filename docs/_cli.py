@@ -15,7 +15,8 @@ def _subcommands(parser: argparse.ArgumentParser) -> list[tuple[str, str, argpar
     """``(name, one-line help, parser)`` of every command, in the parser's order."""
     for action in parser._actions:  # argparse has no public accessor for subparsers
         if isinstance(action, argparse._SubParsersAction):
-            helps = {a.dest: a.help or "" for a in action._choices_actions}
+            # argparse escapes "%" in help as "%%" (it formats help with %); the page must not
+            helps = {a.dest: (a.help or "").replace("%%", "%") for a in action._choices_actions}
             return [(name, helps.get(name, ""), sub) for name, sub in action.choices.items()]
     return []
 

@@ -22,6 +22,9 @@ ROOT = HERE.parent
 sys.path[:0] = [str(ROOT), str(HERE)]  # this checkout's spa, whatever the venv points at
 
 from _cli import write_cli_page  # noqa: E402
+from _gallery import write_gallery  # noqa: E402
+from _source import icon_links, repository_url, write_source_section  # noqa: E402
+from _summaries import extend_abbreviations  # noqa: E402
 
 import spa  # noqa: E402
 
@@ -57,13 +60,21 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb"}
 # docs/model.md is included by explanation/model.md; the generated pages of the old layout
 # (docs/api/) are not part of the site.
-exclude_patterns = ["_build", "**/.ipynb_checkpoints", "model.md", "api", "**/_work"]
+exclude_patterns = [
+    "_build", "**/.ipynb_checkpoints", "model.md", "api", "**/_work", "getting-started/_source.md"
+]  # fmt: skip
 root_doc = "index"
 
 # The CLI page, written before Sphinx reads the sources.
 write_cli_page(HERE / "reference" / "cli.md")
+# Where the source comes from: [project.urls] of pyproject.toml, the one place that says.
+REPOSITORY = repository_url(ROOT / "pyproject.toml")
+write_source_section(ROOT / "pyproject.toml", HERE / "getting-started" / "_source.md")
+# The gallery: every example of docs/gallery/ run now, its picture and page written.
+write_gallery(HERE / "gallery", ROOT)
 
 autosummary_generate = True
+extend_abbreviations()  # a summary does not stop at "(Eq." or "(App."
 autosummary_imported_members = False
 autodoc_default_options = {"members": False}
 autodoc_typehints = "none"  # numpydoc's Parameters section states the types
@@ -73,7 +84,7 @@ numpydoc_xref_param_type = False
 
 # Markdown (MyST); the pages of docs/getting-started and explanation/figures run at build
 # time, offline, on the bundled example; an error in a cell fails the build.
-myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
+myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
 nb_execution_mode = "force"
 nb_execution_timeout = 600
@@ -91,6 +102,7 @@ html_theme_options = {
     "secondary_sidebar_items": ["page-toc"],
     "footer_start": ["copyright"],
     "footer_end": [],
+    "icon_links": icon_links(REPOSITORY),  # none until [project.urls] names the repository
 }
 html_sidebars = {"index": []}
 # Offline: MathJax is loaded by the reader's browser; the build fetches nothing.

@@ -11,7 +11,8 @@ docs/ and benchmarks/ linked; raw/ holding a copy of the bundled example):
 - every other ``snakemake`` run (the full configuration, the cluster profile) as a dry run;
 - ``make TARGET`` as ``make -n TARGET`` in the repository (the target exists and its recipe
   expands);
-- a Python one-liner for real, a benchmark script with ``--help``.
+- a Python one-liner for real, a benchmark script with ``--help``;
+- ``python -m pip install .`` as a dry run in the repository.
 
 Placeholders are filled in: ``<name>`` and ``<dataset>`` are the bundled example,
 ``PARAMS.yaml`` its identified parameters. Only a few commands cannot run here (cloning,
@@ -53,8 +54,15 @@ _PLACEHOLDERS = {
 
 
 def documents() -> list[Path]:
-    """README.md and every Markdown page of the site."""
-    return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    """README.md and every Markdown page of the site, but the pages executed at build (their
+    shell blocks run there, in order, and in tests/test_getting_started.py)."""
+    pages = sorted((ROOT / "docs").rglob("*.md"))
+    return [ROOT / "README.md", *(p for p in pages if not _executed(p))]
+
+
+def _executed(page: Path) -> bool:
+    """Whether the page runs at build (a myst-nb notebook: ``file_format: mystnb``)."""
+    return "file_format: mystnb" in page.read_text(encoding="utf-8")[:300]
 
 
 def commands(text: str) -> list[str]:
@@ -150,6 +158,11 @@ def plan(command: str) -> tuple[list[str], str] | None:
         head = argv[0]
     if Path(head).name.startswith("python") and len(argv) > 1 and argv[1].endswith(".py"):
         return [argv[0], argv[1], "--help"], "work"  # a benchmark: it exists and parses
+    if Path(head).name.startswith("python") and argv[1:4] == ["-m", "pip", "install"]:
+        # the install page's notebook route, resolved without installing anything
+        # (tests/test_install_pip.py installs it into a scratch folder)
+        opts = ["--dry-run", "--no-deps", "--no-build-isolation", "--no-index", "--quiet"]
+        return [sys.executable, "-m", "pip", "install", *opts, *argv[4:]], "root"
     if head == "make":
         return ["make", "-n", *argv[1:]], "root"
     if head == "spa":

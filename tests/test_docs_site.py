@@ -189,3 +189,24 @@ def test_every_reference_entry_has_its_page(site):
     tune = _text(site, "reference/generated/spa.tune")
     assert "Parameters" in tune and "Returns" in tune and "TuningResult" in tune
     assert "c1" in _text(site, "reference/generated/spa.ValveParams")
+
+
+def _pages(site: Path) -> list[Path]:
+    return [
+        p
+        for p in site.rglob("*.html")
+        if p.relative_to(site).parts[0] not in ("_modules", "_sources", "_static")
+        and p.name not in ("genindex.html", "search.html", "py-modindex.html")
+    ]
+
+
+def test_no_rendered_page_shows_an_escaped_percent_or_two_titles(site):
+    escaped = [str(p.relative_to(site)) for p in _pages(site) if "%%" in p.read_text()]
+    assert escaped == []
+    titles = {
+        str(p.relative_to(site)): n
+        for p in _pages(site)
+        if (n := len(re.findall(r"<h1\b", p.read_text(encoding="utf-8")))) != 1
+    }
+    assert titles == {}, f"pages without exactly one H1: {titles}"
+    assert _text(site, "index").count("<dt") >= 4  # the front page's definition list

@@ -335,7 +335,7 @@ def controller_header(
 def arduino_sketch(
     header: str = "controller.h", prefix: str = "spa_ctrl", setpoint: float = 0.4
 ) -> str:
-    """A minimal Arduino-style sketch around the header ``header`` (file name);
+    """A minimal Arduino-style sketch that includes the file named ``header``;
     ``setpoint`` (bar) is its default set-point (choose one the loop holds).
 
     Examples

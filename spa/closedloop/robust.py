@@ -267,7 +267,7 @@ def robust_design(
     gains: Sequence[float] = (1.0,),
     schedule: Sequence[float] | None = None,
 ) -> RobustDesign:
-    """Worst case over the box of the controller ``controller`` designed at the estimate,
+    """Worst case over the box of the PI ``controller`` designed at the estimate,
     and the robust ``tau_c`` (:func:`lengthen_tau_c`).
 
     Parameters

@@ -47,6 +47,7 @@ from spa.datasets.yaml_loader import (
     _SpecTooComplex,
     _UniqueKeyLoader,
 )
+from spa.model.modulators import get_kind, kinds
 
 # --------------------------------------------------------------------------- specification
 
@@ -448,9 +449,8 @@ def _parse_runs(parsed: _Parsed, runs: Any) -> None:
             _check_modulator,
             err,
             _is_one_of(kind, MODULATED_KINDS),
-            f"a {kind} run needs a modulator, one of {{type: pwm, f_w: <Hz>}}, "
-            "{type: ipfm, t_h: <s>, gain: <G>}, {type: iipfm, t_l: <s>, gain: <G>}, "
-            "{type: dsm, period: <s>}",
+            f"a {kind} run needs a modulator, one of "
+            + ", ".join(get_kind(k).example() for k in kinds()),
         )
         controller = _sub_entry(
             entry,

@@ -61,7 +61,7 @@ STAGES: tuple[Stage, ...] = (
             "analytic/fig4.png",
             FIGURE,
             "Fig. 4: linearity cost",
-            "Linearity cost J against the modulator parameter, all four modulators on one axis. "
+            "Linearity cost J against the modulator parameter, every modulator kind on one axis. "
             "Grey: PWM periods below t_on + t_off (above 76.9 Hz for the nominal valve), where "
             "PWM has no linear range (dead-zone and saturation meet): P_eq is a 0 → k2 step, "
             "and J moves in plateaus and jumps as the step passes the points of the ξ grid.",
@@ -155,7 +155,11 @@ STAGES: tuple[Stage, ...] = (
             "The modulator setting that minimises the linearity cost for this dataset's "
             "identified valve within the tuning: constraints, as a dataset.yaml modulator entry, "
             "with its predicted dead-zone, saturation, chattering and switching rate; the full "
-            "record, with the best setting of each other modulator, is tuning/recommendation.yaml.",
+            "record, with the best setting of each other modulator, is tuning/recommendation.yaml. "
+            "It is the open-loop recommendation: run without feedback, a constant input "
+            "fraction then gives a pressure closest to proportional to it. The closed loop's "
+            "choice (Closed loop: the PI to use) answers another question and may name "
+            "another modulator.",
             required=False,
         ),
         Output(
@@ -385,7 +389,10 @@ STAGES: tuple[Stage, ...] = (
             "and the settings left out on this valve, each with its reason. When the promise "
             "over the 95 % box holds only at a longer tau_c, the chosen entry, the sentence and "
             "the header are the loop designed there; the design at the stage's tau_c is kept "
-            "under for_comparison.",
+            "under for_comparison. It is the closed-loop recommendation, judged on the promise "
+            "verified over the 95 % box (worst overshoot and settling), not on open-loop "
+            "linearity: feedback corrects a curved static map but not the modulator's delay and "
+            "ripple, so it may differ from the open-loop recommendation above.",
             required=False,
         ),
         Output(

@@ -93,7 +93,7 @@ def sweep_optimum(sweep: pd.DataFrame) -> pd.Series:
 
 @fill_doc
 def plot_cost_sweeps(sweeps: pd.DataFrame, params: ValveParams | None = None) -> Figure:
-    """Fig. 4: the linearity cost ``J`` of the four modulators on one axis.
+    """Fig. 4: the linearity cost ``J`` of every modulator kind on one axis.
 
     Parameters
     ----------

@@ -13,7 +13,7 @@ __all__ = ["chirp_input", "sine_input", "staircase_input"]
 
 
 def staircase_input(t: npt.ArrayLike, step: float = 0.1, hold: float = 5.0) -> np.ndarray:
-    """Staircase of the input fraction: 0, ``step``, 2*``step``, ... held ``hold`` s each, up to 1.
+    """Staircase of the input fraction: 0, ``step``, ``2*step``, ... held ``hold`` s each, up to 1.
 
     Parameters
     ----------

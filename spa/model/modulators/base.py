@@ -237,6 +237,21 @@ class ModulatorKind:
             out["gain"] = float(m["gain"])
         return out
 
+    def example(self) -> str:
+        """The setting as ``dataset.yaml`` writes it, with units in place of values.
+
+        Examples
+        --------
+        >>> from spa.model.modulators import get_kind
+        >>> get_kind("iipfm").example()
+        '{type: iipfm, t_l: <s>, gain: <G>}'
+        >>> get_kind("lpwm").example()
+        '{type: lpwm, f_w: <Hz>, c1: <s·bar^-0.5>, k2: <bar>, tau2: <s>, t_on: <s>, t_off: <s>}'
+        """
+        names = (*self.settings, *self.optional)
+        values = [f"{n}: <{self.range(n)[2] or 'G'}>" for n in names]
+        return "{" + ", ".join([f"type: {self.type}", *values]) + "}"
+
     def schema(self) -> dict[str, Any]:
         """This kind's part of the JSON schema of a modulator setting."""
         props: dict[str, Any] = {"type": {"const": self.type}}
