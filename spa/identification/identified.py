@@ -22,7 +22,7 @@ import yaml
 
 from spa import _checks as checks
 from spa._yaml import read_yaml
-from spa.identification.results import _delay_of
+from spa.identification.results import _delay_of, _laws_of
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -231,6 +231,10 @@ class Identified:
         ``name -> (lo, hi)`` for the delays the data do not resolve (``resolved: false``):
         ``params`` holds their worst case ``hi`` and the box spans the whole interval, so no
         design rests on a point the data do not give.
+    laws : mapping or None
+        The actuator's own laws' coefficients when the identification chose them
+        (``params.yaml``'s ``laws:``). ``params`` keeps the paper's laws: the tuning and the
+        closed loop design on those, and the adequacy they consult is theirs.
     """
 
     params: ValveParams
@@ -240,6 +244,7 @@ class Identified:
     clipped: Mapping[str, str] = field(default_factory=dict)
     adequacy: Mapping[str, Any] | None = None
     unresolved: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    laws: Mapping[str, Any] | None = None
 
 
 def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
@@ -306,10 +311,13 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     clipped: dict[str, str] = {}
     try:
         params = ValveParams(**values, delay=_delay_of(source))
+        laws = _laws_of(source.get("laws"))
         intervals = read_intervals(source, clipped)
     except ValueError as exc:
         raise TuningError(f"{where}: {exc}") from None
     fallback = source.get("fallback") or {}
     adequacy = source.get("adequacy")
     adequacy = dict(adequacy) if isinstance(adequacy, Mapping) else None
-    return Identified(params, intervals, dict(fallback), where, clipped, adequacy, unresolved)
+    return Identified(
+        params, intervals, dict(fallback), where, clipped, adequacy, unresolved, laws
+    )

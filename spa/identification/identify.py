@@ -252,6 +252,9 @@ def identify_with_config(
         )
     do_refine = bool(cfg.pop("refine", True))
     convention = str(cfg.pop("delay_convention", "auto"))
+    laws = str(cfg.pop("laws", "auto"))
+    if laws not in ("auto", "paper"):
+        raise ValueError(f"identification.laws must be auto or paper, got {laws!r}")
     if convention not in ("auto", *DELAY_CONVENTIONS):
         raise ValueError(
             f"identification.delay_convention must be auto, hold or transport, got {convention!r}"
@@ -299,6 +302,7 @@ def identify_with_config(
             search_delays=search,
             convention=convention,
             edges=edges,
+            laws=laws,
         )
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as err:
         if search:  # no estimate of the delays at all: nothing to fall back on

@@ -254,8 +254,10 @@ def refine_result(
     search_delays: bool = False,
     convention: str = "auto",
     edges: Mapping[str, EdgeTiming] | None = None,
+    laws: str = "auto",
 ) -> IdentificationResult:
-    """Refine ``result`` on every run with a valve command; conventions, adequacy, warnings.
+    """Refine ``result`` on every run with a valve command; conventions, laws, adequacy,
+    warnings.
 
     Parameters
     ----------
@@ -279,6 +281,10 @@ def refine_result(
     edges : mapping, optional
         Run id → its edge-timing rule (:func:`spa.identification.edges.dataset_edge_timing`);
         a run without one is decided from ``command_dt`` alone.
+    laws : {"auto", "paper"}, optional
+        ``identification.laws``: ``"auto"`` fits the actuator's own charge and discharge
+        laws and keeps them only where the held-out modulated runs demand them
+        (:func:`spa.identification.laws_fit.choose_laws`); ``"paper"`` keeps the paper's.
 
     Returns
     -------
@@ -386,6 +392,7 @@ def refine_result(
             fallback=None if fb is None else f"started from the nominal value ({fb}); refined",
         )  # fmt: skip
     difference = _difference(ests, ref, chosen, n_edges, prepared)
+    law_record, law_valve = _choose_laws(prepared, ref, chosen, laws, max_delay)
     if result.delays is not None:
         pulse = result.delays.summary()
         for key, name, what in (
@@ -399,6 +406,19 @@ def refine_result(
                     f"pulse train whose {what} edges move the pressure"
                 )
     adequacy = verdicts[chosen]
+    if law_valve is not None:
+        # The replays (validation, the open-loop stages, spa.simulate from params.yaml) use
+        # the identified laws; the tuning and the closed loop still design on the paper's,
+        # whose verdict this is: it is what decides whether their results are verified.
+        held = law_record["fit_identified"]
+        note = (
+            f"The actuator's own laws describe the modulated runs better: held-out FIT "
+            f"{float(np.median(list(held.values()))):.0f} % (median) against "
+            f"{adequacy.heldout_median:.0f} % with the paper's; the model replays use them, "
+            "the tuning and the closed loop do not yet"
+        )
+        adequacy = replace(adequacy, sentence=f"{adequacy.sentence} {note}.")
+        warnings.append(f"{law_record['reason']}. {note}")
     other_name = "transport" if chosen == "hold" else "hold"
     other = verdicts[other_name]
     if not adequacy.adequate and other.adequate:
@@ -469,6 +489,7 @@ def refine_result(
         checks=checks,
         noise=_noise_record(result, runs, kinds, model_rms),
         valve_edges=summary({r.rid: r.timing for r in prepared}),
+        laws=law_record,
         warnings=tuple(dict.fromkeys(warnings)),
     )
 
@@ -640,3 +661,69 @@ def _difference(
         "to the leave-one-run-out spread of their difference; logged edges off the log's "
         "ticks uniform within their step",
     )
+
+
+#: Held-out FIT points the identified laws must gain (spa.identification.laws_fit's rule):
+#: where the paper's laws already come this close to the noise ceiling on every modulated
+#: run, no laws can gain them, and nothing is fitted.
+_LAW_HEADROOM = 2.0
+
+
+def _choose_laws(
+    prepared: list[Any], ref: Any, chosen: str, setting: str, max_delay: float
+) -> tuple[dict[str, Any], Any]:
+    """``params.yaml``'s ``laws:`` record and, when the identified laws are chosen, the
+    valve that carries them (None otherwise)."""
+    modulated = [r for r in prepared if r.modulator]
+    record: dict[str, Any] = {"chosen": "paper", "setting": setting}
+    if setting == "paper":
+        record["reason"] = "identification.laws: paper"
+        return record, None
+    if len(modulated) < 2:
+        record["reason"] = (
+            f"{len(modulated)} modulated run(s): too few to compare the laws held out; the "
+            "paper's are kept"
+        )
+        return record, None
+    room = {
+        r.rid: float(ref.noise_ceiling.get(r.rid, math.nan)) - float(ref.fit_heldout[r.rid])
+        for r in modulated
+    }
+    finite = [v for v in room.values() if math.isfinite(v)]
+    if finite and max(finite) < _LAW_HEADROOM:
+        record["reason"] = (
+            f"the paper's laws predict every modulated run held out within "
+            f"{max(finite):.1f} points of what the sensor noise allows: no laws can gain "
+            f"{_LAW_HEADROOM:g} points, so none were fitted"
+        )
+        return record, None
+    from spa.identification.laws_fit import choose_laws
+
+    choice = choose_laws(prepared, ref.params, paper_heldout=ref.fit_heldout, delay=chosen)
+    fit = choice.fit
+    record.update(
+        {
+            "chosen": choice.laws,
+            "reason": f"the actuator's own laws: {choice.reason}",
+            "gain": _finite(choice.gain),
+            "se": _finite(choice.se),
+            "fit_paper": {k: round(float(v), 3) for k, v in choice.fit_paper.items()},
+            "fit_identified": {k: round(float(v), 3) for k, v in choice.fit_identified.items()},
+            "fit_insample": {k: round(float(v), 3) for k, v in fit.fit.items()},
+            "valve": {
+                "k2": float(fit.params.k2),
+                "t_on": float(fit.params.t_on),
+                "t_off": float(fit.params.t_off),
+            },
+            "coefficients": fit.laws.as_dict(),
+            "covariance": {
+                "names": list(fit.names),
+                "matrix": [[float(v) for v in row] for row in fit.cov],
+            },
+        }
+    )
+    return record, (choice.params if choice.laws == "identified" else None)
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None

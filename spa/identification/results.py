@@ -285,6 +285,11 @@ class IdentificationResult:
     valve_edges : dict or None
         The edge-timing rule used: ``rule`` and each run's
         (:mod:`spa.identification.edges`).
+    laws : dict or None
+        ``chosen`` (``"paper"`` or ``"identified"``), the reason, both laws' held-out FITs
+        per modulated run, the identified laws' ``coefficients`` and ``covariance``
+        (:func:`spa.identification.laws_fit.choose_laws`). With ``identified`` the valve
+        carries those laws (:meth:`to_valve_params`).
     """
 
     c1: Estimate
@@ -305,6 +310,7 @@ class IdentificationResult:
     checks: Mapping[str, Any] | None = field(default=None, repr=False)
     noise: Mapping[str, Any] | None = None
     valve_edges: Mapping[str, Any] | None = None
+    laws: Mapping[str, Any] | None = None
 
     @property
     def delay(self) -> str:
@@ -315,15 +321,9 @@ class IdentificationResult:
 
     def to_valve_params(self) -> ValveParams:
         """The point estimates as :class:`~spa.model.params.ValveParams`, in their
-        convention."""
-        return ValveParams(
-            c1=self.c1.value,
-            k2=self.k2.value,
-            tau2=self.tau2.value,
-            t_on=self.t_on.value,
-            t_off=self.t_off.value,
-            delay=self.delay,
-        )
+        convention, with the actuator's own laws when they were chosen (:func:`load_params`
+        of :meth:`to_dict`)."""
+        return load_params(self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
         """The content of ``params.yaml``: plain types only, ready for ``yaml.safe_dump``.
@@ -359,6 +359,8 @@ class IdentificationResult:
             out["delay_difference"] = self.delay_difference.to_dict()
         if self.adequacy is not None:
             out["adequacy"] = dict(self.adequacy)
+        if self.laws is not None:
+            out["laws"] = dict(self.laws)
         if self.valve_edges is not None:
             out["valve_edges"] = dict(self.valve_edges)
         if self.noise is not None:
@@ -381,6 +383,8 @@ def load_params(mapping: Mapping[str, Any]) -> ValveParams:
     Returns
     -------
     ValveParams
+        With the actuator's own laws (and the ``k2`` and delays fitted with them) when
+        ``laws: {chosen: identified}``: the valve the model replays use.
 
     Raises
     ------
@@ -399,7 +403,18 @@ def load_params(mapping: Mapping[str, Any]) -> ValveParams:
             raise ValueError(f"mapping has no {name!r}; expected keys {list(UNITS)}")
         item = mapping[name]
         values[name] = item["value"] if isinstance(item, Mapping) else item
-    return ValveParams(**values, delay=_delay_of(mapping))
+    laws = _laws_of(mapping.get("laws"))
+    if laws is not None:  # fitted jointly with the laws: k2 and the delays of that fit
+        values.update(mapping["laws"].get("valve") or {})
+    return ValveParams(**values, delay=_delay_of(mapping), laws=laws)
+
+
+def _laws_of(record: Any) -> Any:
+    """The laws a ``params.yaml``'s ``laws:`` record gives the valve: its coefficients when
+    the identified laws were chosen, else None (the paper's)."""
+    if isinstance(record, Mapping) and record.get("chosen") == "identified":
+        return record.get("coefficients")
+    return None
 
 
 def _delay_of(mapping: Mapping[str, Any]) -> Any:

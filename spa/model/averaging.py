@@ -229,7 +229,9 @@ def equilibrium_pressure(
 
     ``sqrt(P_eq) = 2*k2*c1*alpha2 / (alpha1*tau2 + sqrt(alpha1²*tau2² + 4*k2*c1²*alpha2²))``,
 
-    which needs no division by ``alpha1`` or ``alpha2``.
+    which needs no division by ``alpha1`` or ``alpha2``. A valve carrying its own laws
+    (``params.laws``) gets the root of ``alpha2*f_open(P) + alpha1*f_closed(P)`` instead
+    (:func:`spa.model.laws.equilibrium.law_equilibrium_pressure`).
 
     Examples
     --------
@@ -242,6 +244,10 @@ def equilibrium_pressure(
     0.3207
     """
     p = valve_params(params)
+    if p.laws is not None:  # the valve's own laws: the root of the averaged rate
+        from spa.model.laws.equilibrium import law_equilibrium_pressure
+
+        return law_equilibrium_pressure(alpha1, alpha2, p)
     a1, a2 = np.broadcast_arrays(np.asarray(alpha1, np.float64), np.asarray(alpha2, np.float64))
     if not (np.all(np.isfinite(a1)) and np.all(np.isfinite(a2))):
         raise ValueError("alpha1 and alpha2 must be finite")
@@ -325,6 +331,10 @@ def time_constant(
     True
     """
     p = valve_params(params)
+    if p.laws is not None:  # the valve's own laws: linearised at their equilibrium
+        from spa.model.laws.equilibrium import law_time_constant
+
+        return law_time_constant(alpha1, alpha2, p)
     a1, a2 = np.broadcast_arrays(np.asarray(alpha1, np.float64), np.asarray(alpha2, np.float64))
     sq = np.sqrt(np.asarray(equilibrium_pressure(a1, a2, p)))
     valid = (a2 > 0.0) & (a1 >= 0.0)
