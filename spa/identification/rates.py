@@ -294,13 +294,9 @@ def _segment_raw(
     moved = (seg_p - p_a) if rising else (p_a - seg_p)
     crossed = np.flatnonzero(moved >= max(onset_fraction * change, 3.0 * noise))
     k_onset = k_edge + (int(crossed[0]) if crossed.size else 0)
-    t_first = max(tg[k_edge] + skip, tg[k_onset])
-    t_last = tg[k_end]
-    if not rising:
-        below = np.flatnonzero(pg[k_onset : k_end + 1] < tail_fraction * p_a)
-        if below.size:
-            t_last = min(t_last, tg[k_onset + int(below[0])] - 0.5 * dt)
-    in_span = (tg >= t_first - 1e-9 * dt) & (tg <= t_last + 1e-9 * dt)
+    _, _, in_span = _fit_span(
+        tg, pg, dt, (k_edge, k_onset, k_end), rising, skip, tail_fraction * p_a
+    )
     span = int(np.sum(in_span))
     if span < MIN_RAW_SPAN:
         raise IdentificationError(
@@ -311,15 +307,7 @@ def _segment_raw(
         )
     d = np.gradient(pg, dt)
     used = in_span.copy()
-    points = pd.DataFrame(
-        {
-            "run": rid,
-            "t": tg[k_edge : k_end + 1],
-            "p": pg[k_edge : k_end + 1],
-            "dpdt": d[k_edge : k_end + 1],
-            "used": used[k_edge : k_end + 1],
-        }
-    )
+    points = _points(rid, tg, pg, d, used, k_edge, k_end)
     seg = _Segment(
         rid=rid,
         t=tg[in_span],
@@ -375,13 +363,9 @@ def _segment_at(
     moved = (ps[k_edge:] - p_a) if rising else (p_a - ps[k_edge:])
     crossed = np.flatnonzero(moved >= onset_fraction * change)
     k_onset = k_edge + (int(crossed[0]) if crossed.size else 0)
-    t_first = max(tg[k_edge] + skip, tg[k_onset])
-    t_last = tg[k_end]
-    if not rising:
-        below = np.flatnonzero(ps[k_onset : k_end + 1] < tail_fraction * p_a)
-        if below.size:
-            t_last = min(t_last, tg[k_onset + int(below[0])] - 0.5 * dt)
-    in_span = (tg >= t_first - 1e-9 * dt) & (tg <= t_last + 1e-9 * dt)
+    t_first, t_last, in_span = _fit_span(
+        tg, ps, dt, (k_edge, k_onset, k_end), rising, skip, tail_fraction * p_a
+    )
     span = int(np.sum(in_span))
     t_start, t_stop = t_first + half * dt, t_last - half * dt
     used_all = (tg >= t_start - 1e-9 * dt) & (tg <= t_stop + 1e-9 * dt)
@@ -391,15 +375,7 @@ def _segment_at(
     lo = max(int(idx[0]) - half, 0)
     hi = min(int(idx[-1]) + half, tg.size - 1)
     region = slice(lo, hi + 1)
-    points = pd.DataFrame(
-        {
-            "run": rid,
-            "t": tg[k_edge : k_end + 1],
-            "p": ps[k_edge : k_end + 1],
-            "dpdt": d[k_edge : k_end + 1],
-            "used": used_all[k_edge : k_end + 1],
-        }
-    )
+    points = _points(rid, tg, ps, d, used_all, k_edge, k_end)
     seg = _Segment(
         rid=rid,
         t=tg[region],
@@ -414,6 +390,43 @@ def _segment_at(
         pf=pg[in_span],
     )
     return seg, span
+
+
+def _fit_span(
+    tg: FloatArray,
+    level: FloatArray,
+    dt: float,
+    marks: tuple[int, int, int],
+    rising: bool,
+    skip: float,
+    tail: float,
+) -> tuple[float, float, npt.NDArray[np.bool_]]:
+    """The closed-form fit's span: from ``max(edge + skip, onset)`` to the end of the command
+    run, a discharge stopping where ``level`` (the smoothed or raw pressure) first falls
+    below ``tail`` bar. ``marks`` = (edge, onset, end) indices; returns the first and last
+    times and the mask of the grid samples inside."""
+    k_edge, k_onset, k_end = marks
+    t_first = max(tg[k_edge] + skip, tg[k_onset])
+    t_last = tg[k_end]
+    if not rising:
+        below = np.flatnonzero(level[k_onset : k_end + 1] < tail)
+        if below.size:
+            t_last = min(t_last, tg[k_onset + int(below[0])] - 0.5 * dt)
+    return t_first, t_last, (tg >= t_first - 1e-9 * dt) & (tg <= t_last + 1e-9 * dt)
+
+
+def _points(
+    rid: str,
+    tg: FloatArray,
+    p: FloatArray,
+    d: FloatArray,
+    used: npt.NDArray[np.bool_],
+    k_edge: int,
+    k_end: int,
+) -> pd.DataFrame:
+    """Fig. 2's points of one run: every grid point of the command run after the edge."""
+    run = slice(k_edge, k_end + 1)
+    return pd.DataFrame({"run": rid, "t": tg[run], "p": p[run], "dpdt": d[run], "used": used[run]})
 
 
 def _line(x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
