@@ -141,3 +141,14 @@ def test_record_flags_dropped_lines_and_refuses_to_overwrite(tmp_path):
     assert all("ok" in x for x in report if "discharge-start1" in x)
     with pytest.raises(PlanError, match="never overwrites"):
         record_stream(folder, lines)
+
+
+def test_full_plan_records_and_validates_with_no_edit(session, tmp_path):
+    from spa.cli import main
+
+    design, folder, _, _, stream, _, _ = session
+    report = record_stream(folder, stream.splitlines())
+    assert len(report) == len(design.runs) and all(line.endswith("ok") for line in report)
+    assert main(["validate", str(folder)]) == 0
+    kinds = {r.kind for r in design.runs if r.analysed}
+    assert kinds == {"charge", "discharge", "pulse", "staircase", "sine", "chirp"}

@@ -76,3 +76,45 @@ def test_margins_hold_three_times_both_ways_and_fail_without_them():
     slow = bare[bare["corner"] == "3x slower"]
     assert not slow["met"].any() and "keep the valve open longer" in slow["note"].iloc[0]
     assert bare[bare["corner"] == "prior"]["met"].all()
+
+
+def _physical(name: str):
+    from pathlib import Path
+
+    import yaml
+
+    from spa.synthetic.runs import dataset_plant
+
+    cfg = yaml.safe_load((Path(__file__).parents[1] / "config" / "config.yaml").read_text())
+    return dataset_plant(cfg["simulated"][name])
+
+
+@pytest.mark.parametrize("name", ["phys-finger", "phys-choked", "phys-balloon"])
+def test_round_trip_on_the_full_configs_physical_plants(name, tmp_path):
+    from spa.synthetic.physical import run_plant_in_c
+
+    plant, equivalent = _physical(name)
+    prior = prior_from_numbers(plant.supply, 5 * equivalent.tau2)
+    limits = Limits(p_max=1.25 * plant.supply)
+    design = design_session(prior, limits, pilot=True, precondition=1)
+    folder = tmp_path / name
+    write_plan(folder, design)
+    exe = build_harness(folder, tmp_path / "player")
+    n = planned_commands(design).size
+    stream, cmds, _ = play_session(
+        exe,
+        design,
+        lambda u: run_plant_in_c(plant, u, design.dt)[1],
+        calibration_for(limits.p_max),
+        np.random.default_rng(2).normal(0.0, plant.noise, n),
+    )
+    assert np.array_equal(cmds, planned_commands(design))
+    assert all(line.endswith("ok") for line in record_stream(folder, stream.splitlines()))
+    buf = io.StringIO()
+    with redirect_stdout(buf):
+        assert main(["validate", str(folder)]) == 0, buf.getvalue()
+    ingest_dataset(folder, tmp_path / "runs")
+    runs, metas = read_runs(tmp_path / "runs")
+    out = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, metas=metas)
+    k2 = out.to_dict()["k2"]["value"]
+    assert abs(k2 - plant.supply) < 0.1 * plant.supply, (name, k2)

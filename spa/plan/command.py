@@ -128,6 +128,8 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
     for label, s in design.settings.items():
         mark = " (recommended)" if s.get("recommended") else ""
         print(f"  {label}{mark}: levels held {s['hold']:g} s", file=out)
+    for warning in design.margins.get("warnings", []):
+        print(f"  note: {warning}", file=out)
     for label, why in design.refused.items():
         print(f"  refused {label}: {why}", file=out)
     if table is not None:

@@ -383,8 +383,33 @@ def design_session(
         rest,
         link,
         pilot,
-        {"time_scale": margin, "sizes": identification_sizes(prior, margin)},
+        {
+            "time_scale": margin,
+            "sizes": identification_sizes(prior, margin),
+            "warnings": resolution_warnings(prior, dt, margin),
+        },
     )
+
+
+def resolution_warnings(prior: ValveParams, dt: float, margin: float) -> list[str]:
+    """What the tick cannot resolve on the valves the plan covers: a delay of the fast
+    corner shorter than one tick is known only to within a tick.
+
+    Examples
+    --------
+    >>> [w[:43] for w in resolution_warnings(ValveParams(), 0.002, 3.0)]
+    ['t_on of a valve 3x faster (1 ms) is shorter']
+    """
+    out = []
+    for name in ("t_on", "t_off"):
+        fast = getattr(prior, name) / margin
+        if fast < dt:
+            out.append(
+                f"{name} of a valve {margin:g}x faster ({fast * 1e3:.3g} ms) is shorter than "
+                f"the {dt * 1e3:g} ms tick: its interval will span about a tick; a shorter "
+                "tick needs a faster link"
+            )
+    return out
 
 
 def _with(run: PlannedRun, block: str) -> PlannedRun:

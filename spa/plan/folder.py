@@ -95,6 +95,7 @@ def plan_yaml(
         "limits": design.limits.to_mapping(),
         "settings": {k: {kk: v for kk, v in s.items()} for k, s in design.settings.items()},
         "refused": dict(design.refused),
+        "resolution": list(design.margins.get("warnings", [])),
         **extra,
         "runs": runs,
     }
