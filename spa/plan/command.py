@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 __all__ = ["plan_arguments", "record_arguments", "run_plan", "run_record"]
 
@@ -35,6 +35,7 @@ def plan_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="N", help="of the runs' random order")
     p.add_argument("--pilot", action="store_true", help="charge, discharge, pulses only")
     p.add_argument("--no-predict", action="store_true", help="skip the predicted precision")
+    p.add_argument("--verify", metavar="RESULTS", help="test results/<name>'s predictions")
 
 
 def record_arguments(p: argparse.ArgumentParser) -> None:
@@ -45,6 +46,11 @@ def record_arguments(p: argparse.ArgumentParser) -> None:
         default="-",
         metavar="FILE",
         help="the board's stream: a file, a serial port's device, or - for stdin",
+    )
+    p.add_argument(
+        "--page",
+        metavar="PAGE.md",
+        help="for a verification plan: write its predictions beside the measurements here",
     )
 
 
@@ -83,6 +89,8 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
             samples_per_s=args.samples_per_s,
         )
         recommended = None
+        if args.verify:
+            return _verify_plan(args, limits, out)
         if not args.pilot:
             from spa.tuning import tune
 
@@ -144,6 +152,84 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+#: The sensor noise a verification's bands assume, bar (stated in plan.yaml).
+VERIFY_NOISE = 0.005
+
+
+def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
+    """``spa plan FOLDER --verify RESULTS``: the recommended setting's runs on the identified
+    valve, with each staircase's predicted levels and FIT in plan.yaml."""
+    import yaml
+
+    from spa.identification.identified import read_identified
+    from spa.model.modulators import Modulator
+    from spa.plan.folder import calibration_for, write_plan
+    from spa.plan.verify import design_verification, staircase_predictions
+
+    results = Path(args.verify)
+    valve = read_identified(str(results / "identification" / "params.yaml"))
+    rec_path = results / "tuning" / "recommendation.yaml"
+    rec = yaml.safe_load(rec_path.read_text(encoding="utf-8")) if rec_path.is_file() else None
+    if not rec or not (rec.get("recommended") or {}).get("setting"):
+        from spa.tuning import tune
+
+        rec = dict(tune(valve).recommendation)
+    setting = Modulator.from_mapping(rec["recommended"]["setting"])
+    design = design_verification(
+        valve.params,
+        setting,
+        limits,
+        dt=args.tick,
+        levels=args.levels,
+        replicates=args.replicates,
+        seed=args.seed,
+    )
+    cal = calibration_for(limits.p_max)
+    predictions = {
+        run.id: staircase_predictions(
+            run,
+            design.dt,
+            valve.params,
+            dict(valve.intervals),
+            VERIFY_NOISE,
+            cal["bar_per_count"],
+        )
+        for run in design.runs
+        if run.kind == "staircase"
+    }
+    extra = {
+        "prior_source": f"identified ({results})",
+        "verify": {
+            "results": str(results),
+            "setting": setting.to_mapping(),
+            "sensor_noise_bar": VERIFY_NOISE,
+            "predictions": predictions,
+        },
+    }
+    write_plan(args.folder, design, extra=extra)
+    print(
+        f"{args.folder}: verification of {results} ({setting.label}), {len(design.runs)} "
+        f"runs, {design.duration / 60:.0f} min; {len(predictions)} staircases predicted",
+        file=out,
+    )
+    print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
+    return 0
+
+
+def verification_tables(folder: Path, plan: dict[str, Any]) -> dict[str, Any]:
+    """Each predicted staircase of a verification plan against its recording."""
+    import pandas as pd
+
+    from spa.plan.verify import compare
+
+    files = {r["id"]: folder / r["file"] for r in plan["runs"]}
+    return {
+        run_id: compare(pred, pd.read_csv(files[run_id]))
+        for run_id, pred in plan["verify"]["predictions"].items()
+        if files[run_id].is_file()
+    }
+
+
 def run_record(args: argparse.Namespace, out: TextIO) -> int:
     """Split the stream into the plan's run files; print one line per run."""
     from spa.plan.limits import PlanError
@@ -160,5 +246,16 @@ def run_record(args: argparse.Namespace, out: TextIO) -> int:
         return 1
     for line in report:
         print(line, file=out)
+    from spa.plan.record import read_plan
+
+    plan = read_plan(args.folder)
+    if plan.get("verify"):
+        from spa.plan.verify import verification_page
+
+        page = verification_page(plan["name"], verification_tables(Path(args.folder), plan))
+        print(page, file=out)
+        if args.page:
+            Path(args.page).parent.mkdir(parents=True, exist_ok=True)
+            Path(args.page).write_text(page, encoding="utf-8")
     print(f"next: spa validate {args.folder}", file=out)
     return 1 if any(line.startswith("missing") for line in report) else 0
