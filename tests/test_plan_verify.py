@@ -84,9 +84,9 @@ def _verify(root, results, name, plant, seed):
     assert set(plan["verify"]["predictions"]) == {
         r["id"] for r in plan["runs"] if r["kind"] == "staircase"
     }
-    from spa.plan.verify import design_verification  # the same design, rebuilt
     from spa.identification.identified import read_identified
     from spa.model.modulators import Modulator
+    from spa.plan.verify import design_verification  # the same design, rebuilt
 
     valve = read_identified(str(results / "identification" / "params.yaml")).params
     design = design_verification(
