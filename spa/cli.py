@@ -194,7 +194,7 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _plan(args: argparse.Namespace, out: TextIO) -> int:
-    """plan a bench session: runs, dataset.yaml, checklist and the board's player
+    """plan a bench session and write its player for the board
 
     Write FOLDER (new): plan.yaml, dataset.yaml, checklist.md, player/ (C99, sketch);
     print the predicted precision on the prior and on valves 3x slower and faster.
@@ -205,7 +205,7 @@ def _plan(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _record(args: argparse.Namespace, out: TextIO) -> int:
-    """split the player's stream into the plan's run files
+    """split the player's stream into run files
 
     Read the board's stream (a file, a serial port's device or stdin), write each run's file
     of FOLDER/plan.yaml with the declared calibration, and flag dropped lines, overruns and

@@ -15,8 +15,14 @@ def plan_arguments(p: argparse.ArgumentParser) -> None:
     """``spa plan``'s arguments."""
     p.add_argument("folder", metavar="FOLDER", help="the new dataset folder, raw/<name>")
     prior = p.add_mutually_exclusive_group()
-    prior.add_argument("--params", metavar="PARAMS.yaml", help="prior: a previous identification")
-    prior.add_argument("--supply", metavar="BAR,S", help="prior: supply (bar), rough fill time (s)")
+    prior.add_argument(
+        "--params",
+        metavar="PARAMS.yaml",
+        help="prior: an identification (default: the paper's valve)",
+    )
+    prior.add_argument(
+        "--supply", metavar="BAR,S", help="prior: supply, fill time (default: the paper's)"
+    )
     p.add_argument(
         "--p-max",
         type=float,
@@ -24,18 +30,31 @@ def plan_arguments(p: argparse.ArgumentParser) -> None:
         metavar="BAR",
         help="the actuator's rated maximum, bar",
     )
-    p.add_argument("--f-switch-max", type=float, metavar="HZ", help="valve's top switching rate")
-    p.add_argument("--on-time-max", type=float, metavar="S", help="longest coil on-time, s")
+    p.add_argument(
+        "--f-switch-max",
+        type=float,
+        metavar="HZ",
+        help="valve's top switching rate (default: none)",
+    )
+    p.add_argument(
+        "--on-time-max", type=float, metavar="S", help="longest coil on-time (default: none)"
+    )
     link = p.add_mutually_exclusive_group()
     link.add_argument("--baud", type=int, default=115200, metavar="N", help="serial link's rate")
-    link.add_argument("--samples-per-s", type=float, metavar="N", help="logger's top rate")
+    link.add_argument(
+        "--samples-per-s", type=float, metavar="N", help="logger's rate, not a UART (default: none)"
+    )
     p.add_argument("--tick", type=float, default=0.002, metavar="S", help="log and control step")
     p.add_argument("--levels", type=int, default=11, metavar="N", help="staircase levels")
     p.add_argument("--replicates", type=int, default=3, metavar="N", help="of each experiment")
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="of the runs' random order")
+    p.add_argument(
+        "--seed", type=int, default=0, metavar="N", help="of the runs' random order (default: 0)"
+    )
     p.add_argument("--pilot", action="store_true", help="charge, discharge, pulses only")
     p.add_argument("--no-predict", action="store_true", help="skip the predicted precision")
-    p.add_argument("--verify", metavar="RESULTS", help="test results/<name>'s predictions")
+    p.add_argument(
+        "--verify", metavar="RESULTS", help="test results/<name>'s predictions (default: no)"
+    )
 
 
 def record_arguments(p: argparse.ArgumentParser) -> None:
@@ -50,7 +69,7 @@ def record_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--page",
         metavar="PAGE.md",
-        help="for a verification plan: write its predictions beside the measurements here",
+        help="a verification's predictions beside the measurements (default: none)",
     )
 
 
