@@ -143,7 +143,7 @@ def checklist(design: SessionDesign, name: str, cal: dict[str, Any]) -> str:
     lim = design.limits
     minutes = design.duration / 60
     n = len(design.runs)
-    baud = lim.baud if lim.baud is not None else "the logger's"
+    baud = f"{lim.baud:.0f}" if lim.baud is not None else "the logger's"
     lines = [
         f"# Session {name}: {n} runs, about {minutes:.0f} min",
         "",
