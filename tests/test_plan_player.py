@@ -152,3 +152,39 @@ def test_full_plan_records_and_validates_with_no_edit(session, tmp_path):
     assert main(["validate", str(folder)]) == 0
     kinds = {r.kind for r in design.runs if r.analysed}
     assert kinds == {"charge", "discharge", "pulse", "staircase", "sine", "chirp"}
+
+
+def test_cli_record_reads_stdin_and_reports_a_missing_run(tmp_path, monkeypatch, capsys):
+    import io as _io
+
+    from spa.cli import main
+
+    design = design_session(NOMINAL, Limits(p_max=1.0), pilot=True, precondition=0)
+    folder = tmp_path / "cli"
+    write_plan(folder, design)
+    exe = build_harness(folder, tmp_path / "player")
+    stream, _, _ = play_session(
+        exe, design, lambda u: simulate(u, design.dt, NOMINAL), calibration_for(1.0)
+    )
+    cut = stream[: stream.index("R 9\n")]  # the link lost before the last run
+    monkeypatch.setattr("sys.stdin", _io.StringIO(cut))
+    code = main(["record", str(folder)])
+    out = capsys.readouterr().out
+    assert code == 1 and "missing: pulse-start3 (run 9)" in out
+    assert (folder / "runs" / "discharge-start3.csv").is_file()
+    assert not (folder / "runs" / "pulse-start3.csv").exists()
+
+
+def test_the_full_player_fits_an_atmega328p_where_avr_gcc_is_installed(session):
+    import shutil
+
+    from spa.plan.avr import ATMEGA328P, avr_size
+
+    if shutil.which("avr-gcc") is None:
+        pytest.skip("avr-gcc is not installed (apt-get install gcc-avr avr-libc)")
+    _, folder, *_ = session
+    size = avr_size(folder)
+    assert size is not None
+    # room left for the Arduino core's serial, timer and ADC code (about 3 KB, 200 B of RAM)
+    assert size["flash"] <= ATMEGA328P["flash"] - 4096, size
+    assert size["ram"] <= ATMEGA328P["ram"] - 512, size

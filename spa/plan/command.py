@@ -155,6 +155,16 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
     for label, s in design.settings.items():
         mark = " (recommended)" if s.get("recommended") else ""
         print(f"  {label}{mark}: levels held {s['hold']:g} s", file=out)
+    from spa.plan.avr import ATMEGA328P, avr_size
+
+    size = avr_size(args.folder)
+    if size is not None:
+        print(
+            f"  ATmega328P: the player takes {size['flash']} of {ATMEGA328P['flash']} bytes of "
+            f"flash, {size['ram']} of {ATMEGA328P['ram']} of static RAM (without the Arduino "
+            "core)",
+            file=out,
+        )
     for warning in design.margins.get("warnings", []):
         print(f"  note: {warning}", file=out)
     for label, why in design.refused.items():
