@@ -12,8 +12,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from spa.io import dump_yaml
 from spa.plan.design import SessionDesign
 from spa.plan.limits import LINE_BYTES, PlanError, baud_needed
 from spa.plan.player import TICK_ORDER, harness_source, player_header, player_sketch
@@ -196,10 +195,10 @@ def write_plan(
     out.mkdir(parents=True)
     (out / "player").mkdir()
     files = {
-        "plan.yaml": yaml.safe_dump(
+        "plan.yaml": dump_yaml(
             plan_yaml(design, name, cal, extra or {}), sort_keys=False, width=100
         ),
-        "dataset.yaml": yaml.safe_dump(dataset_yaml(design, name), sort_keys=False, width=100),
+        "dataset.yaml": dump_yaml(dataset_yaml(design, name), sort_keys=False, width=100),
         "checklist.md": checklist(design, name, cal),
         "player/player.h": player_header(
             name,
