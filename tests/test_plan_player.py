@@ -178,7 +178,7 @@ def test_cli_record_reads_stdin_and_reports_a_missing_run(tmp_path, monkeypatch,
 def test_the_full_player_fits_an_atmega328p_where_avr_gcc_is_installed(session):
     import shutil
 
-    from spa.plan.avr import ATMEGA328P, avr_size
+    from spa.plan.avr import ATMEGA328P, avr_size, sketch_size
 
     if shutil.which("avr-gcc") is None:
         pytest.skip("avr-gcc is not installed (apt-get install gcc-avr avr-libc)")
@@ -188,3 +188,5 @@ def test_the_full_player_fits_an_atmega328p_where_avr_gcc_is_installed(session):
     # room left for the Arduino core's serial, timer and ADC code (about 3 KB, 200 B of RAM)
     assert size["flash"] <= ATMEGA328P["flash"] - 4096, size
     assert size["ram"] <= ATMEGA328P["ram"] - 512, size
+    sketch = sketch_size(folder)  # the .ino as C++ for the board, the core's code aside
+    assert sketch is not None and sketch["flash"] <= ATMEGA328P["flash"] - 4096, sketch
