@@ -133,9 +133,14 @@ def test_record_flags_dropped_lines_and_refuses_to_overwrite(tmp_path):
     lines = stream.splitlines()
     start = lines.index("R 1")
     del lines[start + 100 : start + 103]  # three lines of charge-start1 lost
+    lines.insert(start + 200, "O 2")  # the board reports a tick two steps late
     report = record_stream(folder, lines)
     line = next(x for x in report if "charge-start1" in x)
-    assert "1 jump(s)" in line and f"{design.runs[1].logged().sum() - 3} of" in line
+    assert (
+        "1 jump(s)" in line
+        and "1 overrun(s)" in line
+        and f"{design.runs[1].logged().sum() - 3} of" in line
+    )
     table = np.genfromtxt(folder / "runs" / "charge-start1.csv", delimiter=",", names=True)
     assert np.isclose(np.diff(table["t"]).max(), 4 * design.dt)
     assert all("ok" in x for x in report if "discharge-start1" in x)

@@ -8,7 +8,8 @@ rated maximum, compute the command, issue it, print ``tick,adc,valve,q`` (hex ti
 mod 65536, hex ADC counts, the valve, the Q15 input fraction in hex). A run starts with a
 line ``R <index>`` and ends with ``E <index> done`` or ``E <index> vent``; after each run
 the valve exhausts for the rest between runs (the watchdog), and a line the link cannot
-take vents and stops the session.
+take vents and stops the session. A tick that starts a whole step late prints ``O <steps>``
+(an overrun) before its line.
 """
 
 from __future__ import annotations
@@ -334,8 +335,14 @@ void loop() {
 #ifdef __AVR__
   wdt_reset();
 #endif
-  if ((long)(micros() - next_us) < 0) return;
+  long late = (long)(micros() - next_us);
+  if (late < 0) return;
   next_us += SPA_PLAN_TICK_US;
+  if (late >= (long)SPA_PLAN_TICK_US) {  // an overrun: the tick came a whole step late
+    Serial.print("O ");
+    Serial.println(late / (long)SPA_PLAN_TICK_US);
+    next_us = micros() + SPA_PLAN_TICK_US;
+  }
   if (run >= SPA_PLAN_N_RUNS) { vent(); return; }
   if (rest > 0) {
     vent();

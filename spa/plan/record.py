@@ -2,9 +2,10 @@
 
 The stream (a file, stdin, or a serial port read as a plain file) holds ``R <index>``
 lines, one ``tick,adc,valve,q`` line per logged tick (hex but the valve) and
-``E <index> done|vent``. Each run becomes ``<file>`` of ``plan.yaml`` with ``t`` (s, from the
+``E <index> done|vent``, and ``O <steps>`` before a tick that started late (an overrun).
+Each run becomes ``<file>`` of ``plan.yaml`` with ``t`` (s, from the
 tick counter), ``p`` (bar, from the declared calibration), ``valve`` and ``u``; a jump of
-the tick counter (mod 65536) is a dropped line or an overrun, and is reported.
+the tick counter (mod 65536) is a dropped line; both are reported.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ class RunCapture:
     rows: list[tuple[int, int, int, int]] = field(default_factory=list)
     end: str = ""
     bad_lines: list[int] = field(default_factory=list)
+    overruns: int = 0
 
 
 def read_plan(folder: str | Path) -> dict[str, Any]:
@@ -70,6 +72,9 @@ def parse_stream(lines: Iterable[str]) -> dict[int, RunCapture]:
             current = None
             continue
         if current is None:
+            continue
+        if line.startswith("O "):
+            current.overruns += 1
             continue
         try:
             tick, adc, valve, q = line.split(",")
@@ -127,7 +132,9 @@ def record_stream(folder: str | Path, lines: Iterable[str]) -> list[str]:
         table.to_csv(path, index=False, float_format="%.9g")
         notes = []
         if gaps:
-            notes.append(f"{gaps} jump(s) of the tick counter (dropped lines or overruns)")
+            notes.append(f"{gaps} jump(s) of the tick counter (dropped lines)")
+        if cap.overruns:
+            notes.append(f"{cap.overruns} overrun(s): ticks that started a step late or more")
         if len(table) != int(run.get("logged_ticks", len(table))):
             notes.append(f"{len(table)} of {run['logged_ticks']} lines")
         if cap.end == "vent":
