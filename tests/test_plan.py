@@ -114,6 +114,9 @@ def test_refusals_are_stated():
     )
     assert "pwm-50Hz" in d.refused and "30 Hz" in d.refused["pwm-50Hz"]
     assert list(d.settings) == ["pwm-10Hz"]
+    beyond = Modulator.from_mapping({"type": "pwm", "f_w": 400.0})  # a period under one tick
+    d = design_session(ValveParams(), LIMITS, levels=3, settings=[beyond, slow])
+    assert "does not run at the tick 2 ms" in d.refused["pwm-400Hz"]
     assert not any(r.modulator == fast for r in d.runs)
 
 

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from spa.model.averaging import time_constant, time_fractions
-from spa.model.modulators import Modulator, get_kind, kinds
+from spa.model.modulators import Modulator, check_settings, get_kind, kinds
 from spa.model.params import ValveParams
 from spa.plan.limits import Limits, PlanError, link_check
 from spa.plan.session import Q15, PlannedRun, Segment, longest_high, run_commands
@@ -306,7 +306,7 @@ def design_session(
     refused: dict[str, str] = {}
     for mod in chosen:
         try:
-            mod.check(dt) if hasattr(mod, "check") else None
+            check_settings(mod.kind, dt, **mod.settings)
             num = _setting_numbers(mod, prior, dt, xi_levels, hold_taus, min_periods)
         except ValueError as exc:
             refused[mod.label] = f"does not run at the tick {dt * 1e3:g} ms: {exc}"
