@@ -1,5 +1,6 @@
 """Command line: ``spa validate``, ``spa ingest``, ``spa init``, ``spa example``,
-``spa identify``, ``spa tune``, ``spa design-pi`` and ``spa export-controller``; ``spa --version``.
+``spa identify``, ``spa tune``, ``spa design-pi``, ``spa export-controller``, ``spa plan`` and
+``spa record``; ``spa --version``.
 
 Exit status: 0 when every dataset is valid, 1 when any has an error, 2 for a usage error
 (see ``spa --help``).
@@ -190,6 +191,29 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
     for line in identification_notes(result):
         print(line, file=out)
     return 0
+
+
+def _plan(args: argparse.Namespace, out: TextIO) -> int:
+    """plan a bench session and write its player for the board
+
+    Write FOLDER (new): plan.yaml, dataset.yaml, checklist.md, player/ (C99, sketch);
+    print the predicted precision on the prior and on valves 3x slower and faster.
+    """
+    from spa.plan.command import run_plan
+
+    return run_plan(args, out)
+
+
+def _record(args: argparse.Namespace, out: TextIO) -> int:
+    """split the player's stream into run files
+
+    Read the board's stream (a file, a serial port's device or stdin), write each run's file
+    of FOLDER/plan.yaml with the declared calibration, and flag dropped lines, overruns and
+    vents.
+    """
+    from spa.plan.command import run_record
+
+    return run_record(args, out)
 
 
 def _version() -> str:
@@ -504,6 +528,10 @@ def _parser() -> argparse.ArgumentParser:
         "(float, for single-precision FPUs)",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    from spa.plan.command import plan_arguments, record_arguments
+
+    plan_arguments(command("plan", _plan))
+    record_arguments(command("record", _record))
     return parser
 
 

@@ -1,0 +1,22 @@
+"""Plan a bench session from a prior valve and the bench's limits (``spa plan``), play it on
+the board (:mod:`spa.plan.player`) and capture its stream into a dataset (``spa record``).
+
+=================  ===========================================================
+module             holds
+=================  ===========================================================
+``limits``         the bench's limits and the link's check
+``prior``          the valve a plan is made for
+``session``        runs as segments, and the commands they issue
+``design``         the session's runs, holds, frequencies, replicates, order
+``player``         the C99 player header, host harness and sketch
+``folder``         the plan's folder: plan.yaml, dataset.yaml, checklist, player
+``record``         the board's stream split into the plan's run files
+``host``           the player compiled on the host and closed on a plant
+=================  ===========================================================
+"""
+
+from spa.plan.design import SessionDesign, design_session
+from spa.plan.limits import Limits, PlanError
+from spa.plan.session import PlannedRun, Segment
+
+__all__ = ["Limits", "PlanError", "PlannedRun", "Segment", "SessionDesign", "design_session"]

@@ -1,0 +1,127 @@
+"""The verification session: spa plan --verify results/<name> plans the recommended
+setting's runs on the identified valve with each staircase's predicted levels and FIT; the
+recording on the same valve keeps them, on a valve 2x slower they read broken."""
+
+from __future__ import annotations
+
+import io
+from contextlib import redirect_stdout
+
+import numpy as np
+import pytest
+import yaml
+
+from spa import simulate
+from spa.cli import main
+from spa.datasets import ingest_dataset, read_runs
+from spa.identification import identify_with_config
+from spa.model.params import ValveParams
+from spa.plan.design import design_session
+from spa.plan.folder import calibration_for, write_plan
+from spa.plan.host import build_harness, planned_commands, play_session
+from spa.plan.limits import Limits
+from spa.plan.prior import scaled
+from spa.plan.record import read_plan, record_stream
+from spa.plan.verify import verdict
+
+NOMINAL = ValveParams()
+
+
+def _cli(*argv: str) -> tuple[int, str]:
+    buf = io.StringIO()
+    with redirect_stdout(buf):
+        code = main(list(argv))
+    return code, buf.getvalue()
+
+
+def _play(folder, exe_dir, design, plant, seed):
+    exe = build_harness(folder, exe_dir / f"player-{folder.name}")
+    n = planned_commands(design).size
+    noise = np.random.default_rng(seed).normal(0.0, 0.003, n)
+    stream, _, _ = play_session(
+        exe, design, lambda u: simulate(u, design.dt, plant), calibration_for(1.0), noise
+    )
+    return stream
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """results/<name> of a pilot recorded on the nominal valve: params.yaml, and the
+    tuning's recommendation."""
+    root = tmp_path_factory.mktemp("verify")
+    design = design_session(NOMINAL, Limits(p_max=1.0), pilot=True, precondition=0)
+    folder = root / "pilot"
+    write_plan(folder, design)
+    record_stream(folder, _play(folder, root, design, NOMINAL, 0).splitlines())
+    ingest_dataset(folder, root / "runs")
+    runs, metas = read_runs(root / "runs")
+    res = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, metas=metas)
+    out = root / "results" / "pilot"
+    (out / "identification").mkdir(parents=True)
+    (out / "tuning").mkdir()
+    (out / "identification" / "params.yaml").write_text(yaml.safe_dump(res.to_dict()))
+    rec = {"recommended": {"setting": {"type": "pwm", "f_w": 20.0}}}
+    (out / "tuning" / "recommendation.yaml").write_text(yaml.safe_dump(rec))
+    return root, out
+
+
+def _verify(root, results, name, plant, seed):
+    folder = root / name
+    code, text = _cli(
+        "plan",
+        str(folder),
+        "--verify",
+        str(results),
+        "--p-max",
+        "1",
+        "--levels",
+        "4",
+        "--replicates",
+        "3",
+    )
+    assert code == 0, text
+    plan = read_plan(folder)
+    assert set(plan["verify"]["predictions"]) == {
+        r["id"] for r in plan["runs"] if r["kind"] == "staircase"
+    }
+    from spa.identification.identified import read_identified
+    from spa.model.modulators import Modulator
+    from spa.plan.verify import design_verification  # the same design, rebuilt
+
+    valve = read_identified(str(results / "identification" / "params.yaml")).params
+    design = design_verification(
+        valve, Modulator.from_mapping({"type": "pwm", "f_w": 20.0}), Limits(p_max=1.0), levels=4
+    )
+    assert [r.id for r in design.runs] == [r["id"] for r in plan["runs"]]
+    stream = _play(folder, root, design, plant, seed)
+    (root / f"{name}.txt").write_text(stream)
+    page = root / f"{name}.md"
+    code, text = _cli(
+        "record", str(folder), "--stream", str(root / f"{name}.txt"), "--page", str(page)
+    )
+    assert code == 0, text
+    return page.read_text()
+
+
+def test_the_same_valve_keeps_its_predictions(results):
+    root, out = results
+    page = _verify(root, out, "same", NOMINAL, 5)
+    rows = [
+        line for line in page.splitlines() if line.startswith("| level") or line.startswith("| FIT")
+    ]
+    assert len(rows) == 6 * 5  # 6 staircases, 4 levels and the FIT each
+    assert all(row.endswith("| kept |") for row in rows), page
+
+
+def test_a_valve_twice_slower_reads_broken(results):
+    root, out = results
+    page = _verify(root, out, "slower", scaled(NOMINAL, 2.0), 6)
+    broken = [line for line in page.splitlines() if "broken by" in line]
+    assert len(broken) >= 6, page  # at least one per staircase
+    assert any("mbar" in line for line in broken)
+
+
+def test_verdict_gives_the_amount_and_its_sign():
+    assert verdict(1.0, 0.0, 2.0, "bar") == "kept"
+    assert verdict(-0.25, 0.0, 2.0, "bar") == "broken by -0.25 bar"
+    assert verdict(float("nan"), 0.0, 1.0, "bar") == "not measured"
