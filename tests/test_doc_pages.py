@@ -186,7 +186,16 @@ def _expanded(page: Path) -> str:
     text = page.read_text(encoding="utf-8")
 
     def include(m: re.Match) -> str:
-        return (page.parent / m.group(1).strip()).read_text(encoding="utf-8")
+        target = page.parent / m.group(1).strip()
+        if target.name == "_source.md" and not target.exists():
+            # written by docs/conf.py at build time, from pyproject.toml: write it the same way
+            import sys
+
+            sys.path.insert(0, str(DOCS))
+            from _source import write_source_section
+
+            write_source_section(ROOT / "pyproject.toml", target)
+        return target.read_text(encoding="utf-8")
 
     return re.sub(r"```\{include\} ([^\n]+)\n(?::[^\n]*\n)*```", include, text)
 
@@ -312,8 +321,9 @@ def page_names(text: str) -> list[str]:
     >>> page_names("See docs/model.md and `config/README.md`, the README, [x](../a.md).")
     ['docs/model.md', 'config/README.md', 'README']
     """
-    text = re.sub(r"^```\{code-cell\}.*?^```", "", text, flags=re.S | re.M)  # code, not prose
-    text = re.sub(r"^```.*$", "", text, flags=re.M)  # directive lines ({include} ../model.md)
+    # fenced blocks are code or directives ({include} ../model.md), not prose: a command that
+    # names its output file (`--page verification.md`) does not cross-reference a page
+    text = re.sub(r"^(```+).*?^\1[^\n]*$", "", text, flags=re.S | re.M)
     text = re.sub(r"\]\([^)]*\)|\{\w+\}`[^`]*`", "]", _prose(text))
     return re.findall(r"(?:[\w.-]+/)*[\w.-]+\.md\b|\bREADME\b(?!\.md)", text)
 
