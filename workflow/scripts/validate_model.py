@@ -16,10 +16,8 @@ def main() -> None:
     runs, metas = read_runs(snakemake.input.runs)
     params = read_params(snakemake.input.params)
     modulators = {rid: meta.get("modulator") for rid, meta in metas.items()}
-    table = validate_runs(
-        runs, params, modulators, {rid: meta["kind"] for rid, meta in metas.items()}
-    )
     kinds = {rid: meta["kind"] for rid, meta in metas.items()}
+    table = validate_runs(runs, params, modulators, kinds)
     table = with_fit_before_refinement(table, runs, snakemake.input.params, modulators, kinds)
     write_csv(table.drop(columns="p0"), snakemake.output.fit)
     for row in table.itertuples():
