@@ -157,7 +157,9 @@ $(if [ "$accounting" = 1 ]; then
         echo "JobCompType=jobcomp/none"
     fi)
 NodeName=$host CPUs=$cpus RealMemory=$mem State=UNKNOWN
-PartitionName=main Nodes=ALL Default=YES MaxTime=INFINITE State=UP
+# two jobs may share a core: the tests hold jobs that only sleep (the TaskProlog), which must
+# not keep the other tests' jobs waiting for a core
+PartitionName=main Nodes=ALL Default=YES MaxTime=INFINITE State=UP OverSubscribe=FORCE:2
 EOF
     cat >"$DIR/task_prolog.sh" <<EOF
 #!/bin/sh

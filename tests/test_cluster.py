@@ -263,3 +263,27 @@ def _dataset_targets(out: Path, dataset: str) -> list[Path]:
             path = stage_outputs(stage.name, str(out))["status"]
             paths.append(Path(path.format(dataset=dataset)))
     return paths
+
+
+def test_howto_cluster_commands_are_the_ones_run_on_slurm():
+    """Every option of the how-to's `snakemake` commands is one that tests/test_slurm.py
+    passes to Snakemake on the real scheduler, and the flag it gives for a cluster without
+    accounting is the one those tests use."""
+    howto = (ROOT / "docs" / "howto" / "cluster.md").read_text()
+    tested = (ROOT / "tests" / "test_slurm.py").read_text()
+    blocks = re.findall(r"```bash\n(.*?)```", howto, re.S)
+    commands = [
+        line.strip()
+        for block in blocks
+        for line in block.replace("\\\n", " ").splitlines()
+        if line.strip().startswith("snakemake ")
+    ]
+    assert len(commands) >= 4, commands
+    options = {tok for cmd in commands for tok in cmd.split() if tok.startswith("--")}
+    assert {"--profile", "--slurm-status-command", "--set-resources"} <= options
+    for option in sorted(options):
+        assert f'"{option}"' in tested, f"{option} (docs/howto/cluster.md) is not run on SLURM"
+    assert "snakemake reproduce-all --profile profiles/slurm --slurm-status-command squeue" in (
+        " ".join(commands)
+    )
+    assert 'NO_ACCOUNTING = ["--slurm-status-command", "squeue"]' in tested

@@ -172,6 +172,16 @@ def held_jobs(hold: Path) -> list[str]:
     return sorted(ids, key=int)
 
 
+def _squeue_jobs(fields: str, ids: list[str]) -> list[str]:
+    res = subprocess.run(
+        ["squeue", "--states=all", "-h", "-j", ",".join(ids), "-o", fields],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    return res.stdout.split()
+
+
 def job_state(job_id: str) -> str:
     res = subprocess.run(
         ["squeue", "--states=all", "-h", "-j", job_id, "-o", "%T"],
@@ -349,7 +359,12 @@ def failures_run(slurm, tmp_path_factory):
         out,
         cfg,
         *ingest_targets(out, names),
-        extra=("--set-resources", "ingest_dataset:mem_mb=64"),
+        extra=(
+            "--set-resources",
+            "ingest_dataset:mem_mb=64",
+            "--default-resources",  # the how-to's way to name a partition
+            "slurm_partition=main",
+        ),
     )
     proc = start_snakemake(log, *args, env={"SPA_SLURM_HOLD": str(hold)})
     try:
@@ -378,6 +393,8 @@ def test_cancelled_job_is_resubmitted_once_and_the_run_finishes(failures_run):
     assert len(subs) == 3 + 1
     for name in ["example", "spare"]:
         assert json.loads((out / name / "status" / "runs.json").read_text())["ok"] is True
+    partitions = {line.split("|")[1] for line in _squeue_jobs("%i|%P", [s for _, s, _ in subs])}
+    assert partitions == {"main"}
 
 
 def test_broken_dataset_fails_alone_under_keep_going(failures_run):
@@ -418,7 +435,14 @@ def timeout_run(slurm, tmp_path_factory):
         out,
         cfg,
         *ingest_targets(out, ["slow"]),
-        extra=("--set-resources", "ingest_dataset:runtime=1", "--retries", "0"),
+        # --slurm-no-account: the plugin accepts it and ignores it (checked below)
+        extra=(
+            "--set-resources",
+            "ingest_dataset:runtime=1",
+            "--retries",
+            "0",
+            "--slurm-no-account",
+        ),
     )
     proc = start_snakemake(log, *args, env={"SPA_SLURM_HOLD": str(hold)})
 
@@ -448,6 +472,8 @@ def test_job_over_its_runtime_is_reported_as_timeout_by_rule_and_dataset(timeout
     assert "rule ingest_dataset:" in error, error[:3000]
     assert f"{out}/slow/status/runs.json" in error, error[:3000]
     assert f"*** JOB {slurm_id} ON " in error and "DUE TO TIME LIMIT" in error, error[:3000]
+    # --slurm-no-account was passed, and the plugin still went guessing an account
+    assert "No SLURM account given, trying to guess." in text
 
 
 def test_killed_snakemake_restarted_redoes_only_the_unfinished_datasets(slurm, tmp_path):
