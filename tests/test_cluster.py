@@ -1,5 +1,8 @@
 """Beyond one machine: the SLURM profile's plan, and real runs through a local stand-in cluster.
 
+These run on any machine, as any user, with no daemon; tests/test_slurm.py runs the same path
+on a real one-node Slurm (in CI, or with SPA_TEST_SLURM=1).
+
 profiles/local-cluster drives the cluster-generic executor exactly as it would drive a real
 scheduler, but its submit command (profiles/local-cluster/submit.sh) runs each job script on
 this machine and logs what it was asked for. The tests check that every job of a run went
@@ -104,8 +107,8 @@ def assert_every_job_went_through_submit(log: str, cluster_dir: Path) -> dict[st
 
 def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path, isolated_config):
     # A dry run uses Snakemake's dry-run executor: the SLURM plugin only checks its settings
-    # and calls no sbatch/sinfo/sacct, so this works on a machine without SLURM. (A real run
-    # there fails at the first submission: the plugin asks sacct for a default account.)
+    # and calls no sbatch/sinfo/sacct, so this works on a machine without SLURM. Real runs
+    # on a real Slurm are in tests/test_slurm.py.
     res = run(
         "reproduce-all",
         "--profile",
