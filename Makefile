@@ -2,7 +2,7 @@
 #   make reproduce   set up .venv from the lock file, then run `snakemake reproduce-all`
 #   make test        set up .venv from the lock file, Chromium and a C compiler (apt-get), lint,
 #                    run the tests (tests/test_docs_site.py builds the documentation site with
-#                    warnings as errors)
+#                    warnings as errors; in CI, tests/test_slurm.py runs on a one-node SLURM)
 #   make docs        build the documentation site offline into docs/_build/html
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
@@ -44,8 +44,11 @@ ccompiler:
 		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc libc6-dev >/dev/null; \
 	fi
 
+# In CI (CI=true) or with SPA_TEST_SLURM=1, tests/test_slurm.py starts a one-node SLURM
+# (.ci/slurm.sh up: Debian's Slurm 22.05 installed with apt-get when missing) and stops it; the
+# trap stops it too if pytest itself was killed.
 test: lint browser ccompiler
-	$(BIN)/pytest
+	@trap '.ci/slurm.sh down >/dev/null 2>&1 || true' EXIT; $(BIN)/pytest
 
 # The documentation site (Sphinx, numpydoc, MyST, myst-nb, pydata-sphinx-theme): getting
 # started (its tutorial runs the pipeline on the bundled example), how-to guides, explanation

@@ -1,5 +1,8 @@
 """Beyond one machine: the SLURM profile's plan, and real runs through a local stand-in cluster.
 
+These run on any machine, as any user, with no daemon; tests/test_slurm.py runs the same path
+on a real one-node Slurm (in CI, or with SPA_TEST_SLURM=1).
+
 profiles/local-cluster drives the cluster-generic executor exactly as it would drive a real
 scheduler, but its submit command (profiles/local-cluster/submit.sh) runs each job script on
 this machine and logs what it was asked for. The tests check that every job of a run went
@@ -104,8 +107,8 @@ def assert_every_job_went_through_submit(log: str, cluster_dir: Path) -> dict[st
 
 def test_slurm_profile_plans_the_whole_run_without_slurm(tmp_path, isolated_config):
     # A dry run uses Snakemake's dry-run executor: the SLURM plugin only checks its settings
-    # and calls no sbatch/sinfo/sacct, so this works on a machine without SLURM. (A real run
-    # there fails at the first submission: the plugin asks sacct for a default account.)
+    # and calls no sbatch/sinfo/sacct, so this works on a machine without SLURM. Real runs
+    # on a real Slurm are in tests/test_slurm.py.
     res = run(
         "reproduce-all",
         "--profile",
@@ -263,3 +266,27 @@ def _dataset_targets(out: Path, dataset: str) -> list[Path]:
             path = stage_outputs(stage.name, str(out))["status"]
             paths.append(Path(path.format(dataset=dataset)))
     return paths
+
+
+def test_howto_cluster_commands_are_the_ones_run_on_slurm():
+    """Every option of the how-to's `snakemake` commands is one that tests/test_slurm.py
+    passes to Snakemake on the real scheduler, and the flag it gives for a cluster without
+    accounting is the one those tests use."""
+    howto = (ROOT / "docs" / "howto" / "cluster.md").read_text()
+    tested = (ROOT / "tests" / "test_slurm.py").read_text()
+    blocks = re.findall(r"```bash\n(.*?)```", howto, re.S)
+    commands = [
+        line.strip()
+        for block in blocks
+        for line in block.replace("\\\n", " ").splitlines()
+        if line.strip().startswith("snakemake ")
+    ]
+    assert len(commands) >= 4, commands
+    options = {tok for cmd in commands for tok in cmd.split() if tok.startswith("--")}
+    assert {"--profile", "--slurm-status-command", "--set-resources"} <= options
+    for option in sorted(options):
+        assert f'"{option}"' in tested, f"{option} (docs/howto/cluster.md) is not run on SLURM"
+    assert "snakemake reproduce-all --profile profiles/slurm --slurm-status-command squeue" in (
+        " ".join(commands)
+    )
+    assert 'NO_ACCOUNTING = ["--slurm-status-command", "squeue"]' in tested

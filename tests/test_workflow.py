@@ -350,12 +350,15 @@ def test_staleness_follows_content_not_modification_times(tmp_path):
 
 def _files(folder: Path) -> dict[str, bytes]:
     """Every file of a results folder but logs, the report's pages, the store of stage
-    results and the recommendation's `source:` line (it names the results folder), by
-    relative path; a status file without its `reuse` field (how it came: reused or computed,
+    results, the execution records (where and when each job ran: spa.pipeline.execution) and
+    the recommendation's `source:` line (it names the results folder), by relative path; a
+    status file without its `reuse` field (how it came: reused or computed,
     spa.pipeline.reuse)."""
     found = {}
     for path in sorted(folder.rglob("*")):
         rel = str(path.relative_to(folder))
+        if rel.endswith("provenance/execution.json"):
+            continue
         if path.is_file() and not rel.startswith(("logs/", "report", ".store/")):
             data = path.read_bytes()
             if path.name == "recommendation.yaml":

@@ -23,6 +23,7 @@ from typing import Any
 
 from spa.pipeline.status import dataset_failures
 from spa.report.build import _PAPER, _section, dataset_body, document, meta_list
+from spa.report.cost import cost_html
 from spa.report.failure import failure_box
 from spa.report.summary import summary_html
 
@@ -163,7 +164,8 @@ def build_index(
     prefix: str = "",
     title: str = "spa: reproduction report",
 ) -> str:
-    """The index of the run: header, failed datasets, summary, overview, pages.
+    """The index of the run: header, failed datasets, summary, overview, pages, and where it
+    ran when that was a SLURM cluster (:func:`spa.report.cost.cost_html`).
 
     Parameters
     ----------
@@ -210,6 +212,9 @@ def build_index(
     pages += [(links[n], f"Dataset {n}" + (" (failed)" if n in failures else "")) for n in datasets]
     items = "".join(f'<li><a href="{e(href)}">{e(text)}</a></li>\n' for href, text in pages)
     sections.append(("pages", "Pages", f'<ol class="pages">\n{items}</ol>\n', []))
+    cost = cost_html(results, datasets)  # "" unless the datasets ran under SLURM
+    if cost:
+        sections.append(("where", "Where it ran", cost, []))
     header = f"<p>Tables and figures of one run reproducing {e(_PAPER)}</p>\n"
     header += meta_list({**meta, "datasets": f"{len(datasets)}"})
     return document(title, header, sections)

@@ -1,6 +1,7 @@
 """Simulate one configured dataset into canonical run tables."""
 
 from spa.io import get_logger
+from spa.pipeline.execution import recorded_job
 from spa.pipeline.provenance import write_run_index
 from spa.pipeline.status import run_stage
 from spa.synthetic import generate_dataset
@@ -22,4 +23,5 @@ def main() -> None:
     log.info("%s: %d runs written to %s", name, len(paths), snakemake.output.runs)
 
 
-run_stage(snakemake, "runs", main, log)
+with recorded_job(snakemake):  # results/<dataset>/provenance/execution.json
+    run_stage(snakemake, "runs", main, log)
