@@ -17,6 +17,7 @@ import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -29,7 +30,15 @@ from spa.model.laws.timemap import FIT_NODES, law_replay
 from spa.model.params import ValveParams
 from spa.validation import fit_percent
 
-__all__ = ["LawsChoice", "LawsFit", "choose_laws", "fit_laws", "law_model", "law_names"]
+__all__ = [
+    "LawsChoice",
+    "LawsFit",
+    "choose_laws",
+    "fit_laws",
+    "law_model",
+    "law_names",
+    "laws_record",
+]
 
 _NOISE_FLOOR = 1e-6  # bar, as the refinement's
 _STEP = 1e-3  # forward-difference step of the log-rates and of m
@@ -501,3 +510,90 @@ def choose_laws(
         full,
         f"{why}: not above 2 standard errors and 2 points, the paper's laws are kept",
     )
+
+
+#: Held-out FIT points the identified laws must gain (spa.identification.laws_fit's rule):
+#: where the paper's laws already come this close to the noise ceiling on every modulated
+#: run, no laws can gain them, and nothing is fitted.
+_LAW_HEADROOM = 2.0
+
+
+def laws_record(
+    prepared: Sequence[RefineRun], ref: Any, chosen: str, setting: str
+) -> tuple[dict[str, Any], ValveParams | None]:
+    """``params.yaml``'s ``laws:`` record and, when the identified laws are chosen, the
+    valve that carries them (None otherwise).
+
+    Parameters
+    ----------
+    prepared : sequence of RefineRun
+        Every run with the command.
+    ref : RefineFit
+        The chosen convention's refinement (paper's laws): its valve, held-out FITs and
+        noise ceilings.
+    chosen : str
+        The delay convention.
+    setting : {"auto", "paper"}
+        ``identification.laws``.
+
+    Returns
+    -------
+    record : dict
+        ``chosen``, ``setting``, ``reason`` and, when the laws were fitted, ``gain``, ``se``,
+        the held-out FITs of both (``fit_paper``, ``fit_identified``), the in-sample
+        ``fit_insample``, ``valve`` (``k2`` and the delays fitted with the laws),
+        ``coefficients`` and ``covariance`` (``names``, ``matrix``).
+    valve : ValveParams or None
+        The valve with the identified laws, when they are chosen.
+    """
+    modulated = [r for r in prepared if r.modulator]
+    record: dict[str, Any] = {"chosen": "paper", "setting": setting}
+    if setting == "paper":
+        record["reason"] = "identification.laws: paper"
+        return record, None
+    if len(modulated) < 2:
+        record["reason"] = (
+            f"{len(modulated)} modulated run(s): too few to compare the laws held out; the "
+            "paper's are kept"
+        )
+        return record, None
+    room = {
+        r.rid: float(ref.noise_ceiling.get(r.rid, math.nan)) - float(ref.fit_heldout[r.rid])
+        for r in modulated
+    }
+    finite = [v for v in room.values() if math.isfinite(v)]
+    if finite and max(finite) < _LAW_HEADROOM:
+        record["reason"] = (
+            f"the paper's laws predict every modulated run held out within "
+            f"{max(finite):.1f} points of what the sensor noise allows: no laws can gain "
+            f"{_LAW_HEADROOM:g} points, so none were fitted"
+        )
+        return record, None
+    choice = choose_laws(prepared, ref.params, paper_heldout=ref.fit_heldout, delay=chosen)
+    fit = choice.fit
+    record.update(
+        {
+            "chosen": choice.laws,
+            "reason": f"the actuator's own laws: {choice.reason}",
+            "gain": _finite(choice.gain),
+            "se": _finite(choice.se),
+            "fit_paper": {k: round(float(v), 3) for k, v in choice.fit_paper.items()},
+            "fit_identified": {k: round(float(v), 3) for k, v in choice.fit_identified.items()},
+            "fit_insample": {k: round(float(v), 3) for k, v in fit.fit.items()},
+            "valve": {
+                "k2": float(fit.params.k2),
+                "t_on": float(fit.params.t_on),
+                "t_off": float(fit.params.t_off),
+            },
+            "coefficients": fit.laws.as_dict(),
+            "covariance": {
+                "names": list(fit.names),
+                "matrix": [[float(v) for v in row] for row in fit.cov],
+            },
+        }
+    )
+    return record, (choice.params if choice.laws == "identified" else None)
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None

@@ -26,7 +26,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -36,7 +35,7 @@ from scipy.optimize import least_squares
 from spa.identification.edges import EdgeTiming, edge_timing
 from spa.identification.longrun import andrews_bandwidth, newey_west
 from spa.identification.rates import _arrays
-from spa.identification.results import _Z95, FloatArray
+from spa.identification.results import FloatArray
 from spa.model.params import ValveParams
 from spa.model.plant import edge_indices, segment_pressure_scalar, transport_runs
 from spa.validation import fit_percent, initial_pressure
@@ -590,24 +589,3 @@ def delay_search(
         trials = [ValveParams(**{**best.as_dict(), name: float(g)}) for g in grid]
         best = min(trials, key=cost)
     return best
-
-
-def interval(value: float, se: float, lo_bound: float = 0.0) -> tuple[float, float]:
-    """The 95 % interval ``value ± 1.96*se``, clipped below at ``lo_bound``."""
-    return max(value - _Z95 * se, lo_bound), value + _Z95 * se
-
-
-def summary(fit: RefineFit) -> dict[str, Any]:
-    """Plain, YAML-ready record of one refinement."""
-    return {
-        "delay": fit.delay,
-        "params": {n: float(getattr(fit.params, n)) for n in NAMES},
-        "se": {n: float(v) for n, v in fit.se.items()},
-        "heldout_fit_median": _finite(fit.heldout_median()),
-        "nfev": int(fit.nfev),
-        "converged": bool(fit.converged),
-    }
-
-
-def _finite(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None

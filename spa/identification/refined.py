@@ -20,19 +20,18 @@ import pandas as pd
 
 from spa.identification.convention import choose_convention
 from spa.identification.edges import EdgeTiming, summary
+from spa.identification.model_checks import (
+    closed_form_residuals,
+    model_checks,
+    noise_record,
+    rms,
+)
 from spa.identification.results import _Z95, UNITS, Estimate, IdentificationResult
 
 __all__ = ["refine_result", "unresolved_delays"]
 
 #: The delays and the direction of the command edge that shows each.
 _DELAY_EDGE = {"t_on": "rising", "t_off": "falling"}
-
-
-def _rms(residuals: Mapping[str, np.ndarray]) -> float:
-    """RMS of every run's residuals together (NaN for none)."""
-    if not residuals:
-        return math.nan
-    return float(np.sqrt(np.mean(np.concatenate([e * e for e in residuals.values()]))))
 
 
 def _hz(x: float) -> str:
@@ -99,147 +98,6 @@ def unresolved_delays(
             f"{_record_advice(name, dt)}."
         )
     return ests, notes
-
-
-def _repeat_checks(
-    result: IdentificationResult, runs: Mapping[str, pd.DataFrame], kinds: Mapping[str, str]
-) -> dict[str, Any]:
-    """The repeats of the charge and of the discharge, each fitted alone and compared."""
-    from spa.identification.diagnostics import repeats_agree
-    from spa.identification.rate_fits import DerivativeFit, fit_charge, fit_discharge
-    from spa.identification.results import IdentificationError
-
-    s = result.settings
-    derivative = DerivativeFit(
-        s.get("window", 0.1), s.get("polyorder", 3), s.get("skip", 0.03),
-        s.get("onset_fraction", 0.02),
-    )  # fmt: skip
-    out: dict[str, Any] = {}
-    plan = (
-        ("charge", ("k2", "tau2"), fit_charge, {"supply_fraction": s.get("supply_fraction", 0.9)}),
-        ("discharge", ("c1",), fit_discharge, {"tail_fraction": s.get("tail_fraction", 0.05)}),
-    )
-    for kind, names, fit, kw in plan:
-        ids = sorted(r for r, k in kinds.items() if k == kind and r in runs)
-        if len(ids) < 2:
-            continue
-        per: dict[str, dict[str, float]] = {n: {} for n in names}
-        ses: dict[str, dict[str, float]] = {n: {} for n in names}
-        failed: dict[str, str] = {}
-        for rid in ids:
-            try:
-                one = fit({rid: runs[rid]}, settings=derivative, **kw)
-            except (IdentificationError, ValueError, np.linalg.LinAlgError) as err:
-                failed[rid] = str(err)
-                continue
-            for n in names:
-                est = getattr(one, n)
-                if est.lo is not None and est.hi is not None and math.isfinite(est.hi):
-                    per[n][rid] = est.value
-                    ses[n][rid] = (est.hi - est.lo) / (2 * _Z95)
-        for n in names:
-            check = repeats_agree(n, per[n], ses[n], floor=0.01)
-            if check is not None:
-                out[n] = check
-        if failed and len(failed) < len(ids):
-            # the others fit alone and this one does not: it is unlike its repeats
-            out[f"{kind}_alone"] = failed
-    return out
-
-
-def _closed_form_residuals(result: IdentificationResult) -> dict[str, np.ndarray]:
-    """Residuals of the charge and discharge closed forms per run (their fit spans)."""
-    out: dict[str, np.ndarray] = {}
-    for fit in (result.charge, result.discharge):
-        resid = getattr(fit, "residuals", None)
-        if resid:
-            out.update(resid)
-    return out
-
-
-def _noise_record(
-    result: IdentificationResult,
-    runs: Mapping[str, pd.DataFrame],
-    kinds: Mapping[str, str],
-    model_residual: float,
-) -> dict[str, Any]:
-    """``params.yaml``'s ``noise:``: the sensor's noise where nothing moves, and the model's
-    residual under its own name."""
-    from spa.identification.diagnostics import sensor_noise
-
-    plateaus, moving = [], []
-    k2, tau2 = result.k2.value, result.tau2.value
-    for rid, table in sorted(runs.items()):
-        p = table["p"].to_numpy(dtype=np.float64)
-        t = table["t"].to_numpy(dtype=np.float64)
-        moving.append(p)
-        if kinds.get(rid) != "charge":
-            continue
-        # The settled tail: at least 6 tau2 after the first sample above half the supply,
-        # where the charge is within 0.25 % of k2 (never the zero tail of a discharge).
-        half = np.flatnonzero(p > 0.5 * k2)
-        if half.size:
-            settled = t >= t[half[0]] + 6.0 * tau2
-            plateaus.append(p[settled])
-    sd, method, bound = sensor_noise(plateaus, moving)
-    out: dict[str, Any] = {
-        "sensor": None if not math.isfinite(sd) else float(sd),
-        "method": method,
-        "upper_bound": bool(bound),
-    }
-    out["model_residual"] = float(model_residual) if math.isfinite(model_residual) else None
-    return out
-
-
-def _checks(
-    result: IdentificationResult,
-    runs: Mapping[str, pd.DataFrame],
-    kinds: Mapping[str, str],
-    residuals: Mapping[str, np.ndarray],
-) -> dict[str, Any]:
-    """The whiteness of the charge and discharge closed forms' residuals, and the agreement
-    of the repeats.
-
-    The whiteness is tested where one law alone is fitted to one experiment (the charge's
-    exponential, the discharge's square root), so that a second state shows as it is (a
-    charge that wants two time constants), not the modulated runs' residuals, which also
-    carry the jitter of edges logged off the log's ticks and the compromise of one parameter
-    set over every run.
-    """
-    from spa.identification.diagnostics import whiteness
-
-    tests = [whiteness(rid, e) for rid, e in sorted(residuals.items()) if e.size]
-    # Several runs are tested: each at 1 %/runs, so that a white dataset passes at 1 %.
-    level = 0.01 / max(len(tests), 1)
-    tests = [whiteness(t.run, residuals[t.run], alpha=level) for t in tests]
-    failed = [t.run for t in tests if not t.white]
-    repeats = _repeat_checks(result, runs, kinds)
-    alone = {k: repeats.pop(k) for k in list(repeats) if k.endswith("_alone")}
-    disagree = [c for c in repeats.values() if not c.agree]
-    sentences = []
-    if failed:
-        sentences.append(
-            f"the model's residuals are not white on run(s) {', '.join(failed)} (Ljung's "
-            "test at 1 %): they carry structure the model misses (a second state such as "
-            "heat exchange or a creeping wall, a lagging sensor or line, or laws other than "
-            "the paper's)"
-        )
-    sentences += [c.sentence() for c in disagree]
-    for key, runs_failed in alone.items():
-        kind = key.removesuffix("_alone")
-        for rid, why in sorted(runs_failed.items()):
-            sentences.append(
-                f"the {kind} run {rid} cannot be fitted alone while its repeats can ({why}): "
-                "check that run (a throttled or kinked line, another supply)"
-            )
-    return {
-        "whiteness": {t.run: t.to_dict() for t in tests},
-        "white": not failed,
-        "repeats": {n: c.to_dict() for n, c in repeats.items()},
-        "repeats_unfitted": {k: dict(v) for k, v in alone.items()},
-        "repeats_agree": not disagree and not alone,
-        "sentences": sentences,
-    }
 
 
 def refine_result(
@@ -310,6 +168,7 @@ def refine_result(
     and no interval outside ``[0, max_delay]``.
     """
     from spa.identification.adequacy import assess
+    from spa.identification.laws_fit import laws_record
     from spa.identification.refine import NAMES, delay_search, prepare_runs, refine
 
     prepared = prepare_runs(runs, kinds, modulators, command_dt, edges=edges)
@@ -392,7 +251,7 @@ def refine_result(
             fallback=None if fb is None else f"started from the nominal value ({fb}); refined",
         )  # fmt: skip
     difference = _difference(ests, ref, chosen, n_edges, prepared)
-    law_record, law_valve = _choose_laws(prepared, ref, chosen, laws, max_delay)
+    law_record, law_valve = laws_record(prepared, ref, chosen, laws)
     if result.delays is not None:
         pulse = result.delays.summary()
         for key, name, what in (
@@ -436,10 +295,10 @@ def refine_result(
         adequacy = replace(adequacy, sentence=f"{adequacy.sentence} But {better}.")
         warnings.append(better)
     resid = {r.rid: r.y - m for r, m in zip(prepared, ref.final_models(), strict=True)}
-    checks = _checks(result, runs, kinds, _closed_form_residuals(result))
+    checks = model_checks(result, runs, kinds, closed_form_residuals(result))
     adequacy = adequacy.with_checks(checks)
     warnings += checks["sentences"]
-    model_rms = _rms(resid)
+    model_rms = rms(resid)
 
     def clean(d: Mapping[str, float]) -> dict[str, float | None]:
         return {k: (round(float(v), 3) if math.isfinite(v) else None) for k, v in d.items()}
@@ -487,7 +346,7 @@ def refine_result(
         delay_difference=difference,
         adequacy=adequacy.to_dict(),
         checks=checks,
-        noise=_noise_record(result, runs, kinds, model_rms),
+        noise=noise_record(result, runs, kinds, model_rms),
         valve_edges=summary({r.rid: r.timing for r in prepared}),
         laws=law_record,
         warnings=tuple(dict.fromkeys(warnings)),
@@ -513,10 +372,10 @@ def _without_command(
         warnings += notes
         for name in _DELAY_EDGE:
             fallback.pop(name, None)
-    checks = _checks(result, runs, kinds, _closed_form_residuals(result))
+    checks = model_checks(result, runs, kinds, closed_form_residuals(result))
     warnings += checks["sentences"]
-    resid = _closed_form_residuals(result)
-    model_rms = _rms(resid)
+    resid = closed_form_residuals(result)
+    model_rms = rms(resid)
     from spa.identification.adequacy import Adequacy
 
     adequacy = Adequacy(
@@ -530,7 +389,7 @@ def _without_command(
         fallback=fallback,
         adequacy=adequacy.to_dict(),
         checks=checks,
-        noise=_noise_record(result, runs, kinds, model_rms),
+        noise=noise_record(result, runs, kinds, model_rms),
         warnings=tuple(dict.fromkeys(warnings)),
     )
 
@@ -661,69 +520,3 @@ def _difference(
         "to the leave-one-run-out spread of their difference; logged edges off the log's "
         "ticks uniform within their step",
     )
-
-
-#: Held-out FIT points the identified laws must gain (spa.identification.laws_fit's rule):
-#: where the paper's laws already come this close to the noise ceiling on every modulated
-#: run, no laws can gain them, and nothing is fitted.
-_LAW_HEADROOM = 2.0
-
-
-def _choose_laws(
-    prepared: list[Any], ref: Any, chosen: str, setting: str, max_delay: float
-) -> tuple[dict[str, Any], Any]:
-    """``params.yaml``'s ``laws:`` record and, when the identified laws are chosen, the
-    valve that carries them (None otherwise)."""
-    modulated = [r for r in prepared if r.modulator]
-    record: dict[str, Any] = {"chosen": "paper", "setting": setting}
-    if setting == "paper":
-        record["reason"] = "identification.laws: paper"
-        return record, None
-    if len(modulated) < 2:
-        record["reason"] = (
-            f"{len(modulated)} modulated run(s): too few to compare the laws held out; the "
-            "paper's are kept"
-        )
-        return record, None
-    room = {
-        r.rid: float(ref.noise_ceiling.get(r.rid, math.nan)) - float(ref.fit_heldout[r.rid])
-        for r in modulated
-    }
-    finite = [v for v in room.values() if math.isfinite(v)]
-    if finite and max(finite) < _LAW_HEADROOM:
-        record["reason"] = (
-            f"the paper's laws predict every modulated run held out within "
-            f"{max(finite):.1f} points of what the sensor noise allows: no laws can gain "
-            f"{_LAW_HEADROOM:g} points, so none were fitted"
-        )
-        return record, None
-    from spa.identification.laws_fit import choose_laws
-
-    choice = choose_laws(prepared, ref.params, paper_heldout=ref.fit_heldout, delay=chosen)
-    fit = choice.fit
-    record.update(
-        {
-            "chosen": choice.laws,
-            "reason": f"the actuator's own laws: {choice.reason}",
-            "gain": _finite(choice.gain),
-            "se": _finite(choice.se),
-            "fit_paper": {k: round(float(v), 3) for k, v in choice.fit_paper.items()},
-            "fit_identified": {k: round(float(v), 3) for k, v in choice.fit_identified.items()},
-            "fit_insample": {k: round(float(v), 3) for k, v in fit.fit.items()},
-            "valve": {
-                "k2": float(fit.params.k2),
-                "t_on": float(fit.params.t_on),
-                "t_off": float(fit.params.t_off),
-            },
-            "coefficients": fit.laws.as_dict(),
-            "covariance": {
-                "names": list(fit.names),
-                "matrix": [[float(v) for v in row] for row in fit.cov],
-            },
-        }
-    )
-    return record, (choice.params if choice.laws == "identified" else None)
-
-
-def _finite(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None

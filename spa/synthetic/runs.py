@@ -20,7 +20,7 @@ from spa.model.params import ValveParams
 from spa.model.plant import simulate
 from spa.synthetic.inputs import chirp_input, sine_input, staircase_input
 from spa.synthetic.physical import PhysicalPlant, simulate_physical
-from spa.synthetic.sensor import Sensor, sensor_record
+from spa.synthetic.sensor import Sensor, edge_declaration, sensor_record
 
 __all__ = [
     "RunSpec",
@@ -522,25 +522,6 @@ def dataset_experiments(
     return out
 
 
-def _edge_declaration(spec: RunSpec, dt: float, sensor: Sensor) -> dict[str, str]:
-    """``valve_edges`` of a run given as its valve command, as a bench that knows its
-    controller declares it: ``on_tick`` when every edge falls on a logging tick, else
-    ``sampled``. A modulated run declares nothing: its replayed modulator decides edge by
-    edge (:func:`spa.identification.edges.edge_timing`).
-
-    Examples
-    --------
-    >>> spec = RunSpec("p", "pulse", valve=np.array([0] * 20 + [1] * 20, dtype=np.int8))
-    >>> _edge_declaration(spec, 1e-4, Sensor(fs=1000.0))
-    {'valve_edges': 'on_tick'}
-    """
-    if spec.valve is None:
-        return {}
-    every = max(1, round(1.0 / (sensor.fs * dt)))
-    edges = np.flatnonzero(np.diff(np.asarray(spec.valve))) + 1
-    return {"valve_edges": "on_tick" if np.all(edges % every == 0) else "sampled"}
-
-
 def generate_dataset(
     name: str,
     cfg: Mapping[str, Any],
@@ -601,7 +582,7 @@ def generate_dataset(
                 else {"truth": params.as_dict()}
             ),
             "controller_dt": dt,
-            **_edge_declaration(spec, dt, sensor),
+            **edge_declaration(spec.valve, dt, sensor),
             "sensor": dict(cfg.get("sensor") or {}),
             "seed": int(seed),
             "experiment": {k: v for k, v in spec.meta.items()},

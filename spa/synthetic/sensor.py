@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Ringing", "Sensor", "sensor_record"]
+__all__ = ["Ringing", "Sensor", "edge_declaration", "sensor_record"]
 
 # ---- sensor -----------------------------------------------------------------------------
 
@@ -120,3 +120,21 @@ def sensor_record(
     if sensor.quantum > 0:
         logged = np.round(logged / sensor.quantum) * sensor.quantum
     return logged
+
+
+def edge_declaration(valve: npt.ArrayLike | None, dt: float, sensor: Sensor) -> dict[str, str]:
+    """``valve_edges`` of a run given as its valve command ``valve`` (at step ``dt``), as a
+    bench that knows its controller declares it: ``on_tick`` when every edge falls on a
+    logging tick, else ``sampled``. A modulated run declares nothing: its replayed modulator decides edge by
+    edge (:func:`spa.identification.edges.edge_timing`).
+
+    Examples
+    --------
+    >>> edge_declaration(np.array([0] * 20 + [1] * 20), 1e-4, Sensor(fs=1000.0))
+    {'valve_edges': 'on_tick'}
+    """
+    if valve is None:
+        return {}
+    every = max(1, round(1.0 / (sensor.fs * dt)))
+    edges = np.flatnonzero(np.diff(np.asarray(valve))) + 1
+    return {"valve_edges": "on_tick" if np.all(edges % every == 0) else "sampled"}
