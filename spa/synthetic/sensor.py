@@ -125,8 +125,8 @@ def sensor_record(
 def edge_declaration(valve: npt.ArrayLike | None, dt: float, sensor: Sensor) -> dict[str, str]:
     """``valve_edges`` of a run given as its valve command ``valve`` (at step ``dt``), as a
     bench that knows its controller declares it: ``on_tick`` when every edge falls on a
-    logging tick, else ``sampled``. A modulated run declares nothing: its replayed modulator decides edge by
-    edge (:func:`spa.identification.edges.edge_timing`).
+    logging tick, else ``sampled``. A modulated run declares nothing: its replayed modulator
+    decides edge by edge (:func:`spa.identification.edges.edge_timing`).
 
     Examples
     --------
