@@ -290,3 +290,15 @@ def test_the_sensor_noise_of_a_choked_4_bar_plant_is_its_own(tmp_path) -> None:
     assert abs(res.noise["sensor"] - given) < 0.3 * given, res.noise
     assert res.noise["upper_bound"] is False
     assert res.noise["model_residual"] > 5 * given  # reported, under its own name
+
+
+def test_a_coarse_log_of_a_physical_plant_identifies() -> None:
+    """The physical plant (not the model) logged at 50 Hz as five charges and discharges."""
+    from spa.synthetic.draws import random_plant
+    from spa.synthetic.physical import equivalent_params
+
+    plant = random_plant(np.random.default_rng(1), full=False)
+    runs = coarse_runs(equivalent_params(plant), np.random.default_rng(2), plant=plant)
+    res = identify_with_config(runs, _kinds(runs), {})
+    assert abs(res.k2.value / plant.supply - 1) < 0.05
+    assert not res.t_on.resolved and not res.t_off.resolved

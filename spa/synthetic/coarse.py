@@ -19,6 +19,7 @@ import pandas as pd
 
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
+from spa.synthetic._physical_core import PhysicalPlant
 
 __all__ = ["PSI", "coarse_runs", "write_coarse_bench"]
 
@@ -36,6 +37,7 @@ def coarse_runs(
     noise: float = 0.004,
     resolution: float = 0.01 * PSI,
     dt: float = 1e-4,
+    plant: PhysicalPlant | None = None,
 ) -> dict[str, pd.DataFrame]:
     """Charge and discharge runs of a coarse log, as canonical run tables (no ``valve``).
 
@@ -58,6 +60,10 @@ def coarse_runs(
         Printed resolution, bar (0.01 psi by default).
     dt : float, optional
         Step of the exact simulation, s.
+    plant : PhysicalPlant, optional
+        A physical plant that makes the runs instead of the model (its own sensor noise,
+        ADC step and mains hum; ``noise`` and ``resolution`` are then not added); ``params``
+        only sizes the runs (:func:`spa.synthetic.physical.equivalent_params`).
 
     Returns
     -------
@@ -79,11 +85,18 @@ def coarse_runs(
         samples = max(50, math.ceil(max(charge, empty) / step) + 2)
     every = round(step / dt)
     out = {}
+    full = params.k2 if plant is None else plant.supply
     for r in range(1, repeats + 1):
-        for kind, level, p0 in (("charge", 1, 0.0), ("discharge", 0, params.k2)):
+        for kind, level, p0 in (("charge", 1, 0.0), ("discharge", 0, full)):
             phase = int(rng.integers(0, every))  # first reading within a step after the command
             idx = phase + every * np.arange(samples)
             u = np.full(int(idx[-1]) + 1, level, dtype=np.int8)
+            if plant is not None:
+                from spa.synthetic.physical import simulate_physical
+
+                p = simulate_physical(plant, u, dt, p0=p0, rng=rng)["p"].to_numpy()[idx]
+                out[f"{kind}_{r}"] = pd.DataFrame({"t": step * np.arange(samples), "p": p})
+                continue
             p = simulate(u, dt, params, p0=p0)[idx] + rng.normal(0.0, noise, samples)
             if resolution > 0:
                 p = np.round(p / resolution) * resolution
