@@ -163,11 +163,12 @@ def plan(command: str) -> tuple[list[str], str] | None:
         # (tests/test_install_pip.py installs it into a scratch folder)
         opts = ["--dry-run", "--no-deps", "--no-build-isolation", "--no-index", "--quiet"]
         return [sys.executable, "-m", "pip", "install", *opts, *argv[4:]], "root"
+    name = Path(head).name  # `.venv/bin/snakemake` is snakemake too
     if head == "make":
         return ["make", "-n", *argv[1:]], "root"
-    if head == "spa":
+    if name == "spa":
         return argv, "blank" if argv[1:2] == ["init"] else "work"
-    if head == "snakemake":
+    if name == "snakemake":
         small = "config/small.yaml" in argv
         if "--report" in argv and not small:
             argv += ["--configfile", "config/small.yaml"]  # a report of the run made here
