@@ -122,6 +122,20 @@ def open_report(driver, path: Path) -> tuple[dict, list[dict]]:
     return driver.execute_script(PAGE_STATS), driver.get_log("browser")
 
 
+def _shown(results: Path, dataset: str, path: Path) -> bool:
+    """Whether the page shows an output: not one its stage's status marks ``no_runs`` (the
+    page puts one line "no runs" in its place, spa.report.failure.no_runs_for)."""
+    import json
+
+    from spa.report.failure import no_runs_for
+
+    rel = path.relative_to(results / dataset).as_posix()
+    status = results / dataset / "status" / f"{rel.split('/')[0]}.json"
+    if rel.startswith("validation/") or not status.is_file():
+        return True
+    return no_runs_for(json.loads(status.read_text()), rel) is None
+
+
 def expected_counts(results: Path) -> tuple[list[str], int, int]:
     """(datasets, figures, tables) that the report of ``results`` must show, from its files."""
     datasets = sorted(p.parent.parent.name for p in results.glob("*/identification/params.yaml"))
@@ -137,7 +151,7 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
             "tuning/fig*.png",
             "closed_loop/fig*.png",
         ):
-            figures += (results / d).glob(pattern)
+            figures += [p for p in (results / d).glob(pattern) if _shown(results, d, p)]
         for name in (
             "identification/params.yaml",
             "validation/fit.csv",
@@ -150,7 +164,8 @@ def expected_counts(results: Path) -> tuple[list[str], int, int]:
             "closed_loop/runs.csv",
             "closed_loop/robust.csv",
         ):
-            tables += [results / d / name] if (results / d / name).is_file() else []
+            path = results / d / name
+            tables += [path] if path.is_file() and _shown(results, d, path) else []
     return datasets, len(figures), len(tables)
 
 
