@@ -12,6 +12,7 @@ import numpy.typing as npt
 import pandas as pd
 from scipy.optimize import least_squares
 
+from spa.identification.diagnostics import second_difference_sd
 from spa.identification.rates import _arrays, _as_runs
 from spa.identification.results import (
     _Z95,
@@ -71,10 +72,8 @@ class _PulseRun:
 
 
 def _noise_sd(p: FloatArray) -> float:
-    """Robust sensor-noise estimate from second differences (MAD), bar."""
-    d2 = np.diff(p, 2)
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return max(1.4826 * mad / math.sqrt(6.0), _NOISE_FLOOR)
+    """Robust sensor-noise estimate from second differences (MAD), bar, at least the floor."""
+    return max(second_difference_sd(p), _NOISE_FLOOR)
 
 
 def _pulse_run(rid: str, table: pd.DataFrame) -> _PulseRun:

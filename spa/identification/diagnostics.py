@@ -30,6 +30,7 @@ __all__ = [
     "RepeatsCheck",
     "Whiteness",
     "repeats_agree",
+    "second_difference_sd",
     "sensor_noise",
     "whiteness",
 ]
@@ -250,8 +251,17 @@ def repeats_agree(
     )
 
 
-def _second_difference_sd(p: FloatArray) -> float:
-    """Noise from second differences (MAD): exact for white noise on a straight line."""
+def second_difference_sd(p: FloatArray) -> float:
+    """Noise standard deviation from second differences (MAD), in the unit of ``p``: exact
+    for white noise on a straight line, an upper bound where the record curves.
+
+    Examples
+    --------
+    >>> second_difference_sd(np.arange(10.0))
+    0.0
+    >>> bool(np.isnan(second_difference_sd(np.zeros(2))))
+    True
+    """
     d2 = np.diff(p, 2)
     if d2.size == 0:
         return math.nan
@@ -308,7 +318,7 @@ def sensor_noise(
     if dof > 0:
         sd = math.sqrt(ss / dof)
         return sd, f"standard deviation about the line of {used} settled plateau(s)", False
-    sds = [_second_difference_sd(np.asarray(p, dtype=np.float64)) for p in moving if len(p) > 8]
+    sds = [second_difference_sd(np.asarray(p, dtype=np.float64)) for p in moving if len(p) > 8]
     sds = [s for s in sds if math.isfinite(s)]
     if not sds:
         return math.nan, "no record long enough", True

@@ -32,6 +32,7 @@ import pandas as pd
 from numba import njit
 from scipy.optimize import least_squares
 
+from spa.identification.diagnostics import second_difference_sd
 from spa.identification.edges import EdgeTiming, edge_timing
 from spa.identification.longrun import andrews_bandwidth, newey_west
 from spa.identification.rates import _arrays
@@ -205,10 +206,8 @@ def block_means(x: FloatArray, block: int) -> FloatArray:
 
 
 def _noise_sd(p: FloatArray) -> float:
-    """Robust sensor-noise estimate from second differences (MAD), bar."""
-    d2 = np.diff(p, 2)
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return max(1.4826 * mad / math.sqrt(6.0), _NOISE_FLOOR)
+    """Robust sensor-noise estimate from second differences (MAD), bar, at least the floor."""
+    return max(second_difference_sd(p), _NOISE_FLOOR)
 
 
 def prepare_runs(

@@ -372,9 +372,9 @@ def _without_command(
         warnings += notes
         for name in _DELAY_EDGE:
             fallback.pop(name, None)
-    checks = model_checks(result, runs, kinds, closed_form_residuals(result))
-    warnings += checks["sentences"]
     resid = closed_form_residuals(result)
+    checks = model_checks(result, runs, kinds, resid)
+    warnings += checks["sentences"]
     model_rms = rms(resid)
     from spa.identification.adequacy import Adequacy
 
