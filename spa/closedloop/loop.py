@@ -2,15 +2,18 @@
 
 The loop is sequential (the controller reads the pressure the previous commands produced), so
 it runs as one numba-compiled loop over the samples; per step it evaluates the plant's closed
-form once (:func:`spa.model.plant.segment_pressure_scalar`, compiled), the controller's law
-and the modulator's per-step kernel (:mod:`spa.model.modulators.kernels`). Convention in
-docs/model.md section 8; checked against the open-loop functions and a plain-Python loop in
-tests/test_closed_loop.py.
+form once (:func:`spa.model.plant.segment_pressure_scalar`, compiled; for a valve with its
+own laws the time maps' step :func:`spa.model.laws._kernel.law_step` on the valve's
+:func:`~spa.model.laws.timemap.law_tables`), the controller's law and the modulator's
+per-step kernel (:mod:`spa.model.modulators.kernels`). Convention in docs/model.md section 8;
+checked against the open-loop functions and a plain-Python loop in tests/test_closed_loop.py
+and tests/test_closed_loop_laws.py.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -20,6 +23,7 @@ from numba import njit
 
 from spa import _checks as checks
 from spa.closedloop.controller import PIController, interp
+from spa.model.laws._kernel import law_step
 from spa.model.modulators import Modulator, kernels
 from spa.model.modulators.kernels import KERNELS
 from spa.model.params import ValveParams, valve_params
@@ -37,6 +41,35 @@ _interp = njit(cache=True)(interp)
 #: The plant's closed form for one sample (:func:`spa.model.plant.segment_pressure_scalar`),
 #: compiled for the loop.
 _segment = njit(cache=True)(segment_pressure_scalar)
+
+#: The law tables' arguments of a valve without laws (never read: the loop's flag is off).
+_NO_LAWS: tuple = (
+    1.0, 0.5, 1.0, 1.0, 1e-14, np.zeros(2), np.ones(2), np.zeros((2, 2)), np.zeros((2, 2)),
+    np.zeros(2), np.ones(2), np.zeros((4, 2)),
+)  # fmt: skip
+
+
+def law_args(params: ValveParams) -> tuple[bool, tuple]:
+    """The plant's laws as the compiled loop reads them: ``(True, law_tables(params)
+    .kernel_args)`` for a valve with its own laws, ``(False, placeholders)`` for the paper's
+    (whose closed forms the loop evaluates, bit for bit as without laws)."""
+    if params.laws is None:
+        return False, _NO_LAWS
+    from spa.model.laws.timemap import law_tables
+
+    return True, law_tables(params).kernel_args
+
+
+@njit(cache=True)
+def _advance(on, p, e, c1, k2, tau2, lawful, la):  # pragma: no cover  (compiled)
+    # One mode's pressure after e active seconds: the valve's laws (their time maps) or the
+    # paper's closed form.
+    if lawful:
+        return law_step(
+            on, p, e, la[0], la[1], la[2], la[3], la[4], la[5], la[6], la[7], la[8], la[9],
+            la[10], la[11],
+        )  # fmt: skip
+    return _segment(on, p, e, c1, k2, tau2)
 
 
 @njit(cache=True)
@@ -60,7 +93,12 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
     k2_at,
     k2_new,
     noise,
+    lawful,
+    la,
+    lb,
 ):
+    # lawful: the plant follows its laws' time maps, la (lb: those of the valve whose supply
+    # is k2_new, from step k2_at on) as law_args gives them; else the paper's closed forms.
     c1, k2, tau2, t_on, t_off = plant[0], plant[1], plant[2], plant[3], plant[4]
     # The transport convention (plant[5] == 1): each command edge reaches the plant after its
     # delay and the plant keeps its previous connection meanwhile; the edges in flight wait
@@ -87,16 +125,24 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
         if transport:
             tk = k * dt
             while q_n > 0 and q_t[q_head] <= tk:
-                p_start = _segment(plevel == 1, p_start, q_t[q_head] - t_start, c1, k2, tau2)
+                p_start = _advance(
+                    plevel == 1, p_start, q_t[q_head] - t_start, c1, k2, tau2, lawful, la
+                )
                 t_start = q_t[q_head]
                 plevel = q_l[q_head]
                 q_head = (q_head + 1) % cap
                 q_n -= 1
-            p = p0 if k == 0 else _segment(plevel == 1, p_start, tk - t_start, c1, k2, tau2)
+            p = (
+                p0
+                if k == 0
+                else _advance(plevel == 1, p_start, tk - t_start, c1, k2, tau2, lawful, la)
+            )
         elif k == 0:
             p = p0
         else:
-            p = _segment(level == 1, p_start, k * dt - (start * dt + hold), c1, k2, tau2)
+            p = _advance(
+                level == 1, p_start, k * dt - (start * dt + hold), c1, k2, tau2, lawful, la
+            )
         if k == k2_at:
             # The supply changes at t_k: the run in progress restarts from p_k (the closed
             # forms compose), with what is left of its hold.
@@ -105,6 +151,7 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
             start = k
             t_start = k * dt
             k2 = k2_new
+            la = lb
         # The controller: gains and feed-forward at the set-point, conditional integration.
         rk = r[k]
         if rk != r_prev:
@@ -134,9 +181,10 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
                     q_n += 1
             else:
                 # The pressure the run of (k - start)*dt - hold active seconds leaves.
-                p_start = _segment(
-                    level == 1, p_start, max((k - start) * dt - hold, 0.0), c1, k2, tau2
-                )
+                p_start = _advance(
+                    level == 1, p_start, max((k - start) * dt - hold, 0.0), c1, k2, tau2,
+                    lawful, la,
+                )  # fmt: skip
                 start = k
                 hold = t_on if u == 1 else t_off
             level = u
@@ -149,13 +197,14 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
 def _loop_many(  # pragma: no cover  (compiled; its Python body is run by the tests)
     r, dt, p0s, i0s, plants, grid, kp, ki, ff_r, ff_xi, kind, cfg, initial, p_out, xi_out, u_out
 ):
-    # _loop once per plant (row of `plants`), each from the modulator's initial state.
+    # _loop once per plant (row of `plants`), each from the modulator's initial state; the
+    # paper's laws (valves with their own laws run plant by plant, each with its tables).
     noise = np.empty(0)
     for j in range(plants.shape[0]):
         st = initial.copy()
         _loop(
             r, dt, p0s[j], i0s[j], plants[j], grid, kp, ki, ff_r, ff_xi, kind, cfg, st,
-            p_out[j], xi_out[j], u_out[j], -1, plants[j, 1], noise,
+            p_out[j], xi_out[j], u_out[j], -1, plants[j, 1], noise, False, _NO_LAWS, _NO_LAWS,
         )  # fmt: skip
 
 
@@ -222,16 +271,20 @@ def closed_loop_many(
     plants = np.array([_plant_row(v) for v in valves], dtype=np.float64)
     n = r.size
     p, xi, u = np.empty((m, n)), np.empty((m, n)), np.empty((m, n), dtype=np.int8)
-    cfg = kernel.configure(settings, dt)
     initial = np.array(kernel.INITIAL, dtype=np.float64)
-    args = (*controller.arrays(), kernels.code(mod.kind), cfg)
-    if compiled:
+    laws = [law_args(v) for v in valves]
+    code = kernels.code(mod.kind)
+    if compiled and not any(lawful for lawful, _ in laws):
+        cfg = kernel.configure(settings, dt, valves[0] if valves else None)
+        args = (*controller.arrays(), code, cfg)
         _loop_many(r, dt, p0s, i0s, plants, *args, initial, p, xi, u)
         return p, xi, u
-    for j in range(m):  # the plain-Python loop, plant by plant (for the tests)
-        _loop.py_func(
-            r, dt, p0s[j], i0s[j], plants[j], *args, initial.copy(),
-            p[j], xi[j], u[j], -1, plants[j, 1], np.empty(0),
+    run = _loop if compiled else _loop.py_func
+    for j, (lawful, la) in enumerate(laws):  # plant by plant, each with its tables
+        cfg = kernel.configure(settings, dt, valves[j])
+        run(
+            r, dt, p0s[j], i0s[j], plants[j], *controller.arrays(), code, cfg, initial.copy(),
+            p[j], xi[j], u[j], -1, plants[j, 1], np.empty(0), lawful, la, la,
         )  # fmt: skip
     return p, xi, u
 
@@ -267,20 +320,23 @@ def closed_loop_arrays(
     plant = _plant_row(params)
     args = (r, dt, p0, float(integral0), plant, *controller.arrays())
     state = np.array(kernel.INITIAL, dtype=np.float64)
-    cfg = kernel.configure(settings, dt)
+    cfg = kernel.configure(settings, dt, params)
     k2_at, k2_new = -1, params.k2
+    lawful, la = law_args(params)
+    lb = la
     if k2_change is not None:
         k2_at = int(k2_change[0])
         k2_new = checks.positive("k2_change supply", k2_change[1], "bar")
         if not 1 <= k2_at < n:
             raise ValueError(f"k2_change: step {k2_at} outside 1..{n - 1}")
+        lb = law_args(replace(params, k2=k2_new))[1]
     noise = np.empty(0)
     if sensor_noise is not None:
         noise = checks.finite_array("sensor_noise", sensor_noise, ndim=1)
         if noise.size != n:
             raise ValueError(f"sensor_noise: {noise.size} samples for a reference of {n}")
     run = _loop if compiled else _loop.py_func
-    run(*args, kernels.code(mod.kind), cfg, state, p, xi, u, k2_at, k2_new, noise)
+    run(*args, kernels.code(mod.kind), cfg, state, p, xi, u, k2_at, k2_new, noise, lawful, la, lb)
     return p, xi, u
 
 

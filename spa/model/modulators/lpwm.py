@@ -15,12 +15,24 @@ division by ``s`` or ``k2 - s²``. The command is 0 at ``xi = 0`` and 1 at ``xi 
 The valve settings are optional: a setting without them inverts the valve of its context
 (the plant's parameters in the averaged analysis and the tuning; :meth:`LPWM.bind`), and
 :func:`~spa.model.modulators.modulate` without them inverts the nominal valve.
+
+A valve with its own laws (:attr:`~spa.model.params.ValveParams.laws`; docs/model.md, "The
+general two-mode model") has the same inverse with the general rates: at ``P = k2*xi`` the
+averaged rate ``alpha2*f_open(P) + alpha1*f_closed(P)`` vanishes for the duty
+``d = w*(1 - t_off*f_w) + (1 - w)*t_on*f_w`` with ``w = B/(A + B)``, ``A = f_open(P)``,
+``B = -f_closed(P)`` (the paper's weight when the laws are the paper's). ``w`` depends on the
+valve alone, so it is tabulated once per valve at ``LAW_INTERVALS + 1`` nodes uniform in
+``sqrt(xi)`` (:func:`law_weights`) and interpolated linearly; the averaged model, the
+closed loop's kernel and the exported C header read the same table. The laws come from the
+context valve (the plant's in the averaged analysis, the closed loop's valve in the loop and
+the header), the scale ``c1, k2, tau2`` from the setting where it names them.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from functools import lru_cache
 from typing import Any, ClassVar
 
 import numpy as np
@@ -30,16 +42,86 @@ from spa.model.modulators import _pulses
 from spa.model.modulators.pwm import PWM
 from spa.model.params import ValveParams
 
-__all__ = ["LPWM", "VALVE"]
+__all__ = ["LAW_INTERVALS", "LPWM", "VALVE", "law_duty", "law_weights"]
 
 #: The valve settings LPWM may carry: the parameters it inverts.
 VALVE: tuple[str, ...] = ("c1", "k2", "tau2", "t_on", "t_off")
+
+
+#: Intervals of the law weight table (:func:`law_weights`), uniform in ``sqrt(xi)``: its
+#: ``LAW_INTERVALS + 1`` doubles are the flash an exported header spends on the laws.
+LAW_INTERVALS = 128
 
 
 def _valve(s: Mapping[str, Any], p: ValveParams) -> tuple[Any, ...]:
     """The inverted valve: the setting's own parameters where given, else ``p``'s."""
     own = {"t_on": p.on_loss, "t_off": p.off_loss}  # the losses: the delays under "hold"
     return tuple(s.get(name, own.get(name, getattr(p, name))) for name in VALVE)
+
+
+@lru_cache(maxsize=32)
+def _weights(scale: ValveParams) -> npt.NDArray[np.float64]:
+    from spa.model.laws.rates import closed_rate, open_rate
+
+    u = np.arange(LAW_INTERVALS + 1, dtype=np.float64) / LAW_INTERVALS
+    pressure = scale.k2 * (u * u)
+    a = open_rate(pressure, scale)
+    b = -closed_rate(pressure, scale)
+    w = b / (a + b)
+    w[0], w[-1] = 0.0, 1.0  # no exhaust at P = 0, no charge at P = k2
+    if not np.all(np.diff(w) > 0.0):
+        raise ValueError(
+            "LPWM: the valve's laws give an averaged equilibrium that is not monotone in the "
+            "duty (the exhaust's weight B/(A + B) falls somewhere in [0, k2]); expected laws "
+            "whose ratio -f_closed/f_open grows with the pressure"
+        )
+    w.flags.writeable = False
+    return w
+
+
+def law_weights(s: Mapping[str, Any], p: ValveParams) -> npt.NDArray[np.float64] | None:
+    """The inverted valve's weight table, or None for the paper's laws (the closed form).
+
+    Parameters
+    ----------
+    s : mapping
+        The LPWM setting; its ``c1``, ``k2``, ``tau2`` (where given) scale the laws.
+    p : ValveParams
+        The context valve, whose :attr:`~spa.model.params.ValveParams.laws` are inverted.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``w`` at ``xi = (i/LAW_INTERVALS)**2``, ``i = 0..LAW_INTERVALS`` (read-only, cached
+        per valve): 0 at ``xi = 0``, 1 at ``xi = 1``, strictly increasing.
+
+    Raises
+    ------
+    ValueError
+        If the laws' weight is not strictly increasing (no monotone inverse).
+    """
+    if p.laws is None:
+        return None
+    c1, k2, tau2, _, _ = _valve(s, p)
+    scale = ValveParams(c1=c1, k2=k2, tau2=tau2, t_on=0.0, t_off=0.0, laws=p.laws)
+    return _weights(scale)
+
+
+def law_duty(
+    x: npt.NDArray[np.float64], f: Any, t_on: Any, t_off: Any, w: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
+    """The duty of the laws' inverse: ``w(xi)`` interpolated linearly in ``sqrt(xi)`` from
+    the table ``w`` (:func:`law_weights`), with the operations of the closed-loop kernel
+    (:mod:`spa.model.modulators.kernels.lpwm`) in the same order."""
+    n = w.size - 1
+    j = np.sqrt(np.clip(x, 0.0, 1.0)) * n
+    i = np.minimum(j.astype(np.int64), n - 1)
+    s = j - i
+    lo = w[i]
+    wx = lo + s * (w[i + 1] - lo)
+    d = wx * (1.0 - t_off * f) + (1.0 - wx) * (t_on * f)
+    d = np.where(x <= 0.0, 0.0, np.where(x >= 1.0, 1.0, d))
+    return np.clip(d, 0.0, 1.0)
 
 
 class LPWM(PWM):
@@ -75,9 +157,13 @@ class LPWM(PWM):
     def duty(
         self, x: npt.NDArray[np.float64], s: Mapping[str, Any], p: ValveParams
     ) -> npt.NDArray[np.float64]:
-        """The duty ``d(xi)`` that inverts Eq. 5 for the setting's valve (``p`` if none)."""
+        """The duty ``d(xi)`` that inverts Eq. 5 (or the laws' equilibrium, for a valve
+        ``p`` with laws) for the setting's valve (``p`` if none)."""
         c1, k2, tau2, t_on, t_off = _valve(s, p)
         f = s["f_w"]
+        w = law_weights(s, p)
+        if w is not None:
+            return law_duty(np.asarray(x, dtype=np.float64), f, t_on, t_off, w)
         root = np.sqrt(k2 * x)
         a = root * tau2
         b = (k2 - root * root) * c1
@@ -101,10 +187,14 @@ class LPWM(PWM):
         c1, k2, tau2, t_on, t_off = _valve(s, p)
         f = np.asarray(s["f_w"], dtype=np.float64)
         a_hi, b_lo = 1.0 - t_off * f, t_on * f
+        table = law_weights(s, p)
 
         def crossing(target: Any) -> Any:
             with np.errstate(divide="ignore", invalid="ignore"):
                 w = np.clip((target - b_lo) / (a_hi - b_lo), 0.0, 1.0)
+                if table is not None:  # the laws: invert the table (linear in sqrt(xi))
+                    u = np.arange(table.size, dtype=np.float64) / (table.size - 1)
+                    return np.where(a_hi > b_lo, np.interp(w, table, u) ** 2, np.nan)
                 qa, qb, qc = w * c1, (1.0 - w) * tau2, w * k2 * c1
                 disc = np.sqrt(qb * qb + 4.0 * qa * qc)
                 root = 2.0 * qc / (qb + disc)

@@ -3,8 +3,10 @@
 Each module defines
 
 * ``INITIAL``: the kernel's state at ``t = 0`` (a tuple of floats);
-* ``configure(settings, dt) -> numpy.ndarray``: its constants, from the modulator's complete
-  settings (:func:`spa.model.modulators.check_settings`) and the step;
+* ``configure(settings, dt, params=None) -> numpy.ndarray``: its constants, from the
+  modulator's complete settings (:func:`spa.model.modulators.check_settings`), the step and
+  the valve the loop runs with (a :class:`~spa.model.params.ValveParams`; only LPWM reads
+  it: the laws it inverts);
 * ``step(k, xi, cfg, state) -> int``: a numba-compiled state machine that returns the valve
   command ``u[k]`` over ``[k*dt, (k+1)*dt)`` for the input fraction ``xi`` at ``t_k`` and
   updates ``state`` in place;

@@ -20,8 +20,8 @@ from spa.model.modulators.kernels._common import EPS, c_next_start, next_start
 INITIAL = (0.0, 0.0, 0.0, 0.0, 0.0)
 
 
-def configure(settings: dict[str, float], dt: float) -> np.ndarray:
-    """Constants of the kernel: ``[period, dt]``."""
+def configure(settings: dict[str, float], dt: float, params: object = None) -> np.ndarray:
+    """Constants of the kernel (``params``, the valve, unused): ``[period, dt]``."""
     return np.array([settings["period"], dt])
 
 

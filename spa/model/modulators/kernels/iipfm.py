@@ -19,8 +19,9 @@ INITIAL = ipfm.INITIAL
 _ipfm_step = ipfm.step
 
 
-def configure(settings: dict[str, float], dt: float) -> np.ndarray:
-    """Constants of the kernel: ``[threshold in steps, pulse width in steps]`` for ``t_l``."""
+def configure(settings: dict[str, float], dt: float, params: object = None) -> np.ndarray:
+    """Constants of the kernel: ``[threshold in steps, pulse width in steps]`` for
+    ``t_l`` (``params``, the valve, unused)."""
     return fire_config(settings["gain"], settings["t_l"], dt)
 
 

@@ -20,8 +20,9 @@ from spa.model.modulators.kernels._common import (
 INITIAL = (0.0, 1.0, 0.0)
 
 
-def configure(settings: dict[str, float], dt: float) -> np.ndarray:
-    """Constants of the kernel: ``[threshold in steps, pulse width in steps]``."""
+def configure(settings: dict[str, float], dt: float, params: object = None) -> np.ndarray:
+    """Constants of the kernel: ``[threshold in steps, pulse width in steps]``
+    (``params``, the valve, unused)."""
     return fire_config(settings["gain"], settings["t_h"], dt)
 
 
