@@ -173,10 +173,10 @@ def _margins(
     """The smallest gain margin and delay margin (s) over the levels
     (:func:`spa.closedloop.margins.loop_margins` on the averaged model at each level)."""
     from spa.closedloop.controller import interp
-    from spa.closedloop.design import local_models
+    from spa.closedloop.design import _local_models
     from spa.closedloop.margins import loop_margins
 
-    m = local_models(levels, mod, params)
+    m = _local_models(levels, mod, params)
     grid, kp, ki, _, _ = ctrl.arrays()
     gms, dms = [], []
     for r, k, tau, theta in zip(m.r, m.gain, m.tau, m.dead_time, strict=True):
@@ -414,7 +414,7 @@ def bench_outputs(
             "sentence": unresolved_said,
         }
     header = controller_header(
-        mod, ctrl, dt, note=note, precision=str(c.get("precision", "double"))
+        mod, ctrl, dt, note=note, precision=str(c.get("precision", "double")), params=params
     )
     plain = _plain(summary)
     plain["verified"] = bool(verified)

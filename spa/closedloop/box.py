@@ -110,17 +110,17 @@ def box_hold(
     True
     """
     from spa.closedloop.comparison import level_hold
-    from spa.closedloop.design import local_models
+    from spa.closedloop.design import _local_models
     from spa.closedloop.levels import held_range
 
     mod, params = plants.modulator, plants.params
-    k_est = local_models(levels, mod, params).gain
+    k_est = _local_models(levels, mod, params).gain
     gain = min(1.0, max(float(gain), 0.1))
     out = level_hold(mod, params, levels, tau_c / gain, cfg)
     for v in plants.corners:
         if held_range(mod, v) is None:
             continue  # the setting cannot work on this corner: no hold makes it
-        k = local_models(levels, mod, v).gain
+        k = _local_models(levels, mod, v).gain
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = k / k_est
         finite = ratio[np.isfinite(ratio) & (ratio > 0)]

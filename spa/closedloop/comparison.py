@@ -45,6 +45,7 @@ from spa.closedloop.metrics import STEP_METRICS, cycle_mean
 from spa.io import dump_yaml
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
+from spa.model.plant import mode_time
 
 __all__ = [
     "DEFAULTS",
@@ -74,7 +75,8 @@ DEFAULTS: dict[str, Any] = {
 def transit_time(levels: list[float], params: ValveParams) -> float:
     """The longest time the valve takes between adjacent levels of the staircase held fully
     open (up: ``tau2*ln((k2 - a)/(k2 - b))``, Eq. A2) or fully exhausting (down:
-    ``2*c1*(sqrt(b) - sqrt(a))``, Eq. A1), s: the part of a large step no controller can
+    ``2*c1*(sqrt(b) - sqrt(a))``, Eq. A1; a valve with its own laws: its time maps,
+    :func:`spa.model.plant.mode_time`), s: the part of a large step no controller can
     shorten.
 
     Examples
@@ -87,9 +89,7 @@ def transit_time(levels: list[float], params: ValveParams) -> float:
     a, b = lv[:-1], lv[1:]
     if a.size == 0:
         return 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        up = params.tau2 * np.log((params.k2 - a) / np.maximum(params.k2 - b, 1e-12))
-    down = 2.0 * params.c1 * (np.sqrt(b) - np.sqrt(a))
+    up, down = mode_time(True, a, b, params), mode_time(False, b, a, params)
     both = np.concatenate((up, down))
     both = both[np.isfinite(both)]
     return float(both.max()) if both.size else 0.0
@@ -118,9 +118,9 @@ def level_hold(
     """
     if c.get("hold") is not None:
         return float(c["hold"])
-    from spa.closedloop.design import local_models
+    from spa.closedloop.design import _local_models
 
-    m = local_models(levels, mod, params)
+    m = _local_models(levels, mod, params)
     fast = tau_c + m.dead_time
     slow = np.minimum(m.tau, 4.0 * fast)
     t_cl = float(np.max(np.maximum(fast, np.where(np.isfinite(slow), slow, fast))))

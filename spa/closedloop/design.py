@@ -133,8 +133,12 @@ def feedforward(
     >>> bool(abs(p[0] - 0.3) < 1e-3)
     True
     """
-    params = valve_params(params)
-    mod = Modulator.from_mapping(modulator)
+    return _feedforward(r, Modulator.from_mapping(modulator), valve_params(params))
+
+
+def _feedforward(r: npt.ArrayLike, mod: Modulator, params: ValveParams) -> np.ndarray:
+    """:func:`feedforward` of a setting and a valve already checked (the closed-loop stage's
+    modules, which received the valve once where it entered)."""
     xi, peq = _curve(mod, params)
     return np.interp(np.asarray(r, dtype=np.float64), peq, xi)
 
@@ -162,8 +166,12 @@ def local_models(
     >>> bool(np.all(m.gain > 0) and np.all(m.tau > 0))
     True
     """
-    params = valve_params(params)
-    mod = Modulator.from_mapping(modulator)
+    return _local_models(r, Modulator.from_mapping(modulator), valve_params(params))
+
+
+def _local_models(r: npt.ArrayLike, mod: Modulator, params: ValveParams) -> LocalModels:
+    """:func:`local_models` of a setting and a valve already checked (the closed-loop
+    stage's modules, which received the valve once where it entered)."""
     rr = np.atleast_1d(np.asarray(r, dtype=np.float64))
     xi_grid, peq = _curve(mod, params)
     slope = np.gradient(peq, xi_grid)
@@ -315,7 +323,7 @@ def design_pi(
     mod = Modulator.from_mapping(modulator)
     grid = np.unique(np.asarray(levels, dtype=np.float64))
     mid = float(np.median(grid)) if design_point is None else float(design_point)
-    models = local_models(np.append(grid, mid), mod, params)
+    models = _local_models(np.append(grid, mid), mod, params)
     bad = ~(np.isfinite(models.tau) & (models.gain > 0))
     if np.any(bad):
         where = np.append(grid, mid)[bad]

@@ -16,7 +16,7 @@ import pandas as pd
 
 from spa import _checks as checks
 from spa.closedloop.controller import PIController
-from spa.closedloop.design import MAX_PERIOD, feedforward
+from spa.closedloop.design import MAX_PERIOD, _feedforward
 from spa.closedloop.loop import closed_loop_arrays, simulate_closed_loop
 from spa.closedloop.metrics import STEP_METRICS, sine_metrics, step_metrics, step_rows
 from spa.model.modulators import Modulator, get_kind
@@ -63,7 +63,7 @@ def cycle_period(modulator: Modulator, params: ValveParams, level: float, dt: fl
 
     The window of the cycle-mean pressure (:func:`spa.closedloop.metrics.cycle_mean`).
     """
-    xi = np.float64(feedforward([level], modulator, params)[0])
+    xi = np.float64(_feedforward([level], modulator, params)[0])
     settings = settings_arrays(modulator.kind, dict(modulator.settings))
     # the kind's own cycle (ΔΣ: the time between its minority pulses)
     period = float(np.asarray(get_kind(modulator.kind).cycle(xi, settings, params)))
@@ -95,7 +95,7 @@ def _settled(
     for a PI without feed-forward, 0 with it (the feed-forward supplies it)."""
     if controller.feedforward is not None:
         return 0.0
-    return float(feedforward([level], modulator, params)[0])
+    return float(_feedforward([level], modulator, params)[0])
 
 
 @dataclass(frozen=True)

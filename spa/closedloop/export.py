@@ -30,8 +30,10 @@ from spa.closedloop.controller import PIController
 from spa.model.modulators import Modulator, check_settings
 from spa.model.modulators.kernels import KERNELS
 from spa.model.modulators.kernels._common import EPS
+from spa.model.params import ValveParams
 
 __all__ = [
+    "FLASH_BUDGET",
     "PRECISIONS",
     "arduino_sketch",
     "c_double",
@@ -42,6 +44,12 @@ __all__ = [
 ]
 
 _PREFIX = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+#: The flash a header's constant tables may take, bytes: the gain schedule, the feed-forward,
+#: the modulator's constants and, for a valve with its own laws, the tables the modulator
+#: reads of them (LPWM's inverse: 129 doubles, 1032 bytes). The header's comment states
+#: what it takes; :func:`controller_header` refuses a header beyond it.
+FLASH_BUDGET = 4096
 
 _PI = """
 static ${real} ${p}_interp(${real} x, const ${real} *xp, const ${real} *fp, int n)
@@ -208,6 +216,7 @@ def controller_header(
     prefix: str = "spa_ctrl",
     note: str = "",
     precision: str = "double",
+    params: ValveParams | None = None,
 ) -> str:
     """The C99 header of one controller and modulator setting.
 
@@ -231,6 +240,11 @@ def controller_header(
         (Cortex-M4F); the modulator keeps its constants and state in double (it computes
         only at its events, and its step clock must not drift), so the header is the same
         law rounded differently: docs/howto/controller-on-bench.md states the agreement.
+    params : ValveParams, optional
+        The valve the controller was designed for, as :func:`spa.closedloop.loop.
+        closed_loop_arrays` takes it: a modulator that reads the valve's laws (LPWM's
+        inverse) gets their table from it; None or a valve without laws writes the paper's
+        closed forms. The tables stay within :data:`FLASH_BUDGET` bytes.
 
     Returns
     -------
@@ -244,7 +258,8 @@ def controller_header(
     Raises
     ------
     ValueError
-        For a bad prefix, step, controller, or a setting that does not fit the step.
+        For a bad prefix, step, controller, or a setting that does not fit the step, or
+        tables beyond :data:`FLASH_BUDGET`.
 
     Examples
     --------
@@ -265,9 +280,20 @@ def controller_header(
     settings = dict(mod.settings)
     check_settings(mod.kind, dt, **settings)
     kernel = KERNELS[mod.kind]
-    cfg = kernel.configure(settings, dt)
+    cfg = kernel.configure(settings, dt, params)
     grid, kp, ki, ff_r, ff_xi = controller.arrays()
     up = prefix.upper()
+    # Flash: the PI's tables in the header's precision, the modulator's in double; of these,
+    # the bytes the valve's laws add (the constants with and without them).
+    width = 8 if precision == "double" else 4
+    flash = width * sum(a.size for a in (grid, kp, ki, ff_r, ff_xi))
+    flash += 8 * (cfg.size + len(kernel.INITIAL))
+    law_bytes = 8 * (cfg.size - kernel.configure(settings, dt).size)  # without a valve
+    if flash > FLASH_BUDGET:
+        raise ValueError(
+            f"the header's tables take {flash} bytes, beyond the flash budget of "
+            f"{FLASH_BUDGET} bytes (fewer schedule or feed-forward nodes)"
+        )
     subs = {"p": prefix, "P": up, "eps": c_double(EPS)}
     real, literal = PRECISIONS[precision]
     pi_subs = {
@@ -293,12 +319,16 @@ def controller_header(
         f" * Setting: {mod.to_mapping()}",
         f" * Controller: {controller.to_mapping()}",
     ]
-    valve = [k for k in mod.spec.optional if k in settings]
-    if valve:
+    inverted = [k for k in mod.spec.optional if k in settings]
+    if inverted:
         lines.append(
             " * Inverted valve (the identified one): "
-            + ", ".join(f"{k} = {settings[k]:.6g}" for k in valve)
+            + ", ".join(f"{k} = {settings[k]:.6g}" for k in inverted)
         )
+    lines.append(
+        f" * Flash: {flash} bytes of constant tables (budget {FLASH_BUDGET} bytes)"
+        + (f", of which {law_bytes} the table of the valve's own laws." if law_bytes else ".")
+    )
     if note:
         lines.append(f" * {note}")
     lines.append(" */")
@@ -361,9 +391,11 @@ def write_controller(
     note: str = "",
     precision: str = "double",
     setpoint: float = 0.4,
+    params: ValveParams | None = None,
 ) -> tuple[Path, Path]:
-    """Write ``<name>.h`` (:func:`controller_header`, in ``precision``) and ``<name>.ino``
-    (:func:`arduino_sketch`, whose default set-point is ``setpoint`` bar) into ``folder``.
+    """Write ``<name>.h`` (:func:`controller_header`, in ``precision``, for the valve
+    ``params``) and ``<name>.ino`` (:func:`arduino_sketch`, whose default set-point is
+    ``setpoint`` bar) into ``folder``.
 
     Returns
     -------
@@ -371,7 +403,7 @@ def write_controller(
         The two files written (``folder`` is created if needed).
     """
     text = controller_header(
-        modulator, controller, dt, prefix=prefix, note=note, precision=precision
+        modulator, controller, dt, prefix=prefix, note=note, precision=precision, params=params
     )
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
@@ -454,5 +486,6 @@ def export_designed(
         text += " " + unresolved_sentence(unresolved, checked=False)
     mid = float(f"{float(np.median(levels)):.3g}")
     return write_controller(
-        folder, modulator, designs[controller], dt, note=text, precision=precision, setpoint=mid
-    )
+        folder, modulator, designs[controller], dt, note=text, precision=precision,
+        setpoint=mid, params=params,
+    )  # fmt: skip

@@ -157,7 +157,8 @@ def closed_loops(
     controller : PIController
         The designed PI.
     params : ValveParams
-        The valve the loops are closed on.
+        The valve the loops are closed on (in C, the closed forms of its five constants;
+        the headers take its laws where the modulator reads them).
     reference : numpy.ndarray
         The set-point at every controller step, bar (e.g.
         :func:`spa.closedloop.experiments.staircase_reference`).
@@ -186,7 +187,9 @@ def closed_loops(
     with tempfile.TemporaryDirectory(prefix="spa-precision-") as tmp:
         folder = Path(tmp)
         for prefix, precision in (("dbl", "double"), ("sgl", "single")):
-            text = controller_header(modulator, controller, dt, prefix=prefix, precision=precision)
+            text = controller_header(
+                modulator, controller, dt, prefix=prefix, precision=precision, params=params
+            )
             (folder / f"ctrl_{precision}.h").write_text(text, encoding="utf-8")
         consts = {
             "c1": params.c1,

@@ -36,6 +36,8 @@ def design_for_dataset(
     selected: Iterable[Mapping[str, Any]],
     cfg: Mapping[str, Any] | None = None,
     recommendation: Mapping[str, Any] | None = None,
+    *,
+    valve: Any = None,
 ) -> tuple[Any, BenchOutputs]:
     """The ``closed_loop`` stage of one dataset, in memory.
 
@@ -52,6 +54,10 @@ def design_for_dataset(
     recommendation : mapping, optional
         The tuning's ``recommendation.yaml``; without one, ``identified``'s ``adequacy`` is
         used so that the choice knows which modulators the bench ran.
+    valve : spa.identification.identified.Identified, optional
+        The identified valve, read once where the stage's input enters
+        (``read_identified(identified)`` when omitted); every design, simulation, check
+        and the header take its ``params``, laws included.
 
     Returns
     -------
@@ -70,7 +76,8 @@ def design_for_dataset(
     from spa.closedloop.model_error import dataset_error
     from spa.identification.identified import read_identified
 
-    valve = read_identified(identified)
+    if valve is None:
+        valve = read_identified(identified)
     if recommendation is None and isinstance(identified.get("adequacy"), Mapping):
         recommendation = {"adequacy": identified["adequacy"]}
     result = closed_loop(valve.params, list(selected), recommendation, cfg)

@@ -18,6 +18,7 @@ from spa import _checks as checks
 from spa.closedloop.controller import PIController, interp
 from spa.model.modulators import Modulator, check_settings
 from spa.model.modulators.kernels import KERNELS
+from spa.model.params import ValveParams
 
 __all__ = ["ControllerStepper"]
 
@@ -35,6 +36,9 @@ class ControllerStepper:
         The step the caller keeps, s.
     integral0 : float, optional
         The integrator's initial state (input fraction).
+    params : ValveParams, optional
+        The valve the controller was designed for (as :func:`spa.closedloop.export.
+        controller_header` takes it): LPWM inverts its laws.
 
     Raises
     ------
@@ -60,6 +64,7 @@ class ControllerStepper:
         controller: PIController,
         dt: float,
         integral0: float = 0.0,
+        params: ValveParams | None = None,
     ) -> None:
         if not isinstance(controller, PIController):
             raise ValueError(f"controller must be a PIController, got {controller!r}")
@@ -71,7 +76,7 @@ class ControllerStepper:
         check_settings(self.modulator.kind, self.dt, **settings)
         self.controller = controller
         self._kernel = KERNELS[self.modulator.kind]
-        self._cfg = self._kernel.configure(settings, self.dt)
+        self._cfg = self._kernel.configure(settings, self.dt, params)
         self._tables = controller.arrays()
         self.reset(integral0)
 

@@ -21,6 +21,7 @@ __all__ = [
     "charge",
     "discharge",
     "edge_indices",
+    "mode_time",
     "replay",
     "run_start_pressures",
     "segment_pressure",
@@ -201,6 +202,47 @@ def charge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np
         ``k2 + (p0 - k2) * exp(-elapsed/tau2)`` (:func:`segment_pressure` with ``on=True``).
     """
     return segment_pressure(True, p0, elapsed, params)
+
+
+def mode_time(
+    on: bool, start: npt.ArrayLike, end: npt.ArrayLike, params: ValveParams
+) -> np.ndarray:
+    """Time the plant held in one mode takes from ``start`` to ``end`` bar, s.
+
+    Parameters
+    ----------
+    on : bool
+        True for a charge (``start <= end < k2``), False for a discharge
+        (``start >= end >= 0``).
+    start, end : array_like
+        Pressures, bar; broadcast.
+    params : ValveParams
+        The valve. The paper's laws give Eq. A2, ``tau2*ln((k2 - start)/(k2 - end))``, and
+        Eq. A1, ``2*c1*(sqrt(start) - sqrt(end))``; a valve with its own laws the difference
+        of its mode's time map ``T(end) - T(start)``
+        (:func:`spa.model.laws.timemap.law_tables`).
+
+    Returns
+    -------
+    numpy.ndarray
+        The time, s (``inf`` for a charge to ``k2``).
+
+    Examples
+    --------
+    >>> p = ValveParams(c1=0.5, k2=1.0, tau2=1.0)
+    >>> round(float(mode_time(True, 0.25, 0.5, p)), 4), float(mode_time(False, 1.0, 0.25, p))
+    (0.4055, 0.5)
+    """
+    a = np.asarray(start, dtype=np.float64)
+    b = np.asarray(end, dtype=np.float64)
+    if getattr(params, "laws", None) is not None:  # duck-typed valves carry none
+        tab = _laws().law_tables(params)
+        mode = tab.mode(bool(on))
+        return mode.forward(b, tab.k2) - mode.forward(a, tab.k2)
+    if on:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return params.tau2 * np.log((params.k2 - a) / np.maximum(params.k2 - b, 1e-12))
+    return 2.0 * params.c1 * (np.sqrt(a) - np.sqrt(b))
 
 
 def discharge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np.ndarray:

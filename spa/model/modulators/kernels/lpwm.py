@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from spa.model.modulators.kernels import pwm
-from spa.model.params import ValveParams, valve_params
+from spa.model.params import ValveParams
 
 #: State: PWM's.
 INITIAL = pwm.INITIAL
@@ -35,7 +35,7 @@ def configure(
     nominal = ValveParams()
     valve = [float(settings.get(k, getattr(nominal, k))) for k in _VALVE]
     f = float(settings["f_w"])
-    table = law_weights(settings, valve_params(params))
+    table = None if params is None else law_weights(settings, params)
     laws = (0.0,) if table is None else (float(table.size - 1), *table)
     return np.array([1.0 / f, dt, f, *valve, *laws])
 
