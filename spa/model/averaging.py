@@ -245,9 +245,9 @@ def equilibrium_pressure(
     """
     p = valve_params(params)
     if p.laws is not None:  # the valve's own laws: the root of the averaged rate
-        from spa.model.laws.equilibrium import law_equilibrium_pressure
+        from spa.model.laws.equilibrium import _equilibrium
 
-        return law_equilibrium_pressure(alpha1, alpha2, p)
+        return _equilibrium(alpha1, alpha2, p)
     a1, a2 = np.broadcast_arrays(np.asarray(alpha1, np.float64), np.asarray(alpha2, np.float64))
     if not (np.all(np.isfinite(a1)) and np.all(np.isfinite(a2))):
         raise ValueError("alpha1 and alpha2 must be finite")
@@ -332,9 +332,9 @@ def time_constant(
     """
     p = valve_params(params)
     if p.laws is not None:  # the valve's own laws: linearised at their equilibrium
-        from spa.model.laws.equilibrium import law_time_constant
+        from spa.model.laws.equilibrium import _time_constant
 
-        return law_time_constant(alpha1, alpha2, p)
+        return _time_constant(alpha1, alpha2, p)
     a1, a2 = np.broadcast_arrays(np.asarray(alpha1, np.float64), np.asarray(alpha2, np.float64))
     sq = np.sqrt(np.asarray(equilibrium_pressure(a1, a2, p)))
     valid = (a2 > 0.0) & (a1 >= 0.0)

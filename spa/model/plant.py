@@ -220,7 +220,8 @@ def mode_time(
         The valve. The paper's laws give Eq. A2, ``tau2*ln((k2 - start)/(k2 - end))``, and
         Eq. A1, ``2*c1*(sqrt(start) - sqrt(end))``; a valve with its own laws the difference
         of its mode's time map ``T(end) - T(start)``
-        (:func:`spa.model.laws.timemap.law_tables`).
+        (:func:`spa.model.laws.timemap.law_tables`, at ``FIT_NODES``: a transit time, not
+        a simulation).
 
     Returns
     -------
@@ -236,7 +237,8 @@ def mode_time(
     a = np.asarray(start, dtype=np.float64)
     b = np.asarray(end, dtype=np.float64)
     if getattr(params, "laws", None) is not None:  # duck-typed valves carry none
-        tab = _laws().law_tables(params)
+        laws = _laws()
+        tab = laws.law_tables(params, laws.FIT_NODES)  # T to about 1e-6 of itself
         mode = tab.mode(bool(on))
         return mode.forward(b, tab.k2) - mode.forward(a, tab.k2)
     if on:

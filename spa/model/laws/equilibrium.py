@@ -79,7 +79,14 @@ def law_equilibrium_pressure(
     >>> abs(float(law_equilibrium_pressure(0.25, 0.425, p, Laws())) - eq5) < 1e-15
     True
     """
-    p = valve_params(params)
+    return _equilibrium(alpha1, alpha2, valve_params(params), laws)
+
+
+def _equilibrium(
+    alpha1: npt.ArrayLike, alpha2: npt.ArrayLike, p: ValveParams, laws: Laws | None = None
+) -> Floats:
+    """:func:`law_equilibrium_pressure` of a valve already checked (where it entered:
+    :func:`spa.model.averaging.equilibrium_pressure`'s dispatch)."""
     if laws is None and p.laws is None:
         return averaging.equilibrium_pressure(alpha1, alpha2, p)
     a1, a2 = _fractions(alpha1, alpha2)
@@ -127,11 +134,18 @@ def law_time_constant(
     >>> abs(float(law_time_constant(0.25, 0.425, p, Laws())) - eq9) < 1e-12
     True
     """
-    p = valve_params(params)
+    return _time_constant(alpha1, alpha2, valve_params(params), laws)
+
+
+def _time_constant(
+    alpha1: npt.ArrayLike, alpha2: npt.ArrayLike, p: ValveParams, laws: Laws | None = None
+) -> Floats:
+    """:func:`law_time_constant` of a valve already checked (where it entered:
+    :func:`spa.model.averaging.time_constant`'s dispatch)."""
     if laws is None and p.laws is None:
         return averaging.time_constant(alpha1, alpha2, p)
     a1, a2 = _fractions(alpha1, alpha2)
-    peq = np.asarray(law_equilibrium_pressure(a1, a2, p, laws))
+    peq = np.asarray(_equilibrium(a1, a2, p, laws))
     valid = (a2 > 0.0) & (a1 >= 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         slope = a2 * open_rate(peq, p, laws, slope=True) + np.where(

@@ -199,7 +199,12 @@ def _mode(params: ValveParams, on: bool, nodes: int) -> _Mode:
     )
 
 
-@lru_cache(maxsize=16)
+#: Valves whose time maps stay cached: a closed loop's promise runs the estimate and the 32
+#: corners of its box at once (about 7 MB each at :data:`NODES`).
+_CACHED = 64
+
+
+@lru_cache(maxsize=_CACHED)
 def law_tables(params: ValveParams, nodes: int = NODES) -> LawTables:
     """The valve's time maps, built once per valve (about 0.1 s) and cached.
 
