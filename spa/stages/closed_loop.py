@@ -62,11 +62,12 @@ def close_dataset_loop(
     # alone (design_for_dataset reads None as "take the adequacy from params.yaml")
     recommendation = read_yaml(rec_path) if rec_path.is_file() else {}
     identified = read_yaml(params_path)
+    valve = read_identified(identified)  # the stage's valve, read once where it enters
     runs, metas = read_runs(run_paths)
     result, bench = design_for_dataset(
-        identified, runs, metas, selected, cfg, recommendation=recommendation
+        identified, runs, metas, selected, cfg, recommendation=recommendation, valve=valve
     )
-    return result, recorded_runs(runs, metas, read_identified(identified).params), bench
+    return result, recorded_runs(runs, metas, valve.params), bench
 
 
 def write_closed_loop(
