@@ -47,7 +47,7 @@ _PREFIX = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 #: The flash a header's constant tables may take, bytes: the gain schedule, the feed-forward,
 #: the modulator's constants and, for a valve with its own laws, the tables the modulator
-#: reads of them (LPWM's inverse: 129 doubles, 1032 bytes). The header's comment states
+#: reads of them (LPWM's inverse: 257 doubles, 2056 bytes). The header's comment states
 #: what it takes; :func:`controller_header` refuses a header beyond it.
 FLASH_BUDGET = 4096
 

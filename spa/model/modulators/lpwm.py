@@ -50,7 +50,7 @@ VALVE: tuple[str, ...] = ("c1", "k2", "tau2", "t_on", "t_off")
 
 #: Intervals of the law weight table (:func:`law_weights`), uniform in ``sqrt(xi)``: its
 #: ``LAW_INTERVALS + 1`` doubles are the flash an exported header spends on the laws.
-LAW_INTERVALS = 128
+LAW_INTERVALS = 256
 
 
 def _valve(s: Mapping[str, Any], p: ValveParams) -> tuple[Any, ...]:
