@@ -10,7 +10,7 @@ import pytest
 
 import spa
 from spa.closedloop.controller import PIController
-from spa.closedloop.loop import closed_loop_arrays, closed_loop_many, law_args
+from spa.closedloop.loop import closed_loop_arrays, closed_loop_many
 from spa.closedloop.reference import closed_loop_reference
 from spa.model import averaging
 from spa.model.laws import Laws
@@ -18,6 +18,7 @@ from spa.model.modulators import Modulator
 from spa.model.modulators.kernels import KERNELS
 from spa.model.modulators.lpwm import law_weights
 from spa.model.params import ValveParams
+from spa.model.plant import loop_laws
 
 DT = 1e-3
 LAWS = Laws(log_g=(0.0, 0.3, 0.5, 0.2), log_h=(0.0, -0.2, -0.4, -0.5), m=0.8)
@@ -92,9 +93,9 @@ def test_many_plants_with_laws_equal_one_by_one() -> None:
 
 
 def test_the_paper_valve_takes_the_closed_forms() -> None:
-    assert law_args(replace(VALVE, laws=None))[0] is False
-    assert law_args(VALVE)[0] is True
-    assert law_args(replace(VALVE, laws=Laws()))[0] is False  # the paper's laws are None
+    assert loop_laws(replace(VALVE, laws=None))[0] is False
+    assert loop_laws(VALVE)[0] is True
+    assert loop_laws(replace(VALVE, laws=Laws()))[0] is False  # the paper's laws are None
 
 
 def test_supply_change_restarts_on_the_new_supplys_laws() -> None:

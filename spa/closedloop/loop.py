@@ -27,7 +27,8 @@ from spa.model.laws._kernel import law_step
 from spa.model.modulators import Modulator, kernels
 from spa.model.modulators.kernels import KERNELS
 from spa.model.params import ValveParams, valve_params
-from spa.model.plant import segment_pressure_scalar
+from spa.model.plant import NO_LAWS as _NO_LAWS
+from spa.model.plant import loop_laws, segment_pressure_scalar
 
 __all__ = [
     "closed_loop_arrays",
@@ -41,23 +42,6 @@ _interp = njit(cache=True)(interp)
 #: The plant's closed form for one sample (:func:`spa.model.plant.segment_pressure_scalar`),
 #: compiled for the loop.
 _segment = njit(cache=True)(segment_pressure_scalar)
-
-#: The law tables' arguments of a valve without laws (never read: the loop's flag is off).
-_NO_LAWS: tuple = (
-    1.0, 0.5, 1.0, 1.0, 1e-14, np.zeros(2), np.ones(2), np.zeros((2, 2)), np.zeros((2, 2)),
-    np.zeros(2), np.ones(2), np.zeros((4, 2)),
-)  # fmt: skip
-
-
-def law_args(params: ValveParams) -> tuple[bool, tuple]:
-    """The plant's laws as the compiled loop reads them: ``(True, law_tables(params)
-    .kernel_args)`` for a valve with its own laws, ``(False, placeholders)`` for the paper's
-    (whose closed forms the loop evaluates, bit for bit as without laws)."""
-    if params.laws is None:
-        return False, _NO_LAWS
-    from spa.model.laws.timemap import law_tables
-
-    return True, law_tables(params).kernel_args
 
 
 @njit(cache=True)
@@ -98,7 +82,7 @@ def _loop(  # pragma: no cover  (compiled; its Python body is run by the tests)
     lb,
 ):
     # lawful: the plant follows its laws' time maps, la (lb: those of the valve whose supply
-    # is k2_new, from step k2_at on) as law_args gives them; else the paper's closed forms.
+    # is k2_new, from step k2_at on) as loop_laws gives them; else the paper's closed forms.
     c1, k2, tau2, t_on, t_off = plant[0], plant[1], plant[2], plant[3], plant[4]
     # The transport convention (plant[5] == 1): each command edge reaches the plant after its
     # delay and the plant keeps its previous connection meanwhile; the edges in flight wait
@@ -272,7 +256,7 @@ def closed_loop_many(
     n = r.size
     p, xi, u = np.empty((m, n)), np.empty((m, n)), np.empty((m, n), dtype=np.int8)
     initial = np.array(kernel.INITIAL, dtype=np.float64)
-    laws = [law_args(v) for v in valves]
+    laws = [loop_laws(v) for v in valves]
     code = kernels.code(mod.kind)
     if compiled and not any(lawful for lawful, _ in laws):
         cfg = kernel.configure(settings, dt, valves[0] if valves else None)
@@ -322,14 +306,14 @@ def closed_loop_arrays(
     state = np.array(kernel.INITIAL, dtype=np.float64)
     cfg = kernel.configure(settings, dt, params)
     k2_at, k2_new = -1, params.k2
-    lawful, la = law_args(params)
+    lawful, la = loop_laws(params)
     lb = la
     if k2_change is not None:
         k2_at = int(k2_change[0])
         k2_new = checks.positive("k2_change supply", k2_change[1], "bar")
         if not 1 <= k2_at < n:
             raise ValueError(f"k2_change: step {k2_at} outside 1..{n - 1}")
-        lb = law_args(replace(params, k2=k2_new))[1]
+        lb = loop_laws(replace(params, k2=k2_new))[1]
     noise = np.empty(0)
     if sensor_noise is not None:
         noise = checks.finite_array("sensor_noise", sensor_noise, ndim=1)

@@ -18,9 +18,11 @@ from spa import _checks as checks
 from spa.model.params import DELAY_CONVENTIONS, ValveParams, valve_params
 
 __all__ = [
+    "NO_LAWS",
     "charge",
     "discharge",
     "edge_indices",
+    "loop_laws",
     "mode_time",
     "replay",
     "run_start_pressures",
@@ -182,6 +184,32 @@ def segment_pressure_scalar(
         return math.exp(-e / tau2) * (p_start - k2) + k2
     root = max(math.sqrt(p_start) - e / (2.0 * c1), 0.0)
     return root * root
+
+
+#: The law tables' arguments of a valve without laws, for a compiled loop's signature (never
+#: read: :func:`loop_laws`'s flag is off).
+NO_LAWS: tuple = (
+    1.0, 0.5, 1.0, 1.0, 1e-14, np.zeros(2), np.ones(2), np.zeros((2, 2)), np.zeros((2, 2)),
+    np.zeros(2), np.ones(2), np.zeros((4, 2)),
+)  # fmt: skip
+
+
+def loop_laws(params: ValveParams) -> tuple[bool, tuple]:
+    """The plant as a compiled per-sample loop steps it (the closed loop).
+
+    Returns
+    -------
+    lawful : bool
+        True for a valve with its own laws: the loop steps each mode with
+        :func:`spa.model.laws._kernel.law_step` on ``tables``; False for the paper's laws,
+        whose closed form (:func:`segment_pressure_scalar`) the loop evaluates, bit for bit.
+    tables : tuple
+        ``law_tables(params).kernel_args`` (:func:`spa.model.laws.timemap.law_tables`), or
+        :data:`NO_LAWS`.
+    """
+    if getattr(params, "laws", None) is None:  # duck-typed valves carry none
+        return False, NO_LAWS
+    return True, _laws().law_tables(params).kernel_args
 
 
 def charge(p0: npt.ArrayLike, elapsed: npt.ArrayLike, params: ValveParams) -> np.ndarray:
