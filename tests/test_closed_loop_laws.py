@@ -162,3 +162,24 @@ def test_lpwm_thresholds_invert_the_table() -> None:
     dead, sat = plain.spec.thresholds(own, valve)
     assert float(dead) == pytest.approx(0.0, abs=1e-12)
     assert float(sat) == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize(("on", "start", "end"), [(True, 0.1, 0.6), (False, 0.7, 0.15)])
+def test_transit_time_follows_the_laws(on: bool, start: float, end: float) -> None:
+    from spa.closedloop.comparison import transit_time
+    from spa.model.plant import mode_time
+
+    t = float(mode_time(on, start, end, VALVE))
+    dt = 1e-5
+    n = int(t / dt)
+    u = np.full(n + 2, int(on), dtype=np.int8)
+    p = spa.simulate(u, dt, replace(VALVE, t_on=0.0, t_off=0.0), p0=start)
+    # The simulated mode passes `end` between the samples around t.
+    lo, hi = sorted((p[n], p[n + 1]))
+    assert lo - 1e-6 <= end <= hi + 1e-6
+    # The paper's times of the same constants differ: the transit is the laws'.
+    paper = float(mode_time(on, start, end, replace(VALVE, laws=None)))
+    assert abs(paper - t) > 0.05 * t
+    assert transit_time([0.15, 0.6], VALVE) >= max(
+        float(mode_time(True, 0.15, 0.6, VALVE)), float(mode_time(False, 0.6, 0.15, VALVE))
+    )
