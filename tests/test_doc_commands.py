@@ -55,9 +55,14 @@ _PLACEHOLDERS = {
 
 def documents() -> list[Path]:
     """README.md and every Markdown page of the site, but the pages executed at build (their
-    shell blocks run there, in order, and in tests/test_getting_started.py)."""
+    shell blocks run there, in order) and the getting-started pages (every block of theirs
+    runs, in order, in tests/test_getting_started.py)."""
     pages = sorted((ROOT / "docs").rglob("*.md"))
-    return [ROOT / "README.md", *(p for p in pages if not _executed(p))]
+    started = ROOT / "docs" / "getting-started"
+    return [
+        ROOT / "README.md",
+        *(p for p in pages if not _executed(p) and started not in p.parents),
+    ]
 
 
 def _executed(page: Path) -> bool:
