@@ -1,14 +1,18 @@
 """Getting started copies into a terminal: every block a reader sees on the getting-started
 pages runs, page by page in the order of the part's table of contents, in one fresh folder
-laid out like the source folder (its workflow files linked, ``raw/example`` copied, nothing
-else).
+laid out like the source folder (its workflow files, docs and benchmarks linked,
+``raw/example`` copied).
 
 - A shell block (```` ```bash ````, or a code cell of ``!`` lines) runs with bash, stopping at
   the first failing command.
 - A Python block (a code cell, or ```` ```python ````) runs in a fresh interpreter started in
-  the folder, after the page's earlier Python blocks (as one session would have run them).
+  the folder, after the page's earlier Python blocks (as one session would have run them);
+  consecutive Python blocks share that interpreter, and a failure names its block.
 - Cells hidden from the reader (``remove-input``/``remove-cell``) are the page's own
   machinery and are left out.
+- The small configuration's results come from the session's run of the same command in the
+  same layout (``small_source`` of ``tests/conftest.py``, shared with
+  ``tests/test_doc_commands.py``): the pages' runs of it find nothing to redo.
 - A block that cannot run here as shown (the full configuration runs for hours, ``make test``
   is this suite) carries, on the line above it, a comment the site does not render:
   ``% planned, not run: <why>``. Its commands are planned as ``tests/test_doc_commands.py``
@@ -152,17 +156,22 @@ def run_page(page: Path, work: Path) -> list[Block]:
     """Run every block of ``page`` in ``work``, in order; fail on the first error."""
     blocks = reader_blocks(page.read_text(encoding="utf-8"))
     session: list[tuple[int, str]] = []
-    for block in blocks:
+    for block, after in zip(blocks, [*blocks[1:], None], strict=True):
         needs_cc = re.search(r"^cc |build_harness", block.code, flags=re.M)
         if needs_cc and not shutil.which("cc"):
             pytest.skip(f"{page.name}: block {block.number} compiles C; no `cc` here "
                         "(`make test` installs gcc)")  # fmt: skip
         if block.lang == "python":
+            assert not block.planned, f"{page.name}, block {block.number}: Python is run"
             session.append((block.number, block.code))
+            if after is not None and after.lang == "python":
+                continue  # consecutive Python blocks run in one interpreter
             res = subprocess.run([sys.executable, "-c", _DRIVER], input=json.dumps(session),
                                  cwd=work, env=_env(), capture_output=True, text=True,
                                  timeout=900)  # fmt: skip
-            assert res.returncode == 0, _fail(page, block, res)
+            failed = re.search(r"FAILED-BLOCK (\d+)", res.stdout)
+            culprit = blocks[int(failed[1])] if failed else block
+            assert res.returncode == 0, _fail(page, culprit, res)
         elif block.planned:
             for command in shown.commands(f"```bash\n{block.code}```\n"):
                 how = shown.plan(command)
@@ -186,13 +195,18 @@ def run_page(page: Path, work: Path) -> list[Block]:
 
 
 @pytest.fixture(scope="module")
-def folder(tmp_path_factory) -> Path:
-    """A fresh folder laid out like the source folder, shared by the pages in order."""
-    work = tmp_path_factory.mktemp("getting-started") / "spa-pipeline"
-    work.mkdir()
-    for name in ("Snakefile", "workflow", "config", "profiles"):
-        (work / name).symlink_to(ROOT / name)
-    shutil.copytree(ROOT / "raw" / "example", work / "raw" / "example")
+def folder(small_source, tmp_path_factory) -> Path:
+    """A fresh folder laid out like the source folder, shared by the pages in order.
+
+    The small configuration's results (and Snakemake's record of them) are copied in from the
+    session's run of the same command in the same layout (``small_source``), so that the
+    pages' own runs of the small configuration check their command and find nothing to
+    redo, rather than take CI's time twice; every other output is the pages' own."""
+    from conftest import scratch_source
+
+    work = scratch_source(tmp_path_factory.mktemp("getting-started") / "spa-pipeline")
+    shutil.copytree(small_source / "results", work / "results")
+    shutil.copytree(small_source / ".snakemake" / "metadata", work / ".snakemake" / "metadata")
     return work
 
 
@@ -221,6 +235,18 @@ def test_a_block_that_cannot_run_as_shown_must_say_why():
     assert _transformed("make test") and _transformed("snakemake reproduce-all")
     assert not _transformed("snakemake reproduce-all --configfile config/small.yaml")
     assert not _transformed("spa validate raw/mylab")
+
+
+def test_a_failing_block_is_named_and_a_session_keeps_its_names(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(
+        "```python\nx = 2\n```\n```bash\necho ok > f.txt\n```\n"
+        "```{code-cell} ipython3\nassert x == 2\n```\n```python\nprint(1 / (x - 2))\n```\n"
+    )
+    with pytest.raises(AssertionError, match=r"page\.md, block 3 \(python\)") as failed:
+        run_page(page, tmp_path)
+    assert "ZeroDivisionError" in str(failed.value)
+    assert (tmp_path / "f.txt").read_text() == "ok\n"
 
 
 #: Pages with a block known to fail as the reader copies it, and why; strict, so the entry
