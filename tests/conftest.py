@@ -218,3 +218,40 @@ def small_run(tmp_path_factory, isolated_config):
     # what the console showed, for the test of the profile's quiet console (test_workflow)
     out.with_name(f"{out.name}.console.txt").write_text(res.stdout + res.stderr)
     return out
+
+
+# --- The documentation's commands (tests/test_doc_commands.py, tests/test_getting_started.py)
+
+#: What a scratch source folder links from this checkout: the workflow's files, the docs and
+#: benchmarks (commands the pages show read them).
+SOURCE_LINKS = ("Snakefile", "workflow", "config", "profiles", "docs", "benchmarks")
+
+
+def scratch_source(folder: Path, links: tuple[str, ...] = SOURCE_LINKS) -> Path:
+    """A folder laid out like the source folder: ``links`` linked from this checkout and a copy
+    of ``raw/example`` (timestamps kept), nothing else."""
+    import shutil
+
+    folder.mkdir(parents=True)
+    for name in links:
+        (folder / name).symlink_to(ROOT / name)
+    shutil.copytree(ROOT / "raw" / "example", folder / "raw" / "example")
+    return folder
+
+
+@pytest.fixture(scope="session")
+def small_source(tmp_path_factory) -> Path:
+    """A scratch source folder where ``snakemake reproduce-all --configfile config/small.yaml``
+    ran, once a session, through the environment's commands."""
+    import subprocess
+
+    work = scratch_source(tmp_path_factory.mktemp("small_source") / "work")
+    env = dict(os.environ, SPA_PROGRESS="0", MPLBACKEND="Agg")
+    env["PATH"] = os.pathsep.join((str(Path(sys.executable).parent), env.get("PATH", "")))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH", "")) if p)
+    res = subprocess.run(
+        ["snakemake", "reproduce-all", "--configfile", "config/small.yaml"],
+        cwd=work, env=env, capture_output=True, text=True, timeout=1800,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stdout[-4000:] + res.stderr[-4000:]
+    return work

@@ -24,7 +24,6 @@ from __future__ import annotations
 import os
 import re
 import shlex
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -55,9 +54,14 @@ _PLACEHOLDERS = {
 
 def documents() -> list[Path]:
     """README.md and every Markdown page of the site, but the pages executed at build (their
-    shell blocks run there, in order, and in tests/test_getting_started.py)."""
+    shell blocks run there, in order) and the getting-started pages (every block of theirs
+    runs, in order, in tests/test_getting_started.py)."""
     pages = sorted((ROOT / "docs").rglob("*.md"))
-    return [ROOT / "README.md", *(p for p in pages if not _executed(p))]
+    started = ROOT / "docs" / "getting-started"
+    return [
+        ROOT / "README.md",
+        *(p for p in pages if not _executed(p) and started not in p.parents),
+    ]
 
 
 def _executed(page: Path) -> bool:
@@ -109,26 +113,16 @@ def fill(command: str) -> str:
     return command
 
 
-def _clone(folder: Path, *, drafted: bool) -> Path:
-    folder.mkdir()
-    for name in ("Snakefile", "workflow", "config", "profiles", "docs", "benchmarks"):
-        (folder / name).symlink_to(ROOT / name)
-    shutil.copytree(ROOT / "raw" / "example", folder / "raw" / "example")
-    if not drafted:
-        (folder / "raw" / "example" / "dataset.yaml").unlink()
-    return folder
-
-
 @pytest.fixture(scope="module")
-def clone(tmp_path_factory) -> dict[str, Path]:
-    """A scratch clone with the small configuration's results, and one whose example has no
-    dataset.yaml yet (for ``spa init``)."""
-    base = tmp_path_factory.mktemp("clone")
-    work = _clone(base / "work", drafted=True)
-    blank = _clone(base / "blank", drafted=False)
-    res = run_shell(["snakemake", "reproduce-all", "--configfile", "config/small.yaml"], work)
-    assert res.returncode == 0, res.stdout[-4000:] + res.stderr[-4000:]
-    return {"work": work, "blank": blank}
+def clone(small_source, tmp_path_factory) -> dict[str, Path]:
+    """A scratch clone with the small configuration's results (the session's, shared with
+    tests/test_getting_started.py), and one whose example has no dataset.yaml yet (for
+    ``spa init``)."""
+    from conftest import scratch_source
+
+    blank = scratch_source(tmp_path_factory.mktemp("clone") / "blank")
+    (blank / "raw" / "example" / "dataset.yaml").unlink()
+    return {"work": small_source, "blank": blank}
 
 
 def _env() -> dict[str, str]:

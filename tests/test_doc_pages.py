@@ -281,7 +281,13 @@ def _id(p: Path) -> str:
     return str(p.relative_to(DOCS))
 
 
-@pytest.mark.parametrize("page", [DOCS / "model.md", *USER_PAGES], ids=_id)
+def _written_pages() -> list[Path]:
+    """Every Markdown page of the site written by hand (the gallery's pages are made at build
+    from its scripts, the CLI page from the parser)."""
+    return [p for p in _markdown_pages() if p.parent != DOCS / "gallery"]
+
+
+@pytest.mark.parametrize("page", _written_pages(), ids=_id)
 def test_equations_are_math_not_code(page):
     found = formulas_in_code(page.read_text(encoding="utf-8"))
     assert found == [], f"{_id(page)}: equations written as code, not math: {found}"
@@ -347,7 +353,16 @@ GLOSSARY_TERMS = {
     "held-out": r"\b[Hh]eld[- ]out\b",
     "unverified": r"\b[Uu]nverified\b",
     "box": r"(?<=95 % )box\b|(?<=merged )box\b",
+    "ξ": r"ξ|\binput fractions?\b",
+    "J": r"\blinearity cost\b|(?<![\w$\\])J(?![\w$])",
+    "τ_m": r"τ_m|\bequivalent time constant\b",
+    "t_l*": r"t_l\*",
 }
+#: The other names of a glossary entry a link may target (``input fraction`` for ``ξ``).
+GLOSSARY_ALIASES = {"ξ": {"input fraction"}, "J": {"linearity cost"}, "τ_m": {"time constant"}}
+#: Pages another change is editing, and the terms they do not link yet; the check fails as
+#: soon as one of them is linked, so that the entry is removed.
+GLOSSARY_PENDING = {"getting-started/plan-session.md": ["ξ"]}
 
 #: What is not running prose: fenced blocks, headings, math, code, roles, links, bold.
 _NOT_PROSE = re.compile(
@@ -364,6 +379,8 @@ def unlinked_terms(text: str) -> list[str]:
     ['promise']
     >>> unlinked_terms("# The promise\\n\\nIts {term}`promise` holds; `FIT` is code.")
     []
+    >>> unlinked_terms("An {term}`input fraction <ξ>` ξ; the linearity cost J, {term}`J`.")
+    ['J']
     """
     plain = text
     for m in _NOT_PROSE.finditer(text):  # keep roles, blank out everything else not prose
@@ -372,8 +389,9 @@ def unlinked_terms(text: str) -> list[str]:
     missing = []
     for term, pattern in GLOSSARY_TERMS.items():
         first = re.search(pattern, plain)  # its first use (a role's text counts too)
+        targets = {term, *GLOSSARY_ALIASES.get(term, ())}
         links = [m.start() for m in re.finditer(r"\{term\}`([^`]*)`", plain)
-                 if re.sub(r".*<([^>]+)>$", r"\1", m[1]) == term]  # fmt: skip
+                 if re.sub(r".*<([^>]+)>$", r"\1", m[1]) in targets]  # fmt: skip
         if first and not (links and links[0] <= first.start()):
             missing.append(term)
     return missing
@@ -381,7 +399,8 @@ def unlinked_terms(text: str) -> list[str]:
 
 @pytest.mark.parametrize("page", [DOCS / "model.md", *USER_PAGES], ids=_id)
 def test_each_glossary_term_is_linked_where_the_page_first_uses_it(page):
-    assert unlinked_terms(page.read_text(encoding="utf-8")) == [], _id(page)
+    pending = GLOSSARY_PENDING.get(_id(page), [])
+    assert unlinked_terms(page.read_text(encoding="utf-8")) == pending, _id(page)
 
 
 def test_the_glossary_defines_every_linked_term():

@@ -161,6 +161,9 @@ def test_the_tutorial_and_the_figures_ran_at_build(site):
     assert "failed: []" in tutorial  # the run's status.yaml
     assert "Closed loop: use" in tutorial  # the chosen loop's sentence
     assert "wrote board/controller.h" in tutorial  # spa export-controller
+    notebook = _text(site, "getting-started/notebook")
+    assert "problems: []" in notebook  # the dataset checked
+    assert "SPA_CTRL: gain-scheduled PI with feed-forward" in notebook  # the exported header
     figures = _text(site, "explanation/figures")
     assert figures.count("<img") >= 12
     for fig in ("Fig. 2a", "Fig. 6", "Fig. 9", "Fig. 10", "Fig. O1"):
