@@ -41,7 +41,7 @@ def test_sup_t_covers_whole_curves_not_points():
 @pytest.fixture(scope="module")
 def fitted():
     out = []
-    for seed in (0, 1, 3):
+    for seed in (0, 1, 2):  # the first three seeds
         runs = bench_runs(TRUTH, np.random.default_rng(seed))
         fit = fit_laws(runs, ValveParams())
         out.append((runs, fit, law_bands(runs, fit)))

@@ -344,8 +344,9 @@ def law_bands(
     bootstrap over runs: the weights of a resample with replacement, made continuous) and
     moves the fit vector by one Gauss–Newton step,
     ``x_b = x - (sum_r w_r H_r)^+ (sum_r w_r g_r - sum_r g_r)``, with ``H_r`` and ``g_r`` the
-    run's terms at the full fit, scaled by ``sqrt((n + 1)/(n - 1))``; the score is recentred (``- sum_r g_r``) so that a fit
-    held at a bound or stopped before the optimum is not read as a bias. Its cost is one
+    run's terms at the full fit, scaled by ``sqrt((n + 1)/(n - 1))``; the score is recentred
+    (``- sum_r g_r``) so that a fit held at a bound or stopped before the optimum is not
+    read as a bias. Its cost is one
     Jacobian (one simulation of every run per free coefficient); the resamples are linear
     algebra. Draws are clipped to the fit's bounds.
 
