@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -343,6 +343,20 @@ class Identified:
     laws: Mapping[str, Any] | None = None
 
 
+def _still_unresolved(
+    unresolved: Mapping[str, tuple[float, float]], own: Mapping[str, tuple[float, float]]
+) -> dict[str, tuple[float, float]]:
+    """The delays the paper's refinement left unresolved that the laws' fit does not resolve
+    either: its 95 % interval (``own``) is missing or wider than half of the unresolved one
+    (the refinement's own rule: an interval wider than half of ``[0, max_delay]``)."""
+    out = {}
+    for name, (lo, hi) in unresolved.items():
+        mine = own.get(name)
+        if mine is None or (mine[1] - mine[0]) > 0.5 * (hi - lo):
+            out[name] = (lo, hi)
+    return out
+
+
 def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     """Read the identified valve from ``params.yaml`` (or its content).
 
@@ -357,8 +371,10 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     -------
     Identified
         When ``laws: {chosen: identified}``, its ``params`` carry the actuator's own laws
-        (with ``k2``, ``t_on`` and ``t_off`` from the laws record's ``valve``; an unresolved
-        delay keeps its worst case) and its intervals are :func:`laws_intervals`'.
+        (with ``k2``, ``t_on`` and ``t_off`` from the laws record's ``valve``) and its
+        intervals are :func:`laws_intervals`'. A delay the paper's refinement left
+        unresolved counts as resolved when the laws' fit gives it a 95 % interval at most
+        half as wide; otherwise it stays in ``unresolved``, at its worst case.
 
     Raises
     ------
@@ -411,14 +427,15 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     try:
         laws = _laws_of(source.get("laws"))
         record = source.get("laws")
-        if laws is not None:  # k2 and the delays fitted with the laws, where resolved
-            fitted = record.get("valve") or {}
-            values.update({k: v for k, v in fitted.items() if k not in unresolved})
+        if laws is not None:  # k2 and the delays fitted with the laws
+            values.update(record.get("valve") or {})
         params = ValveParams(**values, delay=_delay_of(source), laws=laws)
         intervals = read_intervals(source, clipped)
         if laws is not None:
             own = laws_intervals(record, params, clipped)
-            if unresolved:  # an unresolved delay keeps its whole interval, as without laws
+            unresolved = _still_unresolved(unresolved, own)
+            if unresolved:  # the laws do not resolve it either: the worst case, as without
+                params = replace(params, **{k: hi for k, (_, hi) in unresolved.items()})
                 own = {k: v for k, v in own.items() if k not in (*unresolved, DIFFERENCE)}
             intervals = {**intervals, **own}
     except ValueError as exc:
