@@ -134,3 +134,34 @@ def test_bad_arguments_are_named(fitted):
         law_bands([], fit)
     with pytest.raises(ValueError, match="draws must be >= 20"):
         law_bands(runs, fit, draws=5)
+
+
+def test_the_page_draws_the_laws_or_says_why_not(fitted, tmp_path):
+    import pandas as pd
+
+    from spa.plots.laws import laws_data, laws_figure
+    from spa.stages.identify import _write_laws
+
+    _, fit, b = fitted[0]
+    v = fit.params
+    params = {
+        **{n: {"value": getattr(v, n)} for n in ("c1", "k2", "tau2", "t_on", "t_off")},
+        "laws": {"chosen": "identified", "bands": b.to_dict(), "visited": b.visited_dict()},
+    }
+    data = laws_data(params)
+    assert set(data["series"]) == {"identified", "lo", "hi", "paper", "visited"}
+    paper = data[(data["mode"] == "closed") & (data["series"] == "paper")]
+    np.testing.assert_allclose(paper["dpdt"], -np.sqrt(paper["p"]) / v.c1)
+    fig = laws_figure(data)
+    assert [ax.get_title() for ax in fig.axes[:2]] == [
+        "valve open: f_open(P)",
+        "valve closed: f_closed(P)",
+    ]
+    out = {"laws": tmp_path / "laws.png", "laws_csv": tmp_path / "laws.csv"}
+    _write_laws(params, out, "d")
+    assert out["laws"].stat().st_size > 0 and len(pd.read_csv(out["laws_csv"])) == len(data)
+    kept = {**params, "laws": {"chosen": "paper", "reason": "identification.laws: paper"}}
+    with pytest.raises(ValueError, match="has no bands"):
+        laws_data(kept)
+    _write_laws(kept, out, "d")  # a placeholder figure and an empty table
+    assert pd.read_csv(out["laws_csv"]).empty

@@ -142,7 +142,7 @@ STAGES: tuple[Stage, ...] = (
             "laws",
             "identification/laws.png",
             FIGURE,
-            "The actuator's laws",
+            "Charge and discharge laws",
             "dP/dt against P with the valve open and closed: the laws the identification "
             "fitted (solid) inside their simultaneous 95 % band (a bootstrap over the runs), "
             "the paper's laws with the identified c1, k2 and tau2 (dashed), and the pressures "
