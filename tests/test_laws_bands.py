@@ -165,3 +165,31 @@ def test_the_page_draws_the_laws_or_says_why_not(fitted, tmp_path):
         laws_data(kept)
     _write_laws(kept, out, "d")  # a placeholder figure and an empty table
     assert pd.read_csv(out["laws_csv"]).empty
+
+
+def test_the_page_flags_a_recommendation_outside_the_visited_pressures():
+    from spa.model.averaging import equilibrium
+    from spa.report.laws import laws_use_note, recommended_levels
+
+    valve = ValveParams(laws=OTHER)
+    ident = {
+        **{n: getattr(valve, n) for n in ("c1", "k2", "tau2", "t_on", "t_off")},
+        "laws": {
+            "chosen": "identified",
+            "coefficients": OTHER.as_dict(),
+            "valve": {"k2": valve.k2, "t_on": valve.t_on, "t_off": valve.t_off},
+            "visited": {"open": [0.0, 0.5 * valve.k2], "closed": [0.0, valve.k2]},
+        },
+    }
+    rec = {"recommended": {"setting": {"type": "pwm", "f_w": 20.0},
+                           "predicted": {"dead_zone": 0.05, "saturation": 0.95}}}  # fmt: skip
+    levels = recommended_levels(rec, valve)
+    np.testing.assert_allclose(levels[-1], equilibrium("pwm", 0.95, valve, f_w=20.0))
+    top = [p for p in levels if p > 0.5 * valve.k2]
+    assert top  # the setting reaches above what the charges visited
+    note = laws_use_note(rec, ident)
+    assert note.startswith("The recommended setting's levels at ")
+    assert f"{top[-1]:.3g} bar" in note
+    # the paper's laws chosen: nothing said; a loop's set-points inside: nothing said
+    assert laws_use_note(rec, {**ident, "laws": {**ident["laws"], "chosen": "paper"}}) == ""
+    assert laws_use_note({"levels": [0.1, 0.3]}, ident) == ""
