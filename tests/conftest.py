@@ -96,7 +96,7 @@ def fake_results(tmp_path_factory):
         params = _fake_params(None if full else "no pulse run <none>")
         (d / "identification" / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
         tables.append(d / "identification" / "params.yaml")
-        for name in ("fig2a", "fig2b", "fig2c"):
+        for name in ("fig2a", "fig2b", "fig2c", "laws"):
             png(d / "identification" / f"{name}.png")
         if full:  # the tuning stage's outputs (optional in the report)
             tune = d / "tuning"

@@ -136,7 +136,8 @@ def test_figures_the_job_does_not_draw_are_removed_and_nothing_else(tmp_path) ->
     )
     removed = remove_undrawn_figures(job)
     gone = {p for s in stages for k, p in every[s].items() if k not in kept[s]}
-    assert set(removed) == gone and len(gone) == 7  # 3 PNG, 3 SVG, the figures folder
+    # 4 PNG (Fig. 2a-c and the laws), 4 SVG, the figures folder
+    assert set(removed) == gone and len(gone) == 9
     assert not any(Path(p).exists() for p in gone)
     assert all(Path(p).read_text() == "old" for s in stages for p in kept[s].values())
     assert remove_undrawn_figures(job) == []  # nothing left to remove

@@ -64,15 +64,37 @@ def test_a_compliant_balloon_chooses_its_own_laws(balloon) -> None:
     assert "actuator's own laws describe the modulated runs better" in balloon.adequacy["sentence"]
 
 
-def test_params_yaml_carries_the_laws_to_the_replays_not_yet_to_the_designs(balloon) -> None:
+def test_params_yaml_carries_the_laws_to_every_stage(balloon) -> None:
     d = balloon.to_dict()
     valve = load_params(d)
     assert valve.laws is not None and not valve.laws.is_paper
     assert valve.k2 == pytest.approx(d["laws"]["valve"]["k2"])
     ident = read_identified(d)
-    assert ident.params.laws is None  # the tuning and the closed loop design on the paper's
+    assert ident.params == valve  # the stages design on the laws the identification chose
+    # t_off, unresolved under the paper's laws, is resolved by the laws' fit (within ±3 ms)
+    assert d["t_off"]["resolved"] is False and not ident.unresolved
+    assert ident.intervals["t_off"][1] - ident.intervals["t_off"][0] < 0.5 * d["t_off"]["hi"]
     assert ident.laws == d["laws"]["coefficients"]
     assert balloon.to_valve_params() == valve
+    # the box: c1 and tau2 from the bands' envelopes, around the laws valve's own values
+    for name in ("c1", "tau2", "k2", "t_on", "t_off"):
+        lo, hi = ident.intervals[name]
+        assert lo < getattr(valve, name) < hi, name
+    assert ident.intervals["tau2"] != (d["tau2"]["lo"], d["tau2"]["hi"])
+    # the adequacy the stages consult is the chosen model's held-out FIT
+    held = d["laws"]["fit_identified"]
+    assert ident.adequacy["heldout_fit"]["median"] == pytest.approx(
+        float(np.median(list(held.values()))), abs=1e-3
+    )
+    # the bands and the pressures visited are recorded, each mode's band around its rate
+    bands, visited = d["laws"]["bands"], d["laws"]["visited"]
+    grid = np.array(bands["grid"])
+    assert grid.size == 41 and 0 < grid[0] < grid[-1] < valve.k2
+    for mode in ("open", "closed"):
+        rate, lo, hi = (np.array(bands[mode][k], float) for k in ("rate", "lo", "hi"))
+        ok = np.isfinite(lo)
+        assert ok.sum() > 30 and np.all(lo[ok] <= rate[ok]) and np.all(rate[ok] <= hi[ok])
+        assert 0.0 <= visited[mode][0] < visited[mode][1] <= 1.05 * valve.k2
 
 
 def test_the_paper_valve_keeps_the_papers_laws_without_fitting(tmp_path) -> None:

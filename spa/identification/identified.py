@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +31,7 @@ __all__ = [
     "Identified",
     "TuningError",
     "corners",
+    "laws_intervals",
     "read_identified",
     "read_intervals",
     "unresolved_clause",
@@ -118,6 +119,98 @@ def _interval(mapping: Mapping[str, Any], name: str) -> tuple[float, float] | No
     if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
         raise ValueError(f"{name}: 95 % interval must be finite with lo <= hi, got [{lo}, {hi}]")
     return lo, hi
+
+
+def laws_intervals(
+    record: Mapping[str, Any], params: ValveParams, clipped: dict[str, str] | None = None
+) -> dict[str, tuple[float, float]]:
+    """The 95 % intervals of a valve with the actuator's own laws, from the ``laws:`` record.
+
+    Parameters
+    ----------
+    record : mapping
+        ``params.yaml``'s ``laws:`` (chosen ``identified``): its ``bands``, ``visited`` and
+        ``covariance`` (:func:`spa.identification.laws_fit.laws_record`).
+    params : ValveParams
+        The laws valve (its ``c1``, ``tau2``, ``k2`` and delays are the centres).
+    clipped : dict, optional
+        Filled with ``name -> note`` for a delay's interval clipped at 0.
+
+    Returns
+    -------
+    dict
+        ``name -> (lo, hi)``:
+
+        * ``tau2`` and ``c1``: the envelopes of the simultaneous bands. The laws' rates scale
+          as ``1/tau2`` (charge) and ``1/c1`` (discharge), so a band that lies within
+          ``f*(1 + delta)**(±1)`` over the pressures the data visited in that mode
+          (:func:`spa.identification.laws_bands.band_envelope`, ``delta`` the largest
+          relative half-width there) is ``[tau2/(1 + delta_open), tau2*(1 + delta_open)]``
+          and ``[c1/(1 + delta_closed), c1*(1 + delta_closed)]``: each corner scales the
+          whole law by ``1/(1 ∓ delta')`` with ``1 - delta' = 1/(1 + delta)``.
+        * ``k2``: ``k2*exp(±1.96 se)``, ``se`` the laws fit's standard error of ``log k2``.
+        * ``t_on``, ``t_off``: ``±1.96 se`` of the laws fit (clipped at 0), and
+          ``delay_difference``: ``t_off - t_on`` ± 1.96 times its standard error from the
+          same covariance, so that :func:`corners` moves the delays together.
+
+        An entry the record does not give (no bands, no covariance) is left out.
+
+    Raises
+    ------
+    ValueError
+        If the covariance is not square over its names, or a band is malformed; named.
+
+    Examples
+    --------
+    >>> rec = {"bands": {"grid": [0.2, 0.4], "open": {"rate": [1, 1], "lo": [.8, .9],
+    ...        "hi": [1.25, 1.1]}, "closed": {"rate": [-1, -1], "lo": [-1.1, -1.1],
+    ...        "hi": [-.95, -.95]}}, "visited": {"open": [0, 0.5], "closed": [0, 0.5]}}
+    >>> iv = laws_intervals(rec, ValveParams(tau2=1.0, c1=0.5))
+    >>> [round(v, 3) for v in iv["tau2"]], [round(v, 3) for v in iv["c1"]]
+    ([0.8, 1.25], [0.455, 0.55])
+    """
+    from spa.identification.laws_bands import band_envelope
+
+    out: dict[str, tuple[float, float]] = {}
+    bands = record.get("bands")
+    if isinstance(bands, Mapping):
+        try:
+            delta = band_envelope(bands, record.get("visited"))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(
+                f"laws.bands: malformed ({exc!r}); expected LawBands.to_dict()'s form"
+            ) from None
+        for name, mode in (("tau2", "open"), ("c1", "closed")):
+            d = delta[mode]
+            if np.isfinite(d):
+                x = float(getattr(params, name))
+                out[name] = (x / (1.0 + d), x * (1.0 + d))
+    cov = record.get("covariance")
+    if isinstance(cov, Mapping) and cov.get("names"):
+        names = [str(n) for n in cov["names"]]
+        matrix = np.asarray(cov.get("matrix"), dtype=np.float64)
+        if matrix.shape != (len(names), len(names)):
+            raise ValueError(
+                f"laws.covariance: matrix must be {len(names)}x{len(names)} over its names, "
+                f"got shape {matrix.shape}"
+            )
+        idx = {n: i for i, n in enumerate(names)}
+        var = np.maximum(np.diag(matrix), 0.0)
+        if "log_k2" in idx:
+            half = 1.96 * float(np.sqrt(var[idx["log_k2"]]))
+            out["k2"] = (params.k2 * float(np.exp(-half)), params.k2 * float(np.exp(half)))
+        if "t_on" in idx and "t_off" in idx:
+            i, j = idx["t_on"], idx["t_off"]
+            for name, k in (("t_on", i), ("t_off", j)):
+                x = float(getattr(params, name))
+                half = 1.96 * float(np.sqrt(var[k]))
+                if x - half < 0.0 and clipped is not None:
+                    clipped[name] = f"lower end {x - half:g} clipped to the domain edge 0"
+                out[name] = (max(x - half, 0.0), x + half)
+            sd = float(np.sqrt(max(var[i] + var[j] - 2.0 * matrix[i, j], 0.0)))
+            gap = params.t_off - params.t_on
+            out[DIFFERENCE] = (gap - 1.96 * sd, gap + 1.96 * sd)
+    return out
 
 
 def corners(
@@ -233,8 +326,11 @@ class Identified:
         design rests on a point the data do not give.
     laws : mapping or None
         The actuator's own laws' coefficients when the identification chose them
-        (``params.yaml``'s ``laws:``). ``params`` keeps the paper's laws: the tuning and the
-        closed loop design on those, and the adequacy they consult is theirs.
+        (``params.yaml``'s ``laws:``), else None. ``params`` then IS the laws valve
+        (``params.laws`` set, ``k2`` and the delays those fitted with the laws) and the
+        intervals are the laws' (:func:`laws_intervals`: ``c1`` and ``tau2`` the envelopes of
+        the simultaneous bands), so every stage that reads the valve designs on the laws the
+        identification chose; ``adequacy`` is then that model's held-out verdict.
     """
 
     params: ValveParams
@@ -245,6 +341,20 @@ class Identified:
     adequacy: Mapping[str, Any] | None = None
     unresolved: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     laws: Mapping[str, Any] | None = None
+
+
+def _still_unresolved(
+    unresolved: Mapping[str, tuple[float, float]], own: Mapping[str, tuple[float, float]]
+) -> dict[str, tuple[float, float]]:
+    """The delays the paper's refinement left unresolved that the laws' fit does not resolve
+    either: its 95 % interval (``own``) is missing or wider than half of the unresolved one
+    (the refinement's own rule: an interval wider than half of ``[0, max_delay]``)."""
+    out = {}
+    for name, (lo, hi) in unresolved.items():
+        mine = own.get(name)
+        if mine is None or (mine[1] - mine[0]) > 0.5 * (hi - lo):
+            out[name] = (lo, hi)
+    return out
 
 
 def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
@@ -260,6 +370,11 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
     Returns
     -------
     Identified
+        When ``laws: {chosen: identified}``, its ``params`` carry the actuator's own laws
+        (with ``k2``, ``t_on`` and ``t_off`` from the laws record's ``valve``) and its
+        intervals are :func:`laws_intervals`'. A delay the paper's refinement left
+        unresolved counts as resolved when the laws' fit gives it a 95 % interval at most
+        half as wide; otherwise it stays in ``unresolved``, at its worst case.
 
     Raises
     ------
@@ -310,14 +425,22 @@ def read_identified(source: str | Path | Mapping[str, Any]) -> Identified:
         values[name] = value
     clipped: dict[str, str] = {}
     try:
-        params = ValveParams(**values, delay=_delay_of(source))
         laws = _laws_of(source.get("laws"))
+        record = source.get("laws")
+        if laws is not None:  # k2 and the delays fitted with the laws
+            values.update(record.get("valve") or {})
+        params = ValveParams(**values, delay=_delay_of(source), laws=laws)
         intervals = read_intervals(source, clipped)
+        if laws is not None:
+            own = laws_intervals(record, params, clipped)
+            unresolved = _still_unresolved(unresolved, own)
+            if unresolved:  # the laws do not resolve it either: the worst case, as without
+                params = replace(params, **{k: hi for k, (_, hi) in unresolved.items()})
+                own = {k: v for k, v in own.items() if k not in (*unresolved, DIFFERENCE)}
+            intervals = {**intervals, **own}
     except ValueError as exc:
         raise TuningError(f"{where}: {exc}") from None
     fallback = source.get("fallback") or {}
     adequacy = source.get("adequacy")
     adequacy = dict(adequacy) if isinstance(adequacy, Mapping) else None
-    return Identified(
-        params, intervals, dict(fallback), where, clipped, adequacy, unresolved, laws
-    )
+    return Identified(params, intervals, dict(fallback), where, clipped, adequacy, unresolved, laws)

@@ -542,7 +542,9 @@ def laws_record(
         ``chosen``, ``setting``, ``reason`` and, when the laws were fitted, ``gain``, ``se``,
         the held-out FITs of both (``fit_paper``, ``fit_identified``), the in-sample
         ``fit_insample``, ``valve`` (``k2`` and the delays fitted with the laws),
-        ``coefficients`` and ``covariance`` (``names``, ``matrix``).
+        ``coefficients`` and ``covariance`` (``names``, ``matrix``), the laws' simultaneous
+        95 % ``bands`` on a pressure grid and the pressures each mode ``visited``
+        (:func:`spa.identification.laws_bands.law_bands`).
     valve : ValveParams or None
         The valve with the identified laws, when they are chosen.
     """
@@ -571,6 +573,9 @@ def laws_record(
         return record, None
     choice = choose_laws(prepared, ref.params, paper_heldout=ref.fit_heldout, delay=chosen)
     fit = choice.fit
+    from spa.identification.laws_bands import law_bands  # it imports this module
+
+    bands = law_bands(prepared, fit, delay=chosen)
     record.update(
         {
             "chosen": choice.laws,
@@ -590,6 +595,8 @@ def laws_record(
                 "names": list(fit.names),
                 "matrix": [[float(v) for v in row] for row in fit.cov],
             },
+            "bands": bands.to_dict(),
+            "visited": bands.visited_dict(),
         }
     )
     return record, (choice.params if choice.laws == "identified" else None)

@@ -266,15 +266,18 @@ def refine_result(
                 )
     adequacy = verdicts[chosen]
     if law_valve is not None:
-        # The replays (validation, the open-loop stages, spa.simulate from params.yaml) use
-        # the identified laws; the tuning and the closed loop still design on the paper's,
-        # whose verdict this is: it is what decides whether their results are verified.
-        held = law_record["fit_identified"]
+        # Every stage reads the laws valve back (read_identified), so the verdict they
+        # consult is the chosen model's: its held-out FITs on the modulated runs (each
+        # predicted by the laws refitted without it) and its in-sample FITs.
+        paper = adequacy
+        adequacy = assess(
+            law_record["fit_identified"], law_record["fit_insample"], ref.noise_ceiling,
+            mods_of, threshold,
+        )  # fmt: skip
         note = (
-            f"The actuator's own laws describe the modulated runs better: held-out FIT "
-            f"{float(np.median(list(held.values()))):.0f} % (median) against "
-            f"{adequacy.heldout_median:.0f} % with the paper's; the model replays use them, "
-            "the tuning and the closed loop do not yet"
+            f"The actuator's own laws describe the modulated runs better and are the model "
+            f"used: held-out FIT {adequacy.heldout_median:.0f} % (median) against "
+            f"{paper.heldout_median:.0f} % with the paper's"
         )
         adequacy = replace(adequacy, sentence=f"{adequacy.sentence} {note}.")
         warnings.append(f"{law_record['reason']}. {note}")

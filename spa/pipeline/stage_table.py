@@ -138,6 +138,18 @@ STAGES: tuple[Stage, ...] = (
             "edge after which the pressure rises most, showing the t_on hold before the rise.",
         ),
         Output("fig2c_csv", "identification/fig2c.csv", DATA),
+        Output(
+            "laws",
+            "identification/laws.png",
+            FIGURE,
+            "Charge and discharge laws",
+            "dP/dt against P with the valve open and closed: the laws the identification "
+            "fitted (solid) inside their simultaneous 95 % band (a bootstrap over the runs), "
+            "the paper's laws with the identified c1, k2 and tau2 (dashed), and the pressures "
+            "the runs visited in each mode (grey); outside the grey the laws are extrapolated. "
+            "Which laws the stages use is params.yaml's laws: chosen.",
+        ),
+        Output("laws_csv", "identification/laws.csv", DATA),
         upstream=("runs",),
         category="Identification",
         job="analyse",

@@ -32,6 +32,7 @@ from spa.report.html import (
     png_size,
     unique_anchor,
 )
+from spa.report.laws import laws_use_note
 from spa.report.params import fits_note, identification_notes, params_table
 from spa.report.summary import summary_html
 from spa.report.table3 import csv_download, table3_html
@@ -138,7 +139,14 @@ def _render_item(path: Path, item: Output, anchor: str) -> str:
         body = f'<img src="{embed_png(path)}" alt="{alt}" width="{width}" height="{height}">'
         attrs = f' class="fig" style="max-width:{width + 2}px"'
     elif item.kind == RECOMMENDATION:
-        body = recommendation_html(read_yaml(path))
+        rec = read_yaml(path)
+        body = recommendation_html(rec)
+        ident = path.parent.parent / "identification" / "params.yaml"
+        note = ""
+        if isinstance(rec, Mapping) and ident.is_file():
+            note = laws_use_note(rec, read_yaml(ident))
+        if note:
+            body += f'<p class="note">{html.escape(note)}</p>'
     elif item.kind == PARAMS:
         params = read_yaml(path)
         body = f'<div class="scroll">{html_table(params_table(params))}</div>'

@@ -11,6 +11,7 @@ import pandas as pd
 from spa.identification import IdentificationResult
 from spa.io import dump_yaml, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
+from spa.plots.laws import laws_data, laws_figure
 from spa.plots.openloop import write_no_runs
 from spa.plots.save import draw
 from spa.plots.words import noted
@@ -39,7 +40,8 @@ def write_identification(
         The dataset's run tables and each run's kind (Fig. 2c replays its first pulse run).
     out : mapping-like
         Output key to path (``snakemake.output``, or a dict): ``params``, ``fig2a_csv``,
-        ``fig2b_csv``, ``fig2c_csv`` and the figures ``fig2a``-``fig2c`` where drawn.
+        ``fig2b_csv``, ``fig2c_csv``, ``laws_csv`` and the figures ``fig2a``-``fig2c`` and
+        ``laws`` where drawn (a key missing from ``out`` is not written).
     dataset : str
         The dataset's name, for the placeholder figures of a missing fit.
     log : logging.Logger, optional
@@ -62,6 +64,7 @@ def write_identification(
         data = data_fn(fit)
         write_csv(data, csv)
         draw(png, fig_fn, data)
+    _write_laws(result.to_dict(), out, dataset)
     pulse_ids = sorted(r for r, k in kinds.items() if k == "pulse")
     if not pulse_ids:
         message = noted(f"{dataset}: no pulse runs", fallback)
@@ -71,3 +74,22 @@ def write_identification(
     data = fig2c_data(trace)
     write_csv(data, out.get("fig2c_csv"))
     draw(out.get("fig2c"), fig2c, data)
+
+
+def _write_laws(params: Mapping[str, Any], out: Any, dataset: str) -> None:
+    """The laws' figure and its data, or a one-line placeholder pointing to why the laws were
+    not fitted (``laws: reason`` of ``params.yaml``)."""
+    png, csv = out.get("laws"), out.get("laws_csv")
+    if png is None and csv is None:
+        return
+    record = params.get("laws")
+    if not isinstance(record, Mapping) or not isinstance(record.get("bands"), Mapping):
+        write_no_runs(
+            f"{dataset}: the actuator's own laws were not fitted (params.yaml, laws: reason)",
+            [csv],
+            [png],
+        )
+        return
+    data = laws_data(params)
+    write_csv(data, csv)
+    draw(png, laws_figure, data)
