@@ -17,26 +17,35 @@ The cycle map ``F`` (the runs' time maps composed) is non-decreasing, with ``F(0
 and ``F(k2) <= k2``, so ``[0, k2]`` brackets a fixed point. Its slope is the product over
 the active parts of ``f(p_end)/f(p_start)`` (the flow's derivative in its start for an
 autonomous one-dimensional law). Newton's method, kept inside the bracket and falling back
-to bisection, finds the fixed point whether or not the laws make ``F`` convex. The time mean
-integrates each active part in pressure, ``dt = dp/f(p)``:
+to bisection, finds the fixed point whether or not the laws make ``F`` convex.
 
-* charging: ``∫ p dt = k2*a - ∫ dp/g(p)`` over the part's pressures;
-* discharging: ``∫ p dt = ∫ p**(1 - m)/h(p) dp``, in ``v = p**(2 - m)`` a smooth integral
-  ``∫ dv/((2 - m)*h(v**(1/(2 - m))))``;
+Everything is read from the simulation's own time maps
+(:func:`spa.model.laws.timemap.law_tables`), so the orbit is the one :func:`spa.simulate`
+settles on: a part's end pressure is ``T⁻¹(T(p) + a)``, the rates ``f`` are the inverse's
+exact slopes ``dp/dT``, and the integral of the pressure over a part is the integral of the
+inverse's cubic pieces in ``T`` (a cumulative table, built once per valve). In pressure the
+same integrals read
 
-each by 16-point Gauss–Legendre. With the paper's laws these are ``k2*a - tau2*(P1 - P0)``
-and ``(2*c1/3)*(P0**1.5 - P1**1.5)`` (:func:`spa.model.periodic.charge_integral`,
+* charging: ``∫ p dt = k2*a - ∫ dp/g(p)``;
+* discharging: ``∫ p dt = ∫ p**(1 - m)/h(p) dp``;
+
+:func:`law_charge_integral` and :func:`law_discharge_integral` evaluate these by quadrature
+(a reference for the tables). With the paper's laws they are ``k2*a - tau2*(P1 - P0)`` and
+``(2*c1/3)*(P0**1.5 - P1**1.5)`` (:func:`spa.model.periodic.charge_integral`,
 :func:`~spa.model.periodic.discharge_integral`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import lru_cache
+
 import numpy as np
 import numpy.typing as npt
 
 from spa.model.chattering import train_segments
-from spa.model.laws.rates import closed_rate, law_rates, open_rate, valve_laws
-from spa.model.laws.timemap import law_segment_pressure
+from spa.model.laws.rates import law_rates, valve_laws
+from spa.model.laws.timemap import LawTables, law_tables
 from spa.model.params import ValveParams
 
 __all__ = ["law_charge_integral", "law_discharge_integral", "law_orbit", "law_train_orbit"]
@@ -47,10 +56,62 @@ _MAX_ITER = 200
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
 
 
-def _tables_valve(params: ValveParams) -> ValveParams:
-    """The valve whose time maps ``params`` uses: the delays do not change the laws, so the
-    corners of a box that differ only in their delays share one table."""
-    return ValveParams(c1=params.c1, k2=params.k2, tau2=params.tau2, laws=params.laws)
+@dataclass(frozen=True)
+class _Tables:
+    """A valve's time maps with the cumulative integral of each mode's inverse pressure."""
+
+    maps: LawTables
+    cum: tuple[np.ndarray, np.ndarray]  # charge, discharge: ∫ p du up to each inverse node
+
+
+@lru_cache(maxsize=16)
+def _tables(c1: float, k2: float, tau2: float, laws) -> _Tables:
+    """The time maps of the valve's laws; the delays do not change them, so the corners of
+    a box that differ only in their delays share one table."""
+    maps = law_tables(ValveParams(c1=c1, k2=k2, tau2=tau2, laws=laws))
+    cum = []
+    for mode in (maps.charge, maps.discharge):
+        c = mode.coef
+        piece = c[:, 0] + c[:, 1] / 2.0 + c[:, 2] / 3.0 + c[:, 3] / 4.0
+        cum.append(np.concatenate(([0.0], np.cumsum(piece[:-1]))))
+    return _Tables(maps, (cum[0], cum[1]))
+
+
+def _segment(
+    tables: _Tables, on: bool, p0: np.ndarray, active: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One mode's part from ``p0`` lasting ``active`` (pressures within ``[0, k2]``): the end
+    pressure, the integral of the pressure over the part, and the rate at its start and end,
+    all from the time map's inverse (as :func:`~spa.model.laws.timemap.law_segment_pressure`
+    evaluates it)."""
+    maps = tables.maps
+    mode = maps.charge if on else maps.discharge
+    coef, cum = mode.coef, tables.cum[0 if on else 1]
+    last = coef.shape[0] - 1
+    x = np.clip(p0, 0.0, maps.k2)
+    t0 = mode.forward(x, maps.k2)
+    a = np.maximum(active, 0.0)
+    t1 = t0 + np.minimum(a, mode.t_end - t0)
+
+    def at(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        u = np.maximum(t * mode.inv_h, 0.0)
+        i = np.minimum(u.astype(np.int64), last)
+        f = u - i
+        c0, c1, c2, c3 = (coef[i, k] for k in range(4))
+        p = ((c3 * f + c2) * f + c1) * f + c0
+        rate = ((3.0 * c3 * f + 2.0 * c2) * f + c1) * mode.inv_h
+        area = cum[i] + f * (c0 + f * (c1 / 2.0 + f * (c2 / 3.0 + f * c3 / 4.0)))
+        return p, rate, area
+
+    _, rate0, area0 = at(t0)
+    p1, rate1, area1 = at(t1)
+    # Past the table's end the pressure is clamped (emptied, or within 1e-14*k2 of k2).
+    area = (area1 - area0) / mode.inv_h + coef[last, 0] * (a - (t1 - t0))
+    # A charge from (within rounding of) the supply pressure stays there.
+    top = x >= coef[last, 0] if on else np.zeros(x.shape, dtype=bool)
+    p1 = np.where(top, x, p1)
+    area = np.where(top, x * a, area)
+    return p1, area, rate0, rate1
 
 
 def _quadrature(lo: np.ndarray, hi: np.ndarray, integrand) -> np.ndarray:
@@ -100,10 +161,6 @@ def law_discharge_integral(
     bottom = np.maximum(np.asarray(p1, np.float64), 0.0) ** e
     top, bottom = np.broadcast_arrays(top, bottom)
     return _quadrature(bottom, top, lambda v: 1.0 / (e * law_rates(v ** (1.0 / e), params)[1]))
-
-
-def _rate(on: bool, p: np.ndarray, params: ValveParams) -> np.ndarray:
-    return open_rate(p, params) if on else closed_rate(p, params)
 
 
 def law_orbit(
@@ -157,55 +214,53 @@ def law_orbit(
     hld = np.broadcast_to(np.asarray(hold, dtype=np.float64), act.shape)
     count = np.broadcast_to(np.asarray(runs, dtype=np.int64), act.shape[:1])
     n, width = act.shape
-    tab = _tables_valve(params)
+    tables = _tables(params.c1, params.k2, params.tau2, params.laws)
     live = np.arange(width)[None, :] < count[:, None]
     act = np.where(live, np.maximum(act, 0.0), 0.0)
-    k2 = params.k2
 
-    def cycle(start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def cycle(start: np.ndarray, idx: np.ndarray, area: bool = False):
+        """The cycle map of the elements ``idx`` at ``start``, its slope, the runs' start
+        pressures and (``area``) the integral of the pressure over the cycle."""
         x = start.copy()
-        slope = np.ones(start.size)
-        starts = np.empty((start.size, width))
+        slope = np.ones(idx.size)
+        starts = np.empty((idx.size, width))
+        total = np.zeros(idx.size)
         for r in range(width):
-            on = r % 2 == 0
             starts[:, r] = x
-            moving = live[:, r] & (act[:, r] > 0.0)
-            after = np.where(moving, law_segment_pressure(on, x, act[:, r], tab), x)
-            before_rate = _rate(on, x, params)
+            run = np.flatnonzero(live[idx, r])
+            if not run.size:
+                continue
+            before = x[run]
+            a = act[idx[run], r]
+            after, part, rate0, rate1 = _segment(tables, r % 2 == 0, before, a)
+            moving = a > 0.0
             with np.errstate(divide="ignore", invalid="ignore"):
-                d = np.where(before_rate != 0.0, _rate(on, after, params) / before_rate, 1.0)
-            slope *= np.where(moving & np.isfinite(d), d, 1.0)
-            x = after
-        return x, slope, starts
+                d = rate1 / rate0
+            slope[run] *= np.where(moving & (rate0 != 0.0) & np.isfinite(d), d, 1.0)
+            if area:
+                total[run] += before * hld[idx[run], r] + np.where(moving, part, 0.0)
+            x[run] = np.where(moving, after, before)
+        return x, slope, starts, total
 
     x = np.zeros(n)
-    lo, hi = np.zeros(n), np.full(n, k2)
-    done = np.zeros(n, dtype=bool)
+    lo, hi = np.zeros(n), np.full(n, params.k2)
+    todo = np.arange(n)  # the elements still moving; each stops on its own step
     for _ in range(_MAX_ITER):
-        f, slope, _ = cycle(x)
-        g = f - x
-        lo = np.where(~done & (g >= 0.0), x, lo)
-        hi = np.where(~done & (g <= 0.0), x, hi)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            newton = x - g / (slope - 1.0)
-        inside = np.isfinite(newton) & (newton > lo) & (newton < hi)
-        new = np.where(inside, newton, 0.5 * (lo + hi))
-        new = np.where(done | (g == 0.0), x, new)
-        done |= (np.abs(new - x) < _TOL) | (hi - lo < _TOL)
-        x = new
-        if done.all():
+        if not todo.size:
             break
-    end, _, starts = cycle(x)
-    area = np.zeros(n)
-    for r in range(width):
-        p0 = starts[:, r]
-        p1 = starts[:, r + 1] if r + 1 < width else end
-        part = np.where(
-            r % 2 == 0,
-            law_charge_integral(p0, p1, act[:, r], params),
-            law_discharge_integral(p0, p1, params),
-        )
-        area += np.where(live[:, r], p0 * hld[:, r] + np.where(act[:, r] > 0.0, part, 0.0), 0.0)
+        xt = x[todo]
+        f, slope, _, _ = cycle(xt, todo)
+        g = f - xt
+        lo_t = np.where(g >= 0.0, xt, lo[todo])
+        hi_t = np.where(g <= 0.0, xt, hi[todo])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            newton = xt - g / (slope - 1.0)
+        inside = np.isfinite(newton) & (newton > lo_t) & (newton < hi_t)
+        new = np.where(inside, newton, 0.5 * (lo_t + hi_t))
+        new = np.where(g == 0.0, xt, new)
+        lo[todo], hi[todo], x[todo] = lo_t, hi_t, new
+        todo = todo[(np.abs(new - xt) >= _TOL) & (hi_t - lo_t >= _TOL)]
+    _, _, starts, area = cycle(x, np.arange(n), area=True)
     if cycle_time is None:
         total = np.where(live, act + hld, 0.0).sum(axis=1)
     else:
