@@ -26,6 +26,7 @@ __all__ = ["law_equilibrium_pressure", "law_time_constant"]
 # leave it): at most this many steps, each element stopping when its step is below _STEP*k2.
 _ITERATIONS = 100
 _STEP = 4.0 * np.finfo(np.float64).eps
+_START_NODES = 1025
 
 
 def _fractions(alpha1: npt.ArrayLike, alpha2: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -33,6 +34,17 @@ def _fractions(alpha1: npt.ArrayLike, alpha2: npt.ArrayLike) -> tuple[np.ndarray
     if not (np.all(np.isfinite(a1)) and np.all(np.isfinite(a2))):
         raise ValueError("alpha1 and alpha2 must be finite")
     return a1, a2
+
+
+def _start(ratio: np.ndarray, p: ValveParams, lw: Laws) -> np.ndarray:
+    """Newton's start for the fractions' ratio ``alpha2/alpha1``: where the rates' ratio
+    ``-f_closed/f_open`` (increasing in ``P`` for most laws) takes it on a grid of
+    :data:`_START_NODES` pressures; the middle of ``[0, k2]`` where it is not increasing."""
+    grid = p.k2 * np.linspace(0.0, 1.0, _START_NODES)[1:-1]
+    rates = -closed_rate(grid, p, lw) / open_rate(grid, p, lw)
+    if not np.all(np.diff(rates) > 0.0):
+        return np.full(ratio.shape, 0.5 * p.k2)
+    return np.interp(ratio, rates, grid)
 
 
 def law_equilibrium_pressure(
@@ -93,7 +105,7 @@ def law_equilibrium_pressure(
     w1, w2 = a1[inside], a2[inside]
     lw = valve_laws(p) if laws is None else laws
     lo, hi = np.zeros(w1.shape), np.full(w1.shape, p.k2)
-    x = 0.5 * (lo + hi)
+    x = _start(w2 / w1, p, lw)
     todo = np.arange(w1.size)  # the elements still moving; each stops on its own step
     for _ in range(_ITERATIONS):
         if not todo.size:
