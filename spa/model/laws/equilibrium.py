@@ -11,12 +11,14 @@ without laws.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
 from spa.model import averaging
 from spa.model._broadcast import Floats, as_output
-from spa.model.laws.rates import closed_rate, law_rates, open_rate, valve_laws
+from spa.model.laws.rates import closed_rate, open_rate, valve_laws
 from spa.model.laws.value import Laws
 from spa.model.params import ValveParams, valve_params
 
@@ -82,9 +84,11 @@ def law_equilibrium_pressure(
     Notes
     -----
     The rate is ``alpha2*k2*g(0) > 0`` at ``P = 0`` and ``-alpha1*k2**m*h(k2) < 0`` at
-    ``k2``, so ``[0, k2]`` brackets a root. Newton's method on the rate, with its exact
-    slope, kept inside the shrinking bracket (a bisection step where Newton's would leave
-    it) and vectorised over the fractions, finds it to the last bits in a few steps. Rates
+    ``k2``, so ``[0, k2]`` brackets a root. Newton's method on the log-ratio of the two
+    terms, ``log(alpha2*f_open) - log(-alpha1*f_closed)`` (the rate's sign, and smooth near
+    ``0`` and ``k2`` where the rate's slope diverges), with its exact slope, kept inside the
+    shrinking bracket (a bisection step where Newton's would leave it) and vectorised over
+    the fractions, finds it to the last bits in a few steps. Rates
     that are not monotone may give several roots; the iteration returns one of them (the
     only one where the rate changes sign once).
 
@@ -107,19 +111,20 @@ def law_equilibrium_pressure(
     lo, hi = np.zeros(w1.shape), np.full(w1.shape, p.k2)
     x = _start(w2 / w1, p, lw)
     todo = np.arange(w1.size)  # the elements still moving; each stops on its own step
+    # log(h/g) less the log-rates: log(tau2*k2**(1/2 - m)/c1)
+    offset = math.log(p.tau2 * p.k2 ** (0.5 - lw.m) / p.c1)
     for _ in range(_ITERATIONS):
         if not todo.size:
             break
         xt, b1, b2 = x[todo], w1[todo], w2[todo]
-        g, h = law_rates(xt, p, lw)
         da, db = lw.log_rates(xt / p.k2, derivative=True)
+        a, b = lw.log_rates(xt / p.k2)
         gap = p.k2 - xt
         with np.errstate(divide="ignore", invalid="ignore"):
-            power = xt**lw.m
-            rate = b2 * gap * g - b1 * power * h
-            slope = b2 * (-g + gap * g * da / p.k2) - b1 * (
-                lw.m * xt ** (lw.m - 1.0) * h + power * h * db / p.k2
-            )
+            # log(alpha2*f_open) - log(-alpha1*f_closed): the rate's sign, smooth in log P
+            # and log(k2 - P) at both ends, where the rate's own slope diverges.
+            rate = (np.log(b2 * gap) + a) - (np.log(b1) + lw.m * np.log(xt) + b + offset)
+            slope = -1.0 / gap + (da - db) / p.k2 - lw.m / xt
             newton = xt - rate / slope
         up = rate > 0.0
         lo_t = np.where(up, xt, lo[todo])
@@ -128,6 +133,8 @@ def law_equilibrium_pressure(
         hi_t = np.where(rate == 0.0, xt, hi_t)
         ok = np.isfinite(newton) & (newton > lo_t) & (newton < hi_t)
         new = np.where(ok, newton, 0.5 * (lo_t + hi_t))
+        # A step within rounding of the root stays put, wherever rounding puts it.
+        new = np.where(np.abs(newton - xt) <= _STEP * p.k2, xt, new)
         new = np.where(rate == 0.0, xt, new)
         lo[todo], hi[todo], x[todo] = lo_t, hi_t, new
         moving = (np.abs(new - xt) > _STEP * p.k2) & (hi_t - lo_t > _STEP * p.k2)

@@ -257,6 +257,8 @@ def law_orbit(
             newton = xt - g / (slope - 1.0)
         inside = np.isfinite(newton) & (newton > lo_t) & (newton < hi_t)
         new = np.where(inside, newton, 0.5 * (lo_t + hi_t))
+        # A step within rounding of the fixed point stays put, wherever rounding puts it.
+        new = np.where(np.abs(newton - xt) < _TOL, xt, new)
         new = np.where(g == 0.0, xt, new)
         lo[todo], hi[todo], x[todo] = lo_t, hi_t, new
         todo = todo[(np.abs(new - xt) >= _TOL) & (hi_t - lo_t >= _TOL)]
