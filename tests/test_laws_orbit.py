@@ -173,3 +173,24 @@ def test_averaged_model_follows_the_laws_with_each_modulators_fractions():
     lo, hi = rising_range({"type": "pwm", "f_w": 20.0}, law)
     assert lo == 0.0 and hi == pytest.approx(float(pwm.max()))
     assert unusable_reason({"type": "pwm", "f_w": 20.0}, law) is None
+
+
+@pytest.mark.parametrize(
+    "laws",
+    [LAWS, Laws(m=1.0), Laws(log_g=(1.0, -1.0, 1.0, 0.0), log_h=(0.0, 0.5, -0.5, 1.0), m=0.6)],
+    ids=["compliant", "laminar", "wavy"],
+)
+def test_averaged_equilibrium_is_bracketed_by_the_rate_at_every_fraction(laws):
+    p = ValveParams(laws=laws)
+    rng = np.random.default_rng(47)
+    a1 = np.concatenate((rng.uniform(0.0, 1.0, 2000), [1e-9, 0.5, 1.0]))
+    a2 = np.concatenate((rng.uniform(0.0, 1.0, 2000), [0.5, 1e-9, 1e-12]))
+    peq = np.asarray(equilibrium_pressure(a1, a2, p))
+    inside = (a1 > 0) & (a2 > 0)
+    assert np.all((peq >= 0.0) & (peq <= p.k2))
+    step = 1e-12 * p.k2
+    below = a2 * open_rate(peq - step, p) + a1 * closed_rate(np.maximum(peq - step, 0.0), p)
+    above = a2 * open_rate(peq + step, p) + a1 * closed_rate(peq + step, p)
+    # the averaged rate changes sign across P_eq: rising below it, falling above it
+    assert np.all((below[inside] > 0.0) | (peq[inside] <= step))
+    assert np.all((above[inside] < 0.0) | (peq[inside] >= p.k2 - step))
