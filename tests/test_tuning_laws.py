@@ -104,3 +104,15 @@ def test_exact_costs_mixing_laws_and_paper_valves_keep_the_paper_costs():
         alone = exact_costs(kind, values[:1], [PAPER_VALVE], N_XI)
         assert both[0] == alone[0]  # bit for bit
         assert both[1] == float(linearity_cost(kind, values[1], LAW_VALVE, N_XI, exact=True))
+
+
+def test_paper_valve_keeps_its_closed_forms_which_the_general_orbit_reproduces():
+    # A paper valve never enters the laws' code (laws=None: the closed forms, bit for bit,
+    # as a mixed batch shows above); run through that code anyway, its J_exact is the same.
+    assert ValveParams(**{**PAPER_VALVE.as_dict(), "laws": Laws()}).laws is None
+    for kind, value in (("pwm", 20.0), ("ipfm", 0.04), ("iipfm", 0.02)):
+        _, xi, grid = _on_xi_grid(kind, value, PAPER_VALVE, N_XI, None)
+        t_h, t_l = get_kind(kind).pulse_times(xi, grid, PAPER_VALVE)
+        general = deviation_cost(law_train_orbit(t_h, t_l, PAPER_VALVE)[2], xi, PAPER_VALVE.k2)
+        closed = float(linearity_cost(kind, value, PAPER_VALVE, N_XI, exact=True))
+        assert abs(general - closed) < 1e-11
