@@ -14,7 +14,11 @@ The valve is raw/example's as identified by the full config (its point estimates
 intervals, below), or the params.yaml given with ``--params``. Times are wall-clock; "cold"
 is the first call in the process, then the best of ``--repeat`` calls.
 
-Run:  .venv/bin/python benchmarks/bench_tuning.py [--params PARAMS.yaml]
+With ``--laws`` the same valve carries its own charge and discharge laws (:data:`LAWS`, rates
+that vary with pressure and a discharge exponent m = 0.8): every P_eq, tau_m and orbit then
+goes through the laws' root-finding and time maps instead of the paper's closed forms.
+
+Run:  .venv/bin/python benchmarks/bench_tuning.py [--params PARAMS.yaml] [--laws]
 """
 
 from __future__ import annotations
@@ -25,12 +29,14 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import yaml
 
 from spa.identification.identified import read_identified
 from spa.io import write_csv
+from spa.model.laws import Laws
 from spa.plots.save import save_figure
 from spa.plots.tuning import plot_tuning_equilibrium, plot_tuning_sweeps
 from spa.tuning import DEFAULT_SWEEPS, tune
@@ -47,6 +53,10 @@ EXAMPLE = {
         "hi": 0.009133444258926152,
     },
 }
+
+#: The laws of ``--laws``: a compliant chamber's rates, relative to the paper's (knots at 0,
+#: 1/3, 2/3 and 1 of k2).
+LAWS = Laws(log_g=(0.0, 0.3, 0.5, 0.2), log_h=(0.0, -0.2, -0.4, -0.5), m=0.8)
 
 
 def stage(source, folder: Path) -> tuple[float, float]:
@@ -72,9 +82,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--params", help="an identification's params.yaml (default: example)")
     parser.add_argument("--repeat", type=int, default=3, help="warm repeats (default 3)")
+    parser.add_argument("--laws", action="store_true", help="the valve with its own laws")
     parser.add_argument("--once", metavar="DIR", help=argparse.SUPPRESS)  # the job's process
     args = parser.parse_args()
     source = read_identified(args.params if args.params else EXAMPLE)
+    if args.laws:
+        source = replace(source, params=replace(source.params, laws=LAWS))
     if args.once:
         stage(source, Path(args.once))
         return
@@ -82,6 +95,8 @@ def main() -> None:
         command = [sys.executable, __file__, "--once", tmp]
         if args.params:
             command += ["--params", args.params]
+        if args.laws:
+            command += ["--laws"]
         start = time.perf_counter()
         subprocess.run(command, check=True)
         job = time.perf_counter() - start

@@ -75,7 +75,9 @@ def chattering_estimate(
     Notes
     -----
     ``dP2 = t_h*(k2 - P_eq)/tau2``: the charging slope of Eq. 2 at ``P_eq`` times the high
-    duration. It is an estimate for short pulses; :func:`pseudo_steady_state` is exact.
+    duration. It is an estimate for short pulses; :func:`pseudo_steady_state` is exact. A
+    valve with its own laws (``params.laws``) uses its charge law's slope there,
+    ``t_h*f_open(P_eq)``.
 
     Examples
     --------
@@ -86,6 +88,12 @@ def chattering_estimate(
     p = valve_params(params)
     th, pe = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(p_eq, np.float64))
     gap = np.maximum(p.k2 - pe, 0.0)
+    if p.laws is not None:  # the valve's own charge law at P_eq: t_h*(k2 - P_eq)*g(P_eq)
+        from spa.model.laws.rates import open_rate
+
+        with np.errstate(invalid="ignore"):
+            d = th * np.asarray(open_rate(np.minimum(pe, p.k2), p))
+        return as_output(np.where(gap > 0.0, d, 0.0))
     with np.errstate(invalid="ignore"):
         d = th * gap / p.tau2
     return as_output(np.where(gap > 0.0, d, 0.0))
@@ -125,6 +133,10 @@ def pseudo_steady_state(
     ``P+ = k2*(1 - E)``. ``sqrt(P+)`` is evaluated as ``c/(a + sqrt(a² + c))`` with
     ``a = E*beta/(1 - E)`` and ``c = k2 + E*beta²/(1 - E)``, free of cancellation.
 
+    A valve with its own laws (``params.laws``) has no closed form: its orbit is the fixed
+    point of the composed time maps (:func:`spa.model.laws.orbit.law_train_orbit`), exact
+    however long the pulses are against the local time constant.
+
     Examples
     --------
     >>> p = ValveParams()
@@ -136,6 +148,11 @@ def pseudo_steady_state(
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
     if np.any(np.isnan(th)) or np.any(np.isnan(tl)) or np.any(th < 0) or np.any(tl < 0):
         raise ValueError("t_h and t_l must be >= 0 (inf allowed), not NaN")
+    if p.laws is not None:  # the valve's own laws: the orbit of their time maps
+        from spa.model.laws.orbit import law_train_orbit
+
+        hi, lo, _ = law_train_orbit(th, tl, p)
+        return as_output(hi), as_output(lo)
     h, l_eff, charges, discharges = train_segments(th, tl, p)
     both = charges & discharges
     # Placeholders outside `both` keep the arithmetic finite; those entries are overwritten.

@@ -126,6 +126,9 @@ def train_mean(t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | Non
     ``(P-*min(t_h, t_on) + k2*h - tau2*(P+ - P-) + P+*min(t_l, t_off)
     + (2*c1/3)*(P+**1.5 - P-**1.5)) / (t_h + t_l)``.
 
+    A valve with its own laws (``params.laws``) gets the orbit of their time maps and the
+    integrals of :mod:`spa.model.laws.orbit` (:func:`~spa.model.laws.orbit.law_train_orbit`).
+
     Examples
     --------
     >>> round(float(train_mean(0.02, 0.02)), 4)  # Eq. 5 and App. B's mid-point: 0.3207
@@ -136,6 +139,12 @@ def train_mean(t_h: npt.ArrayLike, t_l: npt.ArrayLike, params: ValveParams | Non
     """
     p = valve_params(params)
     th, tl = np.broadcast_arrays(np.asarray(t_h, np.float64), np.asarray(t_l, np.float64))
+    if p.laws is not None:  # the valve's own laws: the orbit of their time maps
+        from spa.model.laws.orbit import law_train_orbit
+
+        if np.any(np.isnan(th)) or np.any(np.isnan(tl)) or np.any(th < 0) or np.any(tl < 0):
+            raise ValueError("t_h and t_l must be >= 0 (inf allowed), not NaN")
+        return as_output(law_train_orbit(th, tl, p)[2])
     hi, lo = (np.asarray(a, dtype=np.float64) for a in pseudo_steady_state(th, tl, p))
     h, _, charges, discharges = train_segments(th, tl, p)
     both = charges & discharges
@@ -331,7 +340,9 @@ def dsm_mean(
     for the rest. The cycle map ``F`` (charges, discharges in turn, from the start of a high
     run) is non-decreasing and convex, so Newton's method on ``F(P) = P`` from ``P = 0``
     converges monotonically to the orbit's start; the mean then integrates each piece in
-    closed form (:func:`charge_integral`, :func:`discharge_integral`).
+    closed form (:func:`charge_integral`, :func:`discharge_integral`). A valve with its own
+    laws (``params.laws``) gets the orbit of their time maps
+    (:func:`spa.model.laws.orbit.law_orbit`).
 
     Examples
     --------
@@ -403,11 +414,35 @@ def dsm_means(
     pulsing = np.flatnonzero(count >= 2)
     order = pulsing[np.argsort(-count[pulsing], kind="stable")]  # most runs first
     for holding in (True, False):  # each convention's orbits in a batch of their own
-        rows = np.flatnonzero([(v.delay == "hold") == holding for v in valves])
+        rows = np.flatnonzero(
+            [(v.delay == "hold") == holding and v.laws is None for v in valves]
+        )
         if not (order.size and rows.size):
             continue
         el = np.repeat(order, rows.size)  # still by decreasing number of runs
         row = np.tile(rows, order.size)
         batch = _Valves(*(fields[f][row] for f in _Valves._fields))
         out[row, el] = _dsm_orbit(table, inverse[el], tf[row, el], batch, holding)
+    for row in np.flatnonzero([v.laws is not None for v in valves]):
+        # A valve with its own laws: the orbit of their time maps, one valve at a time.
+        if order.size:
+            out[row, order] = _law_dsm_orbit(table, inverse[order], tf[row, order], valves[row])
     return out.reshape((len(valves), *shape))
+
+
+def _law_dsm_orbit(
+    table: npt.NDArray[np.int64],
+    pattern: npt.NDArray[np.int64],
+    period: npt.NDArray[np.float64],
+    params: ValveParams,
+) -> npt.NDArray[np.float64]:
+    """Cycle means of :func:`_dsm_orbit`'s elements on one valve with laws
+    (:func:`spa.model.laws.orbit.law_orbit`)."""
+    from spa.model.laws.orbit import law_orbit
+
+    length = table[pattern] * period[:, np.newaxis]
+    loss = np.where(np.arange(table.shape[1]) % 2 == 0, params.on_loss, params.off_loss)
+    active = np.maximum(length - loss, 0.0)
+    hold = length - active if params.delay == "hold" else np.zeros_like(length)
+    runs = (table > 0).sum(axis=1)[pattern]
+    return law_orbit(active, hold, runs, params, table.sum(axis=1)[pattern] * period)[1]

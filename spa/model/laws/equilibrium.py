@@ -11,18 +11,25 @@ without laws.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
 from spa.model import averaging
 from spa.model._broadcast import Floats, as_output
-from spa.model.laws.rates import closed_rate, open_rate
+from spa.model.laws.rates import closed_rate, open_rate, valve_laws
 from spa.model.laws.value import Laws
 from spa.model.params import ValveParams, valve_params
 
 __all__ = ["law_equilibrium_pressure", "law_time_constant"]
 
-_BISECTIONS = 64
+# Newton's method on the averaged rate, kept inside its bracket (bisection where a step would
+# leave it): at most this many steps, each element stopping when its step is below _STEP*k2.
+_ITERATIONS = 100
+_STEP = 4.0 * np.finfo(np.float64).eps
+_CLOSE = 1e-11
+_START_NODES = 1025
 
 
 def _fractions(alpha1: npt.ArrayLike, alpha2: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -30,6 +37,17 @@ def _fractions(alpha1: npt.ArrayLike, alpha2: npt.ArrayLike) -> tuple[np.ndarray
     if not (np.all(np.isfinite(a1)) and np.all(np.isfinite(a2))):
         raise ValueError("alpha1 and alpha2 must be finite")
     return a1, a2
+
+
+def _start(ratio: np.ndarray, p: ValveParams, lw: Laws) -> np.ndarray:
+    """Newton's start for the fractions' ratio ``alpha2/alpha1``: where the rates' ratio
+    ``-f_closed/f_open`` (increasing in ``P`` for most laws) takes it on a grid of
+    :data:`_START_NODES` pressures; the middle of ``[0, k2]`` where it is not increasing."""
+    grid = p.k2 * np.linspace(0.0, 1.0, _START_NODES)[1:-1]
+    rates = -closed_rate(grid, p, lw) / open_rate(grid, p, lw)
+    if not np.all(np.diff(rates) > 0.0):
+        return np.full(ratio.shape, 0.5 * p.k2)
+    return np.interp(ratio, rates, grid)
 
 
 def law_equilibrium_pressure(
@@ -67,10 +85,13 @@ def law_equilibrium_pressure(
     Notes
     -----
     The rate is ``alpha2*k2*g(0) > 0`` at ``P = 0`` and ``-alpha1*k2**m*h(k2) < 0`` at
-    ``k2``, so ``[0, k2]`` brackets a root; 64 bisections, vectorised over the fractions,
-    find it to the last bit. Rates that are not monotone may give several roots; the
-    bisection returns one of them (the largest stable one where the rate changes sign
-    once).
+    ``k2``, so ``[0, k2]`` brackets a root. Newton's method on the log-ratio of the two
+    terms, ``log(alpha2*f_open) - log(-alpha1*f_closed)`` (the rate's sign, and smooth near
+    ``0`` and ``k2`` where the rate's slope diverges), with its exact slope, kept inside the
+    shrinking bracket (a bisection step where Newton's would leave it) and vectorised over
+    the fractions, finds it to the last bits in a few steps. Rates
+    that are not monotone may give several roots; the iteration returns one of them (the
+    only one where the rate changes sign once).
 
     Examples
     --------
@@ -92,16 +113,43 @@ def _equilibrium(
     a1, a2 = _fractions(alpha1, alpha2)
     charging = a2 > 0.0
     inside = charging & (a1 > 0.0)
-    lo = np.zeros(a1.shape)
-    hi = np.full(a1.shape, p.k2)
-    w1, w2 = np.where(inside, a1, 0.0), np.where(inside, a2, 0.0)
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        rate = w2 * open_rate(mid, p, laws) + w1 * closed_rate(mid, p, laws)
+    peq = np.where(charging, p.k2, 0.0)
+    w1, w2 = a1[inside], a2[inside]
+    lw = valve_laws(p) if laws is None else laws
+    lo, hi = np.zeros(w1.shape), np.full(w1.shape, p.k2)
+    x = _start(w2 / w1, p, lw)
+    todo = np.arange(w1.size)  # the elements still moving; each stops on its own step
+    # log(h/g) less the log-rates: log(tau2*k2**(1/2 - m)/c1)
+    offset = math.log(p.tau2 * p.k2 ** (0.5 - lw.m) / p.c1)
+    for _ in range(_ITERATIONS):
+        if not todo.size:
+            break
+        xt, b1, b2 = x[todo], w1[todo], w2[todo]
+        da, db = lw.log_rates(xt / p.k2, derivative=True)
+        a, b = lw.log_rates(xt / p.k2)
+        gap = p.k2 - xt
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # log(alpha2*f_open) - log(-alpha1*f_closed): the rate's sign, smooth in log P
+            # and log(k2 - P) at both ends, where the rate's own slope diverges.
+            rate = (np.log(b2 * gap) + a) - (np.log(b1) + lw.m * np.log(xt) + b + offset)
+            slope = -1.0 / gap + (da - db) / p.k2 - lw.m / xt
+            newton = xt - rate / slope
         up = rate > 0.0
-        lo = np.where(up, mid, lo)
-        hi = np.where(up, hi, mid)
-    peq = np.where(inside, 0.5 * (lo + hi), np.where(charging, p.k2, 0.0))
+        lo_t = np.where(up, xt, lo[todo])
+        hi_t = np.where(up, hi[todo], xt)
+        lo_t = np.where(rate == 0.0, xt, lo_t)
+        hi_t = np.where(rate == 0.0, xt, hi_t)
+        ok = np.isfinite(newton) & (newton > lo_t) & (newton < hi_t)
+        new = np.where(ok, newton, 0.5 * (lo_t + hi_t))
+        # A step within rounding of the root stays put, wherever rounding puts it.
+        new = np.where(np.abs(newton - xt) <= _STEP * p.k2, xt, new)
+        new = np.where(rate == 0.0, xt, new)
+        lo[todo], hi[todo], x[todo] = lo_t, hi_t, new
+        # A Newton step below _CLOSE*k2 leaves an error of its square's order: the last one.
+        close = ok & (np.abs(newton - xt) <= _CLOSE * p.k2)
+        moving = ~close & (np.abs(new - xt) > _STEP * p.k2) & (hi_t - lo_t > _STEP * p.k2)
+        todo = todo[moving]
+    peq[inside] = x
     return as_output(peq)
 
 

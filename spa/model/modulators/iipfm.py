@@ -9,6 +9,7 @@ dead-zone.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -65,7 +66,10 @@ class IIPFM(IntegrateAndFire):
         return {"t_l": v, "gain": 1.0 + max(p.on_loss, 0.0) / v if gain is None else gain}
 
     def analytic_optimum(self, p: ValveParams) -> float:
-        """Eq. 29's ``t_l*`` in ms."""
+        """Eq. 29's ``t_l*`` in ms; NaN for a valve with its own laws (``p.laws``), which
+        Eq. 29, derived from the paper's two laws, does not describe."""
+        if p.laws is not None:
+            return math.nan
         return iipfm_optimal_t_l(p) * 1e3
 
 
