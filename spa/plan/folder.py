@@ -65,6 +65,8 @@ def plan_yaml(
         }
         if run.modulator is not None:
             entry["modulator"] = run.modulator.to_mapping()
+        if run.closed:
+            entry["setpoints"] = [[int(g.ticks), float(g.a)] for g in run.segments]
         entry["notes"] = run.notes
         runs.append(entry)
     return {
@@ -174,8 +176,12 @@ def write_plan(
     *,
     extra: dict[str, Any] | None = None,
     adc_bits: int = 10,
+    controller: str | None = None,
 ) -> list[Path]:
     """Write the plan into the new folder ``folder`` (its name is the dataset's).
+
+    ``controller``: the exported controller's header (``controller.h`` text), written beside
+    the player for the closed-loop runs (a verification session's).
 
     Raises
     ------
@@ -192,6 +198,9 @@ def write_plan(
             f"{out} exists: a plan is written into a new folder only (never into a dataset)"
         )
     cal = calibration_for(design.limits.p_max, adc_bits)
+    closed = [run.id for run in design.runs if run.closed]
+    if closed and controller is None:
+        raise PlanError(f"runs {', '.join(closed)} close the loop: the plan needs controller.h")
     out.mkdir(parents=True)
     (out / "player").mkdir()
     files = {
@@ -207,10 +216,13 @@ def write_plan(
             _adc_max(cal, design.limits.p_max),
             design.limits.p_max,
             round(design.rest / design.dt),
+            cal,
         ),
         "player/harness.c": harness_source(),
         "player/player.ino": player_sketch(name, int(design.limits.baud or 115200)),
     }
+    if controller is not None:
+        files["player/controller.h"] = controller
     paths = []
     for rel, text in files.items():
         path = out / rel
