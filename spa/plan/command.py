@@ -12,7 +12,8 @@ __all__ = ["plan_arguments", "record_arguments", "run_plan", "run_record"]
 
 
 def plan_arguments(p: argparse.ArgumentParser) -> None:
-    """``spa plan``'s arguments."""
+    """``spa plan``'s arguments (its help fits one screen: 24 lines of 80 columns)."""
+    p.usage = "%(prog)s FOLDER --p-max BAR [options] [--verify RESULTS]"
     p.add_argument("folder", metavar="FOLDER", help="the new dataset folder, raw/<name>")
     prior = p.add_mutually_exclusive_group()
     prior.add_argument(
@@ -116,29 +117,39 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
             rec = tune(prior).recommendation.get("recommended") or {}
             if rec.get("setting"):
                 recommended = Modulator.from_mapping(rec["setting"])
-        design = design_session(
-            prior,
-            limits,
-            dt=args.tick,
-            seed=args.seed,
-            levels=args.levels,
-            replicates=args.replicates,
-            recommended=recommended,
-            pilot=args.pilot,
-        )
+
+        def make(replicates: int, margin: float) -> Any:
+            return design_session(
+                prior,
+                limits,
+                dt=args.tick,
+                seed=args.seed,
+                levels=args.levels,
+                replicates=replicates,
+                recommended=recommended,
+                pilot=args.pilot,
+                margin=margin,
+            )
+
+        table, resized = None, []
+        if args.no_predict:
+            design = make(args.replicates, 3.0)
+        else:
+            from spa.plan.precision import size_for_targets
+
+            design, table, resized = size_for_targets(
+                make, args.replicates, 3.0, calibration_for(limits.p_max)
+            )
         extra: dict = {
             "prior_source": source,
             "margins": {
                 "time_scale": design.margins["time_scale"],
-                "meaning": "identification runs sized for valves 3x slower "
-                "and 3x faster than the prior",
+                "meaning": f"identification runs sized for valves "
+                f"{design.margins['time_scale']:g}x slower and faster than the prior",
             },
         }
-        table = None
-        if not args.no_predict:
-            from spa.plan.precision import predict_precision
-
-            table = predict_precision(design, calibration_for(limits.p_max))
+        if table is not None:
+            extra["resized"] = resized
             extra["predicted"] = [
                 {k: (float(v) if isinstance(v, float) else v) for k, v in row.items()}
                 for row in table.drop(columns="note").to_dict("records")
@@ -169,6 +180,8 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
         print(f"  note: {warning}", file=out)
     for label, why in design.refused.items():
         print(f"  refused {label}: {why}", file=out)
+    for line in resized:
+        print(f"  {line}", file=out)
     if table is not None:
         print("predicted 95 % half-widths (target) on the prior and 3x corners:", file=out)
         for corner, rows in table.groupby("corner", sort=False):
