@@ -163,23 +163,41 @@ def test_the_verification_plays_the_exported_controller(session):
     assert (frame["part"] == "promise").sum() == 3 * len(plan["verify"]["promise"]["bands"])
 
 
-def test_a_plant_twice_slower_breaks_the_recommendation_and_the_promise(session):
-    _, plant, _ = session
-    _, frame, text = _verify(session, "slower", _slower(plant, 2.0), 6)
-    for part in ("recommendation", "promise"):
-        rows = frame[frame["part"] == part]
-        assert rows["verdict"].str.startswith("broken").any(), (part, text)
-    assert "broken by" in text
+def test_a_plant_twice_slower_moves_every_level_and_the_verdicts_say_how_far(session):
+    """On the plant twice slower (chamber, dead times, transit) the recommended setting's
+    inner levels move beyond the replicates' spread, every staircase and FIT get a verdict
+    and the page says each amount.
+    A pilot's box is too wide for a 2x slower plant to leave it here (every verdict can be
+    "kept"); the full session's box breaks both parts: benchmarks/verify_round_trip.py
+    --full, benchmarks/README.md, and tests/test_plan_verify.py on the model's valve."""
+    plant = session[1]
+    same = _same(session)
+    _, slow, text = _verify(session, "slower", _slower(plant, 2.0), 6)
+    assert len(slow) == len(same) and slow["verdict"].notna().all()
+    inner = same["prediction"].str.match(r"level xi = 0\.[1-9]")
+    assert inner.any()
+    # each inner level moved by more than the same plant's replicates spread
+    by = same[inner].groupby("prediction")["measured"]
+    moved = (slow[inner].groupby("prediction")["measured"].mean() - by.mean()).abs()
+    assert (moved > by.max() - by.min()).all(), (moved, text)
+    broken = slow[slow["verdict"].str.startswith("broken")]
+    assert all(v in text for v in broken["verdict"])
+
+
+def _same(session) -> pd.DataFrame:
+    root, plant, _ = session
+    folder = root / f"{NAME}-verify-same"
+    if not folder.is_dir():
+        _verify(session, "same", plant, 5)
+    return pd.read_csv(folder / "verification.csv")
 
 
 def test_the_page_shows_each_prediction_beside_its_measurement(session, tmp_path):
     from spa.report.verification import verification_html
 
-    root, plant, _ = session
+    root = session[0]
+    frame = _same(session)
     folder = root / f"{NAME}-verify-same"
-    if not folder.is_dir():
-        _verify(session, "same", plant, 5)
-    frame = pd.read_csv(folder / "verification.csv")
     html, toc = verification_html(folder / "verification.csv", set())
     assert next(t for _, t in toc).startswith("Verification: the recommendation")
     for verdict in frame["verdict"]:
