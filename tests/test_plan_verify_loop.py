@@ -208,3 +208,29 @@ def test_the_page_shows_each_prediction_beside_its_measurement(session, tmp_path
     bad.write_text("part,run\nx,y\n")
     with pytest.raises(ValueError, match=r"verification\.csv: no column"):
         verification_html(bad, set())
+
+
+def test_the_dataset_page_adds_the_verification_from_the_raw_folder(fake_results, tmp_path):
+    """The page stage passes the raw folder: a verification session's verification.csv adds
+    its two sections to the dataset's page, and nothing without one."""
+    from spa.report.site import build_dataset_page
+
+    frame = pd.DataFrame(
+        {
+            "part": ["recommendation", "recommendation", "promise"],
+            "run": ["staircase-up_pwm-20Hz_r1"] * 2 + ["closed-loop_r1"],
+            "prediction": ["level xi = 0.50", "FIT %", "worst overshoot %"],
+            "predicted": [0.4, 95.0, 6.0],
+            "band": ["0.39 to 0.41 bar", "94 to 96 %", "0 to 11 %"],
+            "measured": [0.43, 95.2, 3.0],
+            "verdict": ["broken by +20 mbar", "kept", "kept"],
+        }
+    )
+    (tmp_path / "sim").mkdir()
+    frame.to_csv(tmp_path / "sim" / "verification.csv", index=False)
+    plain = build_dataset_page(fake_results.root, "sim", {}, raw_dir=tmp_path / "none")
+    page = build_dataset_page(fake_results.root, "sim", {}, raw_dir=tmp_path)
+    assert "Verification" not in plain
+    assert "Verification: the recommendation: 1 of 2 predictions kept" in page
+    assert "Verification: the closed loop&#x27;s promise: 1 of 1 predictions kept" in page
+    assert "broken by +20 mbar" in page

@@ -208,7 +208,12 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
     from spa.identification.identified import read_identified
     from spa.model.modulators import Modulator
     from spa.plan.folder import calibration_for, write_plan
-    from spa.plan.verify import design_verification, promise_predictions, staircase_predictions
+    from spa.plan.verify import (
+        design_verification,
+        promise_predictions,
+        sine_predictions,
+        staircase_predictions,
+    )
 
     results = Path(args.verify)
     params_path = results / "identification" / "params.yaml"
@@ -241,11 +246,19 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         for run in design.runs
         if run.kind == "staircase"
     }
+    sines = {
+        run.id: sine_predictions(
+            run, design.dt, valve.params, dict(valve.intervals), noise, cal["bar_per_count"]
+        )
+        for run in design.runs
+        if run.kind == "sine"
+    }
     verify: dict[str, Any] = {
         "results": str(results),
         "setting": setting.to_mapping(),
         "sensor_noise_bar": noise,
         "predictions": predictions,
+        "sines": sines,
     }
     closed = [run for run in design.runs if run.closed]
     if closed and promise is not None:
@@ -262,7 +275,8 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
     write_plan(args.folder, design, extra=extra, controller=header)
     print(
         f"{args.folder}: verification of {results} ({setting.label}), {len(design.runs)} "
-        f"runs, {design.duration / 60:.0f} min; {len(predictions)} staircases predicted; "
+        f"runs, {design.duration / 60:.0f} min; {len(predictions)} staircases and {len(sines)} "
+        "sines predicted; "
         f"{said}",
         file=out,
     )
@@ -318,7 +332,7 @@ def verification_tables(folder: Path, plan: dict[str, Any]) -> dict[str, dict[st
     import pandas as pd
 
     from spa.identification.identified import read_identified
-    from spa.plan.verify import compare, compare_promise
+    from spa.plan.verify import compare, compare_promise, compare_sine
 
     verify = plan["verify"]
     files = {r["id"]: folder / r["file"] for r in plan["runs"]}
@@ -326,6 +340,9 @@ def verification_tables(folder: Path, plan: dict[str, Any]) -> dict[str, dict[st
     for run_id, pred in verify["predictions"].items():
         if files[run_id].is_file():
             tables["recommendation"][run_id] = compare(pred, pd.read_csv(files[run_id]))
+    for run_id, pred in (verify.get("sines") or {}).items():
+        if files[run_id].is_file():
+            tables["recommendation"][run_id] = compare_sine(pred, pd.read_csv(files[run_id]))
     promise = verify.get("promise") or {}
     if promise.get("bands"):
         params_path = Path(verify["results"]) / "identification" / "params.yaml"

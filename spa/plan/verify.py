@@ -37,11 +37,14 @@ __all__ = [
     "closed_loop_runs",
     "compare",
     "compare_promise",
+    "compare_sine",
     "corners",
     "design_verification",
     "header_step",
     "level_means",
     "promise_predictions",
+    "sine_fit",
+    "sine_predictions",
     "staircase_predictions",
     "verdict",
     "verification_frame",
@@ -341,6 +344,83 @@ def verdict(measured: float, lo: float, hi: float, unit: str, scale: float = 1.0
         return "kept"
     off = measured - hi if measured > hi else measured - lo
     return f"broken by {off * scale:+.3g} {unit}"
+
+
+def sine_fit(
+    t: npt.ArrayLike, p: npt.ArrayLike, omega: float, start: float
+) -> tuple[float, float, int]:
+    """The mean and the amplitude of the fundamental at ``omega`` (rad/s) of ``p`` from
+    ``start`` s on (least squares on ``1, sin, cos``), and the samples used."""
+    t = np.asarray(t, dtype=np.float64)
+    p = np.asarray(p, dtype=np.float64)
+    keep = t >= start - 1e-9
+    a = np.column_stack(
+        [np.ones(int(keep.sum())), np.sin(omega * t[keep]), np.cos(omega * t[keep])]
+    )
+    coef, *_ = np.linalg.lstsq(a, p[keep], rcond=None)
+    return float(coef[0]), float(math.hypot(coef[1], coef[2])), int(keep.sum())
+
+
+def sine_predictions(
+    run: PlannedRun,
+    dt: float,
+    params: ValveParams,
+    intervals: Mapping[str, tuple[float, float]],
+    noise: float,
+    quantum: float,
+) -> dict[str, Any]:
+    """The sine's mean pressure and amplitude over its second half, predicted with 95 %
+    bands (over the box's corners, widened by the noise on a least-squares fit of ``n``
+    samples, ``1.96 noise sqrt(2/n)`` on the amplitude and ``1.96 noise/sqrt(n)`` on the
+    mean, and half the ADC step)."""
+    from spa import simulate
+
+    seg = run.segments[0]
+    omega = float(seg.c) / dt
+    u = run_commands(run, dt)
+    t = np.arange(u.size) * dt
+    start = 0.5 * u.size * dt
+    nominal = sine_fit(t, simulate(u, dt, params), omega, start)
+    box = np.array(
+        [sine_fit(t, simulate(u, dt, c), omega, start)[:2] for c in corners(params, intervals)]
+    )
+    n = max(nominal[2], 1)
+    wide_mean = 1.96 * noise / math.sqrt(n) + 0.5 * quantum
+    wide_amp = 1.96 * noise * math.sqrt(2.0 / n) + 0.5 * quantum
+    return {
+        "omega": omega,
+        "start": start,
+        "mean": nominal[0],
+        "mean_lo": float(box[:, 0].min()) - wide_mean,
+        "mean_hi": float(box[:, 0].max()) + wide_mean,
+        "amplitude": nominal[1],
+        "amplitude_lo": float(box[:, 1].min()) - wide_amp,
+        "amplitude_hi": float(box[:, 1].max()) + wide_amp,
+    }
+
+
+def compare_sine(prediction: Mapping[str, Any], run: pd.DataFrame) -> pd.DataFrame:
+    """A recorded sine (``t`` s, ``p`` bar) against :func:`sine_predictions`: its mean and
+    amplitude, each ``kept`` or ``broken by ...``."""
+    mean, amp, _ = sine_fit(
+        run["t"], run["p"], float(prediction["omega"]), float(prediction["start"])
+    )
+    rows = []
+    for key, label, value in (
+        ("mean", "sine mean bar", mean),
+        ("amplitude", "sine amplitude bar", amp),
+    ):
+        lo, hi = float(prediction[f"{key}_lo"]), float(prediction[f"{key}_hi"])
+        rows.append(
+            {
+                "prediction": label,
+                "predicted": float(prediction[key]),
+                "band": f"{lo:.4g} to {hi:.4g} bar",
+                "measured": value,
+                "verdict": verdict(value, lo, hi, "mbar", 1e3),
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def compare(prediction: Mapping[str, Any], run: pd.DataFrame) -> pd.DataFrame:

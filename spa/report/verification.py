@@ -24,8 +24,9 @@ VERIFICATION_FILE = "verification.csv"
 _PARTS = {
     "recommendation": (
         "Verification: the recommendation",
-        "The recommended setting's staircases on the bench: each level's mean pressure over the "
-        "second half of its hold and the staircase's FIT, against the prediction on the "
+        "The recommended setting's staircases and sines on the bench: each level's mean "
+        "pressure over the second half of its hold and the staircase's FIT, each sine's mean "
+        "and fundamental's amplitude over its second half, against the prediction on the "
         "identified valve. The 95 % band is the prediction over every corner of the "
         "identification's 95 % box, widened by the sensor noise on the level's mean and half an "
         "ADC step (the FIT's by half a point). Kept: the measurement lies in its band.",
