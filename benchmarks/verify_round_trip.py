@@ -11,6 +11,10 @@ closed-loop staircases through controller.h, on the same plant and on one twice 
 verification: the identification's cost and each part's kept count.
 
     .venv/bin/python benchmarks/verify_round_trip.py [--full] [phys-finger ...]
+
+A model-made valve (``small-fast``, ``large-slow``, ``long-exhaust``: the configuration's
+``params``) goes through the pilot and the verification's open-loop runs, played on
+``spa.simulate`` of the valve (the model has no C twin to close the loop on).
 """
 
 from __future__ import annotations
@@ -142,6 +146,76 @@ def round_trip(name: str, root: Path, full: bool) -> list[str]:
     return lines
 
 
+def round_trip_model(name: str, root: Path) -> list[str]:
+    """A model-made valve of the full configuration (``simulated.<name>.params``): the pilot
+    played by the C player on ``spa.simulate`` of the valve, identified, and the
+    verification's open-loop runs (the recommendation; the model has no C twin to close the
+    loop on) on the same valve and on one twice slower (``spa.plan.prior.scaled``)."""
+    from spa import simulate
+    from spa.model.params import ValveParams
+    from spa.plan.folder import calibration_for
+    from spa.plan.host import build_harness, planned_commands, play_session
+    from spa.plan.prior import scaled
+    from spa.plan.record import read_plan
+    from spa.plan.verify import design_verification
+
+    entry = CONFIG["simulated"][name]
+    truth = ValveParams(**entry["params"])
+    sd = float(entry.get("sensor", {}).get("noise", 0.003))
+    limits = Limits(p_max=1.25 * truth.k2)
+    design = design_session(
+        prior_from_numbers(truth.k2, 5 * truth.tau2), limits, pilot=True, precondition=1
+    )
+
+    def play(folder: Path, d, valve, seed: int) -> str:
+        exe = build_harness(folder, root / f"player-{folder.name}")
+        noise = np.random.default_rng(seed).normal(0.0, sd, planned_commands(d).size)
+        cal = calibration_for(limits.p_max)
+        stream, _, _ = play_session(exe, d, lambda u: simulate(u, d.dt, valve), cal, noise)
+        return stream
+
+    folder = root / name
+    write_plan(folder, design)
+    record_stream(folder, play(folder, design, truth, 2).splitlines())
+    code, text = _cli("validate", folder)
+    if code != 0:
+        raise RuntimeError(text)
+    ingest_dataset(folder, root / f"{name}-runs")
+    runs, metas = read_runs(root / f"{name}-runs")
+    identified = identify_with_config(
+        runs, {k: m["kind"] for k, m in metas.items()}, metas=metas
+    ).to_dict()
+    results = root / "results" / name
+    (results / "identification").mkdir(parents=True)
+    (results / "identification" / "params.yaml").write_text(dump_yaml(identified))
+    within = all(
+        identified[d]["lo"] <= getattr(truth, d) <= identified[d]["hi"]
+        and abs(identified[d]["value"] - getattr(truth, d)) <= design.dt
+        for d in ("t_on", "t_off")
+    )
+    lines = [f"{name} (model, pilot): delays within their intervals and one tick: {within}"]
+    valve = read_identified(identified)
+    for tag, on in (("same", truth), ("2x slower", scaled(truth, 2.0))):
+        vfolder = root / f"{name}-verify-{tag.replace(' ', '')}"
+        code, text = _cli(
+            "plan", vfolder, "--verify", results, "--p-max", f"{limits.p_max:g}", "--levels", "4"
+        )
+        if code != 0:
+            raise RuntimeError(text)
+        plan = read_plan(vfolder)
+        rec = Modulator.from_mapping(plan["verify"]["setting"])
+        d = design_verification(valve.params, rec, limits, levels=4)
+        log = root / f"{vfolder.name}.txt"
+        log.write_text(play(vfolder, d, on, 5))
+        code, text = _cli("record", vfolder, "--stream", log)
+        if code != 0:
+            raise RuntimeError(text)
+        frame = pd.read_csv(vfolder / "verification.csv")
+        kept = int((frame["verdict"] == "kept").sum())
+        lines.append(f"  on the {tag} valve: recommendation {kept} of {len(frame)} kept")
+    return lines
+
+
 def run() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("plants", nargs="*", default=["phys-finger", "phys-choked", "phys-balloon"])
@@ -151,7 +225,10 @@ def run() -> None:
         for name in args.plants:
             t0 = time.perf_counter()
             try:
-                lines = round_trip(name, Path(tmp), args.full)
+                if "params" in CONFIG["simulated"][name]:
+                    lines = round_trip_model(name, Path(tmp))
+                else:
+                    lines = round_trip(name, Path(tmp), args.full)
             except (RuntimeError, ValueError, KeyError) as exc:
                 lines = [f"{name}: failed: {exc}"]
             lines[0] += f" ({time.perf_counter() - t0:.0f} s in all)"
