@@ -137,6 +137,24 @@ def _verify(session, tag: str, plant, seed: int) -> tuple[Path, pd.DataFrame, st
     return folder, pd.read_csv(folder / "verification.csv"), text
 
 
+def _stepped(header: Path, run: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """spa's controller of ``header`` (its Setting: and Controller: lines) stepped on the
+    run's set-point and logged pressure: its commands and input fractions."""
+    import ast
+    import re
+
+    from spa.closedloop.controller import PIController
+    from spa.closedloop.stepper import ControllerStepper
+    from spa.plan.verify import header_step
+
+    text = header.read_text()
+    setting = ast.literal_eval(re.search(r"\* Setting: (\{.*\})", text).group(1))
+    mapping = ast.literal_eval(re.search(r"\* Controller: (\{.*\})", text).group(1))
+    stepper = ControllerStepper(setting, PIController.from_mapping(mapping), header_step(text)[1])
+    out = [stepper.step(r, p) for r, p in zip(run["r"], run["p"], strict=True)]
+    return np.array([u for u, _ in out]), np.array([x for _, x in out])
+
+
 def test_the_verification_plays_the_exported_controller(session):
     _, plant, results = session
     folder, frame, _ = _verify(session, "same", plant, 5)
@@ -155,8 +173,14 @@ def test_the_verification_plays_the_exported_controller(session):
     assert np.allclose(
         changes, [v for i, v in enumerate(expected) if i == 0 or v != expected[i - 1]]
     )
-    # closed on the pressure: its commands differ from run to run (the noise), not planned
-    assert run["valve"].nunique() == 2 and "u" in run
+    # closed on the pressure, in the board's arithmetic: the player's commands are exactly
+    # those of spa's controller (ControllerStepper, the header's law) fed the logged pressure
+    assert run["valve"].nunique() == 2
+    got, xi = _stepped(folder / "player" / "controller.h", run)
+    assert int(np.count_nonzero(got != run["valve"].to_numpy())) == 0
+    # xi is logged in Q15 (half a count), and p to 9 digits, which moves the integrator by
+    # some 1e-8 over the run
+    assert np.abs(xi - run["u"].to_numpy()).max() <= 0.5 / 32768 + 1e-7
     # every prediction of both parts has a verdict: kept, or broken with its amount
     assert set(frame["part"]) == {"recommendation", "promise"}
     assert frame["verdict"].str.match(r"^(kept|broken (by [-+][0-9.e+-]+ \S+|: .+))$").all()

@@ -12,6 +12,8 @@ import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from spa.io import dump_yaml
 from spa.plan.design import SessionDesign
 from spa.plan.limits import LINE_BYTES, PlanError, baud_needed
@@ -66,7 +68,8 @@ def plan_yaml(
         if run.modulator is not None:
             entry["modulator"] = run.modulator.to_mapping()
         if run.closed:
-            entry["setpoints"] = [[int(g.ticks), float(g.a)] for g in run.segments]
+            # [ticks, bar] as the player holds them: its segments' numbers are floats
+            entry["setpoints"] = [[int(g.ticks), float(np.float32(g.a))] for g in run.segments]
         entry["notes"] = run.notes
         runs.append(entry)
     return {
