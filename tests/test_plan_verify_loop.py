@@ -162,6 +162,9 @@ def test_the_verification_plays_the_exported_controller(session):
     loops = [r for r in plan["runs"] if r["kind"] == "closed_loop"]
     assert len(loops) == 3 and all(r["file"].startswith("session/") for r in loops)
     assert '#include "controller.h"' in (folder / "player" / "player.h").read_text()
+    check = (folder / "checklist.md").read_text().splitlines()
+    assert len(check) <= 24 and max(map(len, check)) <= 80
+    assert any("controller.h" in line for line in check)
     promise = yaml.safe_load((results / "closed_loop" / "controllers.yaml").read_text())
     promise = promise["bench"]["promise"]
     run = pd.read_csv(folder / loops[0]["file"])

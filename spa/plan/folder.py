@@ -157,11 +157,17 @@ def checklist(design: SessionDesign, name: str, cal: dict[str, Any]) -> str:
         f"- [ ] Sensor on SENSOR_PIN: {cal['zero_counts']} counts at 0 bar, "
         f"{cal['bar_per_count'] * 1e3:.4g} mbar/count",
         f"- [ ] player/player.ino flashed; serial at {baud} baud",
-        f"- [ ] Capture: spa record raw/{name} --stream <port or file>",
+        *(
+            ["- [ ] player/controller.h beside player.h: the closed-loop runs play it"]
+            if any(run.closed for run in design.runs)
+            else []
+        ),
+        f"- [ ] Capture: spa record raw/{name} --stream <port>",
         f"- [ ] Shut-off in reach: the player vents above {lim.p_max:g} bar, after",
         "      each run and when the link stalls",
         f"- [ ] Let it play: zero, preconditioning, then {n - 2} runs",
-        f"- [ ] Then: spa validate raw/{name}; spa identify raw/{name}",
+        f"- [ ] Then: spa validate raw/{name}",
+        f"      and spa identify raw/{name}",
     ]
     if design.pilot:
         lines.append(
