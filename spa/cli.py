@@ -196,8 +196,7 @@ def _identify(args: argparse.Namespace, out: TextIO) -> int:
 def _plan(args: argparse.Namespace, out: TextIO) -> int:
     """plan a bench session and write its player for the board
 
-    Write FOLDER (new): plan.yaml, dataset.yaml, checklist.md, player/ (C99, sketch);
-    print the predicted precision on the prior and on valves 3x slower and faster.
+    Write a session plan into FOLDER (new); print its predicted precision.
     """
     from spa.plan.command import run_plan
 

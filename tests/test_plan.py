@@ -156,10 +156,12 @@ def test_write_plan_refuses_an_existing_folder_and_writes_a_dataset_yaml(tmp_pat
     assert any("Regulator" in line and "no higher than" in line for line in check)
 
 
-def test_cli_plan_help_fits_one_screen(capsys):
+def test_cli_plan_help_fits_one_screen(capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "80")
     code = main(["plan", "--help"])
     text = capsys.readouterr().out.splitlines()
-    assert code == 0 and len(text) <= 30, len(text)
+    assert code == 0 and len(text) <= 24, "\n".join(text)
+    assert max(map(len, text)) <= 80 and "--verify RESULTS" in text[0]
 
 
 def test_cli_plan_refuses_a_link_and_an_existing_folder(tmp_path):

@@ -118,3 +118,60 @@ def test_round_trip_on_the_full_configs_physical_plants(name, tmp_path):
     out = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, metas=metas)
     k2 = out.to_dict()["k2"]["value"]
     assert abs(k2 - plant.supply) < 0.1 * plant.supply, (name, k2)
+
+
+@pytest.mark.parametrize("factor", [3.0, 1.0 / 3.0], ids=["3x-slower", "3x-faster"])
+def test_a_nominal_plan_recorded_on_a_valve_three_times_off_still_identifies(factor, tmp_path):
+    """The plan's margins, recorded: a pilot planned for the paper's valve, played by the C
+    player on a valve 3x slower (or faster) than that prior, validates and identifies, every
+    parameter's 95 % interval holding the truth."""
+    from spa.plan.prior import scaled
+
+    truth = scaled(ValveParams(), factor)
+    limits = Limits(p_max=1.0)
+    design = design_session(ValveParams(), limits, pilot=True, precondition=1)
+    assert design.margins["time_scale"] >= 3.0
+    folder = tmp_path / "session"
+    write_plan(folder, design)
+    exe = build_harness(folder, tmp_path / "player")
+    n = planned_commands(design).size
+    stream, cmds, _ = play_session(
+        exe,
+        design,
+        lambda u: simulate(u, design.dt, truth),
+        calibration_for(limits.p_max),
+        np.random.default_rng(4).normal(0.0, 0.003, n),
+    )
+    assert np.array_equal(cmds, planned_commands(design))
+    assert all(line.endswith("ok") for line in record_stream(folder, stream.splitlines()))
+    buf = io.StringIO()
+    with redirect_stdout(buf):
+        assert main(["validate", str(folder)]) == 0, buf.getvalue()
+    ingest_dataset(folder, tmp_path / "runs")
+    runs, metas = read_runs(tmp_path / "runs")
+    out = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, metas=metas)
+    got = out.to_dict()
+    for name in ("c1", "k2", "tau2", "t_on", "t_off"):
+        est, true = got[name], getattr(truth, name)
+        assert est["fallback"] is None, (name, est)
+        assert est["lo"] <= true <= est["hi"], (factor, name, est, true)
+
+
+def test_a_plan_that_misses_its_targets_is_resized_until_it_meets_more():
+    """Sized from predicted precision: runs sized for the prior alone (no margin) miss the
+    3x-slower corner; the plan resizes itself (longer runs, more replicates) and misses less."""
+    from spa.plan.precision import size_for_targets
+
+    limits = Limits(p_max=1.0)
+    cal = calibration_for(1.0)
+
+    def make(replicates, margin):
+        return design_session(
+            ValveParams(), limits, pilot=True, replicates=replicates, margin=margin
+        )
+
+    first = predict_precision(make(3, 1.0), cal)
+    design, table, said = size_for_targets(make, 3, 1.0, cal)
+    assert said and "3x slower" in said[0] and "replicates" in said[0]
+    assert design.margins["time_scale"] > 1.0
+    assert (~table["met"]).sum() < (~first["met"]).sum(), table.to_string()

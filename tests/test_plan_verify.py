@@ -111,6 +111,9 @@ def test_the_same_valve_keeps_its_predictions(results):
     ]
     assert len(rows) == 6 * 5  # 6 staircases, 4 levels and the FIT each
     assert all(row.endswith("| kept |") for row in rows), page
+    sines = [line for line in page.splitlines() if line.startswith("| sine")]
+    assert len(sines) == 3 * 2  # 3 sines, their mean and amplitude
+    assert all(row.endswith("| kept |") for row in sines), page
 
 
 def test_a_valve_twice_slower_reads_broken(results):
@@ -119,6 +122,7 @@ def test_a_valve_twice_slower_reads_broken(results):
     broken = [line for line in page.splitlines() if "broken by" in line]
     assert len(broken) >= 6, page  # at least one per staircase
     assert any("mbar" in line for line in broken)
+    assert any(line.startswith("| sine") for line in broken), page
 
 
 def test_verdict_gives_the_amount_and_its_sign():

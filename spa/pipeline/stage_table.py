@@ -497,7 +497,7 @@ STAGES: tuple[Stage, ...] = (
         function="spa.report.site.build_dataset_page",
         reads=("*",),
         params=("seed", "raw_dir"),
-        raw_files=("dataset.yaml",),
+        raw_files=("dataset.yaml", "verification.csv"),
     ),
     Stage(
         "overview",

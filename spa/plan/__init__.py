@@ -12,6 +12,8 @@ module             holds
 ``folder``         the plan's folder: plan.yaml, dataset.yaml, checklist, player
 ``record``         the board's stream split into the plan's run files
 ``host``           the player compiled on the host and closed on a plant
+``precision``      the predicted precision, and the runs resized to meet its targets
+``verify``         a verification session: predictions, bands and verdicts
 =================  ===========================================================
 """
 

@@ -12,7 +12,8 @@ __all__ = ["plan_arguments", "record_arguments", "run_plan", "run_record"]
 
 
 def plan_arguments(p: argparse.ArgumentParser) -> None:
-    """``spa plan``'s arguments."""
+    """``spa plan``'s arguments (its help fits one screen: 24 lines of 80 columns)."""
+    p.usage = "%(prog)s FOLDER --p-max BAR [options] [--verify RESULTS]"
     p.add_argument("folder", metavar="FOLDER", help="the new dataset folder, raw/<name>")
     prior = p.add_mutually_exclusive_group()
     prior.add_argument(
@@ -116,29 +117,39 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
             rec = tune(prior).recommendation.get("recommended") or {}
             if rec.get("setting"):
                 recommended = Modulator.from_mapping(rec["setting"])
-        design = design_session(
-            prior,
-            limits,
-            dt=args.tick,
-            seed=args.seed,
-            levels=args.levels,
-            replicates=args.replicates,
-            recommended=recommended,
-            pilot=args.pilot,
-        )
+
+        def make(replicates: int, margin: float) -> Any:
+            return design_session(
+                prior,
+                limits,
+                dt=args.tick,
+                seed=args.seed,
+                levels=args.levels,
+                replicates=replicates,
+                recommended=recommended,
+                pilot=args.pilot,
+                margin=margin,
+            )
+
+        table, resized = None, []
+        if args.no_predict:
+            design = make(args.replicates, 3.0)
+        else:
+            from spa.plan.precision import size_for_targets
+
+            design, table, resized = size_for_targets(
+                make, args.replicates, 3.0, calibration_for(limits.p_max)
+            )
         extra: dict = {
             "prior_source": source,
             "margins": {
                 "time_scale": design.margins["time_scale"],
-                "meaning": "identification runs sized for valves 3x slower "
-                "and 3x faster than the prior",
+                "meaning": f"identification runs sized for valves "
+                f"{design.margins['time_scale']:g}x slower and faster than the prior",
             },
         }
-        table = None
-        if not args.no_predict:
-            from spa.plan.precision import predict_precision
-
-            table = predict_precision(design, calibration_for(limits.p_max))
+        if table is not None:
+            extra["resized"] = resized
             extra["predicted"] = [
                 {k: (float(v) if isinstance(v, float) else v) for k, v in row.items()}
                 for row in table.drop(columns="note").to_dict("records")
@@ -169,6 +180,8 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
         print(f"  note: {warning}", file=out)
     for label, why in design.refused.items():
         print(f"  refused {label}: {why}", file=out)
+    for line in resized:
+        print(f"  {line}", file=out)
     if table is not None:
         print("predicted 95 % half-widths (target) on the prior and 3x corners:", file=out)
         for corner, rows in table.groupby("corner", sort=False):
@@ -187,16 +200,25 @@ VERIFY_NOISE = 0.005
 
 def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
     """``spa plan FOLDER --verify RESULTS``: the recommended setting's runs on the identified
-    valve, with each staircase's predicted levels and FIT in plan.yaml."""
+    valve, with each staircase's predicted levels and FIT in plan.yaml; and, when the
+    closed_loop stage made a promise, the chosen controller's staircase played through its
+    ``controller.h`` (the plan's tick is the header's step), with the promise's bands."""
     import yaml
 
     from spa.identification.identified import read_identified
     from spa.model.modulators import Modulator
     from spa.plan.folder import calibration_for, write_plan
-    from spa.plan.verify import design_verification, staircase_predictions
+    from spa.plan.verify import (
+        design_verification,
+        promise_predictions,
+        sine_predictions,
+        staircase_predictions,
+    )
 
     results = Path(args.verify)
-    valve = read_identified(str(results / "identification" / "params.yaml"))
+    params_path = results / "identification" / "params.yaml"
+    valve = read_identified(str(params_path))
+    identified = yaml.safe_load(params_path.read_text(encoding="utf-8"))
     rec_path = results / "tuning" / "recommendation.yaml"
     rec = yaml.safe_load(rec_path.read_text(encoding="utf-8")) if rec_path.is_file() else None
     if not rec or not (rec.get("recommended") or {}).get("setting"):
@@ -204,59 +226,138 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
 
         rec = dict(tune(valve).recommendation)
     setting = Modulator.from_mapping(rec["recommended"]["setting"])
+    noise = _sensor_noise(identified)
+    promise, header, dt, said = _promise_of(results, args.tick)
     design = design_verification(
         valve.params,
         setting,
         limits,
-        dt=args.tick,
+        dt=dt,
         levels=args.levels,
         replicates=args.replicates,
         seed=args.seed,
+        promise=promise,
     )
     cal = calibration_for(limits.p_max)
     predictions = {
         run.id: staircase_predictions(
-            run,
-            design.dt,
-            valve.params,
-            dict(valve.intervals),
-            VERIFY_NOISE,
-            cal["bar_per_count"],
+            run, design.dt, valve.params, dict(valve.intervals), noise, cal["bar_per_count"]
         )
         for run in design.runs
         if run.kind == "staircase"
     }
-    extra = {
-        "prior_source": f"identified ({results})",
-        "verify": {
-            "results": str(results),
-            "setting": setting.to_mapping(),
-            "sensor_noise_bar": VERIFY_NOISE,
-            "predictions": predictions,
-        },
+    sines = {
+        run.id: sine_predictions(
+            run, design.dt, valve.params, dict(valve.intervals), noise, cal["bar_per_count"]
+        )
+        for run in design.runs
+        if run.kind == "sine"
     }
-    write_plan(args.folder, design, extra=extra)
+    verify: dict[str, Any] = {
+        "results": str(results),
+        "setting": setting.to_mapping(),
+        "sensor_noise_bar": noise,
+        "predictions": predictions,
+        "sines": sines,
+    }
+    closed = [run for run in design.runs if run.closed]
+    if closed and promise is not None:
+        verify["promise"] = {
+            "runs": [run.id for run in closed],
+            "lead": float(closed[0].meta["lead"]),
+            "setting": _header_setting(header or ""),
+            "levels": [float(v) for v in promise["levels"]],
+            "hold": float(closed[0].meta["hold"]),
+            "made": bool(promise.get("kept")),
+            "bands": promise_predictions(promise, noise, cal["bar_per_count"]),
+        }
+    extra = {"prior_source": f"identified ({results})", "verify": verify}
+    write_plan(args.folder, design, extra=extra, controller=header)
     print(
         f"{args.folder}: verification of {results} ({setting.label}), {len(design.runs)} "
-        f"runs, {design.duration / 60:.0f} min; {len(predictions)} staircases predicted",
+        f"runs, {design.duration / 60:.0f} min; {len(predictions)} staircases and {len(sines)} "
+        "sines predicted; "
+        f"{said}",
         file=out,
     )
     print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
     return 0
 
 
-def verification_tables(folder: Path, plan: dict[str, Any]) -> dict[str, Any]:
-    """Each predicted staircase of a verification plan against its recording."""
+def _sensor_noise(identified: Any) -> float:
+    """The identification's sensor noise (bar), else :data:`VERIFY_NOISE`."""
+    try:
+        value = float(identified["noise"]["sensor"])
+    except (KeyError, TypeError, ValueError):
+        return VERIFY_NOISE
+    return value if value > 0 else VERIFY_NOISE
+
+
+def _header_setting(text: str) -> dict[str, Any]:
+    """The modulator setting a controller header's ``Setting:`` comment line records."""
+    import ast
+    import re
+
+    m = re.search(r"^\s*\*\s*Setting:\s*(\{.*\})\s*$", text, flags=re.MULTILINE)
+    if m is None:
+        raise ValueError("controller.h: no 'Setting: {...}' line in its comment")
+    return dict(ast.literal_eval(m.group(1)))
+
+
+def _promise_of(results: Path, tick: float) -> tuple[Any, str | None, float, str]:
+    """The closed_loop stage's promise (``controllers.yaml: bench.promise``) and header of
+    ``results``, the plan's tick (the header's step when there is one), and a sentence
+    saying which."""
+    import yaml
+
+    from spa.plan.verify import header_step
+
+    path = results / "closed_loop" / "controllers.yaml"
+    header = results / "closed_loop" / "controller.h"
+    if not path.is_file() or not header.is_file():
+        return None, None, tick, f"no closed loop ({path} or {header.name} missing)"
+    bench = (yaml.safe_load(path.read_text(encoding="utf-8")) or {}).get("bench")
+    promise = bench.get("promise") if isinstance(bench, dict) else None
+    if not isinstance(promise, dict) or not promise.get("levels"):
+        return None, None, tick, f"no closed loop: {path} holds no bench.promise"
+    text = header.read_text(encoding="utf-8")
+    _, dt = header_step(text)
+    kept = "promise" if promise.get("kept") else "no promise: its runs are recorded, unjudged"
+    return promise, text, dt, f"closed loop through {header} at its step {dt * 1e3:g} ms ({kept})"
+
+
+def verification_tables(folder: Path, plan: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Each predicted staircase of a verification plan against its recording
+    (``recommendation``), and each closed-loop staircase against the promise (``promise``)."""
     import pandas as pd
 
-    from spa.plan.verify import compare
+    from spa.identification.identified import read_identified
+    from spa.plan.verify import compare, compare_promise, compare_sine
 
+    verify = plan["verify"]
     files = {r["id"]: folder / r["file"] for r in plan["runs"]}
-    return {
-        run_id: compare(pred, pd.read_csv(files[run_id]))
-        for run_id, pred in plan["verify"]["predictions"].items()
-        if files[run_id].is_file()
-    }
+    tables: dict[str, dict[str, Any]] = {"recommendation": {}, "promise": {}}
+    for run_id, pred in verify["predictions"].items():
+        if files[run_id].is_file():
+            tables["recommendation"][run_id] = compare(pred, pd.read_csv(files[run_id]))
+    for run_id, pred in (verify.get("sines") or {}).items():
+        if files[run_id].is_file():
+            tables["recommendation"][run_id] = compare_sine(pred, pd.read_csv(files[run_id]))
+    promise = verify.get("promise") or {}
+    if promise.get("bands"):
+        params_path = Path(verify["results"]) / "identification" / "params.yaml"
+        params = read_identified(str(params_path)).params
+        for run_id in promise["runs"]:
+            if files[run_id].is_file():
+                tables["promise"][run_id] = compare_promise(
+                    promise["bands"],
+                    pd.read_csv(files[run_id]),
+                    promise["setting"],
+                    params,
+                    float(promise["lead"]),
+                    bool(promise.get("made", True)),
+                )
+    return tables
 
 
 def run_record(args: argparse.Namespace, out: TextIO) -> int:
@@ -279,10 +380,14 @@ def run_record(args: argparse.Namespace, out: TextIO) -> int:
 
     plan = read_plan(args.folder)
     if plan.get("verify"):
-        from spa.plan.verify import verification_page
+        from spa.plan.verify import verification_frame, verification_page
 
-        page = verification_page(plan["name"], verification_tables(Path(args.folder), plan))
+        frame = verification_frame(verification_tables(Path(args.folder), plan))
+        csv = Path(args.folder) / "verification.csv"
+        frame.to_csv(csv, index=False, float_format="%.6g")
+        page = verification_page(plan["name"], frame)
         print(page, file=out)
+        print(f"wrote {csv} (the dataset's report page shows it)", file=out)
         if args.page:
             Path(args.page).parent.mkdir(parents=True, exist_ok=True)
             Path(args.page).write_text(page, encoding="utf-8")

@@ -12,6 +12,8 @@ import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from spa.io import dump_yaml
 from spa.plan.design import SessionDesign
 from spa.plan.limits import LINE_BYTES, PlanError, baud_needed
@@ -65,6 +67,9 @@ def plan_yaml(
         }
         if run.modulator is not None:
             entry["modulator"] = run.modulator.to_mapping()
+        if run.closed:
+            # [ticks, bar] as the player holds them: its segments' numbers are floats
+            entry["setpoints"] = [[int(g.ticks), float(np.float32(g.a))] for g in run.segments]
         entry["notes"] = run.notes
         runs.append(entry)
     return {
@@ -152,11 +157,17 @@ def checklist(design: SessionDesign, name: str, cal: dict[str, Any]) -> str:
         f"- [ ] Sensor on SENSOR_PIN: {cal['zero_counts']} counts at 0 bar, "
         f"{cal['bar_per_count'] * 1e3:.4g} mbar/count",
         f"- [ ] player/player.ino flashed; serial at {baud} baud",
-        f"- [ ] Capture: spa record raw/{name} --stream <port or file>",
+        *(
+            ["- [ ] player/controller.h beside player.h: the closed-loop runs play it"]
+            if any(run.closed for run in design.runs)
+            else []
+        ),
+        f"- [ ] Capture: spa record raw/{name} --stream <port>",
         f"- [ ] Shut-off in reach: the player vents above {lim.p_max:g} bar, after",
         "      each run and when the link stalls",
         f"- [ ] Let it play: zero, preconditioning, then {n - 2} runs",
-        f"- [ ] Then: spa validate raw/{name}; spa identify raw/{name}",
+        f"- [ ] Then: spa validate raw/{name}",
+        f"      and spa identify raw/{name}",
     ]
     if design.pilot:
         lines.append(
@@ -174,8 +185,12 @@ def write_plan(
     *,
     extra: dict[str, Any] | None = None,
     adc_bits: int = 10,
+    controller: str | None = None,
 ) -> list[Path]:
     """Write the plan into the new folder ``folder`` (its name is the dataset's).
+
+    ``controller``: the exported controller's header (``controller.h`` text), written beside
+    the player for the closed-loop runs (a verification session's).
 
     Raises
     ------
@@ -192,6 +207,9 @@ def write_plan(
             f"{out} exists: a plan is written into a new folder only (never into a dataset)"
         )
     cal = calibration_for(design.limits.p_max, adc_bits)
+    closed = [run.id for run in design.runs if run.closed]
+    if closed and controller is None:
+        raise PlanError(f"runs {', '.join(closed)} close the loop: the plan needs controller.h")
     out.mkdir(parents=True)
     (out / "player").mkdir()
     files = {
@@ -207,10 +225,13 @@ def write_plan(
             _adc_max(cal, design.limits.p_max),
             design.limits.p_max,
             round(design.rest / design.dt),
+            cal,
         ),
         "player/harness.c": harness_source(),
         "player/player.ino": player_sketch(name, int(design.limits.baud or 115200)),
     }
+    if controller is not None:
+        files["player/controller.h"] = controller
     paths = []
     for rel, text in files.items():
         path = out / rel

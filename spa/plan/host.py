@@ -6,7 +6,9 @@ function from the valve command to the pressure (spa's model, :func:`spa.simulat
 physical plant's C twin, :func:`spa.synthetic.physical.run_plant_in_c`). The player reads a
 pressure before it commands, so the loop is solved by iteration: commands → pressure → the
 player's commands, until they repeat (each pass fixes at least one more tick; the player
-only departs from its plan when it vents).
+only departs from its plan when it vents). :func:`play_on_physical` compiles the player with
+the physical plant's C twin into one program instead, closed tick by tick: the way to play a
+session with closed-loop runs, whose commands follow the pressure.
 """
 
 from __future__ import annotations
@@ -22,7 +24,15 @@ import numpy.typing as npt
 from spa.plan.design import SessionDesign
 from spa.plan.session import run_commands
 
-__all__ = ["STRICT", "build_harness", "counts", "planned_commands", "play_session"]
+__all__ = [
+    "STRICT",
+    "build_harness",
+    "counts",
+    "planned_commands",
+    "play_on_physical",
+    "play_session",
+    "session_ticks",
+]
 
 #: The flags the player must build under.
 STRICT = ("-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O2", "-ffp-contract=off")
@@ -126,3 +136,152 @@ def play_session(
             raise RuntimeError(f"the player issued {got.size} commands, the plan has {u.size}")
         u = got
     raise RuntimeError(f"the loop did not settle in {max_passes} passes")
+
+
+_ON_PLANT = r"""/* The spa plan player closed on the physical plant's C twin, tick by tick: the
+ * sensor (lagged pressure + noise, ADC counts as declared) read, the player's tick, the plant
+ * integrated over the tick with its command. Prints the board's stream; the valve commands
+ * into argv[1]. stdin: the plant's constants, then one noise value (bar) per tick. */
+#include <math.h>
+#include <stdio.h>
+#include "player.h"
+#include "physical_plant.h"
+static spa_phys_state plant;
+static spa_plan_state s;
+static double next_noise(void) { double v; return scanf("%lf", &v) == 1 ? v : 0.0; }
+static long read_adc(double zero, double bpc, long top)
+{
+    double c = floor((spa_phys_lagged(&plant) / 1e5 + next_noise()) / bpc + zero + 0.5);
+    return c < 0.0 ? 0L : (c > (double)top ? top : (long)c);
+}
+int main(int argc, char **argv)
+{
+    FILE *trace = fopen(argc > 1 ? argv[1] : "trace.txt", "w");
+    double c[SPA_PHYS_N_CONST], zero, bpc;
+    long top, adc, q, r, tick;
+    int i, nsub, run, valve, log, last;
+    if (trace == NULL) return 2;
+    for (i = 0; i < SPA_PHYS_N_CONST; ++i) {
+        if (scanf("%lf", &c[i]) != 1) return 2;
+    }
+    if (scanf("%d %lf %lf %ld", &nsub, &zero, &bpc, &top) != 4) return 2;
+    spa_phys_init(&plant, c, SPA_PLAN_DT, nsub, 0.0, 0);
+    for (run = 0; run < SPA_PLAN_N_RUNS; ++run) {
+        spa_plan_start(&s, run);
+        printf("R %d\n", run);
+        do {
+            tick = s.k;
+            adc = read_adc(zero, bpc, top);
+            last = spa_plan_tick(&s, adc, &valve, &q, &log);
+            fputc(valve ? '1' : '0', trace);
+            if (log) printf("%lx,%lx,%d,%lx\n", tick & 0xFFFFL, adc, valve, q);
+            if (spa_phys_step(&plant, valve) != 0) return 3;
+        } while (!last);
+        printf("E %d %s\n", run, s.vented ? "vent" : "done");
+        for (r = 0; r < SPA_PLAN_REST_TICKS; ++r) {
+            adc = read_adc(zero, bpc, top);
+            fputc('0', trace);
+            if (spa_phys_step(&plant, 0) != 0) return 3;
+        }
+    }
+    fclose(trace);
+    return 0;
+}
+"""
+
+
+def session_ticks(folder: str | Path) -> int:
+    """The ticks a plan folder's session plays: its runs and the rests between them
+    (``plan.yaml``)."""
+    from spa.plan.record import read_plan
+
+    plan = read_plan(folder)
+    dt = float(plan["tick"])
+    rest = round(float(plan["rest_between_runs"]) / dt)
+    return sum(round(float(r["seconds"]) / dt) + rest for r in plan["runs"])
+
+
+def play_on_physical(
+    folder: str | Path,
+    plant: object,
+    noise: npt.ArrayLike | None = None,
+    work: str | Path | None = None,
+    cc: str = "cc",
+) -> tuple[str, npt.NDArray[np.int8]]:
+    """Compile a plan folder's player with the physical plant's C twin and play the whole
+    session closed on it, tick by tick (closed-loop runs included), as the folder says:
+    its tick, rests and calibration from ``plan.yaml``.
+
+    Parameters
+    ----------
+    folder : path
+        The plan's folder (``player/player.h``, and ``player/controller.h`` if it closes a
+        loop).
+    plant : spa.synthetic.physical.PhysicalPlant
+        The plant; its sensor is read as its lagged pressure plus ``noise``.
+    noise : array_like, optional
+        Sensor noise per tick played, bar (runs and rests: :func:`session_ticks` values).
+    work : path, optional
+        Where the program is built (default: ``folder``'s parent).
+    cc : str, default "cc"
+        The C compiler.
+
+    Returns
+    -------
+    stream : str
+        What the player printed.
+    commands : numpy.ndarray of int8
+        The valve command at every tick played (the rests' 0 included).
+
+    Raises
+    ------
+    FileNotFoundError
+        If no compiler ``cc`` is on PATH.
+    ValueError
+        For too few noise values, or a tick the plant cannot step.
+    RuntimeError
+        If the build or the run fails.
+    """
+    from spa.plan.record import read_plan
+    from spa.synthetic._physical_c import c_plant_source
+    from spa.synthetic._physical_core import _check_dt, _constants, substeps
+
+    compiler = shutil.which(cc)
+    if compiler is None:
+        raise FileNotFoundError(f"no C compiler: {cc!r} is not on PATH")
+    plan = read_plan(folder)
+    cal = plan["calibration"]
+    dt = _check_dt(plant, float(plan["tick"]))  # type: ignore[arg-type]
+    player = Path(folder) / "player"
+    out = Path(work) if work is not None else Path(folder).parent
+    source, header = c_plant_source()
+    main = out / f"on-plant-{Path(folder).name}.c"
+    exe = out / f"on-plant-{Path(folder).name}"
+    main.write_text(_ON_PLANT, encoding="utf-8")
+    cmd = [compiler, *STRICT, f"-I{player}", f"-I{header.parent}", str(main), str(source)]
+    cmd += ["-o", str(exe), "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if res.returncode != 0:
+        raise RuntimeError(
+            f"building the player on the plant failed ({' '.join(cmd)}):\n{res.stderr}"
+        )
+    n = session_ticks(folder)
+    extra = np.zeros(n) if noise is None else np.asarray(noise, dtype=np.float64)
+    if extra.size < n:
+        raise ValueError(f"noise: {extra.size} values for the {n} ticks the session plays")
+    top = 2 ** int(cal["adc_bits"]) - 1
+    head = " ".join(repr(float(v)) for v in _constants(plant))  # type: ignore[arg-type]
+    head += f" {substeps(plant, dt)} {float(cal['zero_counts'])!r} "  # type: ignore[arg-type]
+    head += f"{float(cal['bar_per_count'])!r} {top}\n"
+    trace = Path(str(exe) + ".trace")
+    res = subprocess.run(
+        [str(exe), str(trace)],
+        input=head + "\n".join(map(repr, extra[:n].tolist())) + "\n",
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if res.returncode != 0:
+        raise RuntimeError(f"the player on the plant failed (exit {res.returncode}): {res.stderr}")
+    got = (np.frombuffer(trace.read_bytes(), dtype=np.uint8) - ord("0")).astype(np.int8)
+    return res.stdout, got

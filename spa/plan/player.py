@@ -88,6 +88,9 @@ typedef struct {
     long k_seg;       /* tick within the segment */
     int vented;       /* 1 once the pressure passed the rated maximum in this run */
     double st[SPA_PLAN_N_STATE];
+#ifdef SPA_PLAN_LOOP
+    SPA_PLAN_CTRL(state) ctrl; /* the exported controller's, restarted with each run */
+#endif
 } spa_plan_state;
 
 static void spa_plan_start(spa_plan_state *s, int run)
@@ -100,6 +103,9 @@ static void spa_plan_start(spa_plan_state *s, int run)
     s->k_seg = 0;
     s->vented = 0;
     spa_plan_mod_init(r.mod, s->st);
+#ifdef SPA_PLAN_LOOP
+    SPA_PLAN_CTRL(init)(&s->ctrl, 0.0); /* from rest: the integrator at 0 */
+#endif
 }
 
 /* One tick: adc is the pressure read at this tick (counts). Fills the valve command to
@@ -115,6 +121,16 @@ static int spa_plan_tick(spa_plan_state *s, long adc, int *valve, long *q, int *
     if (g.mode == ${valve_mode}) {
         *q = 0;
         *valve = g.a > (spa_real)0.5 ? 1 : 0;
+#ifdef SPA_PLAN_LOOP
+    } else if (g.mode == ${loop_mode}) { /* the exported controller holds the set-point a */
+        SPA_PLAN_CTRL(output) o;
+        double p = (double)(adc - SPA_PLAN_ZERO_COUNTS) * SPA_PLAN_BAR_PER_COUNT;
+        double x;
+        o = SPA_PLAN_CTRL(step)(&s->ctrl, (double)g.a, p);
+        *valve = o.valve;
+        x = floor((double)o.xi * ${Q}.0 + 0.5);
+        *q = x < 0.0 ? 0L : (x > ${Q}.0 ? ${Q}L : (long)x);
+#endif
     } else {
         *q = spa_plan_q(&g, s->k_seg);
         *valve = spa_plan_mod_step(r.mod, (long long)s->k, (double)*q / ${Q}.0, s->st);
@@ -161,6 +177,17 @@ typedef float spa_real;
 #define SPA_PLAN_N_STATE ${n_state}
 #define SPA_PLAN_ADC_MAX ${adc_max}L /* counts at the rated maximum ${p_max} bar: vent above */
 #define SPA_PLAN_REST_TICKS ${rest_ticks}L /* exhaust between runs (the watchdog's vent) */
+${loop}"""
+
+#: What the header adds when a run closes the loop with the exported controller.
+_LOOP = """
+/* Closed-loop runs play the exported controller (spa export-controller's header, beside
+ * this one), its step every tick on the pressure read: ADC counts to bar as declared. */
+#define SPA_PLAN_LOOP 1
+#define SPA_PLAN_ZERO_COUNTS ${zero}L
+#define SPA_PLAN_BAR_PER_COUNT ${bar_per_count}
+#define SPA_PLAN_CTRL(name) ${prefix}_##name
+#include "${controller}"
 """
 
 
@@ -175,6 +202,9 @@ def player_header(
     adc_max: int,
     p_max: float,
     rest_ticks: int,
+    calibration: dict | None = None,
+    controller: str = "controller.h",
+    prefix: str = "spa_ctrl",
 ) -> str:
     """The player's C99 header for a session's runs.
 
@@ -192,7 +222,30 @@ def player_header(
         The rated maximum, bar (for the comment).
     rest_ticks : int
         Ticks of exhaust after each run.
+    calibration : dict, optional
+        The declared calibration (:func:`spa.plan.folder.calibration_for`); needed when a
+        run closes the loop (its ``loop`` segments), to read the pressure in bar.
+    controller, prefix : str, optional
+        The exported controller's header file (beside ``player.h``) and its prefix, for the
+        closed-loop runs.
+
+    Raises
+    ------
+    ValueError
+        For closed-loop runs without a calibration, or a prefix that is not a C identifier.
     """
+    loop = ""
+    if any(run.closed for run in runs):
+        if calibration is None:
+            raise ValueError("closed-loop runs need the calibration, to read the pressure in bar")
+        if not prefix.isidentifier():
+            raise ValueError(f"prefix must be a C identifier, got {prefix!r}")
+        loop = Template(_LOOP).substitute(
+            zero=int(calibration["zero_counts"]),
+            bar_per_count=c_double(float(calibration["bar_per_count"])),
+            prefix=prefix,
+            controller=controller,
+        )
     mods: list = []
     labels: dict[str, int] = {}
     for run in runs:
@@ -235,6 +288,7 @@ def player_header(
         adc_max=int(adc_max),
         p_max=f"{p_max:g}",
         rest_ticks=int(rest_ticks),
+        loop=loop,
     )
     body = Template(_BODY).substitute(
         segments=",\n".join(segments) or "    {1L, 0, 0, 0.0f, 0.0f, 0.0f, 0.0f}",
@@ -246,6 +300,7 @@ def player_header(
         sine=MODES["sine"],
         chirp=MODES["chirp"],
         valve_mode=MODES["valve"],
+        loop_mode=MODES["loop"],
     )
     text = "\n".join([head, *kernels, body, "#endif /* SPA_PLAN_H */\n"])
     return text.replace("\nstatic ", "\nstatic inline ").replace(

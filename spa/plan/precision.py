@@ -8,6 +8,7 @@ and ``tau2`` to 5 % (the tuning's cost J moves by about that much over such a bo
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -18,7 +19,10 @@ from spa.plan.design import SessionDesign
 from spa.plan.prior import scaled
 from spa.plan.session import run_commands
 
-__all__ = ["CORNERS", "predict_precision", "targets"]
+__all__ = ["CORNERS", "MAX_RESIZES", "predict_precision", "size_for_targets", "targets"]
+
+#: Times a plan is resized when its predicted precision misses a target.
+MAX_RESIZES = 2
 
 #: The valves the plan is checked on: ``name -> time-scale factor`` of the prior.
 CORNERS = {"prior": 1.0, "3x faster": 1.0 / 3.0, "3x slower": 3.0}
@@ -107,3 +111,56 @@ def predict_precision(
                 }
             )
     return pd.DataFrame(rows)
+
+
+def size_for_targets(
+    make: Callable[[int, float], SessionDesign],
+    replicates: int,
+    margin: float,
+    cal: dict[str, Any],
+    rounds: int = MAX_RESIZES,
+) -> tuple[SessionDesign, pd.DataFrame, list[str]]:
+    """Design, predict the precision, and resize while a target is missed.
+
+    Each resize adds two replicates of the identification runs (a half-width shrinks about
+    as one over the square root of the runs) and, when a corner did not identify at all
+    (its runs too short for it: ``note``), widens the margin by half.
+
+    Parameters
+    ----------
+    make : callable
+        ``(replicates, margin) -> SessionDesign``.
+    replicates, margin : int, float
+        The first design's.
+    cal : dict
+        The declared calibration.
+    rounds : int, default :data:`MAX_RESIZES`
+        Resizes at most.
+
+    Returns
+    -------
+    design : SessionDesign
+        The last design (the first that meets every target, else the last tried).
+    table : pandas.DataFrame
+        Its :func:`predict_precision`.
+    said : list of str
+        One sentence per resize, naming the targets missed and what changed.
+    """
+    design = make(replicates, margin)
+    table = predict_precision(design, cal)
+    said: list[str] = []
+    for _ in range(max(0, int(rounds))):
+        missed = table[~table["met"]]
+        if missed.empty:
+            break
+        unidentified = bool((missed["note"] != "").any())
+        names = ", ".join(dict.fromkeys(f"{r.parameter} ({r.corner})" for r in missed.itertuples()))
+        replicates += 2
+        margin = margin * 1.5 if unidentified else margin
+        said.append(
+            f"resized: {names} missed the target; now {replicates} replicates"
+            + (f", runs sized for valves {margin:.3g}x slower and faster" if unidentified else "")
+        )
+        design = make(replicates, margin)
+        table = predict_precision(design, cal)
+    return design, table, said

@@ -4,7 +4,8 @@ The stream (a file, stdin, or a serial port read as a plain file) holds ``R <ind
 lines, one ``tick,adc,valve,q`` line per logged tick (hex but the valve) and
 ``E <index> done|vent``, and ``O <steps>`` before a tick that started late (an overrun).
 Each run becomes ``<file>`` of ``plan.yaml`` with ``t`` (s, from the
-tick counter), ``p`` (bar, from the declared calibration), ``valve`` and ``u``; a jump of
+tick counter), ``p`` (bar, from the declared calibration), ``valve``, ``u`` and, for a
+closed-loop run, its set-point ``r`` (bar); a jump of
 the tick counter (mod 65536) is a dropped line; both are reported.
 """
 
@@ -85,7 +86,7 @@ def parse_stream(lines: Iterable[str]) -> dict[int, RunCapture]:
 
 
 def _table(
-    cap: RunCapture, dt: float, cal: dict[str, Any], with_u: bool
+    cap: RunCapture, dt: float, cal: dict[str, Any], with_u: bool, setpoints: Any = None
 ) -> tuple[pd.DataFrame, int]:
     data = np.asarray(cap.rows, dtype=np.int64).reshape(-1, 4)
     step = np.diff(data[:, 0]) % 65536
@@ -96,8 +97,11 @@ def _table(
         "p": (data[:, 1] - cal["zero_counts"]) * cal["bar_per_count"],
         "valve": data[:, 2].astype(np.int8),
     }
-    if with_u:
+    if with_u or setpoints:
         table["u"] = data[:, 3] / Q15
+    if setpoints:  # a closed loop's set-point, bar, at each tick the counter says it is at
+        r = np.repeat([float(v) for _, v in setpoints], [int(n) for n, _ in setpoints])
+        table["r"] = r[np.clip(ticks, 0, r.size - 1)]
     return pd.DataFrame(table), gaps
 
 
@@ -127,7 +131,7 @@ def record_stream(folder: str | Path, lines: Iterable[str]) -> list[str]:
         path = root / run["file"]
         if path.exists():
             raise PlanError(f"{path} exists: spa record never overwrites a recording")
-        table, gaps = _table(cap, dt, cal, "modulator" in run)
+        table, gaps = _table(cap, dt, cal, "modulator" in run, run.get("setpoints"))
         path.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(path, index=False, float_format="%.9g")
         notes = []

@@ -21,6 +21,7 @@ from spa.model.modulators import Modulator
 __all__ = [
     "MODES",
     "Q15",
+    "SESSION_KINDS",
     "PlannedRun",
     "Segment",
     "longest_high",
@@ -30,7 +31,10 @@ __all__ = [
 ]
 
 #: Segment modes, as the player's header numbers them.
-MODES = {"valve": 0, "level": 1, "sine": 2, "chirp": 3, "stair": 4}
+MODES = {"valve": 0, "level": 1, "sine": 2, "chirp": 3, "stair": 4, "loop": 5}
+
+#: Kinds of the session's own runs, which dataset.yaml does not list.
+SESSION_KINDS = ("zero", "precondition", "closed_loop")
 
 #: The fixed-point scale of the input fraction the player logs and feeds its modulator.
 Q15 = 32768
@@ -42,8 +46,10 @@ class Segment:
 
     ``valve``: the valve held at ``a`` (0 or 1). ``level``: ``xi = a``. ``sine``:
     ``xi = a + b sin(c k)`` with ``c`` rad per tick. ``chirp``: ``xi = a + b sin(c k + d k^2)``.
-    ``stair``: ``xi = a + b floor(k / c)`` (``c`` ticks per level). ``k`` counts from the
-    segment's start; ``log`` False: played but not printed (a fill before a discharge).
+    ``stair``: ``xi = a + b floor(k / c)`` (``c`` ticks per level). ``loop``: the exported
+    controller (``controller.h``) holds the set-point ``a`` bar, closed on the pressure read.
+    ``k`` counts from the segment's start; ``log`` False: played but not printed (a fill
+    before a discharge).
     """
 
     ticks: int
@@ -57,9 +63,9 @@ class Segment:
 
 @dataclass(frozen=True, slots=True)
 class PlannedRun:
-    """One run of the session: its id, kind (``dataset.yaml``'s, or ``zero`` and
-    ``precondition`` for the session's own runs), segments and modulator (None: the valve
-    is commanded directly)."""
+    """One run of the session: its id, kind (``dataset.yaml``'s, or ``zero``,
+    ``precondition`` and ``closed_loop`` for the session's own runs), segments and modulator
+    (None: the valve is commanded directly, or by the controller in ``loop`` segments)."""
 
     id: str
     kind: str
@@ -76,8 +82,14 @@ class PlannedRun:
 
     @property
     def analysed(self) -> bool:
-        """Whether ``dataset.yaml`` lists the run (the zero and preconditioning do not)."""
-        return self.kind not in ("zero", "precondition")
+        """Whether ``dataset.yaml`` lists the run (the zero, preconditioning and closed-loop
+        runs do not)."""
+        return self.kind not in SESSION_KINDS
+
+    @property
+    def closed(self) -> bool:
+        """Whether the run plays the exported controller (its commands follow the pressure)."""
+        return any(s.mode == "loop" for s in self.segments)
 
     @property
     def file(self) -> str:
@@ -128,13 +140,24 @@ def run_xi(run: PlannedRun) -> npt.NDArray[np.float64] | None:
     None for a run that commands the valve directly."""
     if run.modulator is None:
         return None
+    if run.closed:
+        raise ValueError(f"run {run.id}: a closed loop's input fraction follows the pressure")
     q = np.concatenate([quantise(_segment_xi(s)) for s in run.segments])
     return q.astype(np.float64) / Q15
 
 
 def run_commands(run: PlannedRun, dt: float) -> npt.NDArray[np.int8]:
     """The valve command the player issues at every tick of ``run`` (no venting): the
-    segments' held valve, or spa's modulator (:meth:`Modulator.modulate`) on :func:`run_xi`."""
+    segments' held valve, or spa's modulator (:meth:`Modulator.modulate`) on :func:`run_xi`.
+
+    Raises
+    ------
+    ValueError
+        For a closed-loop run: its commands follow the pressure (play it on a plant,
+        :func:`spa.plan.host.play_on_physical`).
+    """
+    if run.closed:
+        raise ValueError(f"run {run.id}: a closed loop's commands follow the pressure")
     xi = run_xi(run)
     if xi is None:
         return np.concatenate([np.full(s.ticks, int(s.a), dtype=np.int8) for s in run.segments])

@@ -246,10 +246,17 @@ def _section(
 
 
 def dataset_body(
-    results: Path, name: str, anchor: str, taken: set[str], drawn: bool = True
+    results: Path,
+    name: str,
+    anchor: str,
+    taken: set[str],
+    drawn: bool = True,
+    raw: Path | None = None,
 ) -> tuple[str, list[tuple[str, str]], bool]:
     """A dataset's section: every output its stages made, the failed and skipped stages
-    named in their place, and a box naming the failure first when one failed.
+    named in their place, and a box naming the failure first when one failed; for a
+    verification session (``raw``, the dataset's folder, holds ``verification.csv``), each
+    prediction beside its measurement (:func:`spa.report.verification.verification_html`).
 
     Returns
     -------
@@ -260,6 +267,11 @@ def dataset_body(
     failures = dataset_failures(results, [name])
     states = dataset_statuses(results, name)
     body, toc = _section(folder, "dataset", anchor, taken, drawn, states)
+    if raw is not None:
+        from spa.report.verification import VERIFICATION_FILE, verification_html
+
+        checked, checked_toc = verification_html(raw / VERIFICATION_FILE, taken, anchor)
+        body, toc = body + checked, toc + checked_toc
     body += _mentions(folder, name, states) + ("" if drawn else _NOT_DRAWN)
     if name in failures:
         body = failure_box(failures, pages=False) + body

@@ -106,7 +106,11 @@ def _back(prefix: str = "") -> str:
 
 
 def build_dataset_page(
-    results_dir: str | Path, dataset: str, meta: Mapping[str, Any], drawn: bool = True
+    results_dir: str | Path,
+    dataset: str,
+    meta: Mapping[str, Any],
+    drawn: bool = True,
+    raw_dir: str | Path | None = None,
 ) -> str:
     """One dataset's page: every table and figure its stages made; a stage that failed is
     named with its one-line message, first in a box and in its outputs' place
@@ -123,6 +127,9 @@ def build_dataset_page(
     drawn : bool
         False: the run draws no figures for it (config ``figures``): its tables alone,
         whatever figures an earlier run left.
+    raw_dir : str or Path, optional
+        The raw folder: a verification session's ``<raw_dir>/<dataset>/verification.csv``
+        (``spa record``) adds its predictions beside their measurements.
 
     Returns
     -------
@@ -136,7 +143,12 @@ def build_dataset_page(
     """
     anchor = "dataset"
     body, toc, failed = dataset_body(
-        Path(results_dir), dataset, anchor, {"contents", anchor}, drawn
+        Path(results_dir),
+        dataset,
+        anchor,
+        {"contents", anchor},
+        drawn,
+        None if raw_dir is None else Path(raw_dir) / dataset,
     )
     heading = f"Dataset {dataset}" + (" (failed)" if failed else "")
     header = _back() + meta_list({**meta, "dataset": dataset})

@@ -18,7 +18,8 @@ def main() -> None:
     # the job draws its figures when its earlier stages' outputs include them (config figures)
     drawn = any(str(path).endswith(".png") for path in snakemake.input)
     meta = {"seed": snakemake.params.seed, "spa version": spa.__version__}
-    text = build_dataset_page(results, dataset, meta, drawn=drawn)
+    raw = snakemake.params.raw_dir
+    text = build_dataset_page(results, dataset, meta, drawn=drawn, raw_dir=raw)
     page.parent.mkdir(parents=True, exist_ok=True)
     page.write_text(text, encoding="utf-8", newline="\n")
     failed = dataset_failures(results, [dataset]).get(dataset, [])
