@@ -251,10 +251,7 @@ def test_a_failing_block_is_named_and_a_session_keeps_its_names(tmp_path):
 
 #: Pages with a block known to fail as the reader copies it, and why; strict, so the entry
 #: must go as soon as the page is fixed.
-KNOWN_FAILING = {
-    "plan-session": "its player cell uses `work` and `Path`, defined only in a hidden cell "
-    "(NameError in a reader's session); `Path('player')` and the import would fix it",
-}
+KNOWN_FAILING: dict[str, str] = {}
 
 
 def _marked(page: Path):
