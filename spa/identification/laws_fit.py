@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from spa.identification.laws_heldout import LeaveOneOutState
 from spa.identification.longrun import andrews_bandwidth, newey_west
 from spa.identification.refine import RefineRun, block_means
 from spa.identification.results import FloatArray
@@ -137,6 +138,8 @@ class LawsFit:
         Model evaluations.
     converged : bool
         Whether the least squares met its tolerance.
+    state : LeaveOneOutState or None
+        The weights, Jacobian and residuals at the fit, for the held-out refits.
     """
 
     start: ValveParams
@@ -150,6 +153,7 @@ class LawsFit:
     fixed: tuple[str, ...]
     nfev: int
     converged: bool
+    state: LeaveOneOutState | None = field(default=None, repr=False, compare=False)
 
     @property
     def se(self) -> dict[str, float]:
@@ -275,6 +279,7 @@ def fit_laws(
         ]
     )
     cache: dict[bytes, list[FloatArray]] = {x[free].tobytes(): m0}
+    jacs: dict[bytes, FloatArray] = {}
     count = [1]
 
     def cached(xf: FloatArray) -> list[FloatArray]:
@@ -286,12 +291,20 @@ def fit_laws(
             count[0] += 1
         return cache[key]
 
+    def resid(mods: list[FloatArray]) -> FloatArray:
+        return np.concatenate([(mo - r.y) * w for mo, r, w in zip(mods, runs, weight, strict=True)])
+
     def fun(xf: FloatArray) -> FloatArray:
-        return np.concatenate(
-            [(mo - r.y) * w for mo, r, w in zip(cached(xf), runs, weight, strict=True)]
-        )
+        return resid(cached(xf))
 
     def jac(xf: FloatArray) -> FloatArray:
+        key = xf.tobytes()
+        if key not in jacs:
+            jacs.clear()  # the last one only: the fit ends where it last took one
+            jacs[key] = _jac(xf)
+        return jacs[key]
+
+    def _jac(xf: FloatArray) -> FloatArray:
         f0 = fun(xf)
         cols = []
         for i in range(xf.size):
@@ -301,15 +314,7 @@ def fit_laws(
                 step = -step
             xs[i] += step
             count[0] += 1
-            cols.append(
-                (
-                    np.concatenate(
-                        [(mo - r.y) * w for mo, r, w in zip(models(xs), runs, weight, strict=True)]
-                    )
-                    - f0
-                )
-                / step
-            )
+            cols.append((resid(models(xs)) - f0) / step)
         return np.column_stack(cols)
 
     sol = least_squares(
@@ -320,6 +325,7 @@ def fit_laws(
         method="trf",
         max_nfev=max_nfev,
         x_scale=scale[free],
+        tr_solver="lsmr",  # not an SVD of the tall Jacobian at every step
         xtol=1e-8,
         ftol=1e-10,
     )
@@ -362,6 +368,7 @@ def fit_laws(
         fixed=tuple(names[i] for i in held),
         nfev=count[0],
         converged=bool(sol.success),
+        state=LeaveOneOutState(dl, free, lo, hi, weight, jx, fun(xf), offsets),
     )
 
 
@@ -428,11 +435,11 @@ def choose_laws(
     knots : sequence of float, optional
         Knots of the identified laws.
     refit : bool, optional
-        Refit the laws without each modulated run (default: ``max_nfev_heldout``
-        iterations from the full fit). False uses the one Gauss–Newton step of
-        :attr:`LawsFit.heldout` instead, about twice as fast overall; on the compliant
-        balloons that step is too far from the refit (gain -3.3 points against +6.8) to be
-        the default.
+        Refit the laws without each modulated run (default): damped Gauss–Newton from the
+        full fit, at most ``max_nfev_heldout`` simulations
+        (:func:`~spa.identification.laws_heldout.refit_without`). False uses the one
+        undamped step of :attr:`LawsFit.heldout` instead; on the compliant balloons that
+        step is too far from the refit (gain -3.3 points against +6.8) to be the default.
     max_nfev, max_nfev_heldout : int, optional
         Iterations of the fit on every run and of each leave-one-out refit.
 
@@ -448,6 +455,8 @@ def choose_laws(
     output-error residuals are autocorrelated and the degrees of freedom of the log-rate
     polynomials are only effective.
     """
+    from spa.identification.laws_heldout import refit_without
+
     paper = dataclasses.replace(start, laws=None)
     dl = paper.delay if delay is None else delay
     held = [r for r in runs if r.modulator]
@@ -473,11 +482,7 @@ def choose_laws(
         else:
             fit_p[r.rid] = fit_percent(r.y, law_model(r, paper, dl))
         if refit:
-            others = [o for o in runs if o.rid != r.rid]
-            loo = fit_laws(
-                others, paper, delay=dl, knots=knots, x0=full.x, max_nfev=max_nfev_heldout
-            )
-            prm = loo.params
+            prm = refit_without(full, runs, r.rid, max_nfev=max_nfev_heldout)
         else:
             prm = _valve(paper, full.heldout[r.rid], full.laws.knots)
         fit_i[r.rid] = fit_percent(r.y, law_model(r, prm, dl))
