@@ -74,7 +74,7 @@ def read_table(path: Path) -> pd.DataFrame:
     table["kept"] = table["kept"].fillna(False).astype(bool)
     table["laws"] = table["laws"].fillna("paper")
     table["compliant_low_supply"] = table["compliant_low_supply"].astype(bool)
-    return table
+    return table.copy()
 
 
 def pair(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
@@ -87,6 +87,7 @@ def pair(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
     """
     keys = ["seed", "plant"]
     both = before.merge(after, on=keys, how="outer", suffixes=("_before", "_after"))
+    both = both.copy()  # one block: the merge leaves it fragmented
     one_side = set(map(tuple, before[keys].to_numpy())) ^ set(map(tuple, after[keys].to_numpy()))
     if one_side:
         raise ValueError(f"plants (seed, index) in one table only: {sorted(one_side)}")
@@ -98,7 +99,7 @@ def pair(before: pd.DataFrame, after: pd.DataFrame) -> pd.DataFrame:
                 raise ValueError(
                     f"{col} differs between the tables for plants {bad}: not the same draws"
                 )
-    both["compliant_low_supply"] = both["compliant_low_supply_before"]
+    both = both.assign(compliant_low_supply=both["compliant_low_supply_before"])
     return both.sort_values(keys).reset_index(drop=True)
 
 
