@@ -23,11 +23,11 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from spa.identification.laws_heldout import LeaveOneOutState
+from spa.identification.laws_model import _laws, _valve, law_model, law_names
 from spa.identification.longrun import andrews_bandwidth, newey_west
-from spa.identification.refine import RefineRun, block_means
+from spa.identification.refine import RefineRun
 from spa.identification.results import FloatArray
 from spa.model.laws import DEFAULT_KNOTS, Laws
-from spa.model.laws.timemap import FIT_NODES, law_replay
 from spa.model.params import ValveParams
 from spa.validation import fit_percent
 
@@ -43,66 +43,13 @@ __all__ = [
 
 _NOISE_FLOOR = 1e-6  # bar, as the refinement's
 _STEP = 1e-3  # forward-difference step of the log-rates and of m
+_BROYDEN = 4  # Broyden updates of the Jacobian between finite-difference ones
 _M_BOUNDS = (0.5, 1.0)
 #: Bound of the log-rates: rates within a factor e**6 (about 400) of the paper's scales.
 _LOG_BOUND = 6.0
 #: The choice rule: mean held-out gain over this many standard errors and FIT points.
 GAIN_SE = 2.0
 GAIN_POINTS = 2.0
-
-
-def law_names(knots: Sequence[float] = DEFAULT_KNOTS) -> tuple[str, ...]:
-    """Names of the fit vector: ``log_g[i]``, ``log_h[i]`` per knot, ``m``, then the
-    valve's ``log_k2``, ``t_on`` and ``t_off``.
-
-    Examples
-    --------
-    >>> law_names((0.0, 1.0))
-    ('log_g[0]', 'log_g[1]', 'log_h[0]', 'log_h[1]', 'm', 'log_k2', 't_on', 't_off')
-    """
-    n = len(knots)
-    return (
-        *(f"log_g[{i}]" for i in range(n)),
-        *(f"log_h[{i}]" for i in range(n)),
-        "m",
-        "log_k2",
-        "t_on",
-        "t_off",
-    )
-
-
-def law_model(
-    run: RefineRun, prm: ValveParams, delay: str | None = None, nodes: int = FIT_NODES
-) -> FloatArray:
-    """Block means of the exact model's pressure at the run's samples, under ``prm``'s laws.
-
-    The paper's laws (``prm.laws is None``) go through the refinement's own replay
-    (:meth:`RefineRun.model`); general laws through their time maps with ``nodes`` per mode.
-    """
-    dl = prm.delay if delay is None else delay
-    if prm.laws is None:
-        return run.model(prm, dl)
-    hold = np.where(run.level, prm.t_on, prm.t_off)
-    hold[0] = 0.0
-    p = law_replay(run.t, run.starts, run.level, hold, run.p0, prm, delay=dl, nodes=nodes)
-    return block_means(p, run.block)
-
-
-def _laws(x: FloatArray, knots: tuple[float, ...]) -> Laws:
-    n = len(knots)
-    return Laws(log_g=tuple(x[:n]), log_h=tuple(x[n : 2 * n]), m=float(x[2 * n]), knots=knots)
-
-
-def _valve(start: ValveParams, x: FloatArray, knots: tuple[float, ...]) -> ValveParams:
-    """``start`` with the laws, ``k2`` and delays of the full fit vector ``x``."""
-    im = 2 * len(knots)
-    return dataclasses.replace(
-        start,
-        k2=math.exp(x[im + 1]),
-        t_on=float(x[im + 2]),
-        t_off=float(x[im + 3]),
-        laws=_laws(x, knots),
-    )
 
 
 @dataclass(frozen=True)
@@ -219,7 +166,9 @@ def fit_laws(
     ``s_r`` the RMS of the run's residuals under the starting laws (at least the noise of
     a block mean), as in the refinement, so that no run drowns the others. The Jacobian is
     a forward difference (one simulation per coefficient, time maps of
-    :data:`~spa.model.laws.timemap.FIT_NODES` nodes).
+    :data:`~spa.model.laws.timemap.FIT_NODES` nodes), updated by Broyden's rank-one rule
+    for up to four steps in between (one simulation a step); the covariance's is a forward
+    difference at the optimum.
     """
     if not runs:
         raise ValueError("fit_laws needs at least one run with a 'valve' column")
@@ -280,6 +229,7 @@ def fit_laws(
     )
     cache: dict[bytes, list[FloatArray]] = {x[free].tobytes(): m0}
     jacs: dict[bytes, FloatArray] = {}
+    last: list[Any] = []  # x, residuals, Jacobian, updates since the last finite difference
     count = [1]
 
     def cached(xf: FloatArray) -> list[FloatArray]:
@@ -298,10 +248,20 @@ def fit_laws(
         return resid(cached(xf))
 
     def jac(xf: FloatArray) -> FloatArray:
+        # a finite-difference Jacobian, then _BROYDEN rank-one updates from it (one
+        # simulation a step instead of one per coefficient)
         key = xf.tobytes()
         if key not in jacs:
+            f1 = fun(xf)
+            if last and last[3] < _BROYDEN:
+                dx = (xf - last[0]) / scale[free]
+                j1 = last[2] + np.outer(f1 - last[1] - last[2] @ (dx * scale[free]),
+                                        dx / scale[free]) / float(dx @ dx)  # fmt: skip
+                last[:] = [xf.copy(), f1, j1, last[3] + 1]
+            else:
+                last[:] = [xf.copy(), f1, _jac(xf), 0]
             jacs.clear()  # the last one only: the fit ends where it last took one
-            jacs[key] = _jac(xf)
+            jacs[key] = last[2]
         return jacs[key]
 
     def _jac(xf: FloatArray) -> FloatArray:
@@ -331,7 +291,7 @@ def fit_laws(
     )
     xf = sol.x
     final = cached(xf)
-    jx = jac(xf)
+    jx = jac(xf) if last and last[3] == 0 and last[0].tobytes() == xf.tobytes() else _jac(xf)
     sizes = np.array([r.y.size for r in runs])
     offsets = np.concatenate(([0], np.cumsum(sizes)))
     hess = jx.T @ jx

@@ -27,7 +27,7 @@ __all__ = ["LeaveOneOutState", "refit_without"]
 
 #: A step is taken when it lowers the other runs' cost; the refit stops when a step lowers
 #: it by less than this fraction.
-_RTOL = 1e-4
+_RTOL = 1e-3
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ def refit_without(
     that lowers the cost is taken (``lam`` shrinks), one that does not is retried shorter.
     The first undamped step is :attr:`LawsFit.heldout`'s.
     """
-    from spa.identification.laws_fit import _valve, law_model
+    from spa.identification.laws_model import _valve, law_model
 
     st = fit.state
     if st is None or len(runs) + 1 != st.offsets.size:
