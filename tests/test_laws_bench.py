@@ -217,3 +217,29 @@ def test_the_bundled_example_keeps_the_papers_laws(tmp_path):
     assert res.laws["chosen"] == "paper", res.laws.get("reason")
     assert res.to_valve_params().laws is None
     assert not math.isnan(res.to_dict()["k2"]["value"])
+
+
+def test_a_held_out_refit_from_the_full_fit_reaches_the_refits_prediction():
+    from _laws_data import bench_runs
+
+    from spa.identification.laws_fit import fit_laws, law_model
+    from spa.identification.laws_heldout import refit_without
+    from spa.model.laws import Laws
+    from spa.model.params import ValveParams
+    from spa.validation import fit_percent
+
+    truth = ValveParams(laws=Laws(log_g=(0.8, 0.0, -0.5, -0.6), log_h=(-0.5, 0.0, 0.4, 0.6), m=0.8))
+    runs = bench_runs(truth, np.random.default_rng(5))
+    full = fit_laws(runs, ValveParams())
+    for held in [r for r in runs if r.modulator][:2]:
+        others = [r for r in runs if r.rid != held.rid]
+        refit = fit_laws(others, ValveParams(), x0=full.x).params
+        quick = refit_without(full, runs, held.rid)
+        want = fit_percent(held.y, law_model(held, refit))
+        got = fit_percent(held.y, law_model(held, quick))
+        assert abs(got - want) < 0.5, (held.rid, got, want)
+        assert quick.laws is not None and quick != full.params
+    with pytest.raises(ValueError, match="'nope' is not one of the fit's runs"):
+        refit_without(full, runs, "nope")
+    with pytest.raises(ValueError, match="are not the 6 runs of this fit"):
+        refit_without(full, runs[:3], runs[0].rid)
