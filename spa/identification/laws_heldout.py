@@ -28,6 +28,8 @@ __all__ = ["LeaveOneOutState", "refit_without"]
 #: A step is taken when it lowers the other runs' cost; the refit stops when a step lowers
 #: it by less than this fraction.
 _RTOL = 1e-3
+#: Damping of the first step (0: the undamped step of LawsFit.heldout).
+_LAM0 = 1.0
 
 
 @dataclass(frozen=True)
@@ -95,7 +97,8 @@ def refit_without(
     Levenberg–Marquardt on the other runs' weighted residuals with the full fit's Jacobian
     (their rows): the step solves ``(H + lam*diag(H)) dx = -J'e``, bounds enforced; a step
     that lowers the cost is taken (``lam`` shrinks), one that does not is retried shorter.
-    The first undamped step is :attr:`LawsFit.heldout`'s.
+    The first step is damped (``lam = 1``): the undamped one, :attr:`LawsFit.heldout`'s,
+    overshoots on the compliant balloons and costs a retried simulation.
     """
     from spa.identification.laws_model import _valve, law_model
 
@@ -116,7 +119,7 @@ def refit_without(
     diag = np.diag(np.maximum(np.diag(hess), 1e-12 * max(float(np.max(np.diag(hess))), 1.0)))
     others = [(r, w) for k, (r, w) in enumerate(zip(runs, st.weight, strict=True)) if k != j]
     knots = fit.laws.knots
-    x, cost, lam = fit.x.copy(), float(e @ e), 0.0
+    x, cost, lam = fit.x.copy(), float(e @ e), _LAM0
     for _ in range(max_nfev):
         step = np.linalg.lstsq(hess + lam * diag, -(jac.T @ e), rcond=None)[0]
         trial = x.copy()
