@@ -29,10 +29,16 @@ sensor lag up to 5 ms; seeded), and for each:
 
 Identification gets the runs' modulators and the command's step, as the pipeline does; the
 held-out staircase FIT is each staircase's leave-one-run-out FIT of the cycle means
-(``refinement.fit_heldout``); ``fit_<run>`` is the identified model's FIT on the raw pressure
+(``refinement.fit_heldout``, or the laws' ``laws.fit_identified`` when the actuator's own
+laws were chosen: identification runs with the configuration's ``identification.laws``,
+``auto``, and every score uses the valve the stages get, ``read_identified`` of the record);
+``fit_<run>`` is the identified model's FIT on the raw pressure
 (``validation/fit.csv``'s, in-sample since the refinement sees every run). One CSV row per
-plant; a summary on stdout (targets: held-out median staircase FIT >= 85 %, promise kept on
->= 90 % of plants, at most 10 % unverified).
+plant, with its ``seed``, ``laws`` chosen and whether it is ``compliant_low_supply``
+(``spa.synthetic.balloons.compliant_low_supply``), so that
+``benchmarks/physical_pair.py`` can pair two tables plant by plant; a summary on stdout
+(targets: held-out median staircase FIT >= 85 %, promise kept on >= 90 % of plants, at
+most 10 % unverified).
 
 Run:  nice .venv/bin/python benchmarks/physical_plants.py [--n 20] [--seed 1]
       [--closed-loop] [--promise] [--csv /tmp/physplant/plants.csv]
@@ -52,7 +58,9 @@ import pandas as pd
 import yaml
 
 from spa.identification import identify_with_config
+from spa.identification.identified import read_identified
 from spa.synthetic import Sensor, identification_experiment_for
+from spa.synthetic.balloons import compliant_low_supply
 from spa.synthetic.physical import (
     PHYSICAL_KEYS,
     close_loop_in_c,
@@ -80,7 +88,14 @@ def one_plant(
     rng = np.random.default_rng([seed, index])
     plant = random_plant(rng)
     eq = equivalent_params(plant, DT)
-    row: dict = {"plant": index, **{f"plant_{k}": getattr(plant, k) for k in PHYSICAL_KEYS}}
+    row: dict = {
+        "seed": seed,
+        "plant": index,
+        "compliant_low_supply": bool(
+            compliant_low_supply(plant.supply, plant.volume, plant.compliance)
+        ),
+        **{f"plant_{k}": getattr(plant, k) for k in PHYSICAL_KEYS},
+    }
     row.update({f"eq_{k}": getattr(eq, k) for k in NAMES})
     hold = math.ceil(max(3.0, 5.0 * eq.tau2))
     cfg = {
@@ -118,8 +133,15 @@ def one_plant(
         return row
     row["error"] = ""
     row["identify_s"] = time.perf_counter() - start
-    ident = res.to_valve_params()
+    identified = res.to_dict()
+    # the valve every stage gets: read_identified of the identification's record (with the
+    # actuator's own laws when they were chosen)
+    ident = read_identified(identified).params
     row.update({k: getattr(ident, k) for k in NAMES})
+    laws = identified.get("laws") or {}
+    row["laws"] = laws.get("chosen", "paper")
+    row["laws_valve"] = ident.laws is not None
+    row["laws_gain"] = laws.get("gain")
     fits = []
     for rid, kind in kinds.items():
         if kind == "staircase":
@@ -127,9 +149,10 @@ def one_plant(
             row[f"fit_{rid}"] = fit
             fits.append(fit)
     row["insample_median_fit"] = float(np.median(fits))
-    identified = res.to_dict()
     ref = identified.get("refinement") or {}
-    held = {k: v for k, v in (ref.get("fit_heldout") or {}).items() if kinds.get(k) == "staircase"}
+    # held out under the laws chosen: the laws' own leave-one-run-out FIT when identified
+    heldout = laws.get("fit_identified") if row["laws"] == "identified" else ref.get("fit_heldout")
+    held = {k: v for k, v in (heldout or {}).items() if kinds.get(k) == "staircase"}
     for rid, fit in held.items():
         row[f"heldout_{rid}"] = fit
     vals = [v for v in held.values() if v is not None and math.isfinite(v)]

@@ -22,11 +22,12 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from spa.identification.laws_heldout import LeaveOneOutState
+from spa.identification.laws_model import _laws, _valve, law_model, law_names
 from spa.identification.longrun import andrews_bandwidth, newey_west
-from spa.identification.refine import RefineRun, block_means
+from spa.identification.refine import RefineRun
 from spa.identification.results import FloatArray
 from spa.model.laws import DEFAULT_KNOTS, Laws
-from spa.model.laws.timemap import FIT_NODES, law_replay
 from spa.model.params import ValveParams
 from spa.validation import fit_percent
 
@@ -42,66 +43,13 @@ __all__ = [
 
 _NOISE_FLOOR = 1e-6  # bar, as the refinement's
 _STEP = 1e-3  # forward-difference step of the log-rates and of m
+_BROYDEN = 4  # Broyden updates of the Jacobian between finite-difference ones
 _M_BOUNDS = (0.5, 1.0)
 #: Bound of the log-rates: rates within a factor e**6 (about 400) of the paper's scales.
 _LOG_BOUND = 6.0
 #: The choice rule: mean held-out gain over this many standard errors and FIT points.
 GAIN_SE = 2.0
 GAIN_POINTS = 2.0
-
-
-def law_names(knots: Sequence[float] = DEFAULT_KNOTS) -> tuple[str, ...]:
-    """Names of the fit vector: ``log_g[i]``, ``log_h[i]`` per knot, ``m``, then the
-    valve's ``log_k2``, ``t_on`` and ``t_off``.
-
-    Examples
-    --------
-    >>> law_names((0.0, 1.0))
-    ('log_g[0]', 'log_g[1]', 'log_h[0]', 'log_h[1]', 'm', 'log_k2', 't_on', 't_off')
-    """
-    n = len(knots)
-    return (
-        *(f"log_g[{i}]" for i in range(n)),
-        *(f"log_h[{i}]" for i in range(n)),
-        "m",
-        "log_k2",
-        "t_on",
-        "t_off",
-    )
-
-
-def law_model(
-    run: RefineRun, prm: ValveParams, delay: str | None = None, nodes: int = FIT_NODES
-) -> FloatArray:
-    """Block means of the exact model's pressure at the run's samples, under ``prm``'s laws.
-
-    The paper's laws (``prm.laws is None``) go through the refinement's own replay
-    (:meth:`RefineRun.model`); general laws through their time maps with ``nodes`` per mode.
-    """
-    dl = prm.delay if delay is None else delay
-    if prm.laws is None:
-        return run.model(prm, dl)
-    hold = np.where(run.level, prm.t_on, prm.t_off)
-    hold[0] = 0.0
-    p = law_replay(run.t, run.starts, run.level, hold, run.p0, prm, delay=dl, nodes=nodes)
-    return block_means(p, run.block)
-
-
-def _laws(x: FloatArray, knots: tuple[float, ...]) -> Laws:
-    n = len(knots)
-    return Laws(log_g=tuple(x[:n]), log_h=tuple(x[n : 2 * n]), m=float(x[2 * n]), knots=knots)
-
-
-def _valve(start: ValveParams, x: FloatArray, knots: tuple[float, ...]) -> ValveParams:
-    """``start`` with the laws, ``k2`` and delays of the full fit vector ``x``."""
-    im = 2 * len(knots)
-    return dataclasses.replace(
-        start,
-        k2=math.exp(x[im + 1]),
-        t_on=float(x[im + 2]),
-        t_off=float(x[im + 3]),
-        laws=_laws(x, knots),
-    )
 
 
 @dataclass(frozen=True)
@@ -137,6 +85,8 @@ class LawsFit:
         Model evaluations.
     converged : bool
         Whether the least squares met its tolerance.
+    state : LeaveOneOutState or None
+        The weights, Jacobian and residuals at the fit, for the held-out refits.
     """
 
     start: ValveParams
@@ -150,6 +100,7 @@ class LawsFit:
     fixed: tuple[str, ...]
     nfev: int
     converged: bool
+    state: LeaveOneOutState | None = field(default=None, repr=False, compare=False)
 
     @property
     def se(self) -> dict[str, float]:
@@ -215,7 +166,9 @@ def fit_laws(
     ``s_r`` the RMS of the run's residuals under the starting laws (at least the noise of
     a block mean), as in the refinement, so that no run drowns the others. The Jacobian is
     a forward difference (one simulation per coefficient, time maps of
-    :data:`~spa.model.laws.timemap.FIT_NODES` nodes).
+    :data:`~spa.model.laws.timemap.FIT_NODES` nodes), updated by Broyden's rank-one rule
+    for up to four steps in between (one simulation a step); the covariance's is a forward
+    difference at the optimum.
     """
     if not runs:
         raise ValueError("fit_laws needs at least one run with a 'valve' column")
@@ -275,6 +228,8 @@ def fit_laws(
         ]
     )
     cache: dict[bytes, list[FloatArray]] = {x[free].tobytes(): m0}
+    jacs: dict[bytes, FloatArray] = {}
+    last: list[Any] = []  # x, residuals, Jacobian, updates since the last finite difference
     count = [1]
 
     def cached(xf: FloatArray) -> list[FloatArray]:
@@ -286,12 +241,30 @@ def fit_laws(
             count[0] += 1
         return cache[key]
 
+    def resid(mods: list[FloatArray]) -> FloatArray:
+        return np.concatenate([(mo - r.y) * w for mo, r, w in zip(mods, runs, weight, strict=True)])
+
     def fun(xf: FloatArray) -> FloatArray:
-        return np.concatenate(
-            [(mo - r.y) * w for mo, r, w in zip(cached(xf), runs, weight, strict=True)]
-        )
+        return resid(cached(xf))
 
     def jac(xf: FloatArray) -> FloatArray:
+        # a finite-difference Jacobian, then _BROYDEN rank-one updates from it (one
+        # simulation a step instead of one per coefficient)
+        key = xf.tobytes()
+        if key not in jacs:
+            f1 = fun(xf)
+            if last and last[3] < _BROYDEN:
+                dx = (xf - last[0]) / scale[free]
+                j1 = last[2] + np.outer(f1 - last[1] - last[2] @ (dx * scale[free]),
+                                        dx / scale[free]) / float(dx @ dx)  # fmt: skip
+                last[:] = [xf.copy(), f1, j1, last[3] + 1]
+            else:
+                last[:] = [xf.copy(), f1, _jac(xf), 0]
+            jacs.clear()  # the last one only: the fit ends where it last took one
+            jacs[key] = last[2]
+        return jacs[key]
+
+    def _jac(xf: FloatArray) -> FloatArray:
         f0 = fun(xf)
         cols = []
         for i in range(xf.size):
@@ -301,15 +274,7 @@ def fit_laws(
                 step = -step
             xs[i] += step
             count[0] += 1
-            cols.append(
-                (
-                    np.concatenate(
-                        [(mo - r.y) * w for mo, r, w in zip(models(xs), runs, weight, strict=True)]
-                    )
-                    - f0
-                )
-                / step
-            )
+            cols.append((resid(models(xs)) - f0) / step)
         return np.column_stack(cols)
 
     sol = least_squares(
@@ -320,12 +285,13 @@ def fit_laws(
         method="trf",
         max_nfev=max_nfev,
         x_scale=scale[free],
+        tr_solver="lsmr",  # not an SVD of the tall Jacobian at every step
         xtol=1e-8,
         ftol=1e-10,
     )
     xf = sol.x
     final = cached(xf)
-    jx = jac(xf)
+    jx = jac(xf) if last and last[3] == 0 and last[0].tobytes() == xf.tobytes() else _jac(xf)
     sizes = np.array([r.y.size for r in runs])
     offsets = np.concatenate(([0], np.cumsum(sizes)))
     hess = jx.T @ jx
@@ -362,6 +328,7 @@ def fit_laws(
         fixed=tuple(names[i] for i in held),
         nfev=count[0],
         converged=bool(sol.success),
+        state=LeaveOneOutState(dl, free, lo, hi, weight, jx, fun(xf), offsets),
     )
 
 
@@ -428,11 +395,11 @@ def choose_laws(
     knots : sequence of float, optional
         Knots of the identified laws.
     refit : bool, optional
-        Refit the laws without each modulated run (default: ``max_nfev_heldout``
-        iterations from the full fit). False uses the one Gauss–Newton step of
-        :attr:`LawsFit.heldout` instead, about twice as fast overall; on the compliant
-        balloons that step is too far from the refit (gain -3.3 points against +6.8) to be
-        the default.
+        Refit the laws without each modulated run (default): damped Gauss–Newton from the
+        full fit, at most ``max_nfev_heldout`` simulations
+        (:func:`~spa.identification.laws_heldout.refit_without`). False uses the one
+        undamped step of :attr:`LawsFit.heldout` instead; on the compliant balloons that
+        step is too far from the refit (gain -3.3 points against +6.8) to be the default.
     max_nfev, max_nfev_heldout : int, optional
         Iterations of the fit on every run and of each leave-one-out refit.
 
@@ -448,6 +415,8 @@ def choose_laws(
     output-error residuals are autocorrelated and the degrees of freedom of the log-rate
     polynomials are only effective.
     """
+    from spa.identification.laws_heldout import refit_without
+
     paper = dataclasses.replace(start, laws=None)
     dl = paper.delay if delay is None else delay
     held = [r for r in runs if r.modulator]
@@ -473,11 +442,7 @@ def choose_laws(
         else:
             fit_p[r.rid] = fit_percent(r.y, law_model(r, paper, dl))
         if refit:
-            others = [o for o in runs if o.rid != r.rid]
-            loo = fit_laws(
-                others, paper, delay=dl, knots=knots, x0=full.x, max_nfev=max_nfev_heldout
-            )
-            prm = loo.params
+            prm = refit_without(full, runs, r.rid, max_nfev=max_nfev_heldout)
         else:
             prm = _valve(paper, full.heldout[r.rid], full.laws.knots)
         fit_i[r.rid] = fit_percent(r.y, law_model(r, prm, dl))

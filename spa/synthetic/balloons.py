@@ -12,13 +12,28 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from spa.synthetic._physical_core import _CM3, _DM3_PER_S_BAR, R_AIR, RHO0, PhysicalPlant
 
-__all__ = ["BALLOON_SEEDS", "balloon", "compliant_balloons", "random_balloon"]
+__all__ = [
+    "BALLOON_SEEDS",
+    "COMPLIANT_GROWTH",
+    "LOW_SUPPLY",
+    "balloon",
+    "compliant_balloons",
+    "compliant_low_supply",
+    "random_balloon",
+]
 
 #: The seed of each fixture balloon's bench data (sensor noise).
 BALLOON_SEEDS: dict[str, int] = {"balloon-06": 4706, "balloon-04": 4704}
+
+#: A low supply, bar gauge: at most this.
+LOW_SUPPLY = 0.8
+#: A compliant chamber's volume growth per bar, as a fraction of its volume at 0 bar: at
+#: least this.
+COMPLIANT_GROWTH = 1.0
 
 _PATM = 1.01325
 _T0 = 293.15
@@ -149,3 +164,44 @@ def random_balloon(rng: np.random.Generator) -> PhysicalPlant:
         t_close=t_close,
         noise=float(rng.uniform(0.001, 0.004)),
     )
+
+
+def compliant_low_supply(
+    supply: npt.ArrayLike, volume: npt.ArrayLike, compliance: npt.ArrayLike
+) -> np.ndarray:
+    """Whether plants are compliant low-supply ones: supply at most :data:`LOW_SUPPLY` bar
+    gauge and volume growing by at least :data:`COMPLIANT_GROWTH` (100 %) per bar.
+
+    Parameters
+    ----------
+    supply : array_like
+        Regulator set-point, bar gauge (:class:`~spa.synthetic.physical.PhysicalPlant`'s
+        ``supply``).
+    volume : array_like
+        Chamber volume at 0 bar gauge, cm³.
+    compliance : array_like
+        Volume growth, cm³/bar.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        One per plant (broadcast).
+
+    Raises
+    ------
+    ValueError
+        If a volume is not positive.
+
+    Examples
+    --------
+    >>> p = compliant_balloons()["balloon-04"]
+    >>> bool(compliant_low_supply(p.supply, p.volume, p.compliance))
+    True
+    >>> compliant_low_supply([0.6, 2.0, 0.6], [30.0, 30.0, 30.0], [30.0, 60.0, 20.0]).tolist()
+    [True, False, False]
+    """
+    v = np.asarray(volume, dtype=np.float64)
+    if np.any(~(v > 0)):
+        raise ValueError(f"compliant_low_supply: volumes must be positive cm^3, got {v!r}")
+    growth = np.asarray(compliance, dtype=np.float64) / v
+    return (np.asarray(supply, dtype=np.float64) <= LOW_SUPPLY) & (growth >= COMPLIANT_GROWTH)

@@ -540,7 +540,8 @@ def generate_dataset(
         See :func:`dataset_runs`.
     seed : int
         Config seed; each run's noise comes from :func:`run_seed` (seed, name, run id), so a
-        run's bytes do not depend on which other runs are configured.
+        run's bytes do not depend on which other runs are configured. The dataset's own
+        ``seed`` (``cfg["seed"]``, a seeded fixture's) replaces it.
     out_dir : path-like
         Folder for ``<run id>.parquet``.
     progress : callable, optional
@@ -554,6 +555,7 @@ def generate_dataset(
     from spa.datasets import write_run_table
 
     plant, params = dataset_plant(cfg)
+    seed = int(cfg.get("seed", seed))
     dt = float(cfg["controller_dt"])
     sensor = Sensor.from_mapping(cfg.get("sensor"))
     out = Path(out_dir)
