@@ -1,10 +1,19 @@
 # spa: reproduce Serrano-Balbontín et al., Robotics 2025, 14(12), 177, and characterise new benches.
+import os
+
 from snakemake.utils import min_version
 
 min_version("9.0")
 
 
 configfile: "config/config.yaml"
+
+
+# Every rule declares `threads: 1`, so a job's linear algebra stays on its one core: BLAS's
+# own threads only fight the jobs Snakemake already runs side by side (the laws' fit costs
+# 2.7 times the CPU with them on 2 cores, benchmarks/README.md). A value already set wins.
+for _blas in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_blas, "1")
 
 
 # The front page of `snakemake --report report.zip`; each table and figure has its own
