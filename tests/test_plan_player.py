@@ -195,3 +195,18 @@ def test_the_full_player_fits_an_atmega328p_where_avr_gcc_is_installed(session):
     assert size["ram"] <= ATMEGA328P["ram"] - 512, size
     sketch = sketch_size(folder)  # the .ino as C++ for the board, the core's code aside
     assert sketch is not None and sketch["flash"] <= ATMEGA328P["flash"] - 4096, sketch
+
+
+def test_a_player_built_under_a_bare_name_runs_from_the_working_folder(
+    session, tmp_path, monkeypatch
+):
+    """``build_harness(folder, "harness")`` then ``play_session("harness", ...)`` in the working
+    folder: the executable is found there, not looked up on PATH (a reader's session on the
+    plan page does just this)."""
+    design, folder, cal, noise, stream, *_ = session
+    monkeypatch.chdir(tmp_path)
+    exe = build_harness(folder, "harness")
+    assert exe.is_absolute() and exe.parent == tmp_path.resolve()
+    plant = lambda u: simulate(u, design.dt, NOMINAL)  # noqa: E731
+    again, _, _ = play_session("harness", design, plant, cal, noise)
+    assert again == stream

@@ -56,7 +56,7 @@ def build_harness(folder: str | Path, out: str | Path, cc: str = "cc") -> Path:
     res = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if res.returncode != 0:
         raise RuntimeError(f"building the player failed ({' '.join(cmd)}):\n{res.stderr}")
-    return Path(out)
+    return Path(out).resolve()  # absolute: a bare name would be looked up on PATH
 
 
 def planned_commands(design: SessionDesign) -> npt.NDArray[np.int8]:
@@ -116,6 +116,7 @@ def play_session(
     """
     u = planned_commands(design)
     extra = np.zeros(u.size) if noise is None else np.asarray(noise, dtype=np.float64)
+    exe = Path(exe).resolve()  # a bare name such as "player" would be looked up on PATH
     trace = Path(str(exe) + ".trace")
     for n in range(1, max_passes + 1):
         adc = counts(plant(u) + extra, cal)
