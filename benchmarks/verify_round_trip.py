@@ -12,6 +12,12 @@ verification: the identification's cost and each part's kept count.
 
     .venv/bin/python benchmarks/verify_round_trip.py [--full] [phys-finger ...]
 
+With ``--pipeline`` (a physical plant, the full plan) the middle is the pipeline itself: the
+recorded folder is a bench dataset of a ``raw_dir`` of its own, ``snakemake reproduce-all``
+processes it (figures off, no simulated dataset), ``spa plan --verify`` reads its results,
+and a second ``reproduce-all`` processes the two verification folders, whose pages
+(``results/report/<name>-verify-*.html``) are checked for both parts' verdicts.
+
 A model-made valve (``small-fast``, ``large-slow``, ``long-exhaust``: the configuration's
 ``params``) goes through the pilot and the verification's open-loop runs, played on
 ``spa.simulate`` of the valve (the model has no C twin to close the loop on).
@@ -22,6 +28,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import io
+import subprocess
 import tempfile
 import time
 from contextlib import redirect_stdout
@@ -216,16 +223,104 @@ def round_trip_model(name: str, root: Path) -> list[str]:
     return lines
 
 
+def reproduce_all(root: Path) -> None:
+    """``snakemake reproduce-all`` on the bench datasets of ``root/raw`` alone, into
+    ``root/results`` (no simulated dataset, no figures)."""
+    override = root / "override.yaml"
+    override.write_text(
+        yaml.safe_dump(
+            {
+                "results": str(root / "results"),
+                "simulated": dict.fromkeys(CONFIG.get("simulated") or {}),
+                "datasets": {"raw_dir": str(root / "raw"), "exclude": []},
+                "figures": "none",
+            }
+        )
+    )
+    cmd = [str(ROOT / ".venv" / "bin" / "snakemake"), "reproduce-all", "-c2"]
+    res = subprocess.run(
+        [*cmd, "--configfile", str(override)], cwd=ROOT, capture_output=True, text=True
+    )
+    if res.returncode != 0:
+        raise RuntimeError(f"reproduce-all failed:\n{res.stderr[-3000:]}")
+
+
+def round_trip_pipeline(name: str, root: Path) -> list[str]:
+    """The full plan of a physical plant through the pipeline and back to its pages."""
+    plant, equivalent = dataset_plant(CONFIG["simulated"][name])
+    limits = Limits(p_max=1.25 * plant.supply)
+    prior = prior_from_numbers(plant.supply, 5 * equivalent.tau2)
+    rec0 = tune(prior).recommendation.get("recommended") or {}
+    mod = Modulator.from_mapping(rec0["setting"]) if rec0.get("setting") else None
+    design = design_session(
+        prior, limits, levels=4, settings=[], recommended=mod, pilot=False, precondition=1
+    )
+    folder = root / "raw" / name
+    write_plan(folder, design)
+    record(folder, plant, 2)
+    t0 = time.perf_counter()
+    reproduce_all(root)
+    results = root / "results" / name
+    identified = yaml.safe_load((results / "identification" / "params.yaml").read_text())
+    laws = (identified.get("laws") or {}).get("chosen")
+    lines = [
+        f"{name} (pipeline, {len(design.runs)} runs): reproduce-all "
+        f"{time.perf_counter() - t0:.0f} s; laws {laws}"
+    ]
+    folders = {}
+    for tag, on in (("same", plant), ("2x slower", slower(plant, 2.0))):
+        vfolder = root / "raw" / f"{name}-verify-{tag.replace(' ', '')}"
+        code, text = _cli(
+            "plan", vfolder, "--verify", results, "--p-max", f"{limits.p_max:g}",
+            "--levels", "4", "--baud", "250000",
+        )  # fmt: skip
+        if code != 0:
+            raise RuntimeError(text)
+        noise = np.random.default_rng(5).normal(0.0, on.noise, session_ticks(vfolder))
+        stream, _ = play_on_physical(vfolder, on, noise)
+        log = root / f"{vfolder.name}.txt"
+        log.write_text(stream)
+        code, text = _cli("record", vfolder, "--stream", log)
+        if code != 0:
+            raise RuntimeError(text)
+        folders[tag] = vfolder
+    reproduce_all(root)
+    for tag, vfolder in folders.items():
+        page = root / "results" / "report" / f"{vfolder.name}.html"
+        html = page.read_text(encoding="utf-8") if page.is_file() else ""
+        heads = [
+            h
+            for h in ("Verification: the recommendation", "Verification: the closed loop")
+            if h in html
+        ]
+        frame = pd.read_csv(vfolder / "verification.csv")
+        parts = []
+        for part in ("recommendation", "promise"):
+            rows = frame[frame["part"] == part]
+            kept = int((rows["verdict"] == "kept").sum())
+            parts.append(f"{part} {kept} of {len(rows)} kept")
+        lines.append(
+            f"  on the {tag} plant: " + "; ".join(parts)
+            + f"; its page {'shows' if heads else 'MISSING'} {', '.join(heads) or 'the verdicts'}"
+        )
+    return lines
+
+
 def run() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("plants", nargs="*", default=["phys-finger", "phys-choked", "phys-balloon"])
     ap.add_argument("--full", action="store_true", help="the recommended setting's runs too")
+    ap.add_argument(
+        "--pipeline", action="store_true", help="through snakemake reproduce-all (physical plants)"
+    )
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="spa-verify-") as tmp:
         for name in args.plants:
             t0 = time.perf_counter()
             try:
-                if "params" in CONFIG["simulated"][name]:
+                if args.pipeline:
+                    lines = round_trip_pipeline(name, Path(tmp) / name)
+                elif "params" in CONFIG["simulated"][name]:
                     lines = round_trip_model(name, Path(tmp))
                 else:
                     lines = round_trip(name, Path(tmp), args.full)

@@ -582,8 +582,12 @@ def test_an_input_of_another_shape_is_named_with_its_kind():
     noise = 0.5 + 0.1 * np.random.default_rng(1).standard_normal(t.size)
     assert "strongest frequency carries" in input_shape_problem("sine", noise)
     assert "does not speed up" in input_shape_problem("chirp", sine)
-    with pytest.raises(ValueError, match="run 'r1' is labelled staircase but u goes down"):
+    # a plan's staircases step up, then back down: each way is a staircase, both at once not
+    assert input_shape_problem("staircase", stairs[::-1]) is None
+    with pytest.raises(ValueError, match="run 'r1' is labelled staircase but u goes both up and"):
         check_input_shape("r1", "staircase", sine)
+    updown = np.r_[stairs[: stairs.size // 2], stairs[: stairs.size // 2][::-1]]
+    assert "both up and down" in input_shape_problem("staircase", updown)
 
 
 @pytest.fixture(scope="module")

@@ -24,8 +24,9 @@ def _staircase(u: np.ndarray) -> str | None:
     levels = u[np.r_[True, np.diff(u) != 0.0]]
     if levels.size < 2:
         return "u is constant: a staircase has at least two levels"
-    if np.any(np.diff(levels) < 0.0):
-        return "u goes down between levels: a staircase steps up"
+    steps = np.diff(levels)
+    if np.any(steps < 0.0) and np.any(steps > 0.0):  # up, or down (a plan's way back), not both
+        return "u goes both up and down between levels: a staircase steps one way, up or down"
     if levels.size > 0.01 * u.size + 2:
         return f"u changes on {levels.size - 1} samples: a staircase holds each level"
     return None
@@ -79,8 +80,10 @@ def input_shape_problem(kind: str, u: npt.ArrayLike) -> str | None:
     >>> t = np.arange(0, 20, 1e-3)
     >>> input_shape_problem("staircase", np.floor(t / 5) / 4) is None
     True
+    >>> input_shape_problem("staircase", 1 - np.floor(t / 5) / 4) is None  # stepping down
+    True
     >>> input_shape_problem("staircase", 0.5 + 0.4 * np.sin(t))
-    'u goes down between levels: a staircase steps up'
+    'u goes both up and down between levels: a staircase steps one way, up or down'
     >>> input_shape_problem("sine", 0.5 + 0.2 * np.sin(2 * np.pi * 0.5 * t)) is None
     True
     >>> input_shape_problem("chirp", 0.5 + 0.2 * np.sin(2 * np.pi * 0.5 * t))[:40]
