@@ -645,3 +645,28 @@ def test_ringing_reads_as_coupling_and_the_columns_compare_like_with_like(pwm_ch
     assert ref["significant_fraction_no_ringing"] <= 0.03 < ref["significant_fraction"]
     assert ref["seeds"] == 3 and ref["significant_fraction_min"] <= ref["significant_fraction"]
     assert no_ringing_spread({**meta, "origin": "bench"}, 3, **options) == {}
+
+
+def test_a_staircase_stepping_down_gives_the_same_levels_and_thresholds():
+    """A plan's way-back staircase (1 -> 0) is analysed as the way up: the same thresholds
+    and the same line, each level held long enough to settle from either side."""
+    mod = {"type": "pwm", "f_w": 20.0}
+    dt, hold = 1e-3, 8.0
+    t = np.arange(round(11 * hold / dt)) * dt
+    up_xi = staircase_input(t, 0.1, hold)
+    sensor = Sensor(fs=1.0 / dt, noise=0.0, quantum=0.0)
+    runs = {
+        way: simulate_run(
+            RunSpec("staircase", "staircase", xi=xi, modulator=mod),
+            NOMINAL,
+            dt,
+            sensor,
+            np.random.default_rng(0),
+        )
+        for way, xi in (("up", up_xi), ("down", up_xi[::-1].copy()))
+    }
+    up, down = (staircase_analysis(runs[w], mod, NOMINAL)[2] for w in ("up", "down"))
+    for key in ("dead_zone_last", "dead_zone_next", "saturation_prev", "saturation_first"):
+        assert up[key] == down[key] or (math.isnan(up[key]) and math.isnan(down[key])), key
+    assert down["fit"] == pytest.approx(up["fit"], abs=0.5)
+    assert down["m"] == pytest.approx(up["m"], rel=0.02)

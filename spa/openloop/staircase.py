@@ -202,7 +202,7 @@ def staircase_analysis(
         ``saturation_model_first``), with ``dead_zone_agrees`` / ``saturation_agrees`` true
         when measurement and model put the threshold between the same two levels;
         ``tau_mean``, ``tau_sd`` (sample sd), ``n_tau``; ``switching_rate_mean`` (edges/s
-        over all levels); ``noise_pp`` (``p_pp`` of the first level); the sensor's noise
+        over all levels); ``noise_pp`` (``p_pp`` of the lowest level); the sensor's noise
         ``noise_sd`` (bar) pooled over ``n_still_levels`` still, settled levels; and the
         chattering averaged over the levels where the valve switches: ``ripple_mean``
         (measured peak-to-peak), ``ripple_corrected_mean``, ``ripple_<name>_mean`` for each
@@ -228,8 +228,10 @@ def staircase_analysis(
         levels[f"p_ripple_{name}"] = staircase_levels(t, p_clean, u, settle=settle)["p_ripple"]
     pulsing = ~levels["still"]
 
-    meas = measured_thresholds(lv["xi"], lv["p_eq"], zone_fraction)
-    model = measured_thresholds(lv["xi"], levels["p_eq_model"], zone_fraction)
+    up = np.argsort(lv["xi"].to_numpy(), kind="stable")  # a staircase stepping down, reversed
+    xi_up = lv["xi"].to_numpy()[up]
+    meas = measured_thresholds(xi_up, lv["p_eq"].to_numpy()[up], zone_fraction)
+    model = measured_thresholds(xi_up, levels["p_eq_model"].to_numpy()[up], zone_fraction)
     dz, sat = (float(v) for v in thresholds(kind, params, **settings))
     case = paper_case(setting)
     paper = PAPER_TABLE3[case][1:] if case else (math.nan,) * 3
@@ -260,7 +262,7 @@ def staircase_analysis(
         "tau_sd": float(tau.std()) if tau.size > 1 else math.nan,
         "n_tau": int(tau.size),
         "switching_rate_mean": float(levels["switching_rate"].mean()),
-        "noise_pp": float(levels["p_pp"].iloc[0]),
+        "noise_pp": float(levels["p_pp"].iloc[up[0]]),
         "noise_sd": noise_sd,
         "n_still_levels": n_still,
         "ripple_mean": _mean(levels["p_ripple"], pulsing),
