@@ -241,8 +241,11 @@ def test_a_poorly_described_valve_gets_sentences_that_say_so() -> None:
         p = np.clip(table["p"].to_numpy(), 0.0, None)
         lagged = lfilter([a], [1.0, a - 1.0], p, zi=[p[0] * (1.0 - a)])[0]
         table["p"] = truth.k2 * np.tanh(2.5 * lagged / truth.k2)
+    # the paper's laws: a static sensor map would be a change of variable the actuator's own
+    # laws absorb; the lag they cannot, and the residuals' whiteness check names it
+    paper = {**CONFIG, "identification": {**CONFIG.get("identification", {}), "laws": "paper"}}
     res = identify_with_config(
-        runs, kinds, CONFIG, modulators=mods, command_dt=dict.fromkeys(runs, 1e-3)
+        runs, kinds, paper, modulators=mods, command_dt=dict.fromkeys(runs, 1e-3)
     )
     d = res.to_dict()
     assert d["adequacy"]["adequate"] is False
@@ -251,6 +254,11 @@ def test_a_poorly_described_valve_gets_sentences_that_say_so() -> None:
     assert rec["verified"] is False
     assert "does not describe this valve well enough" in rec["sentence"]
     assert worst in rec["sentence"]
+    auto = identify_with_config(
+        runs, kinds, CONFIG, modulators=mods, command_dt=dict.fromkeys(runs, 1e-3)
+    ).to_dict()
+    assert auto["adequacy"]["checks_passed"] is False
+    assert "a lagging sensor" in auto["adequacy"]["sentence"]
 
 
 def test_fit_csv_shows_the_fit_before_the_refinement(tmp_path) -> None:
