@@ -306,9 +306,10 @@ def test_fallback_identification_and_a_run_that_is_not_its_kind(tmp_path):
     assert (out / "nopulse" / "identification" / "fig2c.png").stat().st_size > 1000
     stair = json.loads((out / "nopulse" / "status" / "staircase.json").read_text())
     assert not stair["ok"]
-    assert "run 'staircase_pwm-20Hz' is labelled staircase but u goes down" in stair["errors"][0]
+    said = "run 'staircase_pwm-20Hz' is labelled staircase but u goes both up and down"
+    assert said in stair["errors"][0]
     log = (out / "logs" / "nopulse" / "staircase.log").read_text()
-    assert "labelled staircase but u goes down" in log  # one line, no traceback:
+    assert "labelled staircase but u goes both up and down" in log  # one line, no traceback:
     assert "Traceback" not in log and "Traceback" not in res.stderr  # an input error, no bug
 
 
