@@ -198,6 +198,7 @@ def _promise(plant, identified, runs, metas, config, rng) -> dict:
         else "",
         "verified": bool(summary.get("verified", False)),
         "adequacy_clause": summary.get("adequacy_clause", ""),
+        "sentence": bench.sentence,
         "promise_made": bool(promise.get("kept", False)),
         "promise_tau_c": promise.get("tau_c"),
         "promise_overshoot": promise.get("overshoot"),

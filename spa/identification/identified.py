@@ -145,7 +145,8 @@ def laws_intervals(
           as ``1/tau2`` (charge) and ``1/c1`` (discharge), so a band that lies within
           ``f*(1 + delta)**(±1)`` over the pressures the data visited in that mode
           (:func:`spa.identification.laws_bands.band_envelope`, ``delta`` the largest
-          relative half-width there) is ``[tau2/(1 + delta_open), tau2*(1 + delta_open)]``
+          relative half-width there, leaving out the tenth of ``k2`` next to each law's zero,
+          where rate and band both vanish) is ``[tau2/(1 + delta_open), tau2*(1 + delta_open)]``
           and ``[c1/(1 + delta_closed), c1*(1 + delta_closed)]``: each corner scales the
           whole law by ``1/(1 ∓ delta')`` with ``1 - delta' = 1/(1 + delta)``.
         * ``k2``: ``k2*exp(±1.96 se)``, ``se`` the laws fit's standard error of ``log k2``.
@@ -175,7 +176,7 @@ def laws_intervals(
     bands = record.get("bands")
     if isinstance(bands, Mapping):
         try:
-            delta = band_envelope(bands, record.get("visited"))
+            delta = band_envelope(bands, record.get("visited"), params.k2)
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(
                 f"laws.bands: malformed ({exc!r}); expected LawBands.to_dict()'s form"

@@ -209,7 +209,19 @@ class LawBands:
         }
 
 
-def band_envelope(bands: Mapping[str, Any], visited: Mapping[str, Any] | None = None) -> dict:
+#: Share of ``k2`` next to each law's zero left out of the envelope: the charge's above
+#: ``(1 - NEAR_ZERO)*k2`` and the discharge's below ``NEAR_ZERO*k2``, where the rate and its
+#: band both go to 0 and their ratio says nothing the stages use (the levels there are the
+#: dead zone and the saturation, which no stage regulates).
+NEAR_ZERO = 0.1
+
+
+def band_envelope(
+    bands: Mapping[str, Any],
+    visited: Mapping[str, Any] | None = None,
+    k2: float | None = None,
+    near_zero: float = NEAR_ZERO,
+) -> dict:
     """Mode → ``delta``, the bands' largest relative half-width over the visited pressures.
 
     Parameters
@@ -218,14 +230,19 @@ def band_envelope(bands: Mapping[str, Any], visited: Mapping[str, Any] | None = 
         ``params.yaml``'s ``laws: bands:`` (:meth:`LawBands.to_dict`).
     visited : mapping, optional
         ``laws: visited:`` (mode → ``[lo, hi]``, bar); the whole grid when absent.
+    k2 : float, optional
+        The laws' supply (bar): with it, the pressures within ``near_zero*k2`` of each law's
+        zero are left out (:data:`NEAR_ZERO`); without it, none.
+    near_zero : float, optional
+        That share of ``k2``, in [0, 0.5).
 
     Returns
     -------
     dict
         ``{"open": delta, "closed": delta}`` with ``log(1 + delta)`` the largest of
-        ``|log(edge/rate)|`` over both edges and the visited grid points: every visited point
-        of the band lies within ``rate*(1 + delta)**(±1)``. NaN for a mode without a finite
-        band point.
+        ``|log(edge/rate)|`` over both edges and the visited grid points kept: every such
+        point of the band lies within ``rate*(1 + delta)**(±1)``. NaN for a mode without a
+        finite band point.
 
     Examples
     --------
@@ -234,8 +251,15 @@ def band_envelope(bands: Mapping[str, Any], visited: Mapping[str, Any] | None = 
     ...      "hi": [-.9, -.9, -.9]}}
     >>> {k: round(v, 3) for k, v in band_envelope(b, {"open": [0.15, 0.25]}).items()}
     {'open': 0.25, 'closed': 0.111}
+    >>> round(band_envelope(b, k2=0.3, near_zero=0.2)["open"], 3)  # 0.3 is next to k2
+    1.0
     """
     grid = np.asarray(bands["grid"], dtype=np.float64)
+    if not 0.0 <= near_zero < 0.5:
+        raise ValueError(f"near_zero must be in [0, 0.5), got {near_zero!r}")
+    kept = {m: np.ones(grid.shape, dtype=bool) for m in MODES}
+    if k2 is not None and math.isfinite(k2) and k2 > 0.0:
+        kept = {"open": grid <= (1.0 - near_zero) * k2, "closed": grid >= near_zero * k2}
     out = {}
     for mode in MODES:
         rec = bands[mode]
@@ -246,6 +270,8 @@ def band_envelope(bands: Mapping[str, Any], visited: Mapping[str, Any] | None = 
             inside = (grid >= span[0]) & (grid <= span[1])
             if inside.any():
                 use = inside
+        if (use & kept[mode]).any():
+            use = use & kept[mode]
         with np.errstate(invalid="ignore", divide="ignore"):
             dev = np.maximum(np.abs(np.log(lo / rate)), np.abs(np.log(hi / rate)))
         dev = dev[use & np.isfinite(dev)]
