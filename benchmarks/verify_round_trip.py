@@ -129,28 +129,39 @@ def round_trip(name: str, root: Path, full: bool) -> list[str]:
         f"{t_id:.0f} s; {delays}; promise made: {bool(promise.get('kept'))}"
     ]
     for tag, on in (("same", plant), ("2x slower", slower(plant, 2.0))):
-        vfolder = root / f"{name}-verify-{tag.replace(' ', '')}"
-        code, text = _cli(
-            "plan", vfolder, "--verify", results, "--p-max", f"{limits.p_max:g}",
-            "--levels", "4", "--baud", "250000",
-        )  # fmt: skip
-        if code != 0:
-            raise RuntimeError(text)
-        noise = np.random.default_rng(5).normal(0.0, on.noise, session_ticks(vfolder))
-        stream, _ = play_on_physical(vfolder, on, noise)
-        log = root / f"{vfolder.name}.txt"
-        log.write_text(stream)
-        code, text = _cli("record", vfolder, "--stream", log)
-        if code != 0:
-            raise RuntimeError(text)
-        frame = pd.read_csv(vfolder / "verification.csv")
-        parts = []
-        for part in ("recommendation", "promise"):
-            rows = frame[frame["part"] == part]
-            kept = int((rows["verdict"] == "kept").sum())
-            parts.append(f"{part} {kept} of {len(rows)} kept")
-        lines.append(f"  on the {tag} plant: " + "; ".join(parts))
+        vfolder = verify_on(root / f"{name}-verify-{tag.replace(' ', '')}", results, limits, on)
+        lines.append(f"  on the {tag} plant: " + "; ".join(kept_parts(vfolder)))
     return lines
+
+
+def verify_on(vfolder: Path, results: Path, limits: Limits, on) -> Path:
+    """``spa plan --verify`` of ``results`` into ``vfolder``, played on the plant ``on`` in C
+    and recorded (``verification.csv``)."""
+    code, text = _cli(
+        "plan", vfolder, "--verify", results, "--p-max", f"{limits.p_max:g}",
+        "--levels", "4", "--baud", "250000",
+    )  # fmt: skip
+    if code != 0:
+        raise RuntimeError(text)
+    noise = np.random.default_rng(5).normal(0.0, on.noise, session_ticks(vfolder))
+    stream, _ = play_on_physical(vfolder, on, noise)
+    log = vfolder.parent / f"{vfolder.name}.txt"
+    log.write_text(stream)
+    code, text = _cli("record", vfolder, "--stream", log)
+    if code != 0:
+        raise RuntimeError(text)
+    return vfolder
+
+
+def kept_parts(vfolder: Path) -> list[str]:
+    """Each part's count of kept predictions in ``vfolder/verification.csv``."""
+    frame = pd.read_csv(vfolder / "verification.csv")
+    parts = []
+    for part in ("recommendation", "promise"):
+        rows = frame[frame["part"] == part]
+        kept = int((rows["verdict"] == "kept").sum())
+        parts.append(f"{part} {kept} of {len(rows)} kept")
+    return parts
 
 
 def round_trip_model(name: str, root: Path) -> list[str]:
@@ -273,23 +284,10 @@ def round_trip_pipeline(name: str, root: Path) -> list[str]:
         f"{name} (pipeline, {len(design.runs)} runs): reproduce-all "
         f"{time.perf_counter() - t0:.0f} s; laws {laws}"
     ]
-    folders = {}
-    for tag, on in (("same", plant), ("2x slower", slower(plant, 2.0))):
-        vfolder = root / "raw" / f"{name}-verify-{tag.replace(' ', '')}"
-        code, text = _cli(
-            "plan", vfolder, "--verify", results, "--p-max", f"{limits.p_max:g}",
-            "--levels", "4", "--baud", "250000",
-        )  # fmt: skip
-        if code != 0:
-            raise RuntimeError(text)
-        noise = np.random.default_rng(5).normal(0.0, on.noise, session_ticks(vfolder))
-        stream, _ = play_on_physical(vfolder, on, noise)
-        log = root / f"{vfolder.name}.txt"
-        log.write_text(stream)
-        code, text = _cli("record", vfolder, "--stream", log)
-        if code != 0:
-            raise RuntimeError(text)
-        folders[tag] = vfolder
+    folders = {
+        tag: verify_on(root / "raw" / f"{name}-verify-{tag.replace(' ', '')}", results, limits, on)
+        for tag, on in (("same", plant), ("2x slower", slower(plant, 2.0)))
+    }
     failed = reproduce_all(root, strict=False)
     lines += [f"  the pipeline on the verification: {line}" for line in failed]
     for tag, vfolder in folders.items():
@@ -300,14 +298,8 @@ def round_trip_pipeline(name: str, root: Path) -> list[str]:
             for h in ("Verification: the recommendation", "Verification: the closed loop")
             if h in html
         ]
-        frame = pd.read_csv(vfolder / "verification.csv")
-        parts = []
-        for part in ("recommendation", "promise"):
-            rows = frame[frame["part"] == part]
-            kept = int((rows["verdict"] == "kept").sum())
-            parts.append(f"{part} {kept} of {len(rows)} kept")
         lines.append(
-            f"  on the {tag} plant: " + "; ".join(parts)
+            f"  on the {tag} plant: " + "; ".join(kept_parts(vfolder))
             + f"; its page {'shows' if heads else 'MISSING'} {', '.join(heads) or 'the verdicts'}"
         )
     return lines
