@@ -45,14 +45,20 @@ def law_model(
     """Block means of the exact model's pressure at the run's samples, under ``prm``'s laws.
 
     The paper's laws (``prm.laws is None``) go through the refinement's own replay
-    (:meth:`RefineRun.model`); general laws through their time maps with ``nodes`` per mode.
+    (:meth:`RefineRun.model`); general laws through their time maps with ``nodes`` per mode,
+    from the same command runs (:attr:`RefineRun.command_starts`: an edge logged off the
+    log's ticks moves alike under either laws).
     """
     dl = prm.delay if delay is None else delay
     if prm.laws is None:
         return run.model(prm, dl)
     hold = np.where(run.level, prm.t_on, prm.t_off)
     hold[0] = 0.0
-    p = law_replay(run.t, run.starts, run.level, hold, run.p0, prm, delay=dl, nodes=nodes)
+    counts = run.samples_per_command if dl == "hold" else None
+    p = law_replay(
+        run.t, run.command_starts, run.level, hold, run.p0, prm, delay=dl, nodes=nodes,
+        counts=counts,
+    )  # fmt: skip
     return block_means(p, run.block)
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import pandas as pd
@@ -120,13 +121,28 @@ class RefineRun:
     timing: EdgeTiming = field(default_factory=lambda: EdgeTiming("undecided", "", 0.0))
     edge_shift: FloatArray = field(default_factory=lambda: np.zeros(0), repr=False)
 
+    @cached_property
+    def command_starts(self) -> FloatArray:
+        """The command runs' start times the model replays: :attr:`starts` less
+        :attr:`edge_shift` (the same for the paper's laws and the actuator's own)."""
+        if self.edge_shift.size == self.starts.size and self.edge_shift.any():
+            return self.starts - self.edge_shift
+        return self.starts
+
+    @cached_property
+    def samples_per_command(self) -> np.ndarray:
+        """Samples of :attr:`t` in each command run of :attr:`command_starts` (the first
+        run takes the samples before it): the hold convention's segments, which no
+        parameter moves."""
+        starts = self.command_starts
+        j = np.maximum(np.searchsorted(starts, self.t, side="right") - 1, 0)
+        return np.bincount(j, minlength=starts.size)
+
     def model(self, prm: ValveParams, delay: str = "hold") -> FloatArray:
         """Block means of the exact model's pressure at the run's sample times."""
         hold = np.where(self.level, prm.t_on, prm.t_off)
         hold[0] = 0.0
-        starts, level = self.starts, self.level
-        if self.edge_shift.size == starts.size and self.edge_shift.any():
-            starts = starts - self.edge_shift
+        starts, level = self.command_starts, self.level
         if delay == "transport":
             starts, level = transport_runs(starts, level, hold)
             hold = np.zeros(starts.size)

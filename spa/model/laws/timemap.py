@@ -199,6 +199,28 @@ def _mode(params: ValveParams, on: bool, nodes: int) -> _Mode:
     )
 
 
+def _mode_valve(params: ValveParams, on: bool) -> ValveParams:
+    """``params`` with every field the mode's table does not read set to a fixed value: the
+    charge's table reads ``k2``, ``tau2`` and ``log_g``; the discharge's ``k2``, ``c1``,
+    ``log_h`` and ``m``. Neither reads the delays. So a fit's finite difference in one
+    mode's coefficients, or in a delay, rebuilds no table of the other mode."""
+    from spa.model.params import ValveParams
+
+    lw = valve_laws(params)
+    zeros = (0.0,) * len(lw.knots)
+    if on:
+        laws = type(lw)(log_g=lw.log_g, log_h=zeros, m=0.5, knots=lw.knots)
+        return ValveParams(c1=1.0, k2=params.k2, tau2=params.tau2, t_on=0.0, t_off=0.0, laws=laws)
+    laws = type(lw)(log_g=zeros, log_h=lw.log_h, m=lw.m, knots=lw.knots)
+    return ValveParams(c1=params.c1, k2=params.k2, tau2=1.0, t_on=0.0, t_off=0.0, laws=laws)
+
+
+@lru_cache(maxsize=128)
+def _cached_mode(params: ValveParams, on: bool, nodes: int) -> _Mode:
+    """:func:`_mode` of a valve reduced to what the mode reads (:func:`_mode_valve`)."""
+    return _mode(params, on, nodes)
+
+
 #: Valves whose time maps stay cached: a closed loop's promise runs the estimate and the 32
 #: corners of its box at once (about 7 MB each at :data:`NODES`).
 _CACHED = 64
@@ -218,7 +240,9 @@ def law_tables(params: ValveParams, nodes: int = NODES) -> LawTables:
         ``nodes**-4``, so a fit's trial valves may use a sixteenth of it
         (:data:`FIT_NODES`, about 1e-6 bar, built in about 10 ms).
     """
-    charge, discharge = _mode(params, True, nodes), _mode(params, False, nodes)
+    charge, discharge = _cached_mode(_mode_valve(params, True), True, nodes), _cached_mode(
+        _mode_valve(params, False), False, nodes
+    )
     g_top, h_top = law_rates(params.k2, params)
     return LawTables(
         k2=params.k2,
@@ -282,7 +306,9 @@ def law_segment_pressure(
     """
     tab = law_tables(params, nodes)
     lv, p0, e, counts, shape = _per_run(on, p_start, elapsed, repeats)
-    t0 = np.where(lv, tab.charge.forward(p0, tab.k2), tab.discharge.forward(p0, tab.k2))
+    t0 = np.empty(p0.shape)
+    t0[lv] = tab.charge.forward(p0[lv], tab.k2)
+    t0[~lv] = tab.discharge.forward(p0[~lv], tab.k2)
     high = ~lv & (p0 > tab.k2)
     if np.any(high):
         t0[high] = -_reach_k2(tab, p0[high])
@@ -350,9 +376,14 @@ def law_replay(
     *,
     delay: str = "hold",
     nodes: int = NODES,
+    counts: npt.NDArray[np.int64] | None = None,
 ) -> npt.NDArray[np.float64]:
     """:func:`spa.model.plant.replay` for a valve with general laws, at sorted times ``t``,
-    with time maps of ``nodes`` per mode (:data:`FIT_NODES` for a fit's trial valves)."""
+    with time maps of ``nodes`` per mode (:data:`FIT_NODES` for a fit's trial valves).
+
+    ``counts``, the samples of ``t`` in each command run (the first takes those before
+    it), saves the search when the caller already holds them; the hold convention's only:
+    a transport delay moves the runs."""
     from spa.model.plant import transport_runs
 
     if delay == "transport":
@@ -361,7 +392,8 @@ def law_replay(
     ends = np.append(starts[1:], np.inf)
     active = np.maximum(ends - starts - hold, 0.0)
     p_start = law_run_start_pressures(level, active, p0, params, nodes)
-    j = np.maximum(np.searchsorted(starts, t, side="right") - 1, 0)
-    counts = np.bincount(j, minlength=starts.size)
+    if counts is None or delay == "transport":
+        j = np.maximum(np.searchsorted(starts, t, side="right") - 1, 0)
+        counts = np.bincount(j, minlength=starts.size)
     elapsed = t - np.repeat(starts + hold, counts)
     return law_segment_pressure(level, p_start, elapsed, params, counts, nodes)
