@@ -5,6 +5,7 @@ recording on the same valve keeps them, on a valve 2x slower they read broken.""
 from __future__ import annotations
 
 import io
+import math
 from contextlib import redirect_stdout
 
 import numpy as np
@@ -129,3 +130,31 @@ def test_verdict_gives_the_amount_and_its_sign():
     assert verdict(1.0, 0.0, 2.0, "bar") == "kept"
     assert verdict(-0.25, 0.0, 2.0, "bar") == "broken by -0.25 bar"
     assert verdict(float("nan"), 0.0, 1.0, "bar") == "not measured"
+
+
+@pytest.mark.parametrize("margin", [1.0, 3.0])
+def test_the_verifications_drift_checks_keep_the_plans_margins(margin):
+    """The drift checks' charges are held 6 tau2 of a valve ``margin`` times slower than
+    the identified one: with the default margin, a valve twice slower still fills (its own
+    recordings identify it); with no margin, it does not."""
+    from spa.model.modulators import Modulator
+    from spa.plan.verify import design_verification
+
+    valve = NOMINAL
+    design = design_verification(
+        valve, Modulator.from_mapping({"type": "pwm", "f_w": 20.0}), Limits(p_max=1.0),
+        levels=4, margin=margin,
+    )  # fmt: skip
+    charges = [r for r in design.runs if r.kind == "charge"]
+    assert {r.block for r in charges} == {"start", "end"}
+    open_s = [sum(s.ticks for s in r.segments if s.a == 1.0) * design.dt for r in charges]
+    slower = scaled(valve, 2.0)
+    filled = [1.0 - math.exp(-t / slower.tau2) for t in open_s]
+    if margin >= 3.0:
+        assert min(filled) > 0.999
+    else:
+        assert max(filled) < 0.99
+    default = design_verification(
+        valve, Modulator.from_mapping({"type": "pwm", "f_w": 20.0}), Limits(p_max=1.0), levels=4
+    )
+    assert [r.id for r in default.runs] == [r.id for r in design.runs]

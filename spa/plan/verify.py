@@ -64,10 +64,17 @@ def design_verification(
     replicates: int = 3,
     seed: int = 0,
     promise: Mapping[str, Any] | None = None,
+    margin: float = 3.0,
 ) -> SessionDesign:
     """The verification session: the recommended setting only, on the identified valve;
     with ``promise`` (``controllers.yaml``'s ``bench.promise``), ``replicates`` closed-loop
-    staircases of the exported controller (:func:`closed_loop_runs`) before the drift check."""
+    staircases of the exported controller (:func:`closed_loop_runs`) before the drift check.
+
+    The drift checks (charge, discharge and pulses at the start and the end) keep a first
+    session's margins: sized for valves ``margin`` times slower and faster than the
+    identified one, so that the verification's own recordings identify the valve they
+    were made on even when it is not the one identified (the case a verification exists
+    to catch)."""
     design = design_session(
         params,
         limits,
@@ -78,7 +85,7 @@ def design_verification(
         settings=[],
         recommended=recommended.bind(params),
         precondition=1,
-        margin=1.0,
+        margin=margin,
     )
     if promise is None:
         return design
