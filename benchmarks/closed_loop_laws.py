@@ -130,23 +130,14 @@ def balloons() -> None:
     from spa.datasets import read_runs
     from spa.identification import identify_with_config, load_params
     from spa.identification.identified import read_identified
-    from spa.synthetic.balloons import BALLOON_SEEDS, compliant_balloons
+    from spa.synthetic.balloons import BALLOON_SEEDS, SHORT_SESSION, compliant_balloons
     from spa.synthetic.physical import close_loop_in_c, measure_staircase
     from spa.synthetic.runs import generate_dataset
 
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     closed = {**config["closed_loop"], "levels_fraction": [0.2, 0.4, 0.6]}
-    modulators = [
-        {"type": "pwm", "f_w": 5.0},
-        {"type": "iipfm", "t_l": 0.06, "gain": 1.25},
-        {"type": "dsm", "period": 0.05},
-    ]
-    experiments = {
-        "identification": {"charge_time": 4.0, "discharge_time": 3.0, "repeats": 2},
-        "staircase": {"step": 0.2, "hold": 3.0},
-        "sine": {"frequency": 0.2, "amplitudes": [0.4, 0.2], "periods_per_level": 1,
-                 "offset": 0.5, "settle": 2.0},
-    }  # fmt: skip
+    modulators = SHORT_SESSION["modulators"]
+    experiments = SHORT_SESSION["experiments"]
     for name, plant in compliant_balloons().items():
         cfg = {"plant": {"kind": "physical", **plant.to_mapping()}, "controller_dt": 1e-3,
                "sensor": {"fs": 1000.0}, "modulators": modulators}  # fmt: skip

@@ -21,7 +21,7 @@ from spa.closedloop.promise import design_for_dataset, promise_kept
 from spa.identification import identify_with_config, load_params
 from spa.identification.identified import read_identified
 from spa.model.modulators import Modulator
-from spa.synthetic.balloons import BALLOON_SEEDS, compliant_balloons
+from spa.synthetic.balloons import BALLOON_SEEDS, SHORT_SESSION, compliant_balloons
 from spa.synthetic.physical import close_loop_in_c, measure_staircase
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,19 +29,8 @@ CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
 CLOSED_LOOP = {**CONFIG["closed_loop"], "levels_fraction": [0.2, 0.4, 0.6]}
 DT = 1e-3
 NAME = "balloon-06"
-MODULATORS = [
-    {"type": "pwm", "f_w": 5.0},
-    {"type": "iipfm", "t_l": 0.06, "gain": 1.25},
-    {"type": "dsm", "period": 0.05},
-]
-EXPERIMENTS = {
-    "identification": {"charge_time": 4.0, "discharge_time": 3.0, "repeats": 2},
-    "staircase": {"step": 0.2, "hold": 3.0},
-    "sine": {
-        "frequency": 0.2, "amplitudes": [0.4, 0.2], "periods_per_level": 1, "offset": 0.5,
-        "settle": 2.0,
-    },
-}  # fmt: skip
+MODULATORS = SHORT_SESSION["modulators"]
+EXPERIMENTS = SHORT_SESSION["experiments"]
 
 _HARNESS = r"""
 #include <stdio.h>

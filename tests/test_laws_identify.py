@@ -9,20 +9,10 @@ import pytest
 from spa.identification import identify_with_config, load_params
 from spa.identification.identified import read_identified
 from spa.model.params import ValveParams
+from spa.synthetic.balloons import SHORT_SESSION
 
-MODULATORS = [
-    {"type": "pwm", "f_w": 5.0},
-    {"type": "iipfm", "t_l": 0.06, "gain": 1.25},
-    {"type": "dsm", "period": 0.05},
-]
-EXPERIMENTS = {
-    "identification": {"charge_time": 4.0, "discharge_time": 3.0, "repeats": 2},
-    "staircase": {"step": 0.2, "hold": 3.0},
-    "sine": {
-        "frequency": 0.2, "amplitudes": [0.4, 0.2], "periods_per_level": 1, "offset": 0.5,
-        "settle": 2.0,
-    },
-}  # fmt: skip
+MODULATORS = SHORT_SESSION["modulators"]
+EXPERIMENTS = SHORT_SESSION["experiments"]
 
 
 def _dataset(tmp_path, cfg: dict, name: str, seed: int):

@@ -20,6 +20,7 @@ __all__ = [
     "BALLOON_SEEDS",
     "COMPLIANT_GROWTH",
     "LOW_SUPPLY",
+    "SHORT_SESSION",
     "balloon",
     "compliant_balloons",
     "compliant_low_supply",
@@ -34,6 +35,29 @@ LOW_SUPPLY = 0.8
 #: A compliant chamber's volume growth per bar, as a fraction of its volume at 0 bar: at
 #: least this.
 COMPLIANT_GROWTH = 1.0
+
+#: A short session on a balloon (about a minute of logs a run), the quick dataset of the
+#: tests and benchmarks that identify a balloon end to end: three modulators at a balloon's
+#: scale and the experiments' sizes (``generate_dataset``'s ``modulators`` and
+#: ``experiments``). The full configuration's balloon datasets record longer ones.
+SHORT_SESSION: dict = {
+    "modulators": [
+        {"type": "pwm", "f_w": 5.0},
+        {"type": "iipfm", "t_l": 0.06, "gain": 1.25},
+        {"type": "dsm", "period": 0.05},
+    ],
+    "experiments": {
+        "identification": {"charge_time": 4.0, "discharge_time": 3.0, "repeats": 2},
+        "staircase": {"step": 0.2, "hold": 3.0},
+        "sine": {
+            "frequency": 0.2,
+            "amplitudes": [0.4, 0.2],
+            "periods_per_level": 1,
+            "offset": 0.5,
+            "settle": 2.0,
+        },
+    },
+}
 
 _PATM = 1.01325
 _T0 = 293.15
