@@ -32,24 +32,15 @@ VALVES = {
 }
 
 
-@pytest.mark.parametrize("name", list(VALVES))
-def test_round_trip_identifies_the_delays_within_one_step(name, tmp_path):
-    truth, noise = VALVES[name]
-    prior = prior_from_numbers(truth.k2, 5 * truth.tau2)  # what the lab knows
-    limits = Limits(p_max=1.25 * truth.k2)
-    design = design_session(prior, limits, pilot=True, precondition=1)
-    folder = tmp_path / name
+def _record_and_identify(tmp_path, design, plant, p_max: float, noise: np.ndarray) -> dict:
+    """The session from its plan to its identification, as a lab runs it: the plan's folder,
+    the C player closed on ``plant`` (commands -> pressure), its stream through spa record
+    and spa validate with no edit, then the identification of the recordings (its
+    ``to_dict()``). Asserts the player issued the plan's commands and every run recorded."""
+    folder = tmp_path / "session"
     write_plan(folder, design)
     exe = build_harness(folder, tmp_path / "player")
-    rng = np.random.default_rng(1)
-    n = planned_commands(design).size
-    stream, cmds, _ = play_session(
-        exe,
-        design,
-        lambda u: simulate(u, design.dt, truth),
-        calibration_for(limits.p_max),
-        rng.normal(0.0, noise, n),
-    )
+    stream, cmds, _ = play_session(exe, design, plant, calibration_for(p_max), noise)
     assert np.array_equal(cmds, planned_commands(design))
     report = record_stream(folder, stream.splitlines())
     assert all(line.endswith("ok") for line in report), report
@@ -59,7 +50,23 @@ def test_round_trip_identifies_the_delays_within_one_step(name, tmp_path):
     ingest_dataset(folder, tmp_path / "runs")
     runs, metas = read_runs(tmp_path / "runs")
     res = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, metas=metas)
-    out = res.to_dict()
+    return res.to_dict()
+
+
+@pytest.mark.parametrize("name", list(VALVES))
+def test_round_trip_identifies_the_delays_within_one_step(name, tmp_path):
+    truth, noise = VALVES[name]
+    prior = prior_from_numbers(truth.k2, 5 * truth.tau2)  # what the lab knows
+    limits = Limits(p_max=1.25 * truth.k2)
+    design = design_session(prior, limits, pilot=True, precondition=1)
+    n = planned_commands(design).size
+    out = _record_and_identify(
+        tmp_path,
+        design,
+        lambda u: simulate(u, design.dt, truth),
+        limits.p_max,
+        np.random.default_rng(1).normal(0.0, noise, n),
+    )
     for delay in ("t_on", "t_off"):
         est = out[delay]
         true = getattr(truth, delay)
@@ -97,26 +104,15 @@ def test_round_trip_on_the_full_configs_physical_plants(name, tmp_path):
     prior = prior_from_numbers(plant.supply, 5 * equivalent.tau2)
     limits = Limits(p_max=1.25 * plant.supply)
     design = design_session(prior, limits, pilot=True, precondition=1)
-    folder = tmp_path / name
-    write_plan(folder, design)
-    exe = build_harness(folder, tmp_path / "player")
     n = planned_commands(design).size
-    stream, cmds, _ = play_session(
-        exe,
+    out = _record_and_identify(
+        tmp_path,
         design,
         lambda u: run_plant_in_c(plant, u, design.dt)[1],
-        calibration_for(limits.p_max),
+        limits.p_max,
         np.random.default_rng(2).normal(0.0, plant.noise, n),
     )
-    assert np.array_equal(cmds, planned_commands(design))
-    assert all(line.endswith("ok") for line in record_stream(folder, stream.splitlines()))
-    buf = io.StringIO()
-    with redirect_stdout(buf):
-        assert main(["validate", str(folder)]) == 0, buf.getvalue()
-    ingest_dataset(folder, tmp_path / "runs")
-    runs, metas = read_runs(tmp_path / "runs")
-    out = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, metas=metas)
-    k2 = out.to_dict()["k2"]["value"]
+    k2 = out["k2"]["value"]
     assert abs(k2 - plant.supply) < 0.1 * plant.supply, (name, k2)
 
 
@@ -131,26 +127,14 @@ def test_a_nominal_plan_recorded_on_a_valve_three_times_off_still_identifies(fac
     limits = Limits(p_max=1.0)
     design = design_session(ValveParams(), limits, pilot=True, precondition=1)
     assert design.margins["time_scale"] >= 3.0
-    folder = tmp_path / "session"
-    write_plan(folder, design)
-    exe = build_harness(folder, tmp_path / "player")
     n = planned_commands(design).size
-    stream, cmds, _ = play_session(
-        exe,
+    got = _record_and_identify(
+        tmp_path,
         design,
         lambda u: simulate(u, design.dt, truth),
-        calibration_for(limits.p_max),
+        limits.p_max,
         np.random.default_rng(4).normal(0.0, 0.003, n),
     )
-    assert np.array_equal(cmds, planned_commands(design))
-    assert all(line.endswith("ok") for line in record_stream(folder, stream.splitlines()))
-    buf = io.StringIO()
-    with redirect_stdout(buf):
-        assert main(["validate", str(folder)]) == 0, buf.getvalue()
-    ingest_dataset(folder, tmp_path / "runs")
-    runs, metas = read_runs(tmp_path / "runs")
-    out = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, metas=metas)
-    got = out.to_dict()
     for name in ("c1", "k2", "tau2", "t_on", "t_off"):
         est, true = got[name], getattr(truth, name)
         assert est["fallback"] is None, (name, est)
