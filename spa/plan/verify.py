@@ -8,8 +8,10 @@ levels and hold), played by the player through the exported ``controller.h``.
 :func:`promise_predictions` states the promise as bands and :func:`compare_promise` measures
 a recorded closed-loop staircase against them.
 :func:`staircase_predictions` predicts each level's pressure and the staircase's FIT with a
-95 % band: the planned command (open loop: the same on any plant) simulated at every corner
-of the identification's 95 % box, widened by the sensor noise on the level's mean.
+95 % band: the planned command (open loop: the same on any plant) simulated on the
+identified valve and at every corner of the identification's 95 % box (:func:`corners`),
+widened by the model's error measured on the identification's own recordings
+(:mod:`spa.plan.verify_error`) and by the sensor noise on the level's mean.
 :func:`compare` measures a recorded staircase the same way and says, for each prediction,
 "kept" (inside its band) or "broken by ..." with the amount.
 """
