@@ -127,3 +127,25 @@ def test_the_box_corners_keep_the_valves_laws(session):
     pred = staircase_predictions(stair, dt, valve, box, NOISE, QUANTUM)
     p, lo, hi = (np.asarray(pred[k]) for k in ("p", "lo", "hi"))
     assert ((lo <= p) & (p <= hi)).all()  # the estimate lies inside its own band
+
+
+def test_the_plan_measures_the_error_on_results_runs(session, tmp_path):
+    from spa.datasets.runtable import write_run_table
+    from spa.plan.command import _model_error
+
+    dt, stair, _ = session
+    results = tmp_path / "results" / "bench"
+    said = _model_error(results, NOMINAL)
+    assert said["level_bar"] == 0.0 and "not measured: no run tables" in said["measured_on"]
+    (results / "runs").mkdir(parents=True)
+    meta = {
+        "dataset": "bench",
+        "run": "st",
+        "kind": "staircase",
+        "origin": "bench",
+        "modulator": {"type": "pwm", "f_w": 20.0},
+    }
+    write_run_table(results / "runs" / "st.parquet", _recorded(stair, dt, 0.009), meta)
+    err = _model_error(results, NOMINAL)
+    assert err["level_bar"] == pytest.approx(0.009, abs=1e-4)
+    assert str(results / "runs") in err["measured_on"]
