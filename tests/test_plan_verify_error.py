@@ -138,6 +138,7 @@ def test_the_plan_measures_the_error_on_results_runs(session, tmp_path):
     said = _model_error(results, NOMINAL)
     assert said["level_bar"] == 0.0 and "not measured: no run tables" in said["measured_on"]
     (results / "runs").mkdir(parents=True)
+    assert "not measured: no run tables" in _model_error(results, NOMINAL)["measured_on"]
     meta = {
         "dataset": "bench",
         "run": "st",

@@ -307,7 +307,7 @@ def _model_error(results: Path, params: Any) -> dict[str, Any]:
     from spa.plan.verify_error import no_model_error, recorded_model_error
 
     folder = results / "runs"
-    if not folder.is_dir():
+    if not folder.is_dir() or not any(folder.glob("*.parquet")):
         return no_model_error(f"no run tables in {folder}")
     runs, metas = read_runs(folder)
     return recorded_model_error(runs, metas, params, where=str(folder))
