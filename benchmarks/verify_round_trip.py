@@ -102,8 +102,8 @@ def round_trip(name: str, root: Path, full: bool) -> list[str]:
     folder = root / name
     write_plan(folder, design)
     record(folder, plant, 2)
-    ingest_dataset(folder, root / f"{name}-runs")
-    runs, metas = read_runs(root / f"{name}-runs")
+    ingest_dataset(folder, root / "results" / name / "runs")  # as the pipeline's runs stage
+    runs, metas = read_runs(root / "results" / name / "runs")
     t0 = time.perf_counter()
     kinds = {k: m["kind"] for k, m in metas.items()}
     identified = identify_with_config(runs, kinds, metas=metas).to_dict()
@@ -198,8 +198,8 @@ def round_trip_model(name: str, root: Path) -> list[str]:
     code, text = _cli("validate", folder)
     if code != 0:
         raise RuntimeError(text)
-    ingest_dataset(folder, root / f"{name}-runs")
-    runs, metas = read_runs(root / f"{name}-runs")
+    ingest_dataset(folder, root / "results" / name / "runs")
+    runs, metas = read_runs(root / "results" / name / "runs")
     identified = identify_with_config(
         runs, {k: m["kind"] for k, m in metas.items()}, metas=metas
     ).to_dict()

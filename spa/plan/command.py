@@ -239,16 +239,18 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         promise=promise,
     )
     cal = calibration_for(limits.p_max)
+    error = _model_error(results, valve.params)
+    box = dict(valve.intervals)
     predictions = {
         run.id: staircase_predictions(
-            run, design.dt, valve.params, dict(valve.intervals), noise, cal["bar_per_count"]
+            run, design.dt, valve.params, box, noise, cal["bar_per_count"], error
         )
         for run in design.runs
         if run.kind == "staircase"
     }
     sines = {
         run.id: sine_predictions(
-            run, design.dt, valve.params, dict(valve.intervals), noise, cal["bar_per_count"]
+            run, design.dt, valve.params, box, noise, cal["bar_per_count"], error
         )
         for run in design.runs
         if run.kind == "sine"
@@ -257,6 +259,7 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         "results": str(results),
         "setting": setting.to_mapping(),
         "sensor_noise_bar": noise,
+        "model_error": error,
         "predictions": predictions,
         "sines": sines,
     }
@@ -280,8 +283,34 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         f"{said}",
         file=out,
     )
+    print(
+        "  model error in the bands: levels {:.3g} mbar, FIT {:.3g} points, sine mean {:.3g} "
+        "and amplitude {:.3g} mbar ({})".format(
+            1e3 * error["level_bar"],
+            error["fit_points"],
+            1e3 * error["sine_mean_bar"],
+            1e3 * error["sine_amplitude_bar"],
+            error["measured_on"],
+        ),
+        file=out,
+    )
     print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
     return 0
+
+
+def _model_error(results: Path, params: Any) -> dict[str, Any]:
+    """The identified valve's error on the dataset's own staircases and sines
+    (``results/runs``, the pipeline's run tables), for the verification's bands
+    (:func:`spa.plan.verify_error.recorded_model_error`); every term 0, said so, without
+    them."""
+    from spa.datasets import read_runs
+    from spa.plan.verify_error import no_model_error, recorded_model_error
+
+    folder = results / "runs"
+    if not folder.is_dir() or not any(folder.glob("*.parquet")):
+        return no_model_error(f"no run tables in {folder}")
+    runs, metas = read_runs(folder)
+    return recorded_model_error(runs, metas, params, where=str(folder))
 
 
 def _sensor_noise(identified: Any) -> float:

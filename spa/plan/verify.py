@@ -8,8 +8,10 @@ levels and hold), played by the player through the exported ``controller.h``.
 :func:`promise_predictions` states the promise as bands and :func:`compare_promise` measures
 a recorded closed-loop staircase against them.
 :func:`staircase_predictions` predicts each level's pressure and the staircase's FIT with a
-95 % band: the planned command (open loop: the same on any plant) simulated at every corner
-of the identification's 95 % box, widened by the sensor noise on the level's mean.
+95 % band: the planned command (open loop: the same on any plant) simulated on the
+identified valve and at every corner of the identification's 95 % box (:func:`corners`),
+widened by the model's error measured on the identification's own recordings
+(:mod:`spa.plan.verify_error`) and by the sensor noise on the level's mean.
 :func:`compare` measures a recorded staircase the same way and says, for each prediction,
 "kept" (inside its band) or "broken by ..." with the amount.
 """
@@ -17,7 +19,6 @@ of the identification's 95 % box, widened by the sensor noise on the level's mea
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -50,8 +51,6 @@ __all__ = [
     "verification_frame",
     "verification_page",
 ]
-
-_NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
 
 
 def design_verification(
@@ -185,7 +184,9 @@ def compare_promise(
 ) -> pd.DataFrame:
     """A recorded closed-loop staircase (``t``, ``p``, ``r``, ``valve``) against the promise:
     its worst overshoot, settling time and ripple, measured as spa measures its own
-    (:func:`spa.synthetic.physical.measure_staircase`), each ``kept`` or ``broken by ...``.
+    (:func:`spa.synthetic.physical.measure_staircase`), the settling time each step on its
+    own samples and past what the sensor adds (:func:`spa.plan.settling.settling_times`),
+    each ``kept`` or ``broken by ...``.
 
     ``prediction``: :func:`promise_predictions`'s; ``setting``: the controller's modulator
     (the cycle-mean's window); ``lead``: the seconds at the first level left out; ``made``:
@@ -194,6 +195,7 @@ def compare_promise(
     """
     from spa.closedloop.experiments import step_periods
     from spa.model.modulators import Modulator
+    from spa.plan.settling import settling_times
     from spa.synthetic.physical import measure_staircase
 
     levels = sorted({float(v) for v in run["r"]})
@@ -201,8 +203,10 @@ def compare_promise(
     periods = step_periods(Modulator.from_mapping(dict(setting)), params, levels, dt)
     first = float(run["r"].iloc[0])
     _, summary = measure_staircase(run, periods, r_initial=first, skip=lead)
-    # an unsettled step has no settling time: the promise's is broken by the whole hold left
-    settle = summary["worst_settling_time"] if summary["unsettled"] == 0 else math.inf
+    # each step on its own samples, its band widened by what the sensor adds to the
+    # cycle-mean (spa.plan.settling); an unsettled step has no settling time (inf): the
+    # promise's is broken outright
+    settle = max(settling_times(run, periods, first, lead), default=0.0)
     measured = {
         "overshoot": summary["worst_overshoot"],
         "settling_time": settle,
@@ -256,18 +260,17 @@ def header_step(text: str) -> tuple[str, float]:
 
 
 def corners(params: ValveParams, intervals: Mapping[str, tuple[float, float]]) -> list[ValveParams]:
-    """The valve at every corner of the 95 % box (parameters without an interval keep
-    their value)."""
-    axes = [
-        sorted({float(intervals[n][0]), float(intervals[n][1])})
-        if n in intervals
-        else [float(getattr(params, n))]
-        for n in _NAMES
-    ]
-    return [
-        ValveParams(**dict(zip(_NAMES, combo, strict=True)), delay=params.delay)
-        for combo in itertools.product(*axes)
-    ]
+    """The valve at every corner of the 95 % box, as the design's box has them
+    (:func:`spa.identification.identified.corners`: the valve's own laws kept, the delays
+    moved together by their mean and difference); the estimate alone without intervals.
+
+    Before, the corners were rebuilt from the five numbers alone, so a valve with the
+    actuator's own laws had paper-law corners around a laws estimate: on phys-choked the
+    estimate's level at xi = 0.67 (3.616 bar) lay outside its own band (2.896 to 3.32 bar).
+    """
+    from spa.identification.identified import corners as box_corners
+
+    return box_corners(params, intervals) or [params]
 
 
 def level_means(
@@ -298,15 +301,22 @@ def staircase_predictions(
     intervals: Mapping[str, tuple[float, float]],
     noise: float,
     quantum: float,
+    error: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Each level's predicted pressure and the FIT, with 95 % bands.
+
+    ``error``: the model's error measured on the identification's own recordings
+    (:func:`spa.plan.verify_error.recorded_model_error`; ``level_bar`` and ``fit_points``),
+    added to each band (none when not given).
 
     Returns
     -------
     dict
         ``xi`` (levels), ``hold`` (s), ``p`` (predicted on the identified valve),
-        ``lo``/``hi`` (the band: over the box's corners, widened by ``1.96 noise/sqrt(n)``
-        and half the ADC step), and ``fit`` with ``fit_lo``/``fit_hi``.
+        ``lo``/``hi`` (the band: over the estimate and the box's corners, widened by the
+        model error, ``1.96 noise/sqrt(n)`` and half the ADC step), and ``fit`` with
+        ``fit_lo``/``fit_hi`` (over the same valves, widened by the FIT's model error and
+        half a point).
     """
     from spa import simulate
 
@@ -321,10 +331,17 @@ def staircase_predictions(
     hold = hold_ticks * dt
     nominal, count = level_means(t, simulate(u, dt, params), hold, n)
     box = np.array(
-        [level_means(t, simulate(u, dt, c), hold, n)[0] for c in corners(params, intervals)]
+        [nominal]
+        + [level_means(t, simulate(u, dt, c), hold, n)[0] for c in corners(params, intervals)]
     )
-    widen = 1.96 * noise / np.sqrt(np.maximum(count, 1)) + 0.5 * quantum
-    fits = [_fit(levels, row) for row in box] + [_fit(levels, nominal)]
+    err = error or {}
+    widen = (
+        float(err.get("level_bar", 0.0))
+        + 1.96 * noise / np.sqrt(np.maximum(count, 1))
+        + 0.5 * quantum
+    )
+    fits = [_fit(levels, row) for row in box]
+    fit_widen = float(err.get("fit_points", 0.0)) + 0.5
     return {
         "xi": levels.tolist(),
         "hold": hold,
@@ -332,8 +349,8 @@ def staircase_predictions(
         "lo": (box.min(axis=0) - widen).tolist(),
         "hi": (box.max(axis=0) + widen).tolist(),
         "fit": _fit(levels, nominal),
-        "fit_lo": min(fits) - 0.5,
-        "fit_hi": max(fits) + 0.5,
+        "fit_lo": min(fits) - fit_widen,
+        "fit_hi": max(fits) + fit_widen,
     }
 
 
@@ -375,11 +392,14 @@ def sine_predictions(
     intervals: Mapping[str, tuple[float, float]],
     noise: float,
     quantum: float,
+    error: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The sine's mean pressure and amplitude over its second half, predicted with 95 %
-    bands (over the box's corners, widened by the noise on a least-squares fit of ``n``
-    samples, ``1.96 noise sqrt(2/n)`` on the amplitude and ``1.96 noise/sqrt(n)`` on the
-    mean, and half the ADC step)."""
+    bands (over the estimate and the box's corners, widened by the model error measured on
+    the identification's own sines, ``error``'s ``sine_mean_bar`` and
+    ``sine_amplitude_bar``, by the noise on a least-squares fit of ``n`` samples,
+    ``1.96 noise sqrt(2/n)`` on the amplitude and ``1.96 noise/sqrt(n)`` on the mean, and by
+    half the ADC step)."""
     from spa import simulate
 
     seg = run.segments[0]
@@ -389,11 +409,17 @@ def sine_predictions(
     start = 0.5 * u.size * dt
     nominal = sine_fit(t, simulate(u, dt, params), omega, start)
     box = np.array(
-        [sine_fit(t, simulate(u, dt, c), omega, start)[:2] for c in corners(params, intervals)]
+        [nominal[:2]]
+        + [sine_fit(t, simulate(u, dt, c), omega, start)[:2] for c in corners(params, intervals)]
     )
     n = max(nominal[2], 1)
-    wide_mean = 1.96 * noise / math.sqrt(n) + 0.5 * quantum
-    wide_amp = 1.96 * noise * math.sqrt(2.0 / n) + 0.5 * quantum
+    err = error or {}
+    wide_mean = float(err.get("sine_mean_bar", 0.0)) + 1.96 * noise / math.sqrt(n) + 0.5 * quantum
+    wide_amp = (
+        float(err.get("sine_amplitude_bar", 0.0))
+        + 1.96 * noise * math.sqrt(2.0 / n)
+        + 0.5 * quantum
+    )
     return {
         "omega": omega,
         "start": start,

@@ -27,15 +27,19 @@ _PARTS = {
         "The recommended setting's staircases and sines on the bench: each level's mean "
         "pressure over the second half of its hold and the staircase's FIT, each sine's mean "
         "and fundamental's amplitude over its second half, against the prediction on the "
-        "identified valve. The 95 % band is the prediction over every corner of the "
-        "identification's 95 % box, widened by the sensor noise on the level's mean and half an "
-        "ADC step (the FIT's by half a point). Kept: the measurement lies in its band.",
+        "identified valve. The 95 % band is the prediction on the identified valve and at "
+        "every corner of the identification's 95 % box (the design's corners, with the valve's "
+        "own laws), widened by the model error measured on the dataset's own staircases and "
+        "sines (plan.yaml: verify.model_error), by the sensor noise on the level's mean and by "
+        "half an ADC step (the FIT's by its model error and half a point). Kept: the "
+        "measurement lies in its band.",
     ),
     "promise": (
         "Verification: the closed loop's promise",
         "The closed_loop stage's controller, played through its controller.h on the bench over "
         "the promise's staircase (levels up then down, after one hold at the first): its worst "
-        "overshoot and settling time on the cycle-mean pressure and its worst peak-to-peak "
+        "overshoot and settling time on the cycle-mean pressure (each step's settling on its "
+        "own samples, past what the sensor adds to the cycle-mean) and its worst peak-to-peak "
         "ripple, against the promise (the worst case over the 95 % box and the model error), "
         "widened by the overshoot margin of spa.closedloop.promise and, for the logged ripple, "
         "the sensor noise and one ADC step. Kept: the measurement lies in its band.",

@@ -1,0 +1,152 @@
+"""A verification's bands hold the identified model's own error, measured on the
+identification's recordings (spa.plan.verify_error), and the box's corners keep the valve's
+own laws (spa.plan.verify.corners)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from spa import simulate
+from spa.model.laws import DEFAULT_KNOTS, Laws
+from spa.model.modulators import Modulator
+from spa.model.params import ValveParams
+from spa.plan.limits import Limits
+from spa.plan.session import run_commands, run_xi
+from spa.plan.verify import (
+    compare,
+    compare_sine,
+    corners,
+    design_verification,
+    sine_predictions,
+    staircase_predictions,
+)
+from spa.plan.verify_error import no_model_error, recorded_model_error, sine_omega
+
+NOMINAL = ValveParams()
+NOISE = 0.002
+QUANTUM = 0.001
+
+
+@pytest.fixture(scope="module")
+def session():
+    design = design_verification(
+        NOMINAL, Modulator.from_mapping({"type": "pwm", "f_w": 20.0}), Limits(p_max=1.0), levels=4
+    )
+    stair = next(r for r in design.runs if r.kind == "staircase")
+    sine = next(r for r in design.runs if r.kind == "sine")
+    return design.dt, stair, sine
+
+
+def _recorded(run, dt, shift):
+    """The planned run played on the nominal valve, every sample ``shift`` bar higher."""
+    u = run_commands(run, dt)
+    t = np.arange(u.size) * dt
+    p = simulate(u, dt, NOMINAL) + shift
+    return pd.DataFrame({"t": t, "p": p, "valve": u.astype(np.int8), "u": run_xi(run)})
+
+
+def _levels_kept(table):
+    rows = table[table["prediction"].str.startswith("level")]
+    return (rows["verdict"] == "kept").to_numpy()
+
+
+def test_a_level_shifted_by_less_than_the_model_error_is_kept(session):
+    dt, stair, _ = session
+    error = {"level_bar": 0.02, "fit_points": 0.0}
+    pred = staircase_predictions(stair, dt, NOMINAL, {}, NOISE, QUANTUM, error)
+    bare = staircase_predictions(stair, dt, NOMINAL, {}, NOISE, QUANTUM)
+    within = _recorded(stair, dt, 0.015)
+    assert _levels_kept(compare(pred, within)).all()
+    # the same recording breaks the bands without the model error: the term is what keeps it
+    assert not _levels_kept(compare(bare, within)).any()
+
+
+def test_a_level_shifted_by_clearly_more_than_the_model_error_is_broken(session):
+    dt, stair, _ = session
+    error = {"level_bar": 0.02, "fit_points": 0.0}
+    pred = staircase_predictions(stair, dt, NOMINAL, {}, NOISE, QUANTUM, error)
+    table = compare(pred, _recorded(stair, dt, 0.04))
+    assert not _levels_kept(table).any()
+    levels = table[table["prediction"].str.startswith("level")]
+    assert levels["verdict"].str.startswith("broken by +").all()
+
+
+def test_the_sines_bands_hold_their_model_error(session):
+    dt, _, sine = session
+    error = {"sine_mean_bar": 0.02, "sine_amplitude_bar": 0.0}
+    pred = sine_predictions(sine, dt, NOMINAL, {}, NOISE, QUANTUM, error)
+    kept = compare_sine(pred, _recorded(sine, dt, 0.015))
+    broken = compare_sine(pred, _recorded(sine, dt, 0.04))
+    assert kept.set_index("prediction").loc["sine mean bar", "verdict"] == "kept"
+    assert broken.set_index("prediction").loc["sine mean bar", "verdict"].startswith("broken by +")
+
+
+def test_the_error_is_measured_on_the_recorded_runs(session):
+    dt, stair, sine = session
+    runs = {"st": _recorded(stair, dt, 0.012), "si": _recorded(sine, dt, -0.007)}
+    metas = {"st": {"kind": "staircase"}, "si": {"kind": "sine"}}
+    err = recorded_model_error(runs, metas, NOMINAL)
+    assert err["level_bar"] == pytest.approx(0.012, abs=1e-4)
+    assert err["sine_mean_bar"] == pytest.approx(0.007, abs=1e-4)
+    assert err["sine_amplitude_bar"] < 1e-3  # a shift leaves the fundamental alone
+    assert err["fit_points"] < 0.05  # and the levels' straightness
+    assert "1 staircase(s) and 1 sine(s)" in err["measured_on"]
+    # the valve that made them has no error on them
+    exact = recorded_model_error({"st": _recorded(stair, dt, 0.0)}, metas, NOMINAL)
+    assert exact["level_bar"] < 1e-9
+
+
+def test_a_run_without_the_command_is_named():
+    run = pd.DataFrame({"t": [0.0, 0.1], "p": [0.0, 0.1]})
+    with pytest.raises(
+        ValueError, match=r"run 'x' \(staircase\) has no column\(s\) \['u', 'valve'\]"
+    ):
+        recorded_model_error({"x": run}, {"x": {"kind": "staircase"}}, NOMINAL)
+
+
+def test_no_runs_means_no_error_and_says_so():
+    err = no_model_error("no run tables in results/x/runs")
+    assert err["level_bar"] == 0.0 and err["measured_on"].startswith("not measured")
+
+
+def test_sine_omega_finds_the_frequency():
+    t = np.arange(15000) * 0.002
+    assert sine_omega(t, 0.5 + 0.3 * np.sin(2.7 * t)) == pytest.approx(2.7, rel=2e-3)
+
+
+def test_the_box_corners_keep_the_valves_laws(session):
+    dt, stair, _ = session
+    laws = Laws(
+        log_g=(0.3, 0.1, -0.1, -0.3), log_h=(0.2, 0.0, 0.0, -0.2), m=0.6, knots=DEFAULT_KNOTS
+    )
+    valve = ValveParams(laws=laws)
+    box = {"tau2": (0.95 * valve.tau2, 1.05 * valve.tau2), "c1": (0.95 * valve.c1, 1.05 * valve.c1)}
+    assert all(c.laws == valve.laws for c in corners(valve, box))
+    pred = staircase_predictions(stair, dt, valve, box, NOISE, QUANTUM)
+    p, lo, hi = (np.asarray(pred[k]) for k in ("p", "lo", "hi"))
+    assert ((lo <= p) & (p <= hi)).all()  # the estimate lies inside its own band
+
+
+def test_the_plan_measures_the_error_on_results_runs(session, tmp_path):
+    from spa.datasets.runtable import write_run_table
+    from spa.plan.command import _model_error
+
+    dt, stair, _ = session
+    results = tmp_path / "results" / "bench"
+    said = _model_error(results, NOMINAL)
+    assert said["level_bar"] == 0.0 and "not measured: no run tables" in said["measured_on"]
+    (results / "runs").mkdir(parents=True)
+    assert "not measured: no run tables" in _model_error(results, NOMINAL)["measured_on"]
+    meta = {
+        "dataset": "bench",
+        "run": "st",
+        "kind": "staircase",
+        "origin": "bench",
+        "modulator": {"type": "pwm", "f_w": 20.0},
+    }
+    write_run_table(results / "runs" / "st.parquet", _recorded(stair, dt, 0.009), meta)
+    err = _model_error(results, NOMINAL)
+    assert err["level_bar"] == pytest.approx(0.009, abs=1e-4)
+    assert str(results / "runs") in err["measured_on"]
