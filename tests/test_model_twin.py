@@ -27,7 +27,7 @@ from spa.plan.host import (
 )
 from spa.plan.limits import Limits
 from spa.plan.record import read_plan
-from spa.synthetic._model_c import model_constants, run_model_in_c
+from spa.synthetic._model_c import MODEL_CFLAGS, model_constants, run_model_in_c
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler 'cc'")
 
@@ -59,6 +59,15 @@ def test_the_twin_equals_simulate(name, delay):
         assert p.shape == expected.shape
         assert np.abs(p - expected).max() <= 1e-12, (name, delay, seed)
         assert np.ptp(expected) > 0.5 * valve.k2  # the draw swings the pressure
+
+
+def test_the_twin_builds_under_the_players_strict_flags():
+    """run_model_in_c builds with these (a warning fails the build), as the player does."""
+    strict = {"-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-ffp-contract=off"}
+    assert strict <= set(MODEL_CFLAGS)
+    from spa.plan.host import STRICT
+
+    assert strict <= set(STRICT)
 
 
 def test_the_conventions_differ_and_the_twin_follows_each():
