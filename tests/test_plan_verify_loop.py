@@ -20,15 +20,13 @@ import pytest
 import yaml
 
 from spa.cli import main
-from spa.datasets import ingest_dataset, read_runs
-from spa.identification import identify_with_config
-from spa.io import dump_yaml
 from spa.plan.design import design_session
 from spa.plan.folder import write_plan
 from spa.plan.host import play_on_physical, session_ticks
 from spa.plan.limits import Limits
 from spa.plan.prior import prior_from_numbers
 from spa.plan.record import read_plan, record_stream
+from spa.plan.roundtrip import stages_in_memory, verify_on
 from spa.synthetic.runs import dataset_plant
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -83,24 +81,8 @@ def session(tmp_path_factory):
     assert all(line.endswith("ok") for line in record_stream(folder, stream.splitlines()))
     code, text = _cli("validate", folder)
     assert code == 0, text
-    ingest_dataset(folder, root / "runs")
-    runs, metas = read_runs(root / "runs")
-    kinds = {k: m["kind"] for k, m in metas.items()}
-    identified = identify_with_config(runs, kinds, metas=metas).to_dict()
-    from spa.closedloop.promise import design_for_dataset
-    from spa.identification.identified import read_identified
-    from spa.tuning import tune
-
-    rec = dict(tune(read_identified(identified)).recommendation)
-    selected = CONFIG["analytic"]["selected"]
-    result, bench = design_for_dataset(identified, runs, metas, selected, CLOSED_LOOP, rec)
     results = root / "results" / NAME
-    for sub in ("identification", "tuning", "closed_loop"):
-        (results / sub).mkdir(parents=True)
-    (results / "identification" / "params.yaml").write_text(dump_yaml(identified))
-    (results / "tuning" / "recommendation.yaml").write_text(dump_yaml(rec))
-    (results / "closed_loop" / "controllers.yaml").write_text(dump_yaml(result.controllers))
-    (results / "closed_loop" / "controller.h").write_text(bench.header)
+    stages_in_memory(folder, results, CONFIG["analytic"]["selected"], CLOSED_LOOP)
     return root, plant, results
 
 
@@ -112,29 +94,11 @@ def _per_run(design):
 
 def _verify(session, tag: str, plant, seed: int) -> tuple[Path, pd.DataFrame, str]:
     root, _, results = session
-    folder = root / f"{NAME}-verify-{tag}"
-    code, text = _cli(
-        "plan",
-        folder,
-        "--verify",
-        results,
-        "--p-max",
-        f"{1.25 * plant.supply:g}",
-        "--levels",
-        "4",
-        "--baud",
-        "250000",
-    )
-    assert code == 0, text
-    assert (folder / "player" / "controller.h").is_file()
-    stream, _ = play_on_physical(folder, plant, _noise(folder, plant.noise, seed))
-    log = root / f"{tag}.txt"
-    log.write_text(stream)
-    code, text = _cli("record", folder, "--stream", log)
-    assert code == 0, text
-    code, checked = _cli("validate", folder)
+    done = verify_on(root / f"{NAME}-verify-{tag}", results, plant, 1.25 * plant.supply, seed=seed)
+    assert (done.folder / "player" / "controller.h").is_file()
+    code, checked = _cli("validate", done.folder)
     assert code == 0, checked
-    return folder, pd.read_csv(folder / "verification.csv"), text
+    return done.folder, done.frame, done.record_text
 
 
 def _stepped(header: Path, run: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:

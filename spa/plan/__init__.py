@@ -11,9 +11,10 @@ module             holds
 ``player``         the C99 player header, host harness and sketch
 ``folder``         the plan's folder: plan.yaml, dataset.yaml, checklist, player
 ``record``         the board's stream split into the plan's run files
-``host``           the player compiled on the host and closed on a plant
+``host``           the player compiled on the host and closed on a plant (physical or model)
 ``precision``      the predicted precision, and the runs resized to meet its targets
 ``verify``         a verification session: predictions, bands and verdicts
+``roundtrip``      a recorded session's stages and its verification played on a plant
 =================  ===========================================================
 """
 

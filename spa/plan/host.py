@@ -8,7 +8,9 @@ pressure before it commands, so the loop is solved by iteration: commands → pr
 player's commands, until they repeat (each pass fixes at least one more tick; the player
 only departs from its plan when it vents). :func:`play_on_physical` compiles the player with
 the physical plant's C twin into one program instead, closed tick by tick: the way to play a
-session with closed-loop runs, whose commands follow the pressure.
+session with closed-loop runs, whose commands follow the pressure. :func:`play_on_model` does
+the same on spa's model plant in C (``model_plant.c``, :func:`spa.simulate` stepped tick by
+tick), and :func:`play_on_plant` picks one of the two by the plant given.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from spa.model.params import ValveParams
 from spa.plan.design import SessionDesign
 from spa.plan.session import run_commands
 
@@ -29,7 +32,9 @@ __all__ = [
     "build_harness",
     "counts",
     "planned_commands",
+    "play_on_model",
     "play_on_physical",
+    "play_on_plant",
     "play_session",
     "session_ticks",
 ]
@@ -202,6 +207,109 @@ def session_ticks(folder: str | Path) -> int:
     return sum(round(float(r["seconds"]) / dt) + rest for r in plan["runs"])
 
 
+_ON_MODEL = r"""/* The spa plan player closed on spa's model plant in C (model_plant.c, spa.simulate
+ * stepped tick by tick): the sensor (the model's pressure + noise, ADC counts as declared)
+ * read, the player's tick, the model advanced over the tick with its command. Prints the
+ * board's stream; the valve commands into argv[1]. stdin: the model's constants, then one
+ * noise value (bar) per tick. */
+#include <math.h>
+#include <stdio.h>
+#include "player.h"
+#include "model_plant.h"
+static spa_model_state plant;
+static spa_plan_state s;
+static double next_noise(void) { double v; return scanf("%lf", &v) == 1 ? v : 0.0; }
+static long read_adc(double zero, double bpc, long top)
+{
+    double c = floor((spa_model_pressure(&plant) + next_noise()) / bpc + zero + 0.5);
+    return c < 0.0 ? 0L : (c > (double)top ? top : (long)c);
+}
+int main(int argc, char **argv)
+{
+    FILE *trace = fopen(argc > 1 ? argv[1] : "trace.txt", "w");
+    double c[SPA_MODEL_N_CONST], zero, bpc;
+    long top, adc, q, r, tick;
+    int i, run, valve, log, last;
+    if (trace == NULL) return 2;
+    for (i = 0; i < SPA_MODEL_N_CONST; ++i) {
+        if (scanf("%lf", &c[i]) != 1) return 2;
+    }
+    if (scanf("%lf %lf %ld", &zero, &bpc, &top) != 3) return 2;
+    spa_model_init(&plant, c, SPA_PLAN_DT, 0.0, 0);
+    for (run = 0; run < SPA_PLAN_N_RUNS; ++run) {
+        spa_plan_start(&s, run);
+        printf("R %d\n", run);
+        do {
+            tick = s.k;
+            adc = read_adc(zero, bpc, top);
+            last = spa_plan_tick(&s, adc, &valve, &q, &log);
+            fputc(valve ? '1' : '0', trace);
+            if (log) printf("%lx,%lx,%d,%lx\n", tick & 0xFFFFL, adc, valve, q);
+            if (spa_model_step(&plant, valve) != 0) return 3;
+        } while (!last);
+        printf("E %d %s\n", run, s.vented ? "vent" : "done");
+        for (r = 0; r < SPA_PLAN_REST_TICKS; ++r) {
+            adc = read_adc(zero, bpc, top);
+            fputc('0', trace);
+            if (spa_model_step(&plant, 0) != 0) return 3;
+        }
+    }
+    fclose(trace);
+    return 0;
+}
+"""
+
+
+def _play_compiled(
+    folder: str | Path,
+    main_text: str,
+    plant_source: tuple[Path, Path],
+    head: str,
+    noise: npt.ArrayLike | None,
+    work: str | Path | None,
+    cc: str,
+) -> tuple[str, npt.NDArray[np.int8]]:
+    """Compile ``main_text`` with a folder's player and a plant's C source, and run it: the
+    plant's constants line ``head``, then one noise value per tick played."""
+    compiler = shutil.which(cc)
+    if compiler is None:
+        raise FileNotFoundError(f"no C compiler: {cc!r} is not on PATH")
+    player = Path(folder) / "player"
+    out = Path(work) if work is not None else Path(folder).parent
+    source, header = plant_source
+    main = out / f"on-plant-{Path(folder).name}.c"
+    exe = out / f"on-plant-{Path(folder).name}"
+    main.write_text(main_text, encoding="utf-8")
+    cmd = [compiler, *STRICT, f"-I{player}", f"-I{header.parent}", str(main), str(source)]
+    cmd += ["-o", str(exe), "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if res.returncode != 0:
+        raise RuntimeError(
+            f"building the player on the plant failed ({' '.join(cmd)}):\n{res.stderr}"
+        )
+    n = session_ticks(folder)
+    extra = np.zeros(n) if noise is None else np.asarray(noise, dtype=np.float64)
+    if extra.size < n:
+        raise ValueError(f"noise: {extra.size} values for the {n} ticks the session plays")
+    trace = Path(str(exe) + ".trace")
+    res = subprocess.run(
+        [str(exe), str(trace)],
+        input=head + "\n".join(map(repr, extra[:n].tolist())) + "\n",
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if res.returncode != 0:
+        raise RuntimeError(f"the player on the plant failed (exit {res.returncode}): {res.stderr}")
+    got = (np.frombuffer(trace.read_bytes(), dtype=np.uint8) - ord("0")).astype(np.int8)
+    return res.stdout, got
+
+
+def _calibration_line(cal: dict) -> str:
+    top = 2 ** int(cal["adc_bits"]) - 1
+    return f"{float(cal['zero_counts'])!r} {float(cal['bar_per_count'])!r} {top}\n"
+
+
 def play_on_physical(
     folder: str | Path,
     plant: object,
@@ -247,42 +355,74 @@ def play_on_physical(
     from spa.synthetic._physical_c import c_plant_source
     from spa.synthetic._physical_core import _check_dt, _constants, substeps
 
-    compiler = shutil.which(cc)
-    if compiler is None:
-        raise FileNotFoundError(f"no C compiler: {cc!r} is not on PATH")
     plan = read_plan(folder)
-    cal = plan["calibration"]
     dt = _check_dt(plant, float(plan["tick"]))  # type: ignore[arg-type]
-    player = Path(folder) / "player"
-    out = Path(work) if work is not None else Path(folder).parent
-    source, header = c_plant_source()
-    main = out / f"on-plant-{Path(folder).name}.c"
-    exe = out / f"on-plant-{Path(folder).name}"
-    main.write_text(_ON_PLANT, encoding="utf-8")
-    cmd = [compiler, *STRICT, f"-I{player}", f"-I{header.parent}", str(main), str(source)]
-    cmd += ["-o", str(exe), "-lm"]
-    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if res.returncode != 0:
-        raise RuntimeError(
-            f"building the player on the plant failed ({' '.join(cmd)}):\n{res.stderr}"
-        )
-    n = session_ticks(folder)
-    extra = np.zeros(n) if noise is None else np.asarray(noise, dtype=np.float64)
-    if extra.size < n:
-        raise ValueError(f"noise: {extra.size} values for the {n} ticks the session plays")
-    top = 2 ** int(cal["adc_bits"]) - 1
     head = " ".join(repr(float(v)) for v in _constants(plant))  # type: ignore[arg-type]
-    head += f" {substeps(plant, dt)} {float(cal['zero_counts'])!r} "  # type: ignore[arg-type]
-    head += f"{float(cal['bar_per_count'])!r} {top}\n"
-    trace = Path(str(exe) + ".trace")
-    res = subprocess.run(
-        [str(exe), str(trace)],
-        input=head + "\n".join(map(repr, extra[:n].tolist())) + "\n",
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if res.returncode != 0:
-        raise RuntimeError(f"the player on the plant failed (exit {res.returncode}): {res.stderr}")
-    got = (np.frombuffer(trace.read_bytes(), dtype=np.uint8) - ord("0")).astype(np.int8)
-    return res.stdout, got
+    head += f" {substeps(plant, dt)} " + _calibration_line(plan["calibration"])  # type: ignore[arg-type]
+    return _play_compiled(folder, _ON_PLANT, c_plant_source(), head, noise, work, cc)
+
+
+def play_on_model(
+    folder: str | Path,
+    params: ValveParams,
+    noise: npt.ArrayLike | None = None,
+    work: str | Path | None = None,
+    cc: str = "cc",
+) -> tuple[str, npt.NDArray[np.int8]]:
+    """Compile a plan folder's player with spa's model plant in C (``model_plant.c``:
+    :func:`spa.simulate` of ``params``, stepped tick by tick) and play the whole session
+    closed on it (closed-loop runs included), as :func:`play_on_physical` does on the
+    physical plant. The model starts at 0 bar, settled with the exhaust open; its sensor
+    reads the model's pressure plus ``noise``.
+
+    Parameters
+    ----------
+    folder : path
+        The plan's folder.
+    params : ValveParams
+        The valve, either delay convention; the paper's laws only.
+    noise : array_like, optional
+        Sensor noise per tick played, bar (:func:`session_ticks` values).
+    work : path, optional
+        Where the program is built (default: ``folder``'s parent).
+    cc : str, default "cc"
+        The C compiler.
+
+    Returns
+    -------
+    stream : str
+        What the player printed.
+    commands : numpy.ndarray of int8
+        The valve command at every tick played (the rests' 0 included).
+
+    Raises
+    ------
+    FileNotFoundError
+        If no compiler ``cc`` is on PATH.
+    ValueError
+        For a valve with its own laws (not in C:
+        :func:`spa.synthetic._model_c.model_constants`), or too few noise values.
+    RuntimeError
+        If the build or the run fails.
+    """
+    from spa.plan.record import read_plan
+    from spa.synthetic._model_c import model_constants, model_plant_source
+
+    consts = model_constants(params)
+    plan = read_plan(folder)
+    head = " ".join(map(repr, consts)) + " " + _calibration_line(plan["calibration"])
+    return _play_compiled(folder, _ON_MODEL, model_plant_source(), head, noise, work, cc)
+
+
+def play_on_plant(
+    folder: str | Path,
+    plant: object,
+    noise: npt.ArrayLike | None = None,
+    work: str | Path | None = None,
+    cc: str = "cc",
+) -> tuple[str, npt.NDArray[np.int8]]:
+    """:func:`play_on_model` for a :class:`~spa.model.params.ValveParams`,
+    :func:`play_on_physical` for a physical plant."""
+    if isinstance(plant, ValveParams):
+        return play_on_model(folder, plant, noise, work, cc)
+    return play_on_physical(folder, plant, noise, work, cc)

@@ -154,7 +154,7 @@ def run_commands(run: PlannedRun, dt: float) -> npt.NDArray[np.int8]:
     ------
     ValueError
         For a closed-loop run: its commands follow the pressure (play it on a plant,
-        :func:`spa.plan.host.play_on_physical`).
+        :func:`spa.plan.host.play_on_plant`).
     """
     if run.closed:
         raise ValueError(f"run {run.id}: a closed loop's commands follow the pressure")

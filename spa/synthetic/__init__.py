@@ -8,7 +8,9 @@ The result is the canonical run table (``t`` s, ``p`` bar, ``valve`` 0/1, ``u`` 
 
 :mod:`~spa.synthetic.physical` is a test plant that is *not* the model (orifice flow, spool
 dead times, a compliant chamber, regulator droop, a lagging sensor; its twin in C): a
-dataset that declares ``plant: {kind: physical}`` has every run made by it.
+dataset that declares ``plant: {kind: physical}`` has every run made by it. The model itself
+has a twin in C too (``model_plant.c``, :func:`spa.simulate` stepped tick by tick), on which
+the plan's player closes its loops (:func:`spa.plan.host.play_on_model`).
 """
 
 from __future__ import annotations
