@@ -131,8 +131,9 @@ def stages_in_memory(
     closed_loop: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """A recorded session's stages, as the pipeline runs them, into ``results``: its runs
-    (``runs/``, the canonical tables), identify (``identification/params.yaml``), tune (``tuning/recommendation.yaml``) and the closed
-    loop's design, promise and header (``closed_loop/controllers.yaml``, ``controller.h``).
+    (``runs/``, the canonical tables), identify (``identification/params.yaml``), tune
+    (``tuning/recommendation.yaml``) and the closed loop's design, promise and header
+    (``closed_loop/controllers.yaml``, ``controller.h``).
 
     Parameters
     ----------
