@@ -125,8 +125,8 @@ def test_a_single_state_plant_has_no_second_state_under_its_laws_or_others(singl
     assert not other.second_state
     # the rates are told to depend on pressure otherwise than the (paper's) laws used
     assert other.pressure_laws and other.p_pressure < 1e-6
-    assert "otherwise than the paper's laws" in other.sentence(paper_laws=True)
-    assert other.sentence(paper_laws=False) == ""
+    assert "otherwise than the paper's laws" in other.sentence(suggest_laws=True)
+    assert other.sentence(suggest_laws=False) == ""
 
 
 def test_a_second_state_is_named_under_the_true_laws_and_wrong_ones(two_state):
@@ -134,7 +134,7 @@ def test_a_second_state_is_named_under_the_true_laws_and_wrong_ones(two_state):
         got = history_test(two_state, params)
         assert got.second_state, got
         assert got.p_history < 1e-4 and got.history_share >= got.min_share
-        assert "second state" in got.sentence(paper_laws=True)
+        assert "second state" in got.sentence(suggest_laws=True)
 
 
 def test_too_few_samples_say_nothing(single):

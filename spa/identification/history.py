@@ -18,12 +18,13 @@ forms (:func:`spa.identification.diagnostics.whiteness`) cannot tell the two apa
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
+import pandas as pd
 from scipy.signal import savgol_filter
 from scipy.special import fdtrc
 
@@ -32,20 +33,28 @@ from spa.model.params import ValveParams
 
 __all__ = [
     "HistoryTest",
+    "Record",
     "derivative_residuals",
     "edge_history",
+    "full_rate_records",
     "history_test",
     "nested_wald",
 ]
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Time constants of the history basis, s: exp(-s/tau) per mode.
+#: Time constants of the history basis, s: exp(-s/tau) per mode (a thermal state or a
+#: creeping wall relaxes in 0.3-5 s).
 TAUS = (0.1, 0.3, 1.0, 3.0)
+
+#: Time constants of the fast transients taken as known nuisances, s: a sensor's lag or
+#: ringing, a tube, a regulator's recovery, a valve's bounce (tens of ms).
+FAST = (0.03,)
 
 
 class CommandRun(Protocol):
-    """What the test reads of a run (:class:`spa.identification.refine.RefineRun`)."""
+    """What the test reads of a run: a :class:`Record`, or a
+    :class:`spa.identification.refine.RefineRun` that is not thinned (``stride`` 1)."""
 
     rid: str
     t: FloatArray
@@ -54,6 +63,78 @@ class CommandRun(Protocol):
 
     @property
     def command_starts(self) -> FloatArray: ...  # pragma: no cover
+
+
+@dataclass(frozen=True)
+class Record:
+    """A stretch of a run at the log's full rate, with its run's command.
+
+    Attributes
+    ----------
+    rid : str
+        The run's id.
+    t, p : numpy.ndarray
+        Times from the run's first sample (s) and pressure (bar) of the stretch.
+    command_starts, level : numpy.ndarray
+        The run's command runs: start times (s, on the same clock) and levels.
+    """
+
+    rid: str
+    t: FloatArray
+    p: FloatArray
+    command_starts: FloatArray
+    level: np.ndarray
+
+
+def full_rate_records(
+    tables: Mapping[str, pd.DataFrame],
+    prepared: Sequence[Any],
+    budget: int = 40_000,
+    stretch: float = 1.0,
+) -> list[Record]:
+    """Stretches of each run with the valve command at the log's full rate, within a budget.
+
+    The refinement thins long runs (every ``stride``-th sample), which a derivative cannot
+    use: here each run keeps evenly spaced stretches of at most ``stretch`` s at its full
+    rate (at least four, the first at its start, the last at its end), ``budget / runs``
+    samples each (at least 400, at most the run).
+
+    Parameters
+    ----------
+    tables : mapping
+        Run id → the run's table (``t``, ``p``).
+    prepared : sequence of RefineRun
+        The runs with the valve command (:func:`spa.identification.refine.prepare_runs`):
+        their command runs.
+    budget : int, optional
+        Samples over all runs.
+    stretch : float, optional
+        Length of each stretch, s.
+
+    Returns
+    -------
+    list of Record
+    """
+    out: list[Record] = []
+    if not prepared:
+        return out
+    per = max(400, budget // len(prepared))
+    for run in prepared:
+        table = tables[run.rid]
+        t = table["t"].to_numpy(dtype=np.float64)
+        p = table["p"].to_numpy(dtype=np.float64)
+        t = t - t[0]
+        n = t.size
+        if n <= per:
+            out.append(Record(run.rid, t, p, run.command_starts, run.level))
+            continue
+        dt = float(np.median(np.diff(t)))
+        size = max(100, min(round(stretch / dt), per // 4))
+        count = max(2, per // size)
+        for a in np.unique(np.linspace(0, n - size, count).round().astype(np.int64)):
+            sl = slice(int(a), int(a) + size)
+            out.append(Record(run.rid, t[sl], p[sl], run.command_starts, run.level))
+    return out
 
 
 @dataclass(frozen=True)
@@ -115,8 +196,10 @@ class HistoryTest:
             "min_share": float(self.min_share),
         }
 
-    def sentence(self, paper_laws: bool) -> str:
-        """What the test says, or ``""`` when it says nothing."""
+    def sentence(self, suggest_laws: bool) -> str:
+        """What the test says, or ``""`` when it says nothing: a second state; or, with
+        ``suggest_laws`` (the paper's laws kept untried), rates that depend on the pressure
+        otherwise than they do."""
         if self.second_state:
             return (
                 "the pressure's rate depends on the time since the last valve edge beyond "
@@ -125,7 +208,7 @@ class HistoryTest:
                 "state, such as heat exchange with the wall, a creeping wall or a supply "
                 "hose's own pressure, which no choice of laws describes"
             )
-        if self.pressure_laws and paper_laws:
+        if self.pressure_laws and suggest_laws:
             return (
                 "the rates depend on the pressure otherwise than the paper's laws (pressure "
                 f"term p = {self.p_pressure:.2g}, {100 * self.pressure_share:.1f} % of the "
@@ -228,13 +311,20 @@ def _hats(x: FloatArray, knots: FloatArray) -> FloatArray:
 
 
 def _pressure_basis(p: FloatArray, on: np.ndarray, knots: int) -> FloatArray:
-    """Hat functions of the pressure per mode, on knots at the mode's quantiles."""
+    """Hat functions of the pressure per mode, on ``knots`` knots at the mode's quantiles
+    and as many evenly spaced over its range (so that a range the runs seldom visit is not
+    left to one hat)."""
     cols = []
     for mode in (True, False):
         sel = on == mode
         if not sel.any():
             continue
-        q = np.unique(np.quantile(p[sel], np.linspace(0.0, 1.0, knots)))
+        x = p[sel]
+        lo, hi = float(x.min()), float(x.max())
+        q = np.concatenate([np.quantile(x, np.linspace(0.0, 1.0, knots)),
+                            np.linspace(lo, hi, knots)])  # fmt: skip
+        q = np.unique(q)
+        q = q[np.concatenate(([True], np.diff(q) > 1e-3 * (hi - lo)))]
         if q.size < 2:
             cols.append(sel[:, None].astype(np.float64))
             continue
@@ -328,9 +418,11 @@ def history_test(
     window: float = 0.02,
     guard: float = 0.01,
     dead_time: float = 0.03,
-    block: float = 0.5,
+    block: float = 0.25,
     knots: int = 8,
+    floor: float = 0.03,
     taus: Sequence[float] = TAUS,
+    fast: Sequence[float] = FAST,
     alpha: float = 0.01,
     min_share: float = 0.02,
 ) -> HistoryTest | None:
@@ -339,7 +431,8 @@ def history_test(
     Parameters
     ----------
     runs : sequence
-        Runs with the valve command (:func:`spa.identification.refine.prepare_runs`).
+        Runs with the valve command at the log's full rate (:func:`full_rate_records` of
+        :func:`spa.identification.refine.prepare_runs`), in order.
     params : ValveParams
         The chosen model: its delays, and its laws (the paper's when ``laws`` is None).
     window : float, optional
@@ -354,9 +447,14 @@ def history_test(
     block : float, optional
         Length of the blocks of time taken as independent, s.
     knots : int, optional
-        Knots of the pressure basis per mode.
+        Knots of the pressure basis per mode at its quantiles (and as many evenly spaced).
+    floor : float, optional
+        Samples below this share of the highest pressure are not used (the exhaust's law
+        is singular at 0 bar, and a sensor clips its noise there).
     taus : sequence of float, optional
         Time constants of the history basis ``exp(-s/tau)`` per mode, s.
+    fast : sequence of float, optional
+        Time constants of fast transients fitted with the pressure term, not tested, s.
     alpha : float, optional
         Level of the tests.
     min_share : float, optional
@@ -390,7 +488,8 @@ def history_test(
             t, run.command_starts, run.level, params.t_on, params.t_off, reach, dead
         )
         r, rate, psm = derivative_residuals(t, p, params, on, window)
-        usable &= np.isfinite(r) & (t < t[-1] - reach)  # the smoothing's reach at the end
+        # the smoothing's reach at the stretch's two ends
+        usable &= np.isfinite(r) & (t > t[0] + reach) & (t < t[-1] - reach)
         bid = np.floor(t / block).astype(np.int64)
         ts.append(t[usable])
         rs.append(r[usable])
@@ -409,15 +508,24 @@ def history_test(
     rate = np.concatenate(rates)
     p = np.concatenate(ps)
     since = np.concatenate(sinces)
-    _, blocks = np.unique(np.concatenate(ids), return_inverse=True)
+    # Near 0 bar the exhaust's law is singular and a sensor clips its noise: not used.
+    keep = p > floor * float(np.max(np.abs(p)))
+    r, on, rate, p, since = r[keep], on[keep], rate[keep], p[keep], since[keep]
+    if r.size < 200 or on.all() or not on.any():
+        return None
+    blocks_in = np.concatenate(ids)[keep]
+    _, blocks = np.unique(blocks_in, return_inverse=True)
     pressure = _pressure_basis(p, on, knots)
-    hist = np.hstack(
-        [np.exp(-since / tau)[:, None] * (on == mode)[:, None] for mode in (True, False)
-         for tau in taus]
-    )  # fmt: skip
+
+    def decays(values: Sequence[float]) -> FloatArray:
+        cols = [np.exp(-since / tau) * (on == mode) for mode in (True, False) for tau in values]
+        return np.stack(cols, axis=1) if cols else np.zeros((since.size, 0))
+
+    hist = decays(taus)
+    base = np.hstack([pressure, decays(fast)])
     scale = float(np.sqrt(np.mean(rate * rate)))
     p_press, fit_press = nested_wald(r, np.zeros((r.size, 0)), pressure, blocks)
-    p_hist, fit_hist = nested_wald(r, pressure, hist, blocks)
+    p_hist, fit_hist = nested_wald(r, base, hist, blocks)
     share_h = float(np.sqrt(np.mean(fit_hist**2))) / scale if scale > 0 else math.inf
     share_p = float(np.sqrt(np.mean(fit_press**2))) / scale if scale > 0 else math.inf
     second = p_hist < alpha and share_h >= min_share

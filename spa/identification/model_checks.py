@@ -120,7 +120,7 @@ def model_checks(
     kinds: Mapping[str, str],
     residuals: Mapping[str, np.ndarray],
     history: HistoryTest | None = None,
-    paper_laws: bool = True,
+    suggest_laws: bool = False,
 ) -> dict[str, Any]:
     """The whiteness of the charge and discharge closed forms' residuals, whether the rates
     depend on history (a second state), and the agreement of the repeats.
@@ -133,7 +133,9 @@ def model_checks(
 
     Ljung's test cannot tell a second state from laws other than the plant's: only
     ``history`` (:func:`spa.identification.history.history_test` on the runs with the valve
-    command, under the chosen laws ``paper_laws`` or not) names a second state.
+    command, under the chosen laws) names a second state. ``suggest_laws``: the paper's
+    laws were kept without trying the actuator's own (``identification.laws: paper``), so
+    rates that depend on the pressure otherwise are pointed to ``laws: auto``.
     """
     from spa.identification.diagnostics import whiteness
 
@@ -147,17 +149,21 @@ def model_checks(
     disagree = [c for c in repeats.values() if not c.agree]
     sentences = []
     if failed:
-        why = (
-            "runs with the valve command would tell a missing state from other laws"
-            if history is None
-            else "whether the rates depend on history, not this test, tells a missing state "
-            "from other laws"
-        )
+        if history is None:
+            why = "runs with the valve command would tell a missing state from other laws"
+        elif history.second_state:
+            why = "not laws alone: the rates depend on history, below"
+        else:
+            why = (
+                "no missing state: the rates do not depend on the time since the last valve "
+                f"edge beyond the pressure (p = {history.p_history:.2g}, "
+                f"{100 * history.history_share:.1f} % of the rate)"
+            )
         sentences.append(
             f"the model's residuals are not white on run(s) {', '.join(failed)} (Ljung's "
             f"test at 1 %): they carry structure the model misses ({why})"
         )
-    said = history.sentence(paper_laws) if history is not None else ""
+    said = history.sentence(suggest_laws) if history is not None else ""
     if said:
         sentences.append(said)
     sentences += [c.sentence() for c in disagree]

@@ -20,7 +20,7 @@ import pandas as pd
 
 from spa.identification.convention import choose_convention
 from spa.identification.edges import EdgeTiming, summary
-from spa.identification.history import history_test
+from spa.identification.history import full_rate_records, history_test
 from spa.identification.model_checks import (
     closed_form_residuals,
     model_checks,
@@ -300,9 +300,9 @@ def refine_result(
         warnings.append(better)
     resid = {r.rid: r.y - m for r, m in zip(prepared, ref.final_models(), strict=True)}
     model = law_valve if law_valve is not None else ref.params
-    history = history_test(prepared, model)
+    history = history_test(full_rate_records(runs, prepared), model)
     checks = model_checks(
-        result, runs, kinds, closed_form_residuals(result), history, law_valve is None
+        result, runs, kinds, closed_form_residuals(result), history, laws == "paper"
     )
     adequacy = adequacy.with_checks(checks)
     warnings += checks["sentences"]
