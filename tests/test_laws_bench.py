@@ -240,6 +240,9 @@ def test_the_bundled_example_keeps_the_papers_laws(tmp_path):
     res = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, cfg, metas=metas)
     assert res.laws["chosen"] == "paper", res.laws.get("reason")
     assert res.to_valve_params().laws is None
+    # a bench without a second state is not told of one (the history test ran on its runs)
+    assert res.checks["history"]["samples"] > 1000 and not res.checks["second_state"]
+    assert not [w for w in res.warnings if "second state" in w or "missing state" in w]
     assert not math.isnan(res.to_dict()["k2"]["value"])
 
 
