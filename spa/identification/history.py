@@ -20,12 +20,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy.signal import savgol_filter
+from scipy.signal import savgol_coeffs
 from scipy.special import fdtrc
 
 from spa.model.laws.rates import closed_rate, open_rate
@@ -290,12 +291,31 @@ def derivative_residuals(
         half a window of either end they lean on the end sample (not to be used).
     """
     dt = float(np.median(np.diff(t)))
+    ps, dp = _smooth(p, dt, window)
+    rate = _rates(ps, on, params)
+    return dp - rate, rate, ps
+
+
+def _rates(p: FloatArray, on: np.ndarray, params: ValveParams) -> FloatArray:
+    """The model's rate in each sample's mode, bar/s."""
+    return np.where(on, open_rate(p, params), closed_rate(p, params))
+
+
+@lru_cache(maxsize=32)
+def _kernels(n: int, dt: float) -> tuple[FloatArray, FloatArray]:
+    """Savitzky-Golay (quadratic) kernels of the value and the derivative, ``n`` samples."""
+    return savgol_coeffs(n, 2, use="dot"), savgol_coeffs(n, 2, deriv=1, delta=dt, use="dot")
+
+
+def _smooth(p: FloatArray, dt: float, window: float) -> tuple[FloatArray, FloatArray]:
+    """The smoothed pressure and its derivative (edges padded with the end samples)."""
     n = max(5, 2 * round(window / dt / 2) + 1)
     n = min(n, p.size - (1 - p.size % 2))
-    ps = savgol_filter(p, n, 2, mode="nearest")
-    dp = savgol_filter(p, n, 2, deriv=1, delta=dt, mode="nearest")
-    rate = np.where(on, open_rate(ps, params), closed_rate(ps, params))
-    return dp - rate, rate, ps
+    value, slope = _kernels(n, round(dt, 12))
+    h = n // 2
+    padded = np.concatenate((np.full(h, p[0]), p, np.full(h, p[-1])))
+    frames = np.lib.stride_tricks.sliding_window_view(padded, n)
+    return frames @ value, frames @ slope
 
 
 def _hats(x: FloatArray, knots: FloatArray) -> FloatArray:
@@ -475,7 +495,7 @@ def history_test(
     correlated over the smoothing window and along a slow misfit, not between blocks of
     ``block`` s.
     """
-    ts, rs, rates, ps, ons, sinces, ids = [], [], [], [], [], [], []
+    rs, ps, ons, sinces, ids = [], [], [], [], []
     reach = window / 2 + guard
     dead = max(params.t_on, params.t_off, dead_time)
     offset = 0
@@ -487,13 +507,11 @@ def history_test(
         on, since, usable = edge_history(
             t, run.command_starts, run.level, params.t_on, params.t_off, reach, dead
         )
-        r, rate, psm = derivative_residuals(t, p, params, on, window)
+        psm, dp = _smooth(p, float(np.median(np.diff(t))), window)
         # the smoothing's reach at the stretch's two ends
-        usable &= np.isfinite(r) & (t > t[0] + reach) & (t < t[-1] - reach)
+        usable &= np.isfinite(dp) & (t > t[0] + reach) & (t < t[-1] - reach)
         bid = np.floor(t / block).astype(np.int64)
-        ts.append(t[usable])
-        rs.append(r[usable])
-        rates.append(rate[usable])
+        rs.append(dp[usable])
         ps.append(psm[usable])
         ons.append(on[usable])
         sinces.append(since[usable])
@@ -501,12 +519,12 @@ def history_test(
         offset += int(bid[-1]) + 1
     if not rs:
         return None
-    r = np.concatenate(rs)
     on = np.concatenate(ons)
+    p = np.concatenate(ps)
+    rate = _rates(p, on, params)
+    r = np.concatenate(rs) - rate
     if r.size < 200 or on.all() or not on.any():
         return None
-    rate = np.concatenate(rates)
-    p = np.concatenate(ps)
     since = np.concatenate(sinces)
     # Near 0 bar the exhaust's law is singular and a sensor clips its noise: not used.
     keep = p > floor * float(np.max(np.abs(p)))
