@@ -206,8 +206,9 @@ class HistoryTest:
                 "the pressure's rate depends on the time since the last valve edge beyond "
                 f"any law of the pressure (history term p = {self.p_history:.2g}, "
                 f"{100 * self.history_share:.1f} % of the rate): the plant has a second "
-                "state, such as heat exchange with the wall, a creeping wall or a supply "
-                "hose's own pressure, which no choice of laws describes"
+                "state, such as heat exchange with the wall, a creeping wall, a lagging "
+                "sensor or line, or a supply hose's own pressure, which no choice of laws "
+                "describes"
             )
         if self.pressure_laws and suggest_laws:
             return (
