@@ -21,7 +21,7 @@ Datasets:
 A hit is ``second_state`` on a ``heat`` or ``creep`` plant, a false alarm on a ``plain`` one.
 
 Run:  nice .venv/bin/python benchmarks/bench_second_state.py [--n 10] [--seed 1]
-      [--csv /tmp/second_state.csv] [--skip-random]
+      [--csv /tmp/second_state.csv] [--skip-random | --random-only]
 """
 
 from __future__ import annotations
@@ -205,10 +205,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--csv", type=Path, default=None)
     ap.add_argument("--skip-random", action="store_true")
+    ap.add_argument("--random-only", action="store_true", help="only the random plants")
     args = ap.parse_args(argv)
     config = _config()
-    with tempfile.TemporaryDirectory() as tmp:
-        rows = balloon_rows(config) + config_rows(config, Path(tmp))
+    rows = []
+    if not args.random_only:
+        with tempfile.TemporaryDirectory() as tmp:
+            rows = balloon_rows(config) + config_rows(config, Path(tmp))
     if not args.skip_random:
         rows += random_rows(config, args.n, args.seed)
     table = pd.DataFrame(rows)

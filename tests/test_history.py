@@ -11,7 +11,12 @@ import pandas as pd
 import pytest
 
 import spa
-from spa.identification.history import edge_history, history_test, nested_wald
+from spa.identification.history import (
+    edge_history,
+    full_rate_records,
+    history_test,
+    nested_wald,
+)
 from spa.identification.refine import prepare_runs
 from spa.model.params import ValveParams
 
@@ -69,17 +74,23 @@ def _runs(heat: float = 0.0, tau: float = 1.0, seed: int = 0):
         runs[rid] = pd.DataFrame({"t": np.arange(u.size) * DT, "p": p, "valve": u})
         kinds[rid] = rid if rid in ("charge", "discharge") else "staircase"
     mods = {r: ("pwm" if kinds[r] == "staircase" else "") for r in runs}
-    return prepare_runs(runs, kinds, mods, dict.fromkeys(runs, DT))
+    return runs, prepare_runs(runs, kinds, mods, dict.fromkeys(runs, DT))
 
 
 @pytest.fixture(scope="module")
-def single():
+def tables_and_runs():
     return _runs()
 
 
 @pytest.fixture(scope="module")
+def single(tables_and_runs):
+    """The single-state plant's runs at the log's full rate."""
+    return full_rate_records(*tables_and_runs)
+
+
+@pytest.fixture(scope="module")
 def two_state():
-    return _runs(heat=0.4, tau=1.0)
+    return full_rate_records(*_runs(heat=0.4, tau=1.0))
 
 
 def test_edge_history_gives_each_samples_mode_and_age():
@@ -138,6 +149,25 @@ def test_a_second_state_is_named_under_the_true_laws_and_wrong_ones(two_state):
 
 
 def test_too_few_samples_say_nothing(single):
-    short = [dataclasses.replace(r, t=r.t[:100], p=r.p[:100]) for r in single[:1]]
+    short = [dataclasses.replace(r, t=r.t[:150], p=r.p[:150]) for r in single[:1]]
     assert history_test(short, TRUTH) is None
     assert history_test([], TRUTH) is None
+
+
+def test_full_rate_records_keep_stretches_of_long_runs_within_the_budget(tables_and_runs):
+    tables, prepared = tables_and_runs
+    assert any(r.stride > 1 for r in prepared)  # the refinement's runs are thinned
+    recs = full_rate_records(tables, prepared, budget=4000)
+    for run in prepared:
+        mine = [x for x in recs if x.rid == run.rid]
+        n = len(tables[run.rid])
+        assert sum(x.t.size for x in mine) <= max(1000, n)
+        assert mine[0].t[0] == 0.0  # the run's own clock, from its first sample
+        assert mine[-1].t[-1] == pytest.approx(tables[run.rid]["t"].iloc[-1])  # to its end
+        assert len(mine) >= 4 or mine[0].t.size == n
+        p = tables[run.rid]["p"].to_numpy()
+        for x in mine:  # full rate: the log's step, and the samples themselves
+            assert np.allclose(np.diff(x.t), DT)
+            i = round(x.t[0] / DT)
+            assert np.array_equal(x.p, p[i : i + x.t.size])
+    assert full_rate_records(tables, []) == []
