@@ -155,10 +155,10 @@ class HistoryTest:
         p-value of the pressure term (per mode) against none: the rates differ from the
         chosen laws as a function of pressure.
     history_share : float
-        RMS of the history term's fitted part, over the RMS of the model's rate (the size of
-        the second state's signature, 0..).
+        RMS of what the history term adds to the fit on the pressure term, over the RMS of
+        the model's rate (the size of the second state's signature, 0..).
     pressure_share : float
-        The same for the pressure term.
+        RMS of the pressure term's fit, over the RMS of the model's rate.
     second_state : bool
         The history term is significant at ``alpha`` and at least ``min_share`` of the rate.
     pressure_laws : bool
