@@ -205,7 +205,8 @@ def test_a_second_state_is_named_whichever_laws_are_chosen(state, laws):
     assert hist["p_history"] < hist["alpha"] and hist["history_share"] >= hist["min_share"]
     named = [s for s in d["warnings"] if "second state" in s]
     assert len(named) == 1 and named[0].startswith("the pressure's rate depends on the time")
-    assert not any("a second state" in s for s in d["warnings"] if "not white" in s)
+    ljung = [s for s in d["warnings"] if "not white" in s]
+    assert len(ljung) == 1 and "not laws alone" in ljung[0] and "second state" not in ljung[0]
 
 
 def test_a_plain_balloon_under_its_identified_laws_has_no_second_state():
@@ -217,6 +218,8 @@ def test_a_plain_balloon_under_its_identified_laws_has_no_second_state():
     assert not checks["white"]
     assert checks["history"] is not None and not checks["second_state"]
     assert not [s for s in d["warnings"] if "second state" in s]
+    ljung = [s for s in d["warnings"] if "not white" in s]
+    assert len(ljung) == 1 and "not a missing state" in ljung[0]
 
 
 def test_the_papers_laws_on_a_plain_balloon_are_told_to_depend_on_pressure():

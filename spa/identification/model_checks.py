@@ -155,9 +155,10 @@ def model_checks(
             why = "not laws alone: the rates depend on history, below"
         else:
             why = (
-                "no missing state: the rates do not depend on the time since the last valve "
-                f"edge beyond the pressure (p = {history.p_history:.2g}, "
-                f"{100 * history.history_share:.1f} % of the rate)"
+                "not a missing state: what the time since the last valve edge adds to a law "
+                f"of the pressure is {100 * history.history_share:.1f} % of the rate "
+                f"(p = {history.p_history:.2g}), under the {100 * history.min_share:.0f} % "
+                "that would name one"
             )
         sentences.append(
             f"the model's residuals are not white on run(s) {', '.join(failed)} (Ljung's "
