@@ -197,10 +197,37 @@ def test_a_second_state_is_named_whichever_laws_are_chosen(state, laws):
     if laws == "paper":
         assert chosen == "paper"
     checks = d["checks"]
-    assert not checks["white"]
+    assert not checks["white"]  # Ljung's test, reported as before
     assert {"charge", "discharge"} & {r for r, w in checks["whiteness"].items() if not w["white"]}
-    named = [s for s in d["warnings"] if "not white" in s]
-    assert named and "a second state such as heat exchange or a creeping wall" in named[0]
+    # the sentence naming a second state comes from the history test alone
+    hist = checks["history"]
+    assert checks["second_state"] and hist["second_state"]
+    assert hist["p_history"] < hist["alpha"] and hist["history_share"] >= hist["min_share"]
+    named = [s for s in d["warnings"] if "second state" in s]
+    assert len(named) == 1 and named[0].startswith("the pressure's rate depends on the time")
+    ljung = [s for s in d["warnings"] if "not white" in s]
+    assert len(ljung) == 1 and "not laws alone" in ljung[0] and "second state" not in ljung[0]
+
+
+def test_a_plain_balloon_under_its_identified_laws_has_no_second_state():
+    # Ljung's test fails here too (laws and a compromise over runs): it cannot tell this
+    # single-state plant from the two above; the history test can.
+    d = _identify_plant(compliant_balloons()["balloon-06"], "auto")
+    assert d["laws"]["chosen"] == "identified"
+    checks = d["checks"]
+    assert not checks["white"]
+    assert checks["history"] is not None and not checks["second_state"]
+    assert not [s for s in d["warnings"] if "second state" in s]
+    ljung = [s for s in d["warnings"] if "not white" in s]
+    assert len(ljung) == 1 and "not a missing state" in ljung[0]
+
+
+def test_the_papers_laws_on_a_plain_balloon_are_told_to_depend_on_pressure():
+    d = _identify_plant(compliant_balloons()["balloon-06"], "paper")
+    hist = d["checks"]["history"]
+    assert not hist["second_state"] and hist["pressure_laws"]
+    said = [s for s in d["warnings"] if "otherwise than the paper's laws" in s]
+    assert len(said) == 1 and "identification.laws: auto" in said[0]
 
 
 def test_the_bundled_example_keeps_the_papers_laws(tmp_path):
@@ -216,6 +243,9 @@ def test_the_bundled_example_keeps_the_papers_laws(tmp_path):
     res = identify_with_config(runs, {k: m["kind"] for k, m in metas.items()}, cfg, metas=metas)
     assert res.laws["chosen"] == "paper", res.laws.get("reason")
     assert res.to_valve_params().laws is None
+    # a bench without a second state is not told of one (the history test ran on its runs)
+    assert res.checks["history"]["samples"] > 1000 and not res.checks["second_state"]
+    assert not [w for w in res.warnings if "second state" in w or "missing state" in w]
     assert not math.isnan(res.to_dict()["k2"]["value"])
 
 

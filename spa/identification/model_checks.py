@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa.identification.history import HistoryTest
 from spa.identification.results import _Z95, IdentificationResult
 
 __all__ = ["closed_form_residuals", "model_checks", "noise_record", "repeat_checks", "rms"]
@@ -118,15 +119,23 @@ def model_checks(
     runs: Mapping[str, pd.DataFrame],
     kinds: Mapping[str, str],
     residuals: Mapping[str, np.ndarray],
+    history: HistoryTest | None = None,
+    suggest_laws: bool = False,
 ) -> dict[str, Any]:
-    """The whiteness of the charge and discharge closed forms' residuals, and the agreement
-    of the repeats.
+    """The whiteness of the charge and discharge closed forms' residuals, whether the rates
+    depend on history (a second state), and the agreement of the repeats.
 
     The whiteness is tested where one law alone is fitted to one experiment (the charge's
     exponential, the discharge's square root), so that a second state shows as it is (a
     charge that wants two time constants), not the modulated runs' residuals, which also
     carry the jitter of edges logged off the log's ticks and the compromise of one parameter
     set over every run.
+
+    Ljung's test cannot tell a second state from laws other than the plant's: only
+    ``history`` (:func:`spa.identification.history.history_test` on the runs with the valve
+    command, under the chosen laws) names a second state. ``suggest_laws``: the paper's
+    laws were kept without trying the actuator's own (``identification.laws: paper``), so
+    rates that depend on the pressure otherwise are pointed to ``laws: auto``.
     """
     from spa.identification.diagnostics import whiteness
 
@@ -140,12 +149,24 @@ def model_checks(
     disagree = [c for c in repeats.values() if not c.agree]
     sentences = []
     if failed:
+        if history is None:
+            why = "runs with the valve command would tell a missing state from other laws"
+        elif history.second_state:
+            why = "not laws alone: the rates depend on history, below"
+        else:
+            why = (
+                "not a missing state: what the time since the last valve edge adds to a law "
+                f"of the pressure is {100 * history.history_share:.1f} % of the rate "
+                f"(p = {history.p_history:.2g}), under the {100 * history.min_share:.0f} % "
+                "that would name one"
+            )
         sentences.append(
             f"the model's residuals are not white on run(s) {', '.join(failed)} (Ljung's "
-            "test at 1 %): they carry structure the model misses (a second state such as "
-            "heat exchange or a creeping wall, a lagging sensor or line, or laws other than "
-            "the paper's)"
+            f"test at 1 %): they carry structure the model misses ({why})"
         )
+    said = history.sentence(suggest_laws) if history is not None else ""
+    if said:
+        sentences.append(said)
     sentences += [c.sentence() for c in disagree]
     for key, runs_failed in alone.items():
         kind = key.removesuffix("_alone")
@@ -157,6 +178,8 @@ def model_checks(
     return {
         "whiteness": {t.run: t.to_dict() for t in tests},
         "white": not failed,
+        "history": None if history is None else history.to_dict(),
+        "second_state": bool(history is not None and history.second_state),
         "repeats": {n: c.to_dict() for n, c in repeats.items()},
         "repeats_unfitted": {k: dict(v) for k, v in alone.items()},
         "repeats_agree": not disagree and not alone,

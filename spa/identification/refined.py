@@ -20,6 +20,7 @@ import pandas as pd
 
 from spa.identification.convention import choose_convention
 from spa.identification.edges import EdgeTiming, summary
+from spa.identification.history import full_rate_records, history_test
 from spa.identification.model_checks import (
     closed_form_residuals,
     model_checks,
@@ -298,7 +299,11 @@ def refine_result(
         adequacy = replace(adequacy, sentence=f"{adequacy.sentence} But {better}.")
         warnings.append(better)
     resid = {r.rid: r.y - m for r, m in zip(prepared, ref.final_models(), strict=True)}
-    checks = model_checks(result, runs, kinds, closed_form_residuals(result))
+    model = law_valve if law_valve is not None else ref.params
+    history = history_test(full_rate_records(runs, prepared), model)
+    checks = model_checks(
+        result, runs, kinds, closed_form_residuals(result), history, laws == "paper"
+    )
     adequacy = adequacy.with_checks(checks)
     warnings += checks["sentences"]
     model_rms = rms(resid)
