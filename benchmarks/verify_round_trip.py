@@ -246,8 +246,11 @@ def run() -> None:
     ap.add_argument(
         "--pipeline", action="store_true", help="through snakemake reproduce-all (physical plants)"
     )
+    ap.add_argument("--keep", metavar="DIR", help="work in DIR (kept), not a temporary folder")
     args = ap.parse_args()
-    with tempfile.TemporaryDirectory(prefix="spa-verify-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="spa-verify-") as scratch:
+        tmp = args.keep or scratch
+        Path(tmp).mkdir(parents=True, exist_ok=True)
         for name in args.plants:
             t0 = time.perf_counter()
             try:
