@@ -265,14 +265,20 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
     }
     closed = [run for run in design.runs if run.closed]
     if closed and promise is not None:
+        loop_setting = _header_setting(header or "")
+        hold = float(closed[0].meta["hold"])
+        allowance = _settling_allowance(
+            valve.params, loop_setting, promise, hold, design.dt, noise, cal["bar_per_count"]
+        )
         verify["promise"] = {
             "runs": [run.id for run in closed],
             "lead": float(closed[0].meta["lead"]),
-            "setting": _header_setting(header or ""),
+            "setting": loop_setting,
             "levels": [float(v) for v in promise["levels"]],
-            "hold": float(closed[0].meta["hold"]),
+            "hold": hold,
             "made": bool(promise.get("kept")),
-            "bands": promise_predictions(promise, noise, cal["bar_per_count"]),
+            "settling_noise_allowance_s": allowance,
+            "bands": promise_predictions(promise, noise, cal["bar_per_count"], allowance),
         }
     extra = {"prior_source": f"identified ({results})", "verify": verify}
     write_plan(args.folder, design, extra=extra, controller=header)
@@ -320,6 +326,27 @@ def _sensor_noise(identified: Any) -> float:
     except (KeyError, TypeError, ValueError):
         return VERIFY_NOISE
     return value if value > 0 else VERIFY_NOISE
+
+
+def _settling_allowance(
+    params: Any,
+    setting: dict[str, Any],
+    promise: dict[str, Any],
+    hold: float,
+    dt: float,
+    noise: float,
+    quantum: float,
+) -> float:
+    """:func:`spa.plan.settling.settling_allowance` for the promise's controller, or 0 when
+    the promise names none (a promise written before it carried its controller)."""
+    from spa.closedloop.controller import PIController
+    from spa.plan.settling import settling_allowance
+
+    if not isinstance(promise.get("controller"), dict) or promise.get("settling_time") is None:
+        return 0.0
+    ctrl = PIController.from_mapping(promise["controller"])
+    levels = [float(v) for v in promise["levels"]]
+    return settling_allowance(params, setting, ctrl, levels, hold, dt, noise, quantum)
 
 
 def _header_setting(text: str) -> dict[str, Any]:

@@ -24,12 +24,17 @@ noise on a mean; the line takes out a response still creeping towards its level)
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-__all__ = ["BAND", "settling_times"]
+if TYPE_CHECKING:  # pragma: no cover
+    from spa.closedloop.controller import PIController
+    from spa.model.params import ValveParams
+
+__all__ = ["BAND", "settling_allowance", "settling_times"]
 
 #: The settling band, a fraction of the step (as :mod:`spa.closedloop.metrics`).
 BAND = 0.02
@@ -112,3 +117,92 @@ def settling_times(
         else:
             out.append(float((outside[-1] + 1) * dt))
     return out
+
+
+def settling_allowance(
+    params: ValveParams,
+    setting: Mapping[str, Any],
+    controller: PIController,
+    levels: Sequence[float],
+    hold: float,
+    dt: float,
+    noise: float,
+    quantum: float = 0.0,
+    *,
+    draws: int = 20,
+    seed: int = 0,
+) -> float:
+    """What the sensor's noise adds to a closed-loop staircase's worst settling time, s.
+
+    The promise's settling time is its design's, on noiseless runs. On the bench the
+    controller closes on a noisy reading, so the actuator's own pressure wanders too, and
+    the logged one more: the verification's staircase (one hold at the first level, then
+    the levels up and back down, :func:`spa.plan.verify.closed_loop_runs`) is simulated on
+    ``params`` with the controller reading ``p`` plus the sensor's noise, logged with the
+    noise and the ADC's step, and measured as a recording is (:func:`settling_times`). The
+    allowance is the 95th percentile, over ``draws`` noise draws, of the worst step's
+    settling time less the noiseless run's (0 when the noise does not slow it).
+
+    Parameters
+    ----------
+    params : ValveParams
+        The valve the promise was made on (the estimate).
+    setting : mapping
+        The controller's modulator setting.
+    controller : PIController
+        The exported PI.
+    levels : sequence of float
+        The promise's set-points, bar.
+    hold : float
+        Seconds at each level.
+    dt : float
+        The controller's step, s.
+    noise : float
+        The sensor's noise, bar (standard deviation).
+    quantum : float, optional
+        The ADC's step, bar (0: none).
+    draws : int, optional
+        Noise draws.
+    seed : int, optional
+        Seed of the draws.
+
+    Returns
+    -------
+    float
+        Seconds, >= 0; 0 without noise or when the noiseless run does not settle; ``inf``
+        when more than one draw in twenty does not settle.
+    """
+    from spa.closedloop.experiments import _settled, step_periods
+    from spa.closedloop.loop import closed_loop_arrays
+    from spa.model.modulators import Modulator
+
+    mod = Modulator.from_mapping(dict(setting))
+    lv = [float(v) for v in levels]
+    ticks = max(2, round(float(hold) / dt))
+    stairs = [lv[0], *lv, *lv[-2::-1]]
+    r = np.repeat(stairs, ticks)
+    t = np.arange(r.size) * dt
+    integral0 = _settled(mod, controller, params, lv[0])
+    periods = step_periods(mod, params, lv, dt)
+    lead = ticks * dt
+
+    def worst(reading: np.ndarray | None) -> float:
+        p, _, _ = closed_loop_arrays(
+            r, dt, mod, controller, params, lv[0], integral0=integral0, sensor_noise=reading
+        )
+        if reading is not None:
+            p = p + reading  # the log is the reading
+            if quantum > 0.0:
+                p = np.round(p / quantum) * quantum
+        run = pd.DataFrame({"t": t, "p": p, "r": r})
+        return max(settling_times(run, periods, lv[0], lead), default=0.0)
+
+    clean = worst(None)
+    if not (noise > 0.0 and math.isfinite(clean)):
+        return 0.0
+    rng = np.random.default_rng(seed)
+    noisy = [worst(rng.normal(0.0, noise, r.size)) for _ in range(max(int(draws), 1))]
+    # an unsettled draw is inf: more than one in twenty, and the noise may keep the loop
+    # from settling within 2 % at all (an infinite allowance)
+    q = float(np.quantile(np.asarray(noisy), 0.95, method="higher"))
+    return max(q - clean, 0.0)

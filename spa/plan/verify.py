@@ -133,7 +133,7 @@ def closed_loop_runs(promise: Mapping[str, Any], dt: float, replicates: int) -> 
 
 
 def promise_predictions(
-    promise: Mapping[str, Any], noise: float, quantum: float
+    promise: Mapping[str, Any], noise: float, quantum: float, settling_allowance: float = 0.0
 ) -> dict[str, dict[str, Any]]:
     """The promise as predictions with their 95 % bands.
 
@@ -141,7 +141,9 @@ def promise_predictions(
     add what the sensor adds to a log: the overshoot and settling are on the cycle-mean
     pressure (:data:`spa.closedloop.promise.OVERSHOOT_MARGIN` points, one cycle), the
     ripple is the peak-to-peak of the logged pressure, to which the noise adds about
-    ``2 x 3.3 noise`` (99.9 % of a normal's spread) and the ADC one step.
+    ``2 x 3.3 noise`` (99.9 % of a normal's spread) and the ADC one step. The settling time
+    adds ``settling_allowance`` s, what the sensor's noise in the loop adds to it
+    (:func:`spa.plan.settling.settling_allowance`).
 
     When the stage made no promise (``kept`` false: no ``tau_c`` tried kept the overshoot
     and settling over the box), its worst case over the box is still what it predicts, and
@@ -170,7 +172,8 @@ def promise_predictions(
         hi = ripple + 6.6 * noise + quantum
         out["ripple_pp"] = {"value": ripple, "lo": 0.0, "hi": hi, "unit": "bar"}
     if math.isfinite(settle):
-        out["settling_time"] = {"value": settle, "lo": 0.0, "hi": settle, "unit": "s"}
+        hi = settle + max(float(settling_allowance), 0.0)
+        out["settling_time"] = {"value": settle, "lo": 0.0, "hi": hi, "unit": "s"}
     return out
 
 

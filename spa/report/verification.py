@@ -41,8 +41,9 @@ _PARTS = {
         "overshoot and settling time on the cycle-mean pressure (each step's settling on its "
         "own samples, past what the sensor adds to the cycle-mean) and its worst peak-to-peak "
         "ripple, against the promise (the worst case over the 95 % box and the model error), "
-        "widened by the overshoot margin of spa.closedloop.promise and, for the logged ripple, "
-        "the sensor noise and one ADC step. Kept: the measurement lies in its band.",
+        "widened by the overshoot margin of spa.closedloop.promise, for the settling time by "
+        "what the sensor's noise in the loop adds to it (simulated), and for the logged ripple "
+        "by the sensor noise and one ADC step. Kept: the measurement lies in its band.",
     ),
 }
 
