@@ -183,3 +183,26 @@ def test_transit_time_follows_the_laws(on: bool, start: float, end: float) -> No
     assert transit_time([0.15, 0.6], VALVE) >= max(
         float(mode_time(True, 0.15, 0.6, VALVE)), float(mode_time(False, 0.6, 0.15, VALVE))
     )
+
+
+def test_a_laws_box_that_breaks_every_promise_says_which_law_to_record_more_of():
+    """No promise over a laws valve's box: the sentence names the law whose band is widest
+    and what narrows it; with the paper's laws, or a promise kept, it says nothing of it."""
+    from spa.closedloop.bench_text import bench_sentence, laws_envelope
+
+    valve = ValveParams(
+        c1=0.5, tau2=1.0, laws=Laws(log_g=(0.0, 0.3, 0.2, 0.1), log_h=(0.0, -0.2, -0.3, -0.4))
+    )
+    box = {"tau2": (0.8, 1.25), "c1": (0.5 / 2.8, 0.5 * 2.8), "k2": (0.8, 0.9)}
+    envelope = laws_envelope(valve, box)
+    assert envelope == pytest.approx({"charge": 1.25, "exhaust": 2.8})
+    summary = {"tau_c": 0.3, "n_corners": 32, "promise": {"kept": False}}
+    said = bench_sentence({**summary, "laws_envelope": envelope})
+    assert "The exhaust law is the widest part of the box" in said
+    assert "×2.8 either way" in said and "more discharges" in said
+    assert "widest part" not in bench_sentence(summary)  # no laws: nothing to say
+    assert laws_envelope(ValveParams(), box) == {}
+    narrow = laws_envelope(valve, {"tau2": (0.9, 1.1), "c1": (0.45, 0.55)})
+    assert "widest part" not in bench_sentence({**summary, "laws_envelope": narrow})
+    kept = {**summary, "promise": {"kept": True, "tau_c": 0.3, "hold": 2.0, "overshoot": 5.0}}
+    assert "widest part" not in bench_sentence({**kept, "laws_envelope": envelope})

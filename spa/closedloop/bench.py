@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from spa.closedloop.bench_text import bench_sentence
+from spa.closedloop.bench_text import bench_sentence, laws_envelope
 from spa.closedloop.box import PromiseBox, box_hold, box_levels, promise_levels
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
@@ -365,6 +365,9 @@ def bench_outputs(
     summary["tau_c_tried"] = [[t, o] for t, o in rd.tried]
     summary["max_overshoot"] = limit
     summary["box"] = {k: [float(v[0]), float(v[1])] for k, v in box.items()}
+    envelope = laws_envelope(params, intervals)
+    if envelope:
+        summary["laws_envelope"] = envelope
     summary["model_error"] = {k: [float(v[0]), float(v[1])] for k, v in (model_error or {}).items()}
     summary["promise"] = {
         "kept": rd.tau_c_robust is not None,

@@ -10,8 +10,9 @@ from typing import Any
 from spa._checks import float_or_nan as _num
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.disturbance import DROP
+from spa.model.params import ValveParams
 
-__all__ = ["bench_sentence"]
+__all__ = ["WIDE_LAW", "bench_sentence", "laws_envelope", "laws_record_clause"]
 
 
 def bench_sentence(summary: Mapping[str, Any]) -> str:
@@ -64,6 +65,7 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
             f". No promise: no τ_c tried keeps the overshoot within {limit:.3g} % with every "
             "level settled on every plant of the box"
         )
+        text += laws_record_clause(summary.get("laws_envelope"))
     unresolved = summary.get("unresolved_delays") or {}
     if isinstance(unresolved, Mapping) and unresolved.get("sentence"):
         text += ". " + str(unresolved["sentence"]).rstrip(".")
@@ -128,3 +130,61 @@ def _noise_words(summary: Mapping[str, Any], noise: float, added: float) -> str:
             "error and the noise together)"
         )
     return text
+
+
+#: A law's band wider than this factor either way is named when no promise holds.
+WIDE_LAW = 1.5
+
+
+def laws_envelope(
+    params: ValveParams, intervals: Mapping[str, tuple[float, float]] | None
+) -> dict[str, float]:
+    """How far the box moves each of a laws valve's two laws, as a factor either way.
+
+    The laws' box scales the charge law through ``tau2`` and the exhaust law through ``c1``
+    (:func:`spa.identification.identified.laws_intervals`); the factor is the larger of
+    ``hi/x`` and ``x/lo``.
+
+    Examples
+    --------
+    >>> from spa.model.laws import Laws
+    >>> v = ValveParams(tau2=1.0, c1=0.5, laws=Laws(log_g=(0, .3), log_h=(0, 0), knots=(0, 1)))
+    >>> laws_envelope(v, {"tau2": (0.8, 1.25), "c1": (0.2, 1.4)})
+    {'charge': 1.25, 'exhaust': 2.8}
+    >>> laws_envelope(ValveParams(), {"c1": (0.2, 1.4)})
+    {}
+    """
+    if params.laws is None or not intervals:
+        return {}
+    out = {}
+    for name, law in (("tau2", "charge"), ("c1", "exhaust")):
+        if name in intervals:
+            lo, hi = (float(v) for v in intervals[name])
+            x = float(getattr(params, name))
+            if lo > 0.0 and x > 0.0:
+                out[law] = round(max(hi / x, x / lo), 6)
+    return out
+
+
+def laws_record_clause(envelope: Mapping[str, float] | None) -> str:
+    """What to record when a laws valve's box breaks every promise: the law whose band is
+    widest, when it moves by more than :data:`WIDE_LAW` either way ("" otherwise).
+
+    Examples
+    --------
+    >>> laws_record_clause({"charge": 1.2, "exhaust": 2.8})[:60]
+    '. The exhaust law is the widest part of the box (its 95 % ba'
+    >>> laws_record_clause({"charge": 1.2, "exhaust": 1.3})
+    ''
+    """
+    if not envelope:
+        return ""
+    law, factor = max(envelope.items(), key=lambda kv: kv[1])
+    if not factor > WIDE_LAW:
+        return ""
+    runs = "discharges" if law == "exhaust" else "charges"
+    return (
+        f". The {law} law is the widest part of the box (its 95 % band spans ×{factor:.2g} "
+        f"either way over the pressures recorded): more {runs}, through the set-points' "
+        "range, narrow it (spa plan --replicates)"
+    )
