@@ -144,34 +144,34 @@ def play_session(
     raise RuntimeError(f"the loop did not settle in {max_passes} passes")
 
 
-_ON_PLANT = r"""/* The spa plan player closed on the physical plant's C twin, tick by tick: the
- * sensor (lagged pressure + noise, ADC counts as declared) read, the player's tick, the plant
- * integrated over the tick with its command. Prints the board's stream; the valve commands
+_HARNESS = r"""/* The spa plan player closed on @WHAT@, tick by tick: the
+ * sensor (@SENSOR@ + noise, ADC counts as declared) read, the player's tick, the plant
+ * advanced over the tick with its command. Prints the board's stream; the valve commands
  * into argv[1]. stdin: the plant's constants, then one noise value (bar) per tick. */
 #include <math.h>
 #include <stdio.h>
 #include "player.h"
-#include "physical_plant.h"
-static spa_phys_state plant;
+#include "@HEADER@"
+static @STATE@ plant;
 static spa_plan_state s;
 static double next_noise(void) { double v; return scanf("%lf", &v) == 1 ? v : 0.0; }
 static long read_adc(double zero, double bpc, long top)
 {
-    double c = floor((spa_phys_lagged(&plant) / 1e5 + next_noise()) / bpc + zero + 0.5);
+    double c = floor((@PRESSURE@ + next_noise()) / bpc + zero + 0.5);
     return c < 0.0 ? 0L : (c > (double)top ? top : (long)c);
 }
 int main(int argc, char **argv)
 {
     FILE *trace = fopen(argc > 1 ? argv[1] : "trace.txt", "w");
-    double c[SPA_PHYS_N_CONST], zero, bpc;
+    double c[@N_CONST@], zero, bpc;
     long top, adc, q, r, tick;
-    int i, nsub, run, valve, log, last;
+    int i, @INTS@run, valve, log, last;
     if (trace == NULL) return 2;
-    for (i = 0; i < SPA_PHYS_N_CONST; ++i) {
+    for (i = 0; i < @N_CONST@; ++i) {
         if (scanf("%lf", &c[i]) != 1) return 2;
     }
-    if (scanf("%d %lf %lf %ld", &nsub, &zero, &bpc, &top) != 4) return 2;
-    spa_phys_init(&plant, c, SPA_PLAN_DT, nsub, 0.0, 0);
+    @READ@
+    @INIT@
     for (run = 0; run < SPA_PLAN_N_RUNS; ++run) {
         spa_plan_start(&s, run);
         printf("R %d\n", run);
@@ -181,19 +181,58 @@ int main(int argc, char **argv)
             last = spa_plan_tick(&s, adc, &valve, &q, &log);
             fputc(valve ? '1' : '0', trace);
             if (log) printf("%lx,%lx,%d,%lx\n", tick & 0xFFFFL, adc, valve, q);
-            if (spa_phys_step(&plant, valve) != 0) return 3;
+            if (@STEP@(&plant, valve) != 0) return 3;
         } while (!last);
         printf("E %d %s\n", run, s.vented ? "vent" : "done");
         for (r = 0; r < SPA_PLAN_REST_TICKS; ++r) {
             adc = read_adc(zero, bpc, top);
             fputc('0', trace);
-            if (spa_phys_step(&plant, 0) != 0) return 3;
+            if (@STEP@(&plant, 0) != 0) return 3;
         }
     }
     fclose(trace);
     return 0;
 }
 """
+
+#: The plants the harness closes the player on: the physical plant's C twin, and spa's model
+#: plant in C (``spa.simulate`` stepped tick by tick); each fills :data:`_HARNESS`'s slots.
+_PLANTS: dict[str, dict[str, str]] = {
+    "physical": {
+        "@WHAT@": "the physical plant's C twin",
+        "@SENSOR@": "lagged pressure",
+        "@HEADER@": "physical_plant.h",
+        "@STATE@": "spa_phys_state",
+        "@PRESSURE@": "spa_phys_lagged(&plant) / 1e5",
+        "@N_CONST@": "SPA_PHYS_N_CONST",
+        "@INTS@": "nsub, ",
+        "@READ@": 'if (scanf("%d %lf %lf %ld", &nsub, &zero, &bpc, &top) != 4) return 2;',
+        "@INIT@": "spa_phys_init(&plant, c, SPA_PLAN_DT, nsub, 0.0, 0);",
+        "@STEP@": "spa_phys_step",
+    },
+    "model": {
+        "@WHAT@": "spa's model plant in C (model_plant.c)",
+        "@SENSOR@": "the model's pressure",
+        "@HEADER@": "model_plant.h",
+        "@STATE@": "spa_model_state",
+        "@PRESSURE@": "spa_model_pressure(&plant)",
+        "@N_CONST@": "SPA_MODEL_N_CONST",
+        "@INTS@": "",
+        "@READ@": 'if (scanf("%lf %lf %ld", &zero, &bpc, &top) != 3) return 2;',
+        "@INIT@": "spa_model_init(&plant, c, SPA_PLAN_DT, 0.0, 0);",
+        "@STEP@": "spa_model_step",
+    },
+}
+
+
+def _harness(plant: str) -> str:
+    """The harness's C main for ``plant`` (a key of :data:`_PLANTS`)."""
+    text = _HARNESS
+    for slot, value in _PLANTS[plant].items():
+        text = text.replace(slot, value)
+    return text
+
+
 
 
 def session_ticks(folder: str | Path) -> int:
@@ -207,57 +246,6 @@ def session_ticks(folder: str | Path) -> int:
     return sum(round(float(r["seconds"]) / dt) + rest for r in plan["runs"])
 
 
-_ON_MODEL = r"""/* The spa plan player closed on spa's model plant in C (model_plant.c, spa.simulate
- * stepped tick by tick): the sensor (the model's pressure + noise, ADC counts as declared)
- * read, the player's tick, the model advanced over the tick with its command. Prints the
- * board's stream; the valve commands into argv[1]. stdin: the model's constants, then one
- * noise value (bar) per tick. */
-#include <math.h>
-#include <stdio.h>
-#include "player.h"
-#include "model_plant.h"
-static spa_model_state plant;
-static spa_plan_state s;
-static double next_noise(void) { double v; return scanf("%lf", &v) == 1 ? v : 0.0; }
-static long read_adc(double zero, double bpc, long top)
-{
-    double c = floor((spa_model_pressure(&plant) + next_noise()) / bpc + zero + 0.5);
-    return c < 0.0 ? 0L : (c > (double)top ? top : (long)c);
-}
-int main(int argc, char **argv)
-{
-    FILE *trace = fopen(argc > 1 ? argv[1] : "trace.txt", "w");
-    double c[SPA_MODEL_N_CONST], zero, bpc;
-    long top, adc, q, r, tick;
-    int i, run, valve, log, last;
-    if (trace == NULL) return 2;
-    for (i = 0; i < SPA_MODEL_N_CONST; ++i) {
-        if (scanf("%lf", &c[i]) != 1) return 2;
-    }
-    if (scanf("%lf %lf %ld", &zero, &bpc, &top) != 3) return 2;
-    spa_model_init(&plant, c, SPA_PLAN_DT, 0.0, 0);
-    for (run = 0; run < SPA_PLAN_N_RUNS; ++run) {
-        spa_plan_start(&s, run);
-        printf("R %d\n", run);
-        do {
-            tick = s.k;
-            adc = read_adc(zero, bpc, top);
-            last = spa_plan_tick(&s, adc, &valve, &q, &log);
-            fputc(valve ? '1' : '0', trace);
-            if (log) printf("%lx,%lx,%d,%lx\n", tick & 0xFFFFL, adc, valve, q);
-            if (spa_model_step(&plant, valve) != 0) return 3;
-        } while (!last);
-        printf("E %d %s\n", run, s.vented ? "vent" : "done");
-        for (r = 0; r < SPA_PLAN_REST_TICKS; ++r) {
-            adc = read_adc(zero, bpc, top);
-            fputc('0', trace);
-            if (spa_model_step(&plant, 0) != 0) return 3;
-        }
-    }
-    fclose(trace);
-    return 0;
-}
-"""
 
 
 def _play_compiled(
@@ -359,7 +347,7 @@ def play_on_physical(
     dt = _check_dt(plant, float(plan["tick"]))  # type: ignore[arg-type]
     head = " ".join(repr(float(v)) for v in _constants(plant))  # type: ignore[arg-type]
     head += f" {substeps(plant, dt)} " + _calibration_line(plan["calibration"])  # type: ignore[arg-type]
-    return _play_compiled(folder, _ON_PLANT, c_plant_source(), head, noise, work, cc)
+    return _play_compiled(folder, _harness("physical"), c_plant_source(), head, noise, work, cc)
 
 
 def play_on_model(
@@ -411,7 +399,7 @@ def play_on_model(
     consts = model_constants(params)
     plan = read_plan(folder)
     head = " ".join(map(repr, consts)) + " " + _calibration_line(plan["calibration"])
-    return _play_compiled(folder, _ON_MODEL, model_plant_source(), head, noise, work, cc)
+    return _play_compiled(folder, _harness("model"), model_plant_source(), head, noise, work, cc)
 
 
 def play_on_plant(
