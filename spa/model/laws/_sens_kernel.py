@@ -107,23 +107,24 @@ def chain_sensitivity(
     dp = np.zeros((level.size, ncol))
     base = np.zeros((level.size, ncol))
     d = np.zeros(ncol)
+    a = np.zeros(ncol)
     for r in range(level.size):
-        dp[r] = d
+        for c in range(ncol):
+            dp[r, c] = d[c]
         j = 0 if level[r] else 1
         u0 = max(t0[r] * inv_h[j], 0.0)
         i0 = min(int(u0), nodes - 1)
         s0 = u0 - i0
         k0 = i0 + j * nodes
         f0 = (coef[1, k0] + s0 * (2.0 * coef[2, k0] + 3.0 * s0 * coef[3, k0])) * inv_h[j]
-        a = np.zeros(ncol)
-        if f0 != 0.0:
-            for c in range(ncol):
-                a[c] = d[c] / f0
+        for c in range(ncol):
+            a[c] = d[c] / f0 if f0 != 0.0 else 0.0
         for c in range(nlaw):
             a[c] += ((scoef[c, 3, k0] * s0 + scoef[c, 2, k0]) * s0 + scoef[c, 1, k0]) * s0 + scoef[
                 c, 0, k0
             ]
-        base[r] = a
+        for c in range(ncol):
+            base[r, c] = a[c]
         e = max(active[r], 0.0)
         left = t_end[j] - t0[r]
         clamped = e >= left
@@ -132,7 +133,8 @@ def chain_sensitivity(
         s1 = u1 - i1
         k1 = i1 + j * nodes
         f1 = (coef[1, k1] + s1 * (2.0 * coef[2, k1] + 3.0 * s1 * coef[3, k1])) * inv_h[j]
-        d = a.copy()
+        for c in range(ncol):
+            d[c] = a[c]
         for c in range(nlaw):
             d[c] -= ((scoef[c, 3, k1] * s1 + scoef[c, 2, k1]) * s1 + scoef[c, 1, k1]) * s1 + scoef[
                 c, 0, k1

@@ -116,10 +116,12 @@ def _tangent(params: ValveParams, on: bool, nodes: int) -> np.ndarray:
     return coef
 
 
+@lru_cache(maxsize=8)
 def law_tangents(params: ValveParams, nodes: int = NODES) -> np.ndarray:
     """``(2n + 1, 4, 2*nodes)``: Hermite coefficients of ``S_θ`` for ``θ`` = ``log_g[i]``,
     ``log_h[i]``, ``m`` on both modes' inverse grids (zero where the mode does not read the
-    coefficient), laid out as :attr:`~spa.model.laws.timemap.LawTables.coef`."""
+    coefficient), laid out as :attr:`~spa.model.laws.timemap.LawTables.coef`; cached (a
+    fit's Jacobian reads it once per run)."""
     n = len(valve_laws(params).knots)
     ch = _tangent(_mode_valve(params, True), True, nodes)
     dis = _tangent(_mode_valve(params, False), False, nodes)
