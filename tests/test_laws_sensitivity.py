@@ -39,12 +39,13 @@ def _edges(seed: int = 1, runs: int = 80) -> tuple[np.ndarray, np.ndarray, np.nd
 
 def _vector(prm: ValveParams) -> np.ndarray:
     lw = prm.laws
-    return np.array([*lw.log_g, *lw.log_h, lw.m, prm.t_on, prm.t_off])
+    return np.array([*lw.log_g, *lw.log_h, lw.m, math.log(prm.k2), prm.t_on, prm.t_off])
 
 
 def _valve(x: np.ndarray) -> ValveParams:
     laws = Laws(log_g=tuple(x[:4]), log_h=tuple(x[4:8]), m=float(x[8]))
-    return dataclasses.replace(VALVE, t_on=float(x[9]), t_off=float(x[10]), laws=laws)
+    k2 = math.exp(x[9])
+    return dataclasses.replace(VALVE, k2=k2, t_on=float(x[10]), t_off=float(x[11]), laws=laws)
 
 
 def _hold(prm: ValveParams, level: np.ndarray) -> np.ndarray:
@@ -65,11 +66,11 @@ def test_the_exact_jacobian_equals_a_central_difference():
     assert out is not None
     p, dp = out
     np.testing.assert_allclose(p, sim(x), rtol=0, atol=1e-13)
-    assert dp.shape == (t.size, 11)
+    assert dp.shape == (t.size, 12)
     # the run visits most of [0, k2] in both modes
     assert p.min() < 0.05 * VALVE.k2 and p.max() > 0.7 * VALVE.k2
     for c in range(x.size):
-        h = 1e-4 if c < 9 else 1e-6
+        h = 1e-4 if c < 10 else 1e-6
         up, down = x.copy(), x.copy()
         up[c] += h
         down[c] -= h
@@ -90,7 +91,7 @@ def test_the_compiled_chain_equals_its_plain_python_twin():
     t0 = np.where(
         level, tab.charge.forward(p_start, tab.k2), tab.discharge.forward(p_start, tab.k2)
     )
-    dact = np.random.default_rng(0).normal(size=(level.size, 11))
+    dact = np.random.default_rng(0).normal(size=(level.size, 12))
     args = (
         level,
         active,
@@ -101,6 +102,7 @@ def test_the_compiled_chain_equals_its_plain_python_twin():
         np.array([tab.charge.t_end, tab.discharge.t_end]),
         tab.kernel_args[-1],
         law_tangents(VALVE, 1 << 11),
+        VALVE.k2,
     )
     dp, base = chain_sensitivity(*args)
     dp_py, base_py = chain_sensitivity_py(*args)

@@ -171,12 +171,11 @@ def fit_laws(
     The residuals are each run's block means, model minus data, weighted by ``1/s_r`` with
     ``s_r`` the RMS of the run's residuals under the starting laws (at least the noise of
     a block mean), as in the refinement, so that no run drowns the others. The Jacobian is
-    exact in the laws' coefficients and the delays, carried through the time maps in one
-    pass (:func:`~spa.identification.laws_model.law_model_sensitivity`), and a forward
-    difference in ``log k2`` (one simulation, time maps of
-    :data:`~spa.model.laws.timemap.FIT_NODES` nodes); under the transport convention, or
-    when a run starts above ``k2``, every column is a forward difference (one simulation
-    per coefficient). It is updated by Broyden's rank-one rule for up to four steps in
+    exact, carried through the time maps in one pass
+    (:func:`~spa.identification.laws_model.law_model_sensitivity`); under the transport
+    convention, or when a run starts above ``k2``, it is a forward difference (one
+    simulation per coefficient, time maps of :data:`~spa.model.laws.timemap.FIT_NODES`
+    nodes). It is updated by Broyden's rank-one rule for up to four steps in
     between (one simulation a step); the covariance's is the same Jacobian at the optimum.
     """
     if not runs:
@@ -278,8 +277,8 @@ def fit_laws(
         exact = _exact_jac(xf)
         cols = []
         for i in range(xf.size):
-            if exact is not None and free[i] != im + 1:
-                cols.append(exact[:, free[i] - (free[i] > im + 1)])
+            if exact is not None:
+                cols.append(exact[:, free[i]])
                 continue
             xs = xf.copy()
             step = steps[free[i]]
@@ -291,7 +290,7 @@ def fit_laws(
         return np.column_stack(cols)
 
     def _exact_jac(xf: FloatArray) -> FloatArray | None:
-        # every column but log k2's from the time maps' sensitivities, in one pass
+        # every column from the time maps' sensitivities, in one pass
         prm = params(xf)
         sens = [law_model_sensitivity(r, prm, dl) for r in runs]
         if any(sn is None for sn in sens):

@@ -66,9 +66,10 @@ def law_model(
 def law_model_sensitivity(
     run: RefineRun, prm: ValveParams, delay: str | None = None, nodes: int = FIT_NODES
 ) -> tuple[FloatArray, FloatArray] | None:
-    """:func:`law_model` and its exact derivatives in ``log_g[i]``, ``log_h[i]``, ``m``,
-    ``t_on`` and ``t_off`` (block means of
-    :func:`~spa.model.laws.sensitivity.law_replay_sensitivity`), shape ``(blocks, 2n + 3)``.
+    """:func:`law_model` and its exact derivatives in the fit vector's entries
+    (:func:`law_names`: ``log_g[i]``, ``log_h[i]``, ``m``, ``log_k2``, ``t_on``,
+    ``t_off``), block means of :func:`~spa.model.laws.sensitivity.law_replay_sensitivity`,
+    shape ``(blocks, 2n + 4)``.
 
     None where they are not exact: the paper's laws (closed forms), the transport
     convention, or a run starting outside ``[0, k2]``; the caller then differentiates

@@ -17,6 +17,7 @@ def chain_sensitivity_py(
     t_end: np.ndarray,
     coef: np.ndarray,
     scoef: np.ndarray,
+    k2: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Plain-Python :func:`chain_sensitivity` (the reference its compiled twin is checked
     against; same arguments and results)."""
@@ -55,6 +56,8 @@ def chain_sensitivity_py(
         if active[r] > 0.0 and not clamped:
             d += dactive[r]
         d = d * f1
+        if j == 0 and f0 != 0.0:
+            d[nlaw - 1] += k2 * (1.0 - f1 / f0)
     return dp, base
 
 
@@ -69,6 +72,7 @@ def chain_sensitivity(
     t_end: np.ndarray,
     coef: np.ndarray,
     scoef: np.ndarray,
+    k2: float,
 ) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover (compiled; checked against the twin)
     """Sensitivities of every run's start pressure, and each run's base term.
 
@@ -92,7 +96,10 @@ def chain_sensitivity(
         The time maps' inverse tables (:class:`~spa.model.laws.timemap.LawTables`).
     scoef : numpy.ndarray
         ``(nlaw, 4, 2*nodes)``: Hermite coefficients of ``S_θ`` on the inverse grid, one per
-        law coefficient (the first ``nlaw`` columns).
+        law coefficient (the first ``nlaw`` columns, the last ``log k2``: while charging at
+        a fixed distance ``q = k2 - p``, so ``p``'s gains ``k2·(1 - f(p')/f(p_r))``).
+    k2 : float
+        The supply pressure, bar.
 
     Returns
     -------
@@ -144,4 +151,6 @@ def chain_sensitivity(
                 d[c] += dactive[r, c]
         for c in range(ncol):
             d[c] *= f1
+        if j == 0 and f0 != 0.0:
+            d[nlaw - 1] += k2 * (1.0 - f1 / f0)
     return dp, base

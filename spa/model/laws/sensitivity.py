@@ -67,12 +67,16 @@ def _dlog_rate(p: np.ndarray, params: ValveParams, on: bool) -> np.ndarray:
     """``∂ln f/∂θ`` at ``p`` for the mode's law coefficients: ``ℓ_i(p/k2)`` per knot, then
     ``ln(p/k2)`` for ``m`` when exhausting; shape ``p.shape + (columns,)``."""
     lw = valve_laws(params)
-    basis = _basis(np.clip(p / params.k2, 0.0, 1.0), lw.knots)
+    s = np.clip(p / params.k2, 0.0, 1.0)
+    basis = _basis(s, lw.knots)
+    da, db = lw.log_rates(s, derivative=True)
     if on:
-        return basis
+        # log k2 at fixed distance q = k2 - p (smooth; the rest is added in closed form)
+        return np.concatenate((basis, (da * (1.0 - s))[..., None]), axis=-1)
     with np.errstate(divide="ignore"):
         lnp = np.log(np.maximum(p, params.k2 * 1e-300) / params.k2)
-    return np.concatenate((basis, lnp[..., None]), axis=-1)
+    k2col = (0.5 - lw.m) - s * db
+    return np.concatenate((basis, lnp[..., None], k2col[..., None]), axis=-1)
 
 
 @lru_cache(maxsize=128)
@@ -118,15 +122,17 @@ def _tangent(params: ValveParams, on: bool, nodes: int) -> np.ndarray:
 
 @lru_cache(maxsize=8)
 def law_tangents(params: ValveParams, nodes: int = NODES) -> np.ndarray:
-    """``(2n + 1, 4, 2*nodes)``: Hermite coefficients of ``S_θ`` for ``θ`` = ``log_g[i]``,
-    ``log_h[i]``, ``m`` on both modes' inverse grids (zero where the mode does not read the
+    """``(2n + 2, 4, 2*nodes)``: Hermite coefficients of ``S_θ`` for ``θ`` = ``log_g[i]``,
+    ``log_h[i]``, ``m``, ``log k2`` on both modes' inverse grids (``log k2``'s while charging
+    at a fixed distance to ``k2``) (zero where the mode does not read the
     coefficient), laid out as :attr:`~spa.model.laws.timemap.LawTables.coef`; cached (a
     fit's Jacobian reads it once per run)."""
     n = len(valve_laws(params).knots)
     ch = _tangent(_mode_valve(params, True), True, nodes)
     dis = _tangent(_mode_valve(params, False), False, nodes)
-    out = np.zeros((2 * n + 1, 4, 2 * nodes))
-    out[:n, :, :nodes] = ch
+    out = np.zeros((2 * n + 2, 4, 2 * nodes))
+    out[:n, :, :nodes] = ch[:n]
+    out[-1, :, :nodes] = ch[n]
     out[n:, :, nodes:] = dis
     return out
 
@@ -151,7 +157,7 @@ def law_replay_sensitivity(
     counts: npt.NDArray[np.int64] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None:
     """:func:`~spa.model.laws.timemap.law_replay` (hold convention) and its exact
-    derivatives in ``log_g[i]``, ``log_h[i]``, ``m``, ``t_on`` and ``t_off``.
+    derivatives in ``log_g[i]``, ``log_h[i]``, ``m``, ``log k2``, ``t_on`` and ``t_off``.
 
     The arguments are :func:`~spa.model.laws.timemap.law_replay`'s. ``hold[r]`` is taken as
     ``t_on`` on a rising run and ``t_off`` on a falling one, except the first run's.
@@ -159,7 +165,8 @@ def law_replay_sensitivity(
     Returns
     -------
     (p, dp) or None
-        The pressure at ``t`` and ``(t.size, 2n + 3)`` derivatives; None when a run starts
+        The pressure at ``t`` and ``(t.size, 2n + 4)`` derivatives, in the order of
+        :func:`~spa.identification.laws_model.law_names`; None when a run starts
         outside ``[0, k2]`` (see the module's notes): the caller differentiates
         numerically.
     """
@@ -167,7 +174,7 @@ def law_replay_sensitivity(
 
     tab = law_tables(params, nodes)
     n = len(valve_laws(params).knots)
-    ncol = 2 * n + 3
+    ncol = 2 * n + 4
     level = np.asarray(level, dtype=np.bool_)
     ends = np.append(starts[1:], np.inf)
     active = np.maximum(ends - starts - hold, 0.0)
@@ -179,8 +186,8 @@ def law_replay_sensitivity(
     falling = ~level
     falling[0] = False
     dhold = np.zeros((level.size, ncol))
-    dhold[rising, 2 * n + 1] = 1.0
-    dhold[falling, 2 * n + 2] = 1.0
+    dhold[rising, 2 * n + 2] = 1.0
+    dhold[falling, 2 * n + 3] = 1.0
     t0 = np.empty(level.size)
     t0[level] = tab.charge.forward(p_start[level], tab.k2)
     t0[~level] = tab.discharge.forward(p_start[~level], tab.k2)
@@ -188,7 +195,9 @@ def law_replay_sensitivity(
     t_end = np.array([tab.charge.t_end, tab.discharge.t_end])
     scoef = law_tangents(params, nodes)
     coef = tab.kernel_args[-1]
-    _, base = chain_sensitivity(level, active, -dhold, p_start, t0, inv_h, t_end, coef, scoef)
+    _, base = chain_sensitivity(
+        level, active, -dhold, p_start, t0, inv_h, t_end, coef, scoef, tab.k2
+    )
     if counts is None:
         j = np.maximum(np.searchsorted(starts, t, side="right") - 1, 0)
         counts = np.bincount(j, minlength=starts.size)
@@ -206,10 +215,19 @@ def law_replay_sensitivity(
     p = ((c3.take(i) * s + c2.take(i)) * s + c1.take(i)) * s + c0.take(i)
     f = (c1.take(i) + s * (2.0 * c2.take(i) + 3.0 * s * c3.take(i))) * ih
     dp = base[run]
-    for c in range(2 * n + 1):
+    for c in range(2 * n + 2):
         sc = scoef[c]
         dp[:, c] -= ((sc[3].take(i) * s + sc[2].take(i)) * s + sc[1].take(i)) * s + sc[0].take(i)
     moving = (e > 0.0) & (e < stop[run])
     dp -= dhold[run] * moving[:, None]
     dp *= f[:, None]
+    # log k2 while charging: the pressure is k2 - q, q's map moves as tabulated
+    u0 = (t0 * np.where(level, inv_h[0], inv_h[1]))[level]
+    i0 = np.minimum(u0.astype(np.int64), nodes - 1)
+    s0 = u0 - i0
+    f0 = np.zeros(level.size)
+    f0[level] = (c1.take(i0) + s0 * (2.0 * c2.take(i0) + 3.0 * s0 * c3.take(i0))) * inv_h[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        extra = np.where(lv & (f0[run] != 0.0), tab.k2 * (1.0 - f / f0[run]), 0.0)
+    dp[:, 2 * n + 1] += extra
     return p, dp
