@@ -15,10 +15,16 @@ Each run's start pressure chains the same way, one compiled step per run
 active time and its samples' elapsed time shrink by the run's hold (``t_on`` on rising
 runs, ``t_off`` on falling ones).
 
+``log k2`` moves the knots, the discharge's scale ``k2**(1/2 - m)`` and the charge's zero.
+While exhausting, ``∂ln f/∂ln k2 = 1/2 - m - s·b'(s)`` (``s = p/k2``; the origin of ``T``
+moves too, by a constant that cancels). While charging it is taken at a fixed distance
+``q = k2 - p``, where ``∂ln f/∂ln k2 = a'(s)·(1 - s)`` stays bounded; back in ``p`` that adds
+``k2·(1 - f(p)/f(p0))``.
+
 Covered: the hold convention, start pressures within ``[0, k2]``. Not covered (the caller
 falls back to a finite difference): the transport convention (the delays move the runs'
 edges), a charge started at or above ``k2`` and a discharge started above it (the closed
-forms beyond ``k2``), and ``k2`` itself (it moves the coordinate and the knots).
+forms beyond ``k2``).
 """
 
 from __future__ import annotations
