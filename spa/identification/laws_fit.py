@@ -23,7 +23,13 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from spa.identification.laws_heldout import LeaveOneOutState
-from spa.identification.laws_model import _laws, _valve, law_model, law_names
+from spa.identification.laws_model import (
+    _laws,
+    _valve,
+    law_model,
+    law_model_sensitivity,
+    law_names,
+)
 from spa.identification.longrun import andrews_bandwidth, newey_west
 from spa.identification.refine import RefineRun
 from spa.identification.results import FloatArray
@@ -165,10 +171,12 @@ def fit_laws(
     The residuals are each run's block means, model minus data, weighted by ``1/s_r`` with
     ``s_r`` the RMS of the run's residuals under the starting laws (at least the noise of
     a block mean), as in the refinement, so that no run drowns the others. The Jacobian is
-    a forward difference (one simulation per coefficient, time maps of
-    :data:`~spa.model.laws.timemap.FIT_NODES` nodes), updated by Broyden's rank-one rule
-    for up to four steps in between (one simulation a step); the covariance's is a forward
-    difference at the optimum.
+    exact, carried through the time maps in one pass
+    (:func:`~spa.identification.laws_model.law_model_sensitivity`); under the transport
+    convention, or when a run starts above ``k2``, it is a forward difference (one
+    simulation per coefficient, time maps of :data:`~spa.model.laws.timemap.FIT_NODES`
+    nodes). It is updated by Broyden's rank-one rule for up to four steps in
+    between (one simulation a step); the covariance's is the same Jacobian at the optimum.
     """
     if not runs:
         raise ValueError("fit_laws needs at least one run with a 'valve' column")
@@ -266,8 +274,12 @@ def fit_laws(
 
     def _jac(xf: FloatArray) -> FloatArray:
         f0 = fun(xf)
+        exact = _exact_jac(xf)
         cols = []
         for i in range(xf.size):
+            if exact is not None:
+                cols.append(exact[:, free[i]])
+                continue
             xs = xf.copy()
             step = steps[free[i]]
             if xs[i] + step > hi[free[i]]:
@@ -276,6 +288,15 @@ def fit_laws(
             count[0] += 1
             cols.append((resid(models(xs)) - f0) / step)
         return np.column_stack(cols)
+
+    def _exact_jac(xf: FloatArray) -> FloatArray | None:
+        # every column from the time maps' sensitivities, in one pass
+        prm = params(xf)
+        sens = [law_model_sensitivity(r, prm, dl) for r in runs]
+        if any(sn is None for sn in sens):
+            return None
+        count[0] += 1
+        return np.concatenate([sn[1] * w for sn, w in zip(sens, weight, strict=True)])  # type: ignore[index]
 
     sol = least_squares(
         fun,

@@ -13,10 +13,11 @@ import numpy as np
 from spa.identification.refine import RefineRun, block_means
 from spa.identification.results import FloatArray
 from spa.model.laws import DEFAULT_KNOTS, Laws
+from spa.model.laws.sensitivity import law_replay_sensitivity
 from spa.model.laws.timemap import FIT_NODES, law_replay
 from spa.model.params import ValveParams
 
-__all__ = ["law_model", "law_names"]
+__all__ = ["law_model", "law_model_sensitivity", "law_names"]
 
 
 def law_names(knots: Sequence[float] = DEFAULT_KNOTS) -> tuple[str, ...]:
@@ -60,6 +61,37 @@ def law_model(
         counts=counts,
     )  # fmt: skip
     return block_means(p, run.block)
+
+
+def law_model_sensitivity(
+    run: RefineRun, prm: ValveParams, delay: str | None = None, nodes: int = FIT_NODES
+) -> tuple[FloatArray, FloatArray] | None:
+    """:func:`law_model` and its exact derivatives in the fit vector's entries
+    (:func:`law_names`: ``log_g[i]``, ``log_h[i]``, ``m``, ``log_k2``, ``t_on``,
+    ``t_off``), block means of :func:`~spa.model.laws.sensitivity.law_replay_sensitivity`,
+    shape ``(blocks, 2n + 4)``.
+
+    None where they are not exact: the paper's laws (closed forms), the transport
+    convention, or a run starting outside ``[0, k2]``; the caller then differentiates
+    numerically.
+    """
+    dl = prm.delay if delay is None else delay
+    if prm.laws is None or dl != "hold":
+        return None
+    hold = np.where(run.level, prm.t_on, prm.t_off)
+    hold[0] = 0.0
+    out = law_replay_sensitivity(
+        run.t, run.command_starts, run.level, hold, run.p0, prm, nodes=nodes,
+        counts=run.samples_per_command,
+    )  # fmt: skip
+    if out is None:
+        return None
+    p, dp = out
+    if run.block <= 1:
+        return p, dp
+    idx = np.arange(0, p.size, run.block)
+    size = np.diff(np.append(idx, p.size))
+    return block_means(p, run.block), np.add.reduceat(dp, idx, axis=0) / size[:, None]
 
 
 def _laws(x: FloatArray, knots: tuple[float, ...]) -> Laws:

@@ -240,8 +240,9 @@ def law_tables(params: ValveParams, nodes: int = NODES) -> LawTables:
         ``nodes**-4``, so a fit's trial valves may use a sixteenth of it
         (:data:`FIT_NODES`, about 1e-6 bar, built in about 10 ms).
     """
-    charge, discharge = _cached_mode(_mode_valve(params, True), True, nodes), _cached_mode(
-        _mode_valve(params, False), False, nodes
+    charge, discharge = (
+        _cached_mode(_mode_valve(params, True), True, nodes),
+        _cached_mode(_mode_valve(params, False), False, nodes),
     )
     g_top, h_top = law_rates(params.k2, params)
     return LawTables(
