@@ -178,8 +178,9 @@ def test_a_toy_kind_runs_through_tune_and_a_staircase_analysis(toy):
 
 # ---- nothing outside spa/model/modulators/ knows a kind by name --------------------------
 
-#: Modules that hold settings as data: the paper's printed ones, the example dataset's.
-DATA_MODULES = {"spa/openloop/paper.py", "spa/synthetic/example.py"}
+#: Modules that hold settings as data: the paper's printed ones, the example dataset's, the
+#: compliant balloons' short session's.
+DATA_MODULES = {"spa/openloop/paper.py", "spa/synthetic/example.py", "spa/synthetic/balloons.py"}
 
 
 def _kind_strings(path: Path) -> tuple[list[int], list[int]]:
