@@ -42,14 +42,7 @@ from spa.model.params import ValveParams
 from spa.model.plant import edge_indices, segment_pressure_scalar, transport_runs
 from spa.validation import fit_percent, initial_pressure
 
-__all__ = [
-    "RefineFit",
-    "RefineRun",
-    "block_means",
-    "delay_search",
-    "prepare_runs",
-    "refine",
-]
+__all__ = ["RefineFit", "RefineRun", "block_means", "delay_search", "prepare_runs", "refine"]
 
 #: The five refined parameters, in the order of the fit vector.
 NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
@@ -123,20 +116,15 @@ class RefineRun:
 
     @cached_property
     def command_starts(self) -> FloatArray:
-        """The command runs' start times the model replays: :attr:`starts` less
-        :attr:`edge_shift` (the same for the paper's laws and the actuator's own)."""
-        if self.edge_shift.size == self.starts.size and self.edge_shift.any():
-            return self.starts - self.edge_shift
-        return self.starts
+        """:attr:`starts` less :attr:`edge_shift`: the runs either laws' model replays."""
+        shifted = self.edge_shift.size == self.starts.size and self.edge_shift.any()
+        return self.starts - self.edge_shift if shifted else self.starts
 
     @cached_property
     def samples_per_command(self) -> np.ndarray:
-        """Samples of :attr:`t` in each command run of :attr:`command_starts` (the first
-        run takes the samples before it): the hold convention's segments, which no
-        parameter moves."""
-        starts = self.command_starts
-        j = np.maximum(np.searchsorted(starts, self.t, side="right") - 1, 0)
-        return np.bincount(j, minlength=starts.size)
+        """Samples of :attr:`t` in each command run (the first takes those before it)."""
+        j = np.searchsorted(self.command_starts, self.t, side="right") - 1
+        return np.bincount(np.maximum(j, 0), minlength=self.starts.size)
 
     def model(self, prm: ValveParams, delay: str = "hold") -> FloatArray:
         """Block means of the exact model's pressure at the run's sample times."""
