@@ -87,11 +87,7 @@ def law_model_sensitivity(
     if out is None:
         return None
     p, dp = out
-    if run.block <= 1:
-        return p, dp
-    idx = np.arange(0, p.size, run.block)
-    size = np.diff(np.append(idx, p.size))
-    return block_means(p, run.block), np.add.reduceat(dp, idx, axis=0) / size[:, None]
+    return block_means(p, run.block), block_means(dp, run.block)
 
 
 def _laws(x: FloatArray, knots: tuple[float, ...]) -> Laws:

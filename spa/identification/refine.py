@@ -195,18 +195,23 @@ def chain_runs(
 
 
 def block_means(x: FloatArray, block: int) -> FloatArray:
-    """Means of ``x`` over consecutive blocks of ``block`` samples (the last may be shorter).
+    """Means of ``x`` over consecutive blocks of ``block`` samples (the last may be shorter),
+    along its first axis (a column per derivative, for instance).
 
     Examples
     --------
     >>> block_means(np.arange(5.0), 2).tolist()
     [0.5, 2.5, 4.0]
+    >>> block_means(np.arange(6.0).reshape(3, 2), 2).tolist()
+    [[1.0, 2.0], [4.0, 5.0]]
     """
+    x = np.asarray(x, dtype=np.float64)
     if block <= 1:
-        return np.asarray(x, dtype=np.float64)
-    idx = np.arange(0, x.size, block)
-    sums = np.add.reduceat(x, idx)
-    return sums / np.diff(np.append(idx, x.size))
+        return x
+    n = x.shape[0]
+    idx = np.arange(0, n, block)
+    sums = np.add.reduceat(x, idx, axis=0)
+    return sums / np.diff(np.append(idx, n)).reshape(-1, *(1,) * (x.ndim - 1))
 
 
 def _noise_sd(p: FloatArray) -> float:
