@@ -35,6 +35,7 @@ from spa.closedloop.disturbance import disturbances
 from spa.closedloop.experiments import LoopUnderTest, Staircase
 from spa.closedloop.export import arduino_sketch, controller_header
 from spa.closedloop.noise import NOISE_FALLBACK, SensorNoise, sensor_noise
+from spa.closedloop.pulses import RecordedPulses, loop_pulses, pulse_clause
 from spa.closedloop.robust import robust_design
 from spa.closedloop.shipped import ShippedLoop, ship_lengthened, shipped_loop
 from spa.model.modulators import Modulator
@@ -203,6 +204,7 @@ def bench_outputs(
     adequacy: Mapping[str, Any] | None = None,
     choice: tuple[str, str] | None = None,
     unresolved: Mapping[str, tuple[float, float]] | None = None,
+    recorded: RecordedPulses | None = None,
 ) -> BenchOutputs:
     """The header of the chosen loop, its promise over the box and the model error, and the
     disturbances.
@@ -248,7 +250,8 @@ def bench_outputs(
     that ``tau_c``; its worst overshoot and settling time are the promise. When no ``tau_c``
     holds, the header ships the stage's loop, the sentence says there is no promise, and
     ``verified`` is false. ``verified`` is also false when the model is inadequate or the
-    setting's modulator was not run on this bench.
+    setting's modulator was not run on this bench, or when the shipped loop's valve pulses
+    on the model, over the promise's staircase, are shorter than the bench recorded.
     """
     from spa.closedloop.design import design_pi
     from spa.closedloop.model_error import widen
@@ -322,7 +325,10 @@ def bench_outputs(
     )
     gm, dm = _margins(mod, ctrl, params, own)
     clause = adequacy_clause(adequacy, mod.kind)
-    verified = rd.tau_c_robust is not None and (adequacy is None or clause == "")
+    hold_promised = box_hold(plants, stairs, shipped_tau, c, min(gains))
+    pulses = pulse_clause(*loop_pulses(mod, ctrl, params, stairs, hold_promised, dt), recorded)
+    verified = rd.tau_c_robust is not None and (adequacy is None or clause == "") and not pulses
+    clause = "; ".join(x for x in (clause, pulses) if x)
     lengthened = shipped_tau != tau_c
     info = {
         "n_corners": rd.n_corners,
@@ -369,12 +375,14 @@ def bench_outputs(
     if envelope:
         summary["laws_envelope"] = envelope
     summary["model_error"] = {k: [float(v[0]), float(v[1])] for k, v in (model_error or {}).items()}
+    if recorded is not None:
+        summary["recorded_pulses"] = recorded.to_mapping()
     summary["promise"] = {
         "kept": rd.tau_c_robust is not None,
         "tau_c": shipped_tau,
         "controller": ctrl.to_mapping(),
         "levels": stairs,
-        "hold": box_hold(plants, stairs, shipped_tau, c, min(gains)),
+        "hold": hold_promised,
         "overshoot": worst.get("overshoot", math.nan),
         "settling_time": worst.get("settling_time", math.nan),
         "end_error": worst.get("end_error", math.nan),

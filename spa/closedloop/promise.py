@@ -17,6 +17,8 @@ from typing import Any
 import pandas as pd
 
 from spa.closedloop.bench import BenchOutputs, _chosen
+from spa.closedloop.controller import PIController
+from spa.closedloop.pulses import RecordedPulses, loop_pulses, pulse_clause, recorded_settings
 from spa.model.modulators import Modulator
 
 __all__ = ["OVERSHOOT_MARGIN", "RIPPLE_FACTOR", "SETTLE_BAND", "design_for_dataset", "promise_kept"]
@@ -46,9 +48,13 @@ def design_for_dataset(
     identified : mapping
         ``params.yaml``'s content (``IdentificationResult.to_dict()``).
     runs, metas : mapping
-        Run id -> run table and metadata (``kind``; staircases give the model error).
+        Run id -> run table and metadata (``kind``; staircases give the model error; a
+        ``modulator`` is designed too). Their valve commands give the pulses the bench
+        recorded: a loop whose pulses on the model are shorter is not verified
+        (:mod:`spa.closedloop.pulses`; no runs, no check).
     selected : iterable of mapping
-        The settings compared (the config's ``analytic.selected``).
+        The settings compared (the config's ``analytic.selected``); the runs' own settings
+        are added.
     cfg : mapping, optional
         The config's ``closed_loop:`` section.
     recommendation : mapping, optional
@@ -80,7 +86,14 @@ def design_for_dataset(
         valve = read_identified(identified)
     if recommendation is None and isinstance(identified.get("adequacy"), Mapping):
         recommendation = {"adequacy": identified["adequacy"]}
-    result = closed_loop(valve.params, list(selected), recommendation, cfg)
+    # without runs nothing is known of the records' pulses: no check (None)
+    recorded = RecordedPulses.from_runs(runs) if runs else None
+    # the settings the bench ran are designed too: only loops within the pulses it recorded
+    # can be verified (spa.closedloop.pulses)
+    settings = [Modulator.from_mapping(m) if isinstance(m, Mapping) else m for m in selected]
+    labels = {m.label for m in settings}
+    settings += [m for m in recorded_settings(metas) if m.label not in labels]
+    result = closed_loop(valve.params, settings, recommendation, cfg)
     ctl = result.controllers
     first = _chosen(ctl)
     adequacy = adequacy_of(identified)
@@ -103,6 +116,8 @@ def design_for_dataset(
             seen.add(choice[0])
             heads.append(choice)
     candidates = list(dict.fromkeys([first, *heads, *ordered]))
+    # loops whose valve pulses on the model lie within the records go first (stable order)
+    candidates.sort(key=lambda choice: not _within_records(ctl, choice, valve.params, recorded))
     benches: list[tuple[tuple[str, str] | None, BenchOutputs]] = []
     errors: dict[bool, dict[str, tuple[float, float]]] = {}  # each staircase replayed once
     for choice in candidates[:MAX_CANDIDATES]:
@@ -119,6 +134,7 @@ def design_for_dataset(
             adequacy=adequacy,
             choice=choice,
             unresolved=valve.unresolved,
+            recorded=recorded,
         )
         benches.append((choice, bench))
         if bench.summary.get("verified"):
@@ -128,9 +144,32 @@ def design_for_dataset(
     choice, bench = (verified or kept or benches)[0]
     if choice != first and choice is not None and first is not None:
         fraction = float({**DEFAULTS, **dict(cfg or {})}["max_level_fraction"])
-        _ship_instead(result, first, choice, benches[0][1], valve.params, fraction)
+        checked = next((b for c, b in benches if c == first), None)
+        _ship_instead(result, first, choice, checked, valve.params, fraction)
     apply_bench(result, bench)
     return result, bench
+
+
+def _within_records(
+    ctl: Mapping[str, Any],
+    choice: tuple[str, str] | None,
+    params: Any,
+    recorded: RecordedPulses | None,
+) -> bool:
+    """Whether a designed loop's valve open and closed times on the model, over its own
+    staircase, lie within those the bench recorded (:func:`spa.closedloop.pulses.pulse_clause`)."""
+    if choice is None:
+        return False
+    if recorded is None:
+        return True
+    entry = ctl["controllers"][choice[0]]
+    levels = [float(v) for v in entry.get("levels", ctl.get("levels", []))]
+    if not levels or choice[1] not in entry:
+        return False
+    ctrl = PIController.from_mapping(entry[choice[1]])
+    dt = float(ctl.get("dt", 1e-3))
+    pulses = loop_pulses(entry["setting"], ctrl, params, levels, float(entry.get("hold", 3.0)), dt)
+    return pulse_clause(*pulses, recorded) == ""
 
 
 #: Most designed loops checked over the box, in the stage's order, for one that keeps a
@@ -142,7 +181,7 @@ def _ship_instead(
     result: Any,
     first: tuple[str, str],
     choice: tuple[str, str],
-    first_bench: BenchOutputs,
+    first_bench: BenchOutputs | None,
     params: Any,
     fraction: float,
 ) -> None:
@@ -162,16 +201,26 @@ def _ship_instead(
         sentence += " " + held_clause(gains[label]["setting"], params, held, fraction)
     if ctl.get("tau_c") != ctl.get("tau_c_requested"):
         sentence += f" tau_c was lengthened to {float(ctl['tau_c']):g} s."
-    try:
-        worst = float((first_bench.summary.get("promise") or {}).get("overshoot"))
-    except (TypeError, ValueError):
-        worst = math.nan
     desc = Modulator.from_mapping(gains[first[0]]["setting"]).description
-    why = f" (worst overshoot {worst:.0f} %)" if math.isfinite(worst) else ""
+    said = dict(first_bench.summary) if first_bench is not None else {}
+    if first_bench is None or (said.get("promise") or {}).get("kept"):
+        # kept over the box but not verified, or not checked: its pulses are outside the records
+        clause = str(said.get("adequacy_clause") or "") or (
+            "its valve's times on the model are shorter than the bench recorded"
+        )
+        why = f"whose promise the data do not verify ({clause})"
+    else:
+        try:
+            worst = float((said.get("promise") or {}).get("overshoot"))
+        except (TypeError, ValueError):
+            worst = math.nan
+        why = (
+            "which keeps no promise over the 95 % box and the model error measured on this "
+            "dataset" + (f" (worst overshoot {worst:.0f} %)" if math.isfinite(worst) else "")
+        )
     ctl["sentence"] = (
         f"{sentence} It is shipped instead of {desc} with the {first[1]} PI, the fastest on "
-        "the identified model, which keeps no promise over the 95 % box and the model error "
-        f"measured on this dataset{why}."
+        f"the identified model, {why}."
     )
 
 
