@@ -1,7 +1,7 @@
-"""End to end on a compliant balloon whose identification chose its own laws: the closed-loop
-stage's functions design on the laws valve (built from params.yaml's laws record), make a
-promise and export a header that compiles strictly and equals the Python loop; closed on the
-balloon in C, the header keeps its verified promise."""
+"""End to end on each compliant balloon of the full configuration, whose identification
+chose its own laws: the closed-loop stage's functions design on the laws valve (built from
+params.yaml's laws record), make a promise and export a header that compiles strictly and
+equals the Python loop; closed on the balloon in C, the header keeps its verified promise."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
 CLOSED_LOOP = {**CONFIG["closed_loop"], "levels_fraction": [0.2, 0.4, 0.6]}
 DT = 1e-3
-NAME = "balloon-06"
+NAMES = ("balloon-06", "balloon-04")
 MODULATORS = SHORT_SESSION["modulators"]
 EXPERIMENTS = SHORT_SESSION["experiments"]
 
@@ -51,22 +51,23 @@ int main(void)
 """
 
 
-@pytest.fixture(scope="module")
-def stage(tmp_path_factory):
-    """The balloon's dataset, identified through the pipeline's identify entry, and the
+@pytest.fixture(scope="module", params=NAMES)
+def stage(request, tmp_path_factory):
+    """Each balloon's dataset, identified through the pipeline's identify entry, and the
     closed-loop stage's design on the laws valve of its params.yaml."""
     from spa.datasets import read_runs
     from spa.synthetic.runs import generate_dataset
 
-    plant = compliant_balloons()[NAME]
+    name = request.param
+    plant = compliant_balloons()[name]
     cfg = {
         "plant": {"kind": "physical", **plant.to_mapping()},
         "controller_dt": DT,
         "sensor": {"fs": 1000.0},
         "modulators": MODULATORS,
     }
-    folder = tmp_path_factory.mktemp("balloon") / NAME
-    generate_dataset(NAME, cfg, EXPERIMENTS, BALLOON_SEEDS[NAME], folder)
+    folder = tmp_path_factory.mktemp("balloon") / name
+    generate_dataset(name, cfg, EXPERIMENTS, BALLOON_SEEDS[name], folder)
     runs, metas = read_runs(folder)
     kinds = {r: m["kind"] for r, m in metas.items()}
     identified = identify_with_config(runs, kinds, {}, metas=metas).to_dict()
