@@ -205,6 +205,7 @@ def bench_outputs(
     choice: tuple[str, str] | None = None,
     unresolved: Mapping[str, tuple[float, float]] | None = None,
     recorded: RecordedPulses | None = None,
+    below: Mapping[str, Any] | None = None,
 ) -> BenchOutputs:
     """The header of the chosen loop, its promise over the box and the model error, and the
     disturbances.
@@ -235,6 +236,14 @@ def bench_outputs(
         The delays the data do not resolve, ``name -> (lo, hi)`` s
         (:func:`spa.closedloop.delays.unresolved_delays`): the header's comment and the
         sentence say so, with what to record (:func:`spa.closedloop.delays.unresolved_sentence`).
+    recorded : RecordedPulses, optional
+        The shortest valve pulses the dataset's runs contain: a shipped loop whose pulses on
+        the model are mostly shorter is not verified (:func:`spa.closedloop.pulses.pulse_clause`).
+    below : mapping, optional
+        ``{"lowest": bar, "laws_envelope": {...}}``: the promise leaves out the set-points
+        below ``lowest`` (``intervals`` are then the box over the pressures it visits,
+        :func:`spa.closedloop.box.laws_box_above`), and ``laws_envelope`` is the laws'
+        envelope over every pressure, for the sentence.
 
     Returns
     -------
@@ -302,6 +311,8 @@ def bench_outputs(
     plants = PromiseBox(mod, params, box)
     own = box_levels(plants, own, top)
     stairs = promise_levels(own, params.k2, float(c["promise_step_fraction"]))
+    if below is not None:
+        stairs = [v for v in stairs if v >= float(below["lowest"]) * (1.0 - 1e-9)]
     rd = robust_design(
         mod,
         name,
@@ -377,6 +388,11 @@ def bench_outputs(
     summary["model_error"] = {k: [float(v[0]), float(v[1])] for k, v in (model_error or {}).items()}
     if recorded is not None:
         summary["recorded_pulses"] = recorded.to_mapping()
+    if below is not None:
+        summary["below"] = {
+            "lowest": float(below["lowest"]),
+            "laws_envelope": dict(below.get("laws_envelope") or {}),
+        }
     summary["promise"] = {
         "kept": rd.tau_c_robust is not None,
         "tau_c": shipped_tau,

@@ -49,10 +49,13 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
     if promise.get("kept"):
         tau, hold = _num(promise.get("tau_c")), _num(promise.get("hold"))
         settle, ripple = _num(promise.get("settling_time")), _num(promise.get("ripple_pp"))
+        below = summary.get("below") or {}
+        lowest = _num(below.get("lowest")) if isinstance(below, Mapping) else math.nan
+        scope = f" for set-points from {lowest:.3g} bar up" if math.isfinite(lowest) else ""
         text += (
-            f". Promise (the header, τ_c = {tau:.3g} s): on any plant within that box, overshoot "
-            f"≤ {_num(promise.get('overshoot')):.0f} % and every level within 2 % of its step "
-            f"by the end of a {hold:.1f} s hold"
+            f". Promise (the header, τ_c = {tau:.3g} s){scope}: on any plant within that box, "
+            f"overshoot ≤ {_num(promise.get('overshoot')):.0f} % and every level within 2 % of "
+            f"its step by the end of a {hold:.1f} s hold"
         )
         if math.isfinite(settle):
             text += f", settling (2 %) ≤ {settle:.2f} s"
@@ -60,6 +63,8 @@ def bench_sentence(summary: Mapping[str, Any]) -> str:
             text += ", though its cycle-mean pressure does not stay within 2 % on every level"
         if math.isfinite(ripple):
             text += f", ripple ≤ {ripple * 1e3:.0f} mbar peak-to-peak"
+        if math.isfinite(lowest):
+            text += below_clause(lowest, below.get("laws_envelope"))
     elif promise:
         text += (
             f". No promise: no τ_c tried keeps the overshoot within {limit:.3g} % with every "
@@ -187,4 +192,28 @@ def laws_record_clause(envelope: Mapping[str, float] | None) -> str:
         f". The {law} law is the widest part of the box (its 95 % band spans ×{factor:.2g} "
         f"either way over the pressures recorded): more {runs}, through the set-points' "
         "range, narrow it (spa plan --replicates)"
+    )
+
+
+def below_clause(lowest: float, envelope: Mapping[str, float] | None) -> str:
+    """Why a laws valve's promise leaves out the set-points below ``lowest`` bar, and what
+    to record to cover them.
+
+    Examples
+    --------
+    >>> s = below_clause(0.57, {"charge": 1.2, "exhaust": 4.3})
+    >>> "exhaust law's 95 % band spans ×4.3" in s, "more discharges below 0.57 bar" in s
+    (True, True)
+    >>> below_clause(0.57, {"charge": 1.2, "exhaust": 1.3}).endswith("every plant of the box")
+    True
+    """
+    head = f". Below {lowest:.3g} bar no τ_c tried keeps it on every plant of the box"
+    law, factor = max((envelope or {"laws": math.nan}).items(), key=lambda kv: kv[1])
+    if not factor > WIDE_LAW:
+        return head
+    runs = "discharges" if law == "exhaust" else "charges"
+    return (
+        f"{head}: the {law} law's 95 % band spans ×{factor:.2g} either way over all the "
+        f"pressures recorded; more {runs} below {lowest:.3g} bar narrow it "
+        "(spa plan --replicates)"
     )

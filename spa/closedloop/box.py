@@ -14,7 +14,7 @@ from spa.identification.identified import corners
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
-__all__ = ["PromiseBox", "box_hold", "box_levels", "promise_levels"]
+__all__ = ["PromiseBox", "box_hold", "box_levels", "laws_box_above", "promise_levels"]
 
 
 def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list[float]:
@@ -167,3 +167,63 @@ def box_levels(plants: PromiseBox, levels: list[float], max_fraction: float = 0.
         lo, hi = max(lo, held[0]), min(hi, held[1])
     kept = [v for v in levels if lo <= v <= hi]
     return kept if len(kept) >= 2 else list(levels)
+
+
+def laws_box_above(
+    record: Mapping[str, Any] | None,
+    params: ValveParams,
+    intervals: Mapping[str, tuple[float, float]],
+    lowest: float,
+) -> dict[str, tuple[float, float]]:
+    """The box of a laws valve for a promise whose loop stays above ``lowest`` bar.
+
+    The laws' whole-law envelopes (``tau2`` for the charge, ``c1`` for the exhaust,
+    :func:`spa.identification.identified.laws_intervals`) are taken over the pressures the
+    data visited at or above ``lowest`` instead of all of them; every other interval is
+    ``intervals``'. A discharge the data leave loose near 0 bar then no longer scales the
+    exhaust law at the set-points a promise keeps clear of it.
+
+    Parameters
+    ----------
+    record : mapping or None
+        ``params.yaml``'s ``laws:`` record (its ``bands`` and ``visited``); None or a record
+        without bands leaves ``intervals`` as they are.
+    params : ValveParams
+        The laws valve.
+    intervals : mapping
+        The valve's 95 % intervals, ``name -> (lo, hi)``.
+    lowest : float
+        The lowest pressure the promise's loop visits, bar.
+
+    Returns
+    -------
+    dict
+        ``intervals`` with ``tau2`` and ``c1`` over the pressures at or above ``lowest``.
+
+    Examples
+    --------
+    >>> from spa.model.laws import Laws
+    >>> v = ValveParams(tau2=1.0, c1=0.5, k2=1.0,
+    ...                 laws=Laws(log_g=(0, 0), log_h=(0, 0), knots=(0, 1)))
+    >>> rec = {"bands": {"grid": [0.2, 0.5, 0.8],
+    ...        "open": {"rate": [1, 1, 1], "lo": [.9, .9, .9], "hi": [1.1, 1.1, 1.1]},
+    ...        "closed": {"rate": [-1, -1, -1], "lo": [-4, -1.2, -1.2], "hi": [-.25, -.8, -.8]}},
+    ...        "visited": {"open": [0, 1], "closed": [0, 1]}}
+    >>> whole = laws_box_above(rec, v, {"k2": (0.9, 1.1)}, 0.0)
+    >>> above = laws_box_above(rec, v, {"k2": (0.9, 1.1)}, 0.4)
+    >>> round(whole["c1"][1] / 0.5, 2), round(above["c1"][1] / 0.5, 2), above["k2"]
+    (4.0, 1.25, (0.9, 1.1))
+    """
+    from spa.identification.identified import laws_intervals
+
+    if not isinstance(record, Mapping) or not isinstance(record.get("bands"), Mapping):
+        return dict(intervals)
+    visited = dict(record.get("visited") or {})
+    grid = [float(v) for v in record["bands"]["grid"]]
+    top = max(grid) if grid else math.inf
+    for mode in ("open", "closed"):
+        span = visited.get(mode) or [min(grid, default=0.0), top]
+        lo, hi = (float(v) if v is not None else math.nan for v in span)
+        visited[mode] = [max(lo, float(lowest)), hi] if max(lo, float(lowest)) <= hi else span
+    laws = laws_intervals({"bands": record["bands"], "visited": visited}, params)
+    return {**intervals, **{k: v for k, v in laws.items() if k in ("tau2", "c1")}}

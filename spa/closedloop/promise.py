@@ -117,17 +117,19 @@ def design_for_dataset(
             heads.append(choice)
     candidates = list(dict.fromkeys([first, *heads, *ordered]))
     # loops whose valve pulses on the model lie within the records go first (stable order)
-    candidates.sort(key=lambda choice: not _within_records(ctl, choice, valve.params, recorded))
+    within = {c: _within_records(ctl, c, valve.params, recorded) for c in candidates}
+    candidates.sort(key=lambda choice: not within[choice])
     benches: list[tuple[tuple[str, str] | None, BenchOutputs]] = []
     errors: dict[bool, dict[str, tuple[float, float]]] = {}  # each staircase replayed once
-    for choice in candidates[:MAX_CANDIDATES]:
+
+    def check(choice, intervals, below=None) -> BenchOutputs:
         equilibrium = choice is not None and choice[1] == "scheduled_ff"
         if equilibrium not in errors:
             errors[equilibrium] = dataset_error(runs, metas, valve.params, equilibrium=equilibrium)
-        bench = bench_outputs(
+        return bench_outputs(
             result,
             valve.params,
-            valve.intervals,
+            intervals,
             cfg,
             sensor_noise(identified),
             model_error=errors[equilibrium],
@@ -135,10 +137,15 @@ def design_for_dataset(
             choice=choice,
             unresolved=valve.unresolved,
             recorded=recorded,
+            below=below,
         )
-        benches.append((choice, bench))
-        if bench.summary.get("verified"):
+
+    for choice in candidates[:MAX_CANDIDATES]:
+        benches.append((choice, check(choice, valve.intervals)))
+        if benches[-1][1].summary.get("verified"):
             break
+    if not any(b.summary.get("verified") for _, b in benches):
+        benches += _narrowed(benches, valve, identified.get("laws"), check, within, adequacy)
     kept = [cb for cb in benches if (cb[1].summary.get("promise") or {}).get("kept")]
     verified = [cb for cb in kept if cb[1].summary.get("verified")]
     choice, bench = (verified or kept or benches)[0]
@@ -171,6 +178,55 @@ def _within_records(
     pulses = loop_pulses(entry["setting"], ctrl, params, levels, float(entry.get("hold", 3.0)), dt)
     return pulse_clause(*pulses, recorded) == ""
 
+
+def _narrowed(benches, valve, record, check, within, adequacy) -> list:
+    """A laws valve's promise over fewer set-points: when no loop keeps a verified promise
+    over every set-point, the lowest are left out one at a time (at least two kept), each
+    time with the laws' box over the pressures the loop then visits
+    (:func:`spa.closedloop.box.laws_box_above`, from :data:`BELOW_MARGIN` of ``k2`` under
+    the lowest set-point kept), for the first :data:`NARROWED_CANDIDATES` loops that could
+    be verified; the widest range first. ``record`` is ``params.yaml``'s ``laws:`` (its
+    bands). The first verified one, as ``[(choice, bench)]``, or ``[]``.
+    """
+    from spa.closedloop.bench import adequacy_clause
+    from spa.closedloop.bench_text import laws_envelope
+    from spa.closedloop.box import laws_box_above
+
+    bands = record.get("bands") if isinstance(record, Mapping) else None
+    if valve.params.laws is None or not isinstance(bands, Mapping):
+        return []
+    verifiable = [
+        (choice, bench)
+        for choice, bench in benches
+        if choice is not None
+        and within.get(choice, False)
+        and adequacy_clause(adequacy, choice[0].split("-", 1)[0]) == ""
+    ][:NARROWED_CANDIDATES]
+    whole = laws_envelope(valve.params, valve.intervals)
+    stairs = {
+        c: [float(v) for v in (b.summary.get("promise") or {}).get("levels", [])]
+        for c, b in verifiable
+    }
+    for drop in range(1, max((len(v) for v in stairs.values()), default=0) - 1):
+        for choice, _ in verifiable:
+            levels = stairs[choice]
+            if len(levels) - drop < 2:
+                continue
+            lowest = levels[drop]
+            margin = BELOW_MARGIN * float(valve.params.k2)
+            box = laws_box_above(record, valve.params, valve.intervals, lowest - margin)
+            bench = check(choice, box, {"lowest": lowest, "laws_envelope": whole})
+            if bench.summary.get("verified"):
+                return [(choice, bench)]
+    return []
+
+
+#: Share of ``k2`` under a narrowed promise's lowest set-point that its laws' box still
+#: covers: a step down into it undershoots by at most ``max_overshoot`` (10 %) of a step.
+BELOW_MARGIN = 0.1
+
+#: Loops tried with a narrowed promise (:func:`_narrowed`); each try costs a robust design.
+NARROWED_CANDIDATES = 3
 
 #: Most designed loops checked over the box, in the stage's order, for one that keeps a
 #: verified promise (the first is the stage's choice; each costs a robust design).
