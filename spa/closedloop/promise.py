@@ -225,12 +225,12 @@ def _narrowed(benches, valve, record, check, within, adequacy) -> list:
 #: covers: a step down into it undershoots by at most ``max_overshoot`` (10 %) of a step.
 BELOW_MARGIN = 0.1
 
-#: Loops tried with a narrowed promise (:func:`_narrowed`); each try costs a robust design.
-NARROWED_CANDIDATES = 3
-
 #: Most designed loops checked over the box, in the stage's order, for one that keeps a
 #: verified promise (the first is the stage's choice; each costs a robust design).
 MAX_CANDIDATES = 6
+
+#: Loops tried at each narrowed range (:func:`_narrowed`): as many as over the whole range.
+NARROWED_CANDIDATES = MAX_CANDIDATES
 
 
 def _ship_instead(
