@@ -124,9 +124,12 @@ class RecordedPulses:
 
     def to_mapping(self) -> dict[str, Any]:
         """Plain values for YAML."""
+        def said(x: float | None) -> float | None:
+            return None if x is None else float(f"{x:.6g}")
+
         return {
-            "open_floor": self.open_floor,
-            "closed_floor": self.closed_floor,
+            "open_floor": said(self.open_floor),
+            "closed_floor": said(self.closed_floor),
             "n_open": self.n_open,
             "n_closed": self.n_closed,
         }
