@@ -15,7 +15,6 @@ tick), and :func:`play_on_plant` picks one of the two by the plant given.
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
@@ -23,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from spa._cc import build_c, find_cc
 from spa.model.params import ValveParams
 from spa.plan.design import SessionDesign
 from spa.plan.session import run_commands
@@ -53,14 +53,15 @@ def build_harness(folder: str | Path, out: str | Path, cc: str = "cc") -> Path:
     RuntimeError
         If the build fails, with the compiler's message.
     """
-    compiler = shutil.which(cc)
-    if compiler is None:
-        raise FileNotFoundError(f"no C compiler: {cc!r} is not on PATH")
     player = Path(folder) / "player"
-    cmd = [compiler, *STRICT, f"-I{player}", str(player / "harness.c"), "-o", str(out), "-lm"]
-    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if res.returncode != 0:
-        raise RuntimeError(f"building the player failed ({' '.join(cmd)}):\n{res.stderr}")
+    build_c(
+        [player / "harness.c"],
+        out,
+        flags=STRICT,
+        includes=[player],
+        cc=cc,
+        what="building the player",
+    )
     return Path(out).resolve()  # absolute: a bare name would be looked up on PATH
 
 
@@ -233,8 +234,6 @@ def _harness(plant: str) -> str:
     return text
 
 
-
-
 def session_ticks(folder: str | Path) -> int:
     """The ticks a plan folder's session plays: its runs and the rests between them
     (``plan.yaml``)."""
@@ -244,8 +243,6 @@ def session_ticks(folder: str | Path) -> int:
     dt = float(plan["tick"])
     rest = round(float(plan["rest_between_runs"]) / dt)
     return sum(round(float(r["seconds"]) / dt) + rest for r in plan["runs"])
-
-
 
 
 def _play_compiled(
@@ -259,22 +256,20 @@ def _play_compiled(
 ) -> tuple[str, npt.NDArray[np.int8]]:
     """Compile ``main_text`` with a folder's player and a plant's C source, and run it: the
     plant's constants line ``head``, then one noise value per tick played."""
-    compiler = shutil.which(cc)
-    if compiler is None:
-        raise FileNotFoundError(f"no C compiler: {cc!r} is not on PATH")
+    find_cc(cc)  # before the program's source is written next to the plan
     player = Path(folder) / "player"
     out = Path(work) if work is not None else Path(folder).parent
     source, header = plant_source
     main = out / f"on-plant-{Path(folder).name}.c"
-    exe = out / f"on-plant-{Path(folder).name}"
     main.write_text(main_text, encoding="utf-8")
-    cmd = [compiler, *STRICT, f"-I{player}", f"-I{header.parent}", str(main), str(source)]
-    cmd += ["-o", str(exe), "-lm"]
-    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if res.returncode != 0:
-        raise RuntimeError(
-            f"building the player on the plant failed ({' '.join(cmd)}):\n{res.stderr}"
-        )
+    exe = build_c(
+        [main, source],
+        out / f"on-plant-{Path(folder).name}",
+        flags=STRICT,
+        includes=[player, header.parent],
+        cc=cc,
+        what="building the player on the plant",
+    )
     n = session_ticks(folder)
     extra = np.zeros(n) if noise is None else np.asarray(noise, dtype=np.float64)
     if extra.size < n:

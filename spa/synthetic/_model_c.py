@@ -9,7 +9,6 @@ The paper's laws only: a valve with its own laws (``ValveParams(laws=...)``) is 
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import tempfile
 from importlib import resources
@@ -18,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from spa._cc import build_c
 from spa.model.params import ValveParams
 
 __all__ = ["MODEL_CFLAGS", "model_constants", "model_plant_source", "run_model_in_c"]
@@ -108,20 +108,19 @@ def run_model_in_c(
     """
     consts = model_constants(params)
     u = np.asarray(valve).astype(np.int8)
-    compiler = shutil.which(cc)
-    if compiler is None:
-        raise FileNotFoundError(f"no C compiler: {cc!r} is not on PATH")
     source, header = model_plant_source()
     head = f"{u.size} {float(dt)!r} {float(p0)!r} " + " ".join(map(repr, consts)) + "\n"
     with tempfile.TemporaryDirectory(prefix="spa-model-") as tmp:
         main = Path(tmp) / "open.c"
         main.write_text(_OPEN, encoding="utf-8")
-        exe = Path(tmp) / "open"
-        cmd = [compiler, *MODEL_CFLAGS, f"-I{header.parent}", str(main), str(source)]
-        cmd += ["-o", str(exe), "-lm"]
-        res = subprocess.run(cmd, capture_output=True, text=True, check=False)
-        if res.returncode != 0:
-            raise RuntimeError(f"building the model twin failed ({' '.join(cmd)}):\n{res.stderr}")
+        exe = build_c(
+            [main, source],
+            Path(tmp) / "open",
+            flags=MODEL_CFLAGS,
+            includes=[header.parent],
+            cc=cc,
+            what="building the model twin",
+        )
         res = subprocess.run(
             [str(exe)],
             input=head + "\n".join(str(int(v)) for v in u) + "\n",

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import re
-import shutil
 import subprocess
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -51,25 +50,21 @@ def c_plant_source() -> tuple[Path, Path]:
     return root / "physical_plant.c", root / "physical_plant.h"
 
 
-def _compiler(cc: str) -> str:
-    path = shutil.which(cc)
-    if path is None:
-        raise FileNotFoundError(f"no C compiler: {cc!r} is not on PATH")
-    return path
-
-
 def _build(folder: Path, main: str, cc: str, include: Sequence[Path] = ()) -> Path:
     """Compile ``main`` (source text) with the plant into ``folder/harness``."""
+    from spa._cc import build_c
+
     source, header = c_plant_source()
     src = folder / "harness.c"
     src.write_text(main, encoding="utf-8")
-    exe = folder / "harness"
-    incs = [f"-I{header.parent}", *(f"-I{p}" for p in include)]
-    cmd = [_compiler(cc), *CFLAGS, *incs, str(src), str(source), "-o", str(exe), "-lm"]
-    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if res.returncode != 0:
-        raise RuntimeError(f"compiling the C harness failed ({' '.join(cmd)}):\n{res.stderr}")
-    return exe
+    return build_c(
+        [src, source],
+        folder / "harness",
+        flags=CFLAGS,
+        includes=[header.parent, *include],
+        cc=cc,
+        what="compiling the C harness",
+    )
 
 
 def _constants_line(plant: Any, dt: float) -> str:
