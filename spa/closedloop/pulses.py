@@ -75,9 +75,11 @@ def valve_durations(
     >>> o.tolist(), c.tolist()
     ([2.0], [3.0])
     """
+    from spa.model.plant import edge_indices
+
     time = np.asarray(t, dtype=np.float64)
     v = np.asarray(valve) > 0
-    edges = np.flatnonzero(v[1:] != v[:-1]) + 1
+    edges = edge_indices(v)
     if edges.size < 2:
         return np.empty(0), np.empty(0)
     lengths = np.diff(time[edges])
@@ -124,6 +126,7 @@ class RecordedPulses:
 
     def to_mapping(self) -> dict[str, Any]:
         """Plain values for YAML."""
+
         def said(x: float | None) -> float | None:
             return None if x is None else float(f"{x:.6g}")
 
@@ -165,12 +168,12 @@ def loop_pulses(
     >>> bool(o.size > 20 and c.size > 20), bool(o.max() < 0.05 and c.max() < 0.05)
     (True, True)
     """
+    from spa.closedloop.experiments import staircase_reference
     from spa.closedloop.loop import closed_loop_arrays
 
     stairs = [float(v) for v in levels]
-    up_down = [*stairs, *stairs[-2::-1]] if len(stairs) > 1 else stairs
-    n = max(1, round(float(hold) / dt))
-    reference = np.repeat(np.asarray(up_down, dtype=np.float64), n)
+    # at least one sample a level, even for a hold shorter than dt
+    reference = staircase_reference(stairs, max(float(hold), dt), dt)
     _, _, u = closed_loop_arrays(reference, dt, modulator, controller, params, p0=stairs[0])
     return valve_durations(np.arange(reference.size) * dt, u)
 
