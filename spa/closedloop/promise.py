@@ -97,6 +97,10 @@ def design_for_dataset(
     ctl = result.controllers
     first = _chosen(ctl)
     adequacy = adequacy_of(identified)
+
+    def adequate(label: str) -> bool:  # "<type>-<setting>": run here, described here
+        return adequacy_clause(adequacy, label.split("-", 1)[0]) == ""
+
     # After the stage's choice, only loops that can be verified: of a modulator the bench ran
     # and the model describes there (an unverifiable promise is no better than none).
     # Those that meet the design at the stage's tau_c first, then the others in the stage's
@@ -104,7 +108,7 @@ def design_for_dataset(
     others = [
         (str(label), str(name))
         for label, name in [*ctl.get("meeting", []), *ctl.get("ranked", [])]
-        if adequacy_clause(adequacy, label.split("-", 1)[0]) == ""
+        if adequate(label)
     ]
     # One loop of each setting first (the best of each, in that order), then the others: a
     # setting whose loops all miss the promise should not use up the candidates.
@@ -145,7 +149,9 @@ def design_for_dataset(
         if benches[-1][1].summary.get("verified"):
             break
     if not any(b.summary.get("verified") for _, b in benches):
-        benches += _narrowed(benches, valve, identified.get("laws"), check, within, adequacy)
+        # the loops checked that could be verified: within the records, of an adequate kind
+        verifiable = [(c, b) for c, b in benches if c is not None and within[c] and adequate(c[0])]
+        benches += _narrowed(verifiable, valve, identified.get("laws"), check)
     kept = [cb for cb in benches if (cb[1].summary.get("promise") or {}).get("kept")]
     verified = [cb for cb in kept if cb[1].summary.get("verified")]
     choice, bench = (verified or kept or benches)[0]
@@ -179,30 +185,25 @@ def _within_records(
     return pulse_clause(*pulses, recorded) == ""
 
 
-def _narrowed(benches, valve, record, check, within, adequacy) -> list:
+def _narrowed(verifiable, valve, record, check) -> list:
     """A laws valve's promise over fewer set-points: when no loop keeps a verified promise
     over every set-point, the lowest are left out one at a time (at least two kept), each
     time with the laws' box over the pressures the loop then visits
     (:func:`spa.closedloop.box.laws_box_above`, from :data:`BELOW_MARGIN` of ``k2`` under
-    the lowest set-point kept), for the first :data:`NARROWED_CANDIDATES` loops that could
-    be verified; the widest range first. ``record`` is ``params.yaml``'s ``laws:`` (its
-    bands). The first verified one, as ``[(choice, bench)]``, or ``[]``.
+    the lowest set-point kept), for the first :data:`NARROWED_CANDIDATES` of the checked
+    loops that could be verified (``verifiable``, ``[(choice, bench)]``); the widest range
+    first. ``record`` is ``params.yaml``'s ``laws:`` (its bands). The first verified one, as
+    ``[(choice, bench)]``, or ``[]``.
     """
-    from spa.closedloop.bench import adequacy_clause
     from spa.closedloop.bench_text import laws_envelope
     from spa.closedloop.box import laws_box_above
 
     bands = record.get("bands") if isinstance(record, Mapping) else None
     if valve.params.laws is None or not isinstance(bands, Mapping):
         return []
-    verifiable = [
-        (choice, bench)
-        for choice, bench in benches
-        if choice is not None
-        and within.get(choice, False)
-        and adequacy_clause(adequacy, choice[0].split("-", 1)[0]) == ""
-    ][:NARROWED_CANDIDATES]
+    verifiable = verifiable[:NARROWED_CANDIDATES]
     whole = laws_envelope(valve.params, valve.intervals)
+    margin = BELOW_MARGIN * float(valve.params.k2)
     stairs = {
         c: [float(v) for v in (b.summary.get("promise") or {}).get("levels", [])]
         for c, b in verifiable
@@ -213,7 +214,6 @@ def _narrowed(benches, valve, record, check, within, adequacy) -> list:
             if len(levels) - drop < 2:
                 continue
             lowest = levels[drop]
-            margin = BELOW_MARGIN * float(valve.params.k2)
             box = laws_box_above(record, valve.params, valve.intervals, lowest - margin)
             bench = check(choice, box, {"lowest": lowest, "laws_envelope": whole})
             if bench.summary.get("verified"):
