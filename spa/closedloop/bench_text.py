@@ -171,6 +171,17 @@ def laws_envelope(
     return out
 
 
+def _widest_law(envelope: Mapping[str, float] | None) -> tuple[str, float, str] | None:
+    """The law whose band is widest, its factor and the runs that narrow it, when it moves
+    by more than :data:`WIDE_LAW` either way (None otherwise)."""
+    if not envelope:
+        return None
+    law, factor = max(envelope.items(), key=lambda kv: kv[1])
+    if not factor > WIDE_LAW:
+        return None
+    return law, factor, "discharges" if law == "exhaust" else "charges"
+
+
 def laws_record_clause(envelope: Mapping[str, float] | None) -> str:
     """What to record when a laws valve's box breaks every promise: the law whose band is
     widest, when it moves by more than :data:`WIDE_LAW` either way ("" otherwise).
@@ -182,12 +193,10 @@ def laws_record_clause(envelope: Mapping[str, float] | None) -> str:
     >>> laws_record_clause({"charge": 1.2, "exhaust": 1.3})
     ''
     """
-    if not envelope:
+    widest = _widest_law(envelope)
+    if widest is None:
         return ""
-    law, factor = max(envelope.items(), key=lambda kv: kv[1])
-    if not factor > WIDE_LAW:
-        return ""
-    runs = "discharges" if law == "exhaust" else "charges"
+    law, factor, runs = widest
     return (
         f". The {law} law is the widest part of the box (its 95 % band spans ×{factor:.2g} "
         f"either way over the pressures recorded): more {runs}, through the set-points' "
@@ -208,10 +217,10 @@ def below_clause(lowest: float, envelope: Mapping[str, float] | None) -> str:
     True
     """
     head = f". Below {lowest:.3g} bar no τ_c tried keeps it on every plant of the box"
-    law, factor = max((envelope or {"laws": math.nan}).items(), key=lambda kv: kv[1])
-    if not factor > WIDE_LAW:
+    widest = _widest_law(envelope)
+    if widest is None:
         return head
-    runs = "discharges" if law == "exhaust" else "charges"
+    law, factor, runs = widest
     return (
         f"{head}: the {law} law's 95 % band spans ×{factor:.2g} either way over all the "
         f"pressures recorded; more {runs} below {lowest:.3g} bar narrow it "
