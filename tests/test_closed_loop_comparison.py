@@ -189,3 +189,21 @@ def test_tau_c_is_lengthened_until_a_loop_meets_the_overshoot_limit() -> None:
     else:
         assert "setting" not in res.controllers
         assert "no designed controller keeps the overshoot within" in res.sentence
+
+
+def test_no_loop_settling_is_said_with_the_closest_and_no_advice_to_widen_the_overshoot():
+    """A hold far shorter than any loop's settling: no loop ends every level within 2 % at
+    any tau_c tried. The sentence names the loop that comes closest and its end error, and
+    does not advise a wider max_overshoot, which would not make a loop settle."""
+    res = closed_loop(ValveParams(), SELECTED, None, {**CFG, "hold": 0.15})
+    assert "setting" not in res.controllers
+    assert not any(t["met"] for t in res.controllers["tau_c_tried"])
+    t = res.table
+    end = t[(t.experiment == "staircase") & (t.metric == "end_error")]
+    assert (end["max"] > 2.0).all()
+    closest = end.loc[end["max"].idxmin()]
+    said = res.sentence
+    assert "no designed controller ends every level within 2 % of its step" in said
+    assert f"the closest, {closest.modulator} ({closest.controller} PI" in said
+    assert f"{closest['max']:.1f} % of its step away" in said
+    assert "would not change that" in said and "widen closed_loop.max_overshoot" not in said

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from spa.closedloop.choice import (
+    SETTLED,
     TAU_C_FACTORS,
     _least_overshoot,
     _measured,
@@ -376,6 +377,7 @@ def closed_loop(
     levels_of, unheld, info = setting_levels(mods, params, c)
     tried: list[dict[str, Any]] = []
     first = None
+    settles = False  # some loop ends every level within 2 %, at some tau_c tried
     for factor in (1.0, *TAU_C_FACTORS):
         used = tau_c * factor
         rows, step_rows, traces, gains, skipped = _design_all(
@@ -386,6 +388,7 @@ def closed_loop(
         ranked = ranked_choices(table, rec, limit, measured)
         choice = ranked[0] if ranked else None
         met = choice is not None and stairs.meets(*choice, limit)
+        settles = settles or any(stairs.settled(*loop) for loop in ranked)
         tried.append(
             {
                 "tau_c": used,
@@ -437,6 +440,8 @@ def closed_loop(
                 f"tau_c was lengthened to {used:g} s."
             )
         controllers["sentence"] = sentence
+    elif choice is not None and not settles:
+        controllers["sentence"] = unsettled_sentence(stairs, ranked, tau_c, tried[-1]["tau_c"])
     elif choice is not None:
         over = stairs.worst(*choice, "overshoot")
         longest = tried[-1]["tau_c"]
@@ -466,3 +471,38 @@ def write_controllers(result: ClosedLoopResult, path: str | Path) -> None:
     """Write ``controllers.yaml`` (plain floats and lists, key order kept)."""
     with open(path, "w", encoding="utf-8") as fh:
         dump_yaml(result.controllers, fh, sort_keys=False, allow_unicode=True)
+
+
+def unsettled_sentence(
+    stairs: _Staircases, ranked: list[tuple[str, str]], tau_c: float, longest: float
+) -> str:
+    """The stage's sentence when no designed loop ends every level of the staircase within
+    2 % of its step at any ``tau_c`` tried: the loop that comes closest at ``tau_c`` (its
+    worst end error and its ripple), and that a wider ``max_overshoot`` would not help.
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"experiment": "staircase", "modulator": "pwm-20Hz",
+    ...                   "controller": "fixed", "metric": ["end_error", "ripple_pp"],
+    ...                   "max": [3.5, 0.9], "n_missing": 0})
+    >>> said = unsettled_sentence(_Staircases(t), [("pwm-20Hz", "fixed")], 0.2, 1.6)
+    >>> said[said.index("; the closest"):]  # doctest: +NORMALIZE_WHITESPACE
+    '; the closest, pwm-20Hz (fixed PI at tau_c = 0.2 s), still ends one level 3.5 % of its
+    step away, with a ripple of 0.9 bar peak to peak. None is recommended: a wider
+    closed_loop.max_overshoot would not change that; design the loop by hand.'
+    """
+    end = {loop: stairs.worst(*loop, "end_error") for loop in ranked}
+    closest = min(ranked, key=lambda loop: (not math.isfinite(end[loop]), end[loop]))
+    ripple = stairs.worst(*closest, "ripple_pp")
+    worst = f"{end[closest]:.1f} %" if math.isfinite(end[closest]) else "an unknown share"
+    ripple_text = ""
+    if math.isfinite(ripple):
+        ripple_text = f", with a ripple of {ripple:.3g} bar peak to peak"
+    return (
+        f"Closed loop: no designed controller ends every level within {SETTLED:g} % of its "
+        f"step on this valve, even with tau_c lengthened to {longest:g} s (the mean pressure "
+        f"over the last quarter of each step); the closest, {closest[0]} ({closest[1]} PI at "
+        f"tau_c = {tau_c:g} s), still ends one level {worst} of its step away{ripple_text}. "
+        "None is recommended: a wider closed_loop.max_overshoot would not change that; design "
+        "the loop by hand."
+    )
