@@ -120,6 +120,8 @@ def _noise_words(summary: Mapping[str, Any], noise: float, added: float) -> str:
     >>> _noise_words({"sensor_noise": {"value": 0.006, "source": "measured", "method": "still"
     ...     " levels", "model_residual": 0.117}}, 0.006, 0.001)
     'sensor noise of 6.0 mbar (still levels) adds 1.00 mbar RMS ripple (the model residual of the pulse fit, 117.0 mbar, is the model error and the noise together)'
+    >>> _noise_words({}, 0.005, -0.00004)
+    'sensor noise of 5.0 mbar adds no RMS ripple (its median change is -0.04 mbar)'
     """  # noqa: E501
     from spa.closedloop.noise import SensorNoise
 
@@ -129,6 +131,8 @@ def _noise_words(summary: Mapping[str, Any], noise: float, added: float) -> str:
     said = SensorNoise(noise, str(given.get("source") or "given"), str(given.get("method") or ""))
     verb = "adds at most" if said.bound else "adds"
     text = f"{said.words()} {verb} {added * 1e3:.2f} mbar RMS ripple"
+    if added < 0.0:  # the noise moved the loop's own limit cycle the other way
+        text = f"{said.words()} adds no RMS ripple (its median change is {added * 1e3:.2f} mbar)"
     if math.isfinite(residual) and said.source != "model_residual":
         text += (
             f" (the model residual of the pulse fit, {residual * 1e3:.1f} mbar, is the model "

@@ -23,12 +23,18 @@ from spa.model.modulators.core import settings_arrays
 from spa.model.params import ValveParams, valve_params
 from spa.model.thresholds import thresholds
 
-__all__ = ["MIN_RISE", "rising_range", "unusable_reason", "usable"]
+__all__ = ["JUMP", "MIN_RISE", "rising_range", "unusable_reason", "usable"]
 
 #: Smallest rise of ``P_eq`` over [0, 1], as a fraction of ``k2``, that counts as a range.
 MIN_RISE = 1e-6
 
 _N_XI = 401
+
+#: A step of ``P_eq`` between adjacent grid values of ``xi`` larger than this share of
+#: ``k2`` is refined (:data:`_N_REFINE` points): a step that stays more than half as large
+#: is a jump (:func:`rising_range`).
+JUMP = 0.01
+_N_REFINE = 65
 
 
 def usable(
@@ -71,7 +77,15 @@ def usable(
 def rising_range(
     modulator: Modulator | Mapping[str, Any], params: ValveParams | None = None
 ) -> tuple[float, float] | None:
-    """The pressures the averaged equilibrium reaches while it rises with ``xi``.
+    """The pressures the averaged equilibrium reaches while it rises with ``xi``, without a
+    jump: the part of ``P_eq`` on [0, 1] that rises the most between its jumps.
+
+    Under the transport convention, a valve that opens later than it closes
+    (``t_on > t_off``) stays closed for at least ``t_on - t_off`` in every PWM period,
+    however short the command's off-time: its modulated ``P_eq`` stops short of ``k2``,
+    which it reaches only at ``xi = 1``, the valve held open. The pressures in that jump
+    cannot be held by modulating (the loop would switch between the valve held open and the
+    highest modulated pressure), so they are not in the range.
 
     Parameters
     ----------
@@ -91,16 +105,35 @@ def rising_range(
     >>> lo, hi = rising_range({"type": "pwm", "f_w": 20.0})
     >>> round(lo, 3), round(hi, 3)
     (0.0, 0.837)
+    >>> slow = ValveParams(t_on=0.025, t_off=0.01, delay="transport")  # opens after it closes
+    >>> round(rising_range({"type": "pwm", "f_w": 20.0}, slow)[1], 3), slow.k2
+    (0.408, 0.837)
     """
     p = valve_params(params)
     mod = Modulator.from_mapping(modulator).bind(p)
     xi = np.linspace(0.0, 1.0, _N_XI)
-    with np.errstate(all="ignore"):
-        peq = np.asarray(equilibrium(mod.kind, xi, p, **mod.settings), dtype=np.float64)
-    peq = peq[np.isfinite(peq)]
+
+    def peq_at(x: np.ndarray) -> np.ndarray:
+        with np.errstate(all="ignore"):
+            return np.asarray(equilibrium(mod.kind, x, p, **mod.settings), dtype=np.float64)
+
+    peq = peq_at(xi)
+    ok = np.isfinite(peq)
+    xi, peq = xi[ok], peq[ok]
     if peq.size < 2 or float(peq.max() - peq.min()) <= MIN_RISE * p.k2:
         return None
-    return float(peq.min()), float(peq.max())
+    # split the curve where it jumps: a step that a finer grid does not shrink
+    step = np.abs(np.diff(peq))
+    cuts = []
+    for i in np.flatnonzero(step > JUMP * p.k2):
+        fine = peq_at(np.linspace(xi[i], xi[i + 1], _N_REFINE))
+        if np.nanmax(np.abs(np.diff(fine))) > 0.5 * step[i]:
+            cuts.append(int(i) + 1)
+    parts = [q for q in np.split(peq, cuts) if q.size]
+    best = max(parts, key=lambda q: float(q.max() - q.min()))
+    if float(best.max() - best.min()) <= MIN_RISE * p.k2:
+        return None
+    return float(best.min()), float(best.max())
 
 
 def unusable_reason(
