@@ -207,3 +207,27 @@ def test_no_loop_settling_is_said_with_the_closest_and_no_advice_to_widen_the_ov
     assert f"the closest, {closest.modulator} ({closest.controller} PI" in said
     assert f"{closest['max']:.1f} % of its step away" in said
     assert "would not change that" in said and "widen closed_loop.max_overshoot" not in said
+
+
+def test_no_loop_within_the_overshoot_names_the_least_among_those_that_settle() -> None:
+    """A limit no loop meets, while some loops settle: the sentence gives the least
+    overshoot among the loops that end every level within 2 % (over the limit, or that
+    loop would have met it) and suggests a wider max_overshoot."""
+    res = closed_loop(ValveParams(), SELECTED, None, {**CFG, "max_overshoot": -1.0})
+    tried = res.controllers["tau_c_tried"]
+    assert not any(t["met"] for t in tried)
+    said = res.sentence
+    assert "of the loops that settle, the least overshoot is" in said
+    assert "widen closed_loop.max_overshoot" in said
+    over = float(said.split("the least overshoot is ")[1].split(" %")[0])
+    label = said.split("the least overshoot is ")[1].split("(")[1].split(",")[0]
+    assert label in {m for m in res.table.modulator}
+    # the loop named settles at the first tau_c when named there: its overshoot is the table's
+    t = res.table
+    stair = t[(t.experiment == "staircase") & (t.modulator == label)]
+    settled = stair[(stair.metric == "end_error") & (stair["max"] <= 2.0)]
+    if f"tau_c = {tried[0]['tau_c']:g} s)" in said:
+        assert not settled.empty
+        named = said.split(f"({label}, ")[1].split(" PI")[0]
+        row = stair[(stair.controller == named) & (stair.metric == "overshoot")]
+        assert round(float(row["max"].iloc[0])) == round(over)

@@ -377,7 +377,8 @@ def closed_loop(
     levels_of, unheld, info = setting_levels(mods, params, c)
     tried: list[dict[str, Any]] = []
     first = None
-    settles = False  # some loop ends every level within 2 %, at some tau_c tried
+    # every loop that ends each level within 2 %, at any tau_c tried: (overshoot, loop, tau_c)
+    settled: list[tuple[float, str, str, float]] = []
     for factor in (1.0, *TAU_C_FACTORS):
         used = tau_c * factor
         rows, step_rows, traces, gains, skipped = _design_all(
@@ -388,7 +389,11 @@ def closed_loop(
         ranked = ranked_choices(table, rec, limit, measured)
         choice = ranked[0] if ranked else None
         met = choice is not None and stairs.meets(*choice, limit)
-        settles = settles or any(stairs.settled(*loop) for loop in ranked)
+        settled += [
+            (stairs.worst(*loop, "overshoot"), *loop, used)
+            for loop in ranked
+            if stairs.settled(*loop)
+        ]
         tried.append(
             {
                 "tau_c": used,
@@ -440,17 +445,17 @@ def closed_loop(
                 f"tau_c was lengthened to {used:g} s."
             )
         controllers["sentence"] = sentence
-    elif choice is not None and not settles:
+    elif choice is not None and not settled:
         controllers["sentence"] = unsettled_sentence(stairs, ranked, tau_c, tried[-1]["tau_c"])
     elif choice is not None:
-        over = stairs.worst(*choice, "overshoot")
+        over, label, name, at = min(settled, key=lambda s: (not math.isfinite(s[0]), s[0]))
         longest = tried[-1]["tau_c"]
         controllers["sentence"] = (
             f"Closed loop: no designed controller keeps the overshoot within {limit:.3g} % "
             "with every level settled within 2 % on "
-            f"this valve, even with tau_c lengthened to {longest:g} s; the least is "
-            f"{over:.0f} % ({choice[0]}, {choice[1]} PI at "
-            f"tau_c = {tau_c:g} s). None is recommended: widen closed_loop.max_overshoot or "
+            f"this valve, even with tau_c lengthened to {longest:g} s; of the loops that "
+            f"settle, the least overshoot is {over:.0f} % ({label}, {name} PI at "
+            f"tau_c = {at:g} s). None is recommended: widen closed_loop.max_overshoot or "
             "design the loop by hand."
         )
     else:
