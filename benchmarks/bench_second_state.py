@@ -43,11 +43,10 @@ from spa.identification import identify_with_config
 from spa.identification.history import full_rate_records, history_test
 from spa.identification.identify import run_context
 from spa.identification.refine import prepare_runs
-from spa.synthetic import Sensor, identification_experiment_for
 from spa.synthetic.balloons import compliant_balloons
 from spa.synthetic.draws import random_plant
 from spa.synthetic.physical import equivalent_params
-from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
+from spa.synthetic.session import plant_session, staircase_hold
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -101,25 +100,10 @@ def _row(name: str, state: str, laws: str, runs, kinds, config, **kw) -> dict:
     }
 
 
-def plant_runs(plant, modulators, experiments_extra, seed: int, tag: str):
-    """The runs a physical plant makes: identification experiments and staircases."""
-    eq = equivalent_params(plant, DT)
-    cfg = {
-        "controller_dt": DT,
-        "sensor": {"fs": 1000.0},
-        "plant": plant.to_mapping(),
-        "modulators": [dict(m) for m in modulators],
-    }
-    experiments = {"identification": identification_experiment_for(eq), **experiments_extra}
-    specs = dataset_runs(cfg, experiments)
-    sensor = Sensor(fs=1000.0)
-    runs = {s.id: simulate_run(s, eq, DT, sensor, run_seed(seed, tag, s.id), plant)
-            for s in specs}  # fmt: skip
-    kw = {
-        "modulators": {s.id: (s.modulator or {}).get("type", "") for s in specs},
-        "command_dt": dict.fromkeys(runs, DT),
-    }
-    return runs, {s.id: s.kind for s in specs}, kw
+def plant_runs(plant, modulators, experiments, seed: int, tag: str):
+    """The runs a physical plant makes: identification experiments and ``experiments``."""
+    session = plant_session(plant, modulators, seed, tag, experiments, dt=DT)
+    return session.runs, session.kinds, session.identify_kwargs()
 
 
 def balloon_rows(config: dict) -> list[dict]:
@@ -179,7 +163,7 @@ def random_rows(config: dict, n: int, seed: int) -> list[dict]:
                                          creep_tau=0.3 + 4.7 * extra[2]),
         }  # fmt: skip
         eq = equivalent_params(plain, DT)
-        hold = float(math.ceil(max(3.0, 5.0 * eq.tau2)))
+        hold = staircase_hold(eq)
         for state, plant in variants.items():
             runs, kinds, kw = plant_runs(plant, MODULATORS,
                                          {"staircase": {"step": 0.1, "hold": hold}},

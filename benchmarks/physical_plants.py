@@ -59,16 +59,14 @@ import yaml
 
 from spa.identification import identify_with_config
 from spa.identification.identified import read_identified
-from spa.synthetic import Sensor, identification_experiment_for
 from spa.synthetic.balloons import compliant_low_supply
 from spa.synthetic.physical import (
     PHYSICAL_KEYS,
     close_loop_in_c,
-    equivalent_params,
     measure_staircase,
     random_plant,
 )
-from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
+from spa.synthetic.session import plant_session, staircase_hold
 from spa.validation import validate_run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -87,7 +85,10 @@ def one_plant(
     """Generate, identify and score one plant; a row of the table."""
     rng = np.random.default_rng([seed, index])
     plant = random_plant(rng)
-    eq = equivalent_params(plant, DT)
+    start = time.perf_counter()
+    session = plant_session(plant, MODULATORS, seed, f"plant{index}", dt=DT)
+    generate_s = time.perf_counter() - start
+    eq = session.params  # the plant's equivalent valve, which the experiments were designed for
     row: dict = {
         "seed": seed,
         "plant": index,
@@ -97,36 +98,14 @@ def one_plant(
         **{f"plant_{k}": getattr(plant, k) for k in PHYSICAL_KEYS},
     }
     row.update({f"eq_{k}": getattr(eq, k) for k in NAMES})
-    hold = math.ceil(max(3.0, 5.0 * eq.tau2))
-    cfg = {
-        "controller_dt": DT,
-        "sensor": {"fs": 1000.0},
-        "plant": plant.to_mapping(),
-        "modulators": [dict(m) for m in MODULATORS],
-    }
-    experiments = {
-        "identification": identification_experiment_for(eq),
-        "staircase": {"step": 0.1, "hold": float(hold)},
-    }
+    hold = staircase_hold(eq)
+    runs, kinds, metas = session.runs, session.kinds, session.metas
+    mods = {s.id: s.modulator for s in session.specs}
+    row["generate_s"] = generate_s
     start = time.perf_counter()
-    specs = dataset_runs(cfg, experiments)
-    sensor = Sensor(fs=1000.0)
-    runs = {
-        s.id: simulate_run(s, eq, DT, sensor, run_seed(seed, f"plant{index}", s.id), plant)
-        for s in specs
-    }
-    kinds = {s.id: s.kind for s in specs}
-    mods = {s.id: s.modulator for s in specs}
-    row["generate_s"] = time.perf_counter() - start
-    start = time.perf_counter()
-    metas = {s.id: {"kind": s.kind} for s in specs}
     try:
         res = identify_with_config(
-            runs,
-            kinds,
-            {**config, "seed": seed},
-            modulators={rid: (m["type"] if m else "") for rid, m in mods.items()},
-            command_dt=dict.fromkeys(runs, DT),
+            runs, kinds, {**config, "seed": seed}, **session.identify_kwargs()
         )
     except Exception as err:  # the benchmark reports every failure
         row["error"] = f"{type(err).__name__}: {err}"
@@ -165,7 +144,7 @@ def one_plant(
     for d, v in (convention.get("heldout_fit_modulated") or {}).items():
         row[f"heldout_modulated_{d}"] = v
     if closed_loop:
-        row.update(_closed_loop(plant, ident, rng, float(hold)))
+        row.update(_closed_loop(plant, ident, rng, hold))
     if promise:
         row.update(_promise(plant, identified, runs, metas, config, rng))
     return row

@@ -6,7 +6,6 @@ holds there."""
 
 from __future__ import annotations
 
-import math
 import shutil
 from pathlib import Path
 
@@ -25,14 +24,12 @@ from spa.identification.identified import read_identified
 from spa.model.laws import Laws
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
-from spa.synthetic import Sensor, identification_experiment_for
 from spa.synthetic.physical import (
     close_loop_in_c,
-    equivalent_params,
     measure_staircase,
     random_plant,
 )
-from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
+from spa.synthetic.session import plant_session
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
@@ -103,39 +100,19 @@ def loose_discharge():
     keeps a promise over the whole box on every set-point."""
     plant = random_plant(np.random.default_rng([2, 5]))
     assert plant.heat_tau > 1.0 and plant.supply > 3.0
-    eq = equivalent_params(plant, DT)
-    cfg = {
-        "controller_dt": DT,
-        "sensor": {"fs": 1000.0},
-        "plant": plant.to_mapping(),
-        "modulators": [
-            {"type": "pwm", "f_w": 20.0},
-            {"type": "iipfm", "t_l": 0.020, "gain": 1.15},
-            {"type": "dsm", "period": 0.020},
-        ],
-    }
-    hold = float(math.ceil(max(3.0, 5.0 * eq.tau2)))
-    experiments = {
-        "identification": identification_experiment_for(eq),
-        "staircase": {"step": 0.1, "hold": hold},
-    }
-    specs = dataset_runs(cfg, experiments)
-    runs = {
-        s.id: simulate_run(s, eq, DT, Sensor(fs=1000.0), run_seed(2, "plant5", s.id), plant)
-        for s in specs
-    }
-    kinds = {s.id: s.kind for s in specs}
+    modulators = [
+        {"type": "pwm", "f_w": 20.0},
+        {"type": "iipfm", "t_l": 0.020, "gain": 1.15},
+        {"type": "dsm", "period": 0.020},
+    ]
+    session = plant_session(plant, modulators, 2, "plant5", dt=DT)
+    runs = session.runs
     identified = identify_with_config(
-        runs,
-        kinds,
-        {**CONFIG, "seed": 2},
-        modulators={s.id: (s.modulator or {}).get("type", "") for s in specs},
-        command_dt=dict.fromkeys(runs, DT),
+        runs, session.kinds, {**CONFIG, "seed": 2}, **session.identify_kwargs()
     ).to_dict()
     assert identified["laws"]["chosen"] == "identified"
-    metas = {rid: {"kind": kind} for rid, kind in kinds.items()}
     result, bench = design_for_dataset(
-        identified, runs, metas, CONFIG["analytic"]["selected"], CONFIG["closed_loop"]
+        identified, runs, session.metas, CONFIG["analytic"]["selected"], CONFIG["closed_loop"]
     )
     return plant, identified, result, bench
 

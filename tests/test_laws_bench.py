@@ -153,29 +153,19 @@ def test_the_pairing_reports_each_seeds_verdicts(tmp_path, capsys):
 
 def _identify_plant(plant: PhysicalPlant, laws: str):
     from spa.identification import identify_with_config
-    from spa.synthetic import Sensor, identification_experiment_for
-    from spa.synthetic.physical import equivalent_params
-    from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
+    from spa.synthetic.session import plant_session
 
-    eq = equivalent_params(plant, 1e-3)
     mods = [
         {"type": "pwm", "f_w": 5.0},
         {"type": "iipfm", "t_l": 0.06, "gain": 1.25},
         {"type": "dsm", "period": 0.05},
     ]
-    cfg = {"controller_dt": 1e-3, "sensor": {"fs": 1000.0}, "plant": plant.to_mapping(),
-           "modulators": mods}  # fmt: skip
-    experiments = {"identification": identification_experiment_for(eq),
-                   "staircase": {"step": 0.1, "hold": 3.0}}  # fmt: skip
-    specs = dataset_runs(cfg, experiments)
-    sensor = Sensor(fs=1000.0)
-    runs = {s.id: simulate_run(s, eq, 1e-3, sensor, run_seed(1, "two", s.id), plant) for s in specs}
+    session = plant_session(plant, mods, 1, "two", {"staircase": {"step": 0.1, "hold": 3.0}})
     return identify_with_config(
-        runs,
-        {s.id: s.kind for s in specs},
+        session.runs,
+        session.kinds,
         {"identification": {"laws": laws}},
-        modulators={s.id: (s.modulator or {}).get("type", "") for s in specs},
-        command_dt=dict.fromkeys(runs, 1e-3),
+        **session.identify_kwargs(),
     ).to_dict()
 
 

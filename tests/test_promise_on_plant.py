@@ -23,14 +23,12 @@ from spa.closedloop.promise import design_for_dataset, promise_kept
 from spa.identification import identify_with_config
 from spa.identification.identified import read_identified
 from spa.model.modulators import Modulator
-from spa.synthetic import Sensor, identification_experiment_for
 from spa.synthetic.physical import (
     PhysicalPlant,
     close_loop_in_c,
-    equivalent_params,
     measure_staircase,
 )
-from spa.synthetic.runs import dataset_runs, run_seed, simulate_run
+from spa.synthetic.session import plant_session
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
@@ -54,26 +52,8 @@ def _dataset(name: str, seed: int = 3):
 def _runs_of(plant: PhysicalPlant, modulators: list, seed: int, name: str):
     """Runs made by ``plant``: identification experiments and one staircase of each of
     ``modulators`` (each level held max(3 s, 5 tau2)); ``(runs, metas, modulator types)``."""
-    eq = equivalent_params(plant, DT)
-    cfg = {
-        "controller_dt": DT,
-        "sensor": {"fs": 1000.0},
-        "plant": plant.to_mapping(),
-        "modulators": modulators,
-    }
-    hold = float(np.ceil(max(3.0, 5.0 * eq.tau2)))
-    experiments = {
-        "identification": identification_experiment_for(eq),
-        "staircase": {"step": 0.1, "hold": hold},
-    }
-    specs = [s for s in dataset_runs(cfg, experiments) if s.kind != "closed_loop"]
-    runs = {
-        s.id: simulate_run(s, eq, DT, Sensor(fs=1000.0), run_seed(seed, name, s.id), plant)
-        for s in specs
-    }
-    metas = {s.id: {"kind": s.kind} for s in specs}
-    mods = {s.id: (s.modulator or {}).get("type", "") for s in specs}
-    return runs, metas, mods
+    session = plant_session(plant, modulators, seed, name, dt=DT)
+    return session.runs, session.metas, session.modulators
 
 
 def _identify(runs, metas, mods, laws="auto"):
