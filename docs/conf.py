@@ -22,6 +22,7 @@ ROOT = HERE.parent
 sys.path[:0] = [str(ROOT), str(HERE)]  # this checkout's spa, whatever the venv points at
 
 from _cli import write_cli_page  # noqa: E402
+from _execute import cache_folder, executed_pages, prime, sources_key  # noqa: E402
 from _gallery import write_gallery  # noqa: E402
 from _source import icon_links, repository_url, write_source_section  # noqa: E402
 from _summaries import extend_abbreviations  # noqa: E402
@@ -86,11 +87,24 @@ numpydoc_xref_param_type = False
 # time, offline, on the bundled example; an error in a cell fails the build.
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
-nb_execution_mode = "force"
+# Each executed page runs once per state of what it uses (docs/_execute.py): its outputs are
+# cached under a digest of spa/, workflow/, the configs and raw/example, so a rebuild with
+# nothing changed starts no kernel and a change to any of them runs the pages again.
+nb_execution_mode = "cache"
 nb_execution_timeout = 600
 nb_execution_raise_on_error = True
 nb_execution_show_tb = True
 nb_merge_streams = True
+nb_execution_cache_path = os.environ.get("SPA_DOCS_NB_CACHE") or str(
+    cache_folder(HERE / "_build", sources_key(ROOT))
+)  # SPA_DOCS_NB_CACHE: another folder (benchmarks/bench_docs_load.py runs every build cold)
+prime(
+    executed_pages(HERE, exclude=("_build", "_work", ".ipynb_checkpoints")),
+    Path(nb_execution_cache_path),
+    extensions=myst_enable_extensions,
+    heading_anchors=myst_heading_anchors,
+    timeout=nb_execution_timeout,
+)
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"spa {release}"

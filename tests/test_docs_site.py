@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import importlib
 import re
-import subprocess
 import sys
 from pathlib import Path
 
@@ -112,45 +111,56 @@ def test_the_top_level_holds_what_a_notebook_calls():
         assert name not in spa.__all__, name
 
 
+sys.path.insert(0, str(DOCS))
+import _site  # noqa: E402  (how the site is built and judged: docs/_site.py)
+
+
 @pytest.fixture(scope="module")
 def site(tmp_path_factory) -> Path:
+    """The site, built as ``make docs`` builds it. Its verdict is Sphinx's own: exit status 0
+    and an empty warnings file (``-w``); the executed pages' kernels may print what they like
+    on stderr as they shut down."""
     pytest.importorskip("sphinx")
     pytest.importorskip("numpydoc")
     pytest.importorskip("myst_nb")
     pytest.importorskip("pydata_sphinx_theme")
     out = tmp_path_factory.mktemp("site")
-    res = subprocess.run(
-        [sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-j", "auto", "-q",
-         "-d", str(out / "doctrees"), str(DOCS), str(out / "html")],
-        capture_output=True, text=True, cwd=ROOT, timeout=1800,
-    )  # fmt: skip
-    assert res.returncode == 0, (res.stdout + res.stderr)[-5000:]
-    said = _KERNEL_SHUTDOWN.sub("", res.stderr)
-    assert said.strip() == "", said[-5000:]  # no warning at all
+    verdict = _site.build(DOCS, out, cwd=ROOT)
+    assert verdict.returncode == 0, verdict.output[-5000:]
+    assert verdict.warnings == "", verdict.warnings  # no warning at all
     return out / "html"
 
 
-#: The one traceback a notebook page's kernel may print as it is shut down: ipykernel's
-#: control channel flushing stderr after its I/O thread closed the socket. It is the
-#: kernel's, not Sphinx's, and says nothing of the pages; nothing else is forgiven.
-_KERNEL_SHUTDOWN = re.compile(
-    r"ERROR:tornado\.general:Uncaught exception in ZMQStream callback\n"
-    r"Traceback \(most recent call last\):\n(?:  .*\n)+?"
-    r"zmq\.error\.ZMQError: Socket operation on non-socket\n?"
-)
+def _tiny_site(tmp_path: Path, page: str) -> Path:
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "conf.py").write_text('extensions = ["myst_parser"]\nproject = "t"\n')
+    (src / "index.md").write_text("# Front\n\n```{toctree}\npage\n```\n")
+    (src / "page.md").write_text(page)
+    return src
 
 
-def test_only_the_kernels_shutdown_traceback_is_forgiven() -> None:
-    noise = (
-        "ERROR:tornado.general:Uncaught exception in ZMQStream callback\n"
-        "Traceback (most recent call last):\n"
-        '  File "zmqstream.py", line 585, in _log_error\n'
-        "    f.result()\n"
-        "zmq.error.ZMQError: Socket operation on non-socket\n"
+def test_a_broken_reference_fails_the_build_and_is_named(tmp_path) -> None:
+    pytest.importorskip("myst_parser")
+    src = _tiny_site(tmp_path, "# Page\n\nSee {doc}`no-such-page`.\n")
+    verdict = _site.build(src, tmp_path / "out")
+    assert not verdict.ok
+    assert "page.md:3" in verdict.warnings and "no-such-page" in verdict.warnings
+
+
+def test_a_clean_page_passes_whatever_is_printed_on_stderr(tmp_path) -> None:
+    """A page whose build prints libzmq's shutdown abort on stderr (as a kernel's teardown
+    does) and warns of nothing is a good build."""
+    pytest.importorskip("myst_parser")
+    src = _tiny_site(tmp_path, "# Page\n\nSee {doc}`index`.\n")
+    (src / "conf.py").write_text(
+        (src / "conf.py").read_text()
+        + "import sys\nsys.stderr.write('Assertion failed: pfd.revents & POLLIN "
+        "(src/signaler.cpp:238)\\n')\n"
     )
-    warning = "docs/x.md:3: WARNING: unknown document: 'y'\n"
-    assert _KERNEL_SHUTDOWN.sub("", noise + warning + noise) == warning
-    assert _KERNEL_SHUTDOWN.sub("", warning.replace("WARNING", "ERROR")) != ""
+    verdict = _site.build(src, tmp_path / "out")
+    assert "pfd.revents" in verdict.output  # the noise was there
+    assert verdict.ok, verdict.warnings
 
 
 def _text(site: Path, page: str) -> str:
@@ -237,3 +247,43 @@ def test_no_rendered_page_shows_an_escaped_percent_or_two_titles(site):
     }
     assert titles == {}, f"pages without exactly one H1: {titles}"
     assert _text(site, "index").count("<dt") >= 4  # the front page's definition list
+
+
+def test_an_executed_page_runs_once_per_state_of_its_code(tmp_path) -> None:
+    """docs/_execute.py: a page runs when its outputs are not cached, not when they are, and
+    again when one of its cells changes; its cached outputs are the ones it computed."""
+    pytest.importorskip("jupyter_cache")
+    import _execute
+
+    page = tmp_path / "page.md"
+    head = "---\nfile_format: mystnb\nkernelspec:\n  name: python3\n  display_name: Python 3\n---\n"
+    page.write_text(head + "# A\n\n```{code-cell} ipython3\nprint(6 * 7)\n```\n")
+    assert _execute.executed_pages(tmp_path) == [page]
+    cache = _execute.cache_folder(tmp_path / "_build", "k1")
+    options = {"extensions": ["colon_fence"], "heading_anchors": 3, "timeout": 120}
+    assert _execute.prime([page], cache, **options) == [page]
+    assert _execute.prime([page], cache, **options) == []  # cached: no kernel started
+    from jupyter_cache import get_cache
+
+    notebook = _execute.read_page(page, ["colon_fence"], 3)
+    _, merged = get_cache(str(cache)).merge_match_into_notebook(notebook)
+    code = [c for c in merged.cells if c.cell_type == "code"]
+    assert "42" in str(code[0].outputs)
+    page.write_text(page.read_text().replace("6 * 7", "6 * 8"))
+    assert _execute.prime([page], cache, **options) == [page]
+    # a new key (a change to what the pages use) starts from an empty cache, the old one gone
+    fresh = _execute.cache_folder(tmp_path / "_build", "k2")
+    assert not cache.exists() and _execute.prime([page], fresh, **options) == [page]
+
+
+def test_the_execution_key_follows_what_the_pages_use(tmp_path) -> None:
+    import _execute
+
+    (tmp_path / "spa").mkdir()
+    (tmp_path / "spa" / "a.py").write_text("x = 1\n")
+    key = _execute.sources_key(tmp_path, ("spa",))
+    (tmp_path / "spa" / "__pycache__").mkdir()
+    (tmp_path / "spa" / "__pycache__" / "a.pyc").write_bytes(b"\0")
+    assert _execute.sources_key(tmp_path, ("spa",)) == key  # compiled files are not sources
+    (tmp_path / "spa" / "a.py").write_text("x = 2\n")
+    assert _execute.sources_key(tmp_path, ("spa",)) != key
