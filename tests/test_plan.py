@@ -31,10 +31,23 @@ def _cli(*argv: str) -> tuple[int, str]:
 
 
 def test_link_refuses_a_line_per_ms_at_115200_and_says_what_fits():
-    with pytest.raises(PlanError, match=r"needs 200000 baud.*log every 2 ms"):
+    with pytest.raises(PlanError, match=r"needs 212500 baud.*log every 2 ms"):
         link_check(0.001, Limits(p_max=1.0, baud=115200))
-    assert "100000 baud" in link_check(0.002, Limits(p_max=1.0, baud=115200))
+    assert "106250 baud" in link_check(0.002, Limits(p_max=1.0, baud=115200))
     assert baud_needed(0.001) > 115200 >= baud_needed(0.002)
+
+
+def test_the_link_budget_counts_the_line_ending_println_sends():
+    """The longest line the player prints, with Serial.println's CR LF: 17 bytes, 10 bits
+    each, at 80 % load."""
+    from spa.plan.limits import LINE_BYTES
+    from spa.plan.player import player_sketch
+
+    longest = "ffff,fff,1,8000" + "\r\n"
+    assert LINE_BYTES == len(longest.encode("ascii")) == 17
+    assert baud_needed(0.002) == pytest.approx(17 * 10 / 0.002 / 0.8)
+    assert "Serial.println(q, HEX)" in player_sketch("a", 115200)  # the line ends with CR LF
+    assert f"availableForWrite() < {LINE_BYTES}" in player_sketch("a", 115200)
     with pytest.raises(PlanError, match="1000 samples/s but the logger takes 500"):
         link_check(0.001, Limits(p_max=1.0, baud=None, samples_per_s=500))
 
@@ -168,7 +181,7 @@ def test_cli_plan_refuses_a_link_and_an_existing_folder(tmp_path):
     code, out = _cli(
         "plan", str(tmp_path / "a"), "--p-max", "1", "--tick", "0.001", "--pilot", "--no-predict"
     )
-    assert code == 1 and "needs 200000 baud" in out and not (tmp_path / "a").exists()
+    assert code == 1 and "needs 212500 baud" in out and not (tmp_path / "a").exists()
     code, out = _cli("plan", str(tmp_path), "--p-max", "1", "--pilot", "--no-predict")
     assert code == 1 and "exists" in out
     code, out = _cli(

@@ -14,9 +14,10 @@ from typing import Any
 
 __all__ = ["BITS_PER_BYTE", "LINE_BYTES", "Limits", "PlanError", "baud_needed", "link_check"]
 
-#: Bytes of the longest sample line the player prints: ``ffff,fff,1,8000\n`` (tick counter
-#: mod 65536, raw ADC counts up to 12 bits, the valve, xi in Q15, all in hex but the valve).
-LINE_BYTES = 16
+#: Bytes of the longest sample line the player prints: ``ffff,fff,1,8000`` (tick counter
+#: mod 65536, raw ADC counts up to 12 bits, the valve, xi in Q15, all in hex but the valve),
+#: 15 characters, and the CR LF that Arduino's ``Serial.println`` ends it with.
+LINE_BYTES = 15 + 2
 
 #: Bits a UART sends per byte (start, 8 data, stop).
 BITS_PER_BYTE = 10
@@ -76,7 +77,7 @@ def baud_needed(dt: float, line_bytes: int = LINE_BYTES) -> float:
     Examples
     --------
     >>> baud_needed(0.001)
-    200000.0
+    212500.0
     >>> baud_needed(0.002) <= 115200
     True
     """
@@ -101,7 +102,7 @@ def link_check(dt: float, limits: Limits) -> str:
     >>> link_check(0.001, Limits(p_max=1.0, baud=115200))  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    spa.plan.limits.PlanError: logging step 1 ms needs 200000 baud ... log every 2 ms or more, ...
+    spa.plan.limits.PlanError: logging step 1 ms needs 212500 baud ... log every 2 ms or more, ...
     """
     if limits.baud is not None:
         need = baud_needed(dt)

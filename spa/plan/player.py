@@ -415,7 +415,7 @@ void loop() {
   int last = spa_plan_tick(&state, adc, &valve, &q, &log);
   digitalWrite(VALVE_PIN, valve ? HIGH : LOW); // ... then write at once
   if (log) {
-    if (Serial.availableForWrite() < 16) {      // the link stalls: vent and stop
+    if (Serial.availableForWrite() < 17) {      // the link stalls: vent and stop
       vent();
       run = SPA_PLAN_N_RUNS;
       return;
