@@ -14,6 +14,14 @@ import pyarrow as pa
 #: Name of the description file inside a dataset folder.
 SPEC_FILE = "dataset.yaml"
 
+#: The file that makes a dataset folder a planned session's (``spa plan``).
+PLAN_FILE = "plan.yaml"
+
+#: What ``spa plan`` and ``spa record`` write into a session's folder beside the runs: the
+#: plan, the checklist, the comparison a verification session gets, and the board's player
+#: (a folder). Validation and ingest pass over them in a folder that holds :data:`PLAN_FILE`.
+PLAN_WRITTEN: tuple[str, ...] = (PLAN_FILE, "checklist.md", "verification.csv", "player/")
+
 
 #: Kinds of run.
 KINDS: tuple[str, ...] = (

@@ -22,6 +22,8 @@ from spa.datasets.contract import (
     CANONICAL_COLUMNS,
     KINDS,
     MODULATED_KINDS,
+    PLAN_FILE,
+    PLAN_WRITTEN,
     SPEC_FILE,
 )
 from spa.datasets.fields import (
@@ -33,7 +35,7 @@ from spa.datasets.fields import (
     _origin_problem,
     _recorded_problem,
     _rig_problem,
-    recorded_date,
+    recorded_stamp,
 )
 
 # The dataset folders of raw/, importable from here as before.
@@ -140,7 +142,8 @@ class DatasetSpec:
     runs : tuple of RunEntry
         The runs, in file order.
     recorded : str or None
-        The day the session was recorded (``recorded:``, ISO 8601 ``YYYY-MM-DD``), or None.
+        When the session was recorded (``recorded:``): its day, ISO 8601 ``YYYY-MM-DD``,
+        with the time ``THH:MM`` (UTC) when ``recorded:`` gives one; or None.
     sample_step, valve_edges : float or str or None
         The dataset's ``sample_step:`` (s) and ``valve_edges:``, or None (runs hold the
         resolved ones: :class:`RunEntry`).
@@ -279,7 +282,7 @@ def _parse_spec(folder: Path) -> _Parsed:
     _top_value(parsed, doc, "description", _description_problem, str.strip)
     _top_value(parsed, doc, "origin", _origin_problem)
     _top_value(parsed, doc, "rig", _rig_problem, _plain)
-    _top_value(parsed, doc, "recorded", _recorded_problem, recorded_date)
+    _top_value(parsed, doc, "recorded", _recorded_problem, recorded_stamp)
     _top_value(parsed, doc, "sample_step", lambda v: check_sample_step(v)[1], float)
     _top_value(parsed, doc, "valve_edges", lambda v: check_valve_edges(v)[1], str)
     if any(p.key == "sample_step" for p in parsed.problems):
@@ -300,11 +303,16 @@ def _warn_unnamed(parsed: _Parsed, runs: Any) -> None:
     """One warning listing the files of the folder that ``dataset.yaml`` does not name.
 
     They are ignored (not read, not digested: :func:`spa.pipeline.provenance.file_digests`); hidden
-    files and the droppings of file managers and office programs are not listed.
+    files, the droppings of file managers and office programs, and in a planned session's
+    folder the files spa wrote there (:data:`spa.datasets.contract.PLAN_WRITTEN`) are not
+    listed.
     """
     named = {SPEC_FILE}
     if isinstance(runs, list):
         named |= {str(r.get("file")) for r in runs if isinstance(r, Mapping)}
+    spa_wrote: tuple[str, ...] = ()
+    if (Path(parsed.folder) / PLAN_FILE).is_file():  # a planned session: spa's own files
+        spa_wrote = PLAN_WRITTEN
     stray = []
     for dirpath, dirnames, filenames in os.walk(parsed.folder):
         dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
@@ -312,6 +320,8 @@ def _warn_unnamed(parsed: _Parsed, runs: Any) -> None:
             if name.startswith((".", "~$")) or name in _JUNK:
                 continue
             rel = (Path(dirpath) / name).relative_to(parsed.folder).as_posix()
+            if rel in spa_wrote or rel.startswith(tuple(w for w in spa_wrote if w[-1] == "/")):
+                continue
             if rel not in named:
                 stray.append(os.fsencode(rel).decode("utf-8", "backslashreplace"))
     if stray:
