@@ -427,7 +427,7 @@ def test_init_fills_recorded_or_leaves_a_todo_comment(tmp_path) -> None:
 
 @pytest.mark.parametrize(
     ("value", "expected"),
-    [("2025-03-04", "2025-03-04"), ("2025-03-04T14:02:00", "2025-03-04"), ("March", None)],
+    [("2025-03-04", "2025-03-04"), ("2025-03-04T14:02:00", "2025-03-04T14:02"), ("March", None)],
 )
 def test_recorded_is_an_iso_date_or_a_named_error(tmp_path, value, expected) -> None:
     from spa.datasets import DatasetError, load_spec

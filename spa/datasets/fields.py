@@ -160,6 +160,37 @@ def recorded_date(value: Any) -> str:
     raise ValueError(f"not a date: {value!r}")
 
 
+def recorded_stamp(value: Any) -> str:
+    """A ``recorded:`` value as the overview orders sessions by: its day (``YYYY-MM-DD``),
+    and its time to the minute when it has one (``YYYY-MM-DDTHH:MM``, UTC when it names its
+    zone), so that sessions of one day keep the order they were recorded in.
+
+    Raises
+    ------
+    ValueError
+        If it is not a date (:func:`recorded_date`).
+
+    Examples
+    --------
+    >>> recorded_stamp("2025-03-01"), recorded_stamp(datetime.date(2025, 3, 1))
+    ('2025-03-01', '2025-03-01')
+    >>> recorded_stamp("2025-03-01T14:02:31+01:00"), recorded_stamp("2025-03-01 09:05")
+    ('2025-03-01T13:02', '2025-03-01T09:05')
+    """
+    day = recorded_date(value)
+    when = value
+    if isinstance(value, str) and len(value.strip()) > 10:
+        try:
+            when = datetime.datetime.fromisoformat(value.strip())
+        except ValueError:
+            return day
+    if not isinstance(when, datetime.datetime):
+        return day
+    if when.tzinfo is not None:
+        when = when.astimezone(datetime.UTC)
+    return when.strftime("%Y-%m-%dT%H:%M")
+
+
 def _recorded_problem(value: Any) -> str | None:
     """What is wrong with ``recorded:``, or None."""
     try:

@@ -49,10 +49,22 @@ def _adc_max(cal: dict[str, Any], p_max: float) -> int:
     return int(cal["zero_counts"] + math.floor(p_max / cal["bar_per_count"]))
 
 
+def now_stamp() -> str:
+    """This minute, UTC, as ISO 8601 (``2026-12-02T16:59+00:00``): a session's ``planned:``
+    and ``recorded:`` when nothing else says when."""
+    import datetime
+
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="minutes")
+
+
 def plan_yaml(
-    design: SessionDesign, name: str, cal: dict[str, Any], extra: dict[str, Any]
+    design: SessionDesign,
+    name: str,
+    cal: dict[str, Any],
+    extra: dict[str, Any],
+    planned: str | None = None,
 ) -> dict[str, Any]:
-    """``plan.yaml``'s content."""
+    """``plan.yaml``'s content; ``planned`` is when (ISO 8601, default: now)."""
     dt = design.dt
     runs = []
     for i, run in enumerate(design.runs):
@@ -74,6 +86,7 @@ def plan_yaml(
         runs.append(entry)
     return {
         "name": name,
+        "planned": planned or now_stamp(),
         "stage": "pilot" if design.pilot else "full",
         "seed": design.seed,
         "order": "identification first (start), modulated runs in random order from the seed, "
@@ -142,6 +155,17 @@ def dataset_yaml(design: SessionDesign, name: str) -> dict[str, Any]:
     }
 
 
+def gauge(p: float) -> str:
+    """A pressure as a regulator's gauge shows it: to 0.01 bar below 10 bar, 0.1 bar above.
+
+    Examples
+    --------
+    >>> gauge(1.49979), gauge(2.0), gauge(12.34)
+    ('1.50', '2.00', '12.3')
+    """
+    return f"{p:.2f}" if p < 10 else f"{p:.1f}"
+
+
 def checklist(design: SessionDesign, name: str, cal: dict[str, Any]) -> str:
     """The session's checklist, one screen."""
     lim = design.limits
@@ -151,7 +175,7 @@ def checklist(design: SessionDesign, name: str, cal: dict[str, Any]) -> str:
     lines = [
         f"# Session {name}: {n} runs, about {minutes:.0f} min",
         "",
-        f"- [ ] Regulator at {min(design.prior.k2, lim.p_max):g} bar, no higher than the "
+        f"- [ ] Regulator at {gauge(min(design.prior.k2, lim.p_max))} bar, no higher than the "
         f"rated {lim.p_max:g} bar",
         "- [ ] Actuator on, no leak; valve on VALVE_PIN (HIGH = charge)",
         f"- [ ] Sensor on SENSOR_PIN: {cal['zero_counts']} counts at 0 bar, "
@@ -186,8 +210,12 @@ def write_plan(
     extra: dict[str, Any] | None = None,
     adc_bits: int = 10,
     controller: str | None = None,
+    planned: str | None = None,
 ) -> list[Path]:
     """Write the plan into the new folder ``folder`` (its name is the dataset's).
+
+    ``planned``: when the session was planned (ISO 8601; default: now), ``plan.yaml``'s
+    ``planned:``.
 
     ``controller``: the exported controller's header (``controller.h`` text), written beside
     the player for the closed-loop runs (a verification session's).
@@ -214,7 +242,7 @@ def write_plan(
     (out / "player").mkdir()
     files = {
         "plan.yaml": dump_yaml(
-            plan_yaml(design, name, cal, extra or {}), sort_keys=False, width=100
+            plan_yaml(design, name, cal, extra or {}, planned), sort_keys=False, width=100
         ),
         "dataset.yaml": dump_yaml(dataset_yaml(design, name), sort_keys=False, width=100),
         "checklist.md": checklist(design, name, cal),

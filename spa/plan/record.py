@@ -105,8 +105,14 @@ def _table(
     return pd.DataFrame(table), gaps
 
 
-def record_stream(folder: str | Path, lines: Iterable[str]) -> list[str]:
+def record_stream(
+    folder: str | Path, lines: Iterable[str], recorded: str | None = None
+) -> list[str]:
     """Split a stream into the plan's run files; return one line per run and per problem.
+
+    ``recorded``: when the session was recorded (ISO 8601; default: now). When a run was
+    written and ``dataset.yaml`` has no ``recorded:`` yet, it gets this one
+    (:func:`date_dataset`), so that the overview orders the sessions as they were recorded.
 
     Raises
     ------
@@ -151,4 +157,41 @@ def record_stream(folder: str | Path, lines: Iterable[str]) -> list[str]:
             )
         status = "; ".join(notes) if notes else "ok"
         report.append(f"{path}: {len(table)} samples, {status}")
+    if any(not line.startswith(("missing", "warning")) for line in report):
+        from spa.plan.folder import now_stamp
+
+        date_dataset(root / "dataset.yaml", recorded or now_stamp())
     return report
+
+
+def date_dataset(spec: Path, when: str) -> bool:
+    """Give the ``dataset.yaml`` that ``spa plan`` wrote its ``recorded:`` line, after
+    ``origin:``; every other line is kept as it is (a lab's edits too). Nothing happens when
+    it has one already.
+
+    Returns
+    -------
+    bool
+        Whether the line was added.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = Path(tempfile.mkdtemp()) / "dataset.yaml"
+    >>> _ = f.write_text("name: a\\norigin: bench\\nruns: []\\n")
+    >>> date_dataset(f, "2026-12-02T09:30+00:00"), date_dataset(f, "2027-01-01")
+    (True, False)
+    >>> print(f.read_text(), end="")
+    name: a
+    origin: bench
+    recorded: '2026-12-02T09:30+00:00'
+    runs: []
+    """
+    text = spec.read_text(encoding="utf-8")
+    lines = text.splitlines(keepends=True)
+    if any(line.startswith("recorded:") for line in lines):
+        return False
+    at = next((i + 1 for i, line in enumerate(lines) if line.startswith("origin:")), 0)
+    lines.insert(at, f"recorded: '{when}'\n")
+    spec.write_text("".join(lines), encoding="utf-8")
+    return True

@@ -281,9 +281,21 @@ def session_days(recorded: Sequence[str]) -> np.ndarray:
     [0.0, 1.0]
     """
     if len(recorded) and all(r != UNDATED for r in recorded):
-        days = np.array([datetime.date.fromisoformat(r).toordinal() for r in recorded], float)
+        days = np.array([_day_number(r) for r in recorded], float)
         return days - days[0]
     return np.arange(len(recorded), dtype=float)
+
+
+def _day_number(recorded: str) -> float:
+    """The day number of a ``recorded`` cell, the time of day as its fraction.
+
+    Examples
+    --------
+    >>> _day_number("2025-01-02T12:00") - _day_number("2025-01-02")
+    0.5
+    """
+    when = datetime.datetime.fromisoformat(recorded)
+    return when.toordinal() + (when.hour * 60 + when.minute) / 1440
 
 
 def trend(x: Sequence[float], y: Sequence[float]) -> tuple[float, float]:
