@@ -158,3 +158,45 @@ def test_the_verifications_drift_checks_keep_the_plans_margins(margin):
         valve, Modulator.from_mapping({"type": "pwm", "f_w": 20.0}), Limits(p_max=1.0), levels=4
     )
     assert [r.id for r in default.runs] == [r.id for r in design.runs]
+
+
+def test_a_setting_the_dataset_never_recorded_is_predicted_as_extrapolated(results, tmp_path):
+    """The pilot recorded no modulated run: its verification's predictions of PWM 20 Hz
+    extrapolate the model, and the plan says so and how to record the setting first."""
+    _, out = results
+    code, text = _cli("plan", str(tmp_path / "v1"), "--verify", str(out), "--p-max", "1",
+                      "--levels", "4", "--no-predict")  # fmt: skip
+    assert code == 0, text
+    plan = read_plan(tmp_path / "v1")
+    assert plan["verify"]["extrapolated"] is True and plan["verify"]["recorded_settings"] == []
+    assert "warning: extrapolated: pwm-20Hz is not among the settings" in text
+    assert f"--params {out / 'identification' / 'params.yaml'}" in text
+
+
+def test_a_recorded_setting_is_not_extrapolated(results, tmp_path):
+    import pandas as pd
+
+    from spa.datasets import write_run_table
+    from spa.plan.command import recorded_settings
+
+    _, out = results
+    runs = tmp_path / "results" / "runs"
+    t = np.arange(100) * 0.002
+    table = pd.DataFrame({"t": t, "p": 0.1 + 0 * t, "valve": (t * 50 % 1 < 0.5).astype(int),
+                          "u": 0.5 + 0 * t})  # fmt: skip
+    for rid, mod in (("s1", {"type": "pwm", "f_w": 20.0}), ("s2", {"type": "dsm", "period": 0.02})):
+        meta = {"dataset": "d", "run": rid, "kind": "staircase", "origin": "bench"}
+        meta["modulator"] = mod
+        write_run_table(runs / f"{rid}.parquet", table, meta)
+    write_run_table(runs / "c.parquet", table.drop(columns="u"),
+                    {"dataset": "d", "run": "c", "kind": "charge", "origin": "bench"})  # fmt: skip
+    assert recorded_settings(runs) == ["dsm-20ms", "pwm-20Hz"]
+    import shutil
+
+    shutil.copytree(out / "identification", tmp_path / "results" / "identification")
+    shutil.copytree(out / "tuning", tmp_path / "results" / "tuning")
+    code, text = _cli("plan", str(tmp_path / "v2"), "--verify", str(tmp_path / "results"),
+                      "--p-max", "1", "--levels", "4", "--no-predict")  # fmt: skip
+    assert code == 0, text
+    plan = read_plan(tmp_path / "v2")
+    assert plan["verify"]["extrapolated"] is False and "extrapolated" not in text

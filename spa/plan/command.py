@@ -8,7 +8,16 @@ import sys
 from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ["plan_arguments", "record_arguments", "run_plan", "run_record"]
+__all__ = [
+    "MISSED_STATUS",
+    "parse_duration",
+    "plan_arguments",
+    "record_arguments",
+    "recorded_settings",
+    "run_plan",
+    "run_record",
+    "within_budget",
+]
 
 
 def plan_arguments(p: argparse.ArgumentParser) -> None:
@@ -56,6 +65,16 @@ def plan_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--verify", metavar="RESULTS", help="test results/<name>'s predictions (default: no)"
     )
+    p.add_argument(
+        "--budget", metavar="TIME", help="bench time at most, e.g. 90min, 1.5h (default: none)"
+    )
+    p.add_argument(
+        "--missed-ok", action="store_true", help="a missed precision target warns (default: exit 3)"
+    )
+    # -h still works; its line makes room for the two above (the help fits one screen)
+    for action in p._actions:
+        if action.dest == "help":
+            action.help = argparse.SUPPRESS
 
 
 def record_arguments(p: argparse.ArgumentParser) -> None:
@@ -68,6 +87,11 @@ def record_arguments(p: argparse.ArgumentParser) -> None:
         help="the board's stream: a file, a serial port's device, or - for stdin",
     )
     p.add_argument(
+        "--recorded",
+        metavar="WHEN",
+        help="when the session was recorded, ISO 8601 (default: the stream file's time, or now)",
+    )
+    p.add_argument(
         "--page",
         metavar="PAGE.md",
         help="a verification's predictions beside the measurements (default: none)",
@@ -78,7 +102,7 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
     """Design, predict and write a plan; print its summary."""
     from spa.model.modulators import Modulator
     from spa.model.params import ValveParams
-    from spa.plan.design import design_session
+    from spa.plan.design import default_settings, design_session
     from spa.plan.folder import calibration_for, write_plan
     from spa.plan.limits import Limits, PlanError
     from spa.plan.prior import prior_from_numbers, prior_from_params
@@ -118,18 +142,37 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
             if rec.get("setting"):
                 recommended = Modulator.from_mapping(rec["setting"])
 
-        def make(replicates: int, margin: float) -> Any:
+        budget = parse_duration(args.budget) if args.budget else None
+
+        # the settings design_session records by default, in its order
+        settings = [] if args.pilot else default_settings(prior, args.tick, recommended)
+
+        def session(replicates: int, levels: int, n_settings: int, margin: float) -> Any:
             return design_session(
                 prior,
                 limits,
                 dt=args.tick,
                 seed=args.seed,
-                levels=args.levels,
+                levels=levels,
                 replicates=replicates,
+                settings=None
+                if n_settings >= len(settings)
+                else _first_settings(settings, n_settings, recommended),
                 recommended=recommended,
                 pilot=args.pilot,
                 margin=margin,
             )
+
+        kept: dict[str, Any] = {}  # what the budget kept of the last design made
+
+        def make(replicates: int, margin: float) -> Any:
+            if budget is None:
+                return session(replicates, args.levels, len(settings), margin)
+            plan, info = within_budget(
+                session, replicates, args.levels, len(settings), margin, budget, args.pilot
+            )
+            kept.update(info)
+            return plan
 
         table, resized = None, []
         if args.no_predict:
@@ -148,6 +191,8 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
                 f"{design.margins['time_scale']:g}x slower and faster than the prior",
             },
         }
+        if budget is not None:
+            extra["budget"] = {"seconds": budget, **kept}
         if table is not None:
             extra["resized"] = resized
             extra["predicted"] = [
@@ -190,8 +235,122 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
                 for r in rows.itertuples()
             )
             print(f"  {corner}: {cells}", file=out)
+    if budget is not None and kept["given_up"]:
+        print(f"  budget {budget / 60:g} min: {kept['given_up']}", file=out)
     print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
+    missed = 0 if table is None else int((~table["met"]).sum())
+    if missed:
+        word = "warning" if args.missed_ok else "error"
+        print(
+            f"{word}: the plan misses {missed} of its precision targets (MISSED above)"
+            + ("" if args.missed_ok else "; --missed-ok records it anyway and exits 0"),
+            file=out,
+        )
+        return 0 if args.missed_ok else MISSED_STATUS
     return 0
+
+
+def _first_settings(settings: list[Any], n: int, recommended: Any) -> list[Any]:
+    """``n`` of ``settings``: the recommended one and the first others, in their order."""
+    others = [m.label for m in settings if recommended is None or m.label != recommended.label]
+    keep = set(others[: n - 1 if recommended is not None else n])
+    if recommended is not None:
+        keep.add(recommended.label)
+    return [m for m in settings if m.label in keep]
+
+
+#: ``spa plan``'s exit status when the plan it wrote misses a precision target.
+MISSED_STATUS = 3
+
+
+def parse_duration(text: str) -> float:
+    """Seconds of a duration such as ``90min``, ``1.5h``, ``5400s`` or ``5400``.
+
+    Raises
+    ------
+    PlanError
+        When it is not a positive number with one of the units s, min, h.
+
+    Examples
+    --------
+    >>> parse_duration("90min"), parse_duration("1.5h"), parse_duration("300")
+    (5400.0, 5400.0, 300.0)
+    """
+    import re
+
+    from spa.plan.limits import PlanError
+
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*(s|min|h)?\s*", text)
+    if m is None or float(m.group(1)) <= 0:
+        raise PlanError(f"--budget {text}: expected a duration such as 90min, 1.5h or 5400s")
+    return float(m.group(1)) * {"s": 1.0, "min": 60.0, "h": 3600.0}[m.group(2) or "s"]
+
+
+def within_budget(
+    design: Any,
+    replicates: int,
+    levels: int,
+    settings: int,
+    margin: float,
+    budget: float,
+    pilot: bool,
+) -> tuple[Any, dict[str, Any]]:
+    """The largest plan that takes at most ``budget`` s of bench time.
+
+    What goes first: replicates above 3 (identification's repeat test needs 3), then, for a
+    full session, staircase levels (down to 5), then the settings recorded besides the
+    recommended one, the last listed first.
+
+    Parameters
+    ----------
+    design : callable
+        ``(replicates, levels, settings, margin) -> SessionDesign``, ``settings`` the number
+        of settings recorded (the recommended one first).
+    replicates, levels, settings, margin
+        The plan asked for.
+    budget : float
+        Bench time, s.
+    pilot : bool
+        A pilot records no setting: only its replicates go.
+
+    Returns
+    -------
+    plan : SessionDesign
+        The first plan tried that fits.
+    kept : dict
+        ``replicates``, ``levels`` and ``settings`` kept, and ``given_up``: a sentence on
+        what was given up ("" when nothing was).
+
+    Raises
+    ------
+    PlanError
+        When even the smallest plan takes longer, naming how long it takes.
+    """
+    from spa.plan.limits import PlanError
+
+    tried = [(r, levels, settings) for r in range(max(3, replicates), 2, -1)]
+    if not pilot:
+        tried += [(3, n, settings) for n in range(levels - 1, min(levels, 5) - 1, -1)]
+        tried += [(3, min(levels, 5), k) for k in range(settings - 1, 0, -1)]
+    for r, n, k in tried:
+        plan = design(r, n, k, margin)
+        if plan.duration <= budget:
+            given = []
+            if r < replicates:
+                given.append(f"{r} replicates of each experiment instead of {replicates}")
+            if n < levels:
+                given.append(f"{n} staircase levels instead of {levels}")
+            if k < settings:
+                given.append(f"{k} of the {settings} settings (the recommended one first)")
+            said = "; ".join(given)
+            if said:
+                said += " (the half-widths above are this plan's)"
+            return plan, {"replicates": r, "levels": n, "settings": k, "given_up": said}
+    raise PlanError(
+        f"--budget {budget / 60:g} min: the smallest plan ({tried[-1][0]} replicates"
+        + ("" if pilot else f", {tried[-1][1]} levels, {tried[-1][2]} setting")
+        + f") takes {plan.duration / 60:.0f} min"
+    )
 
 
 #: The sensor noise a verification's bands assume, bar (stated in plan.yaml).
@@ -280,6 +439,9 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
             "settling_noise_allowance_s": allowance,
             "bands": promise_predictions(promise, noise, cal["bar_per_count"], allowance),
         }
+    recorded = recorded_settings(results / "runs")
+    verify["recorded_settings"] = recorded
+    verify["extrapolated"] = setting.label not in recorded
     extra = {"prior_source": f"identified ({results})", "verify": verify}
     write_plan(args.folder, design, extra=extra, controller=header)
     print(
@@ -300,8 +462,37 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         ),
         file=out,
     )
+    if verify["extrapolated"]:
+        print(
+            f"  warning: extrapolated: {setting.label} is not among the settings "
+            f"{results.name} recorded ({', '.join(recorded) or 'none'}); its predictions "
+            "extrapolate the model, whose error was measured on those only. Record it and its "
+            f"neighbours first: spa plan raw/<next> --params {params_path} --p-max "
+            f"{limits.p_max:g}",
+            file=out,
+        )
     print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
     return 0
+
+
+def recorded_settings(folder: Path) -> list[str]:
+    """The labels of the modulator settings of a dataset's modulated runs (its run tables'
+    metadata, ``results/<name>/runs``), sorted; none without run tables.
+
+    Examples
+    --------
+    >>> recorded_settings(Path("no-such-folder"))
+    []
+    """
+    from spa.datasets import read_run_meta
+    from spa.model.modulators import Modulator
+
+    labels = set()
+    for path in sorted(folder.glob("*.parquet")) if folder.is_dir() else []:
+        meta = read_run_meta(path)
+        if isinstance(meta.get("modulator"), dict):
+            labels.add(Modulator.from_mapping(meta["modulator"]).label)
+    return sorted(labels)
 
 
 def _model_error(results: Path, params: Any) -> dict[str, Any]:
@@ -416,6 +607,19 @@ def verification_tables(folder: Path, plan: dict[str, Any]) -> dict[str, dict[st
     return tables
 
 
+def _file_time(path: str) -> str | None:
+    """When a saved stream was last written (UTC, to the minute); None for a serial port's
+    device or a pipe (the session is being recorded now)."""
+    import datetime
+    import stat
+
+    info = Path(path).stat()
+    if not stat.S_ISREG(info.st_mode):
+        return None
+    when = datetime.datetime.fromtimestamp(info.st_mtime, datetime.UTC)
+    return when.isoformat(timespec="minutes")
+
+
 def run_record(args: argparse.Namespace, out: TextIO) -> int:
     """Split the stream into the plan's run files; print one line per run."""
     from spa.plan.limits import PlanError
@@ -423,10 +627,10 @@ def run_record(args: argparse.Namespace, out: TextIO) -> int:
 
     try:
         if args.stream == "-":
-            report = record_stream(args.folder, sys.stdin)
+            report = record_stream(args.folder, sys.stdin, args.recorded)
         else:
             with open(args.stream, encoding="ascii", errors="replace") as fh:
-                report = record_stream(args.folder, fh)
+                report = record_stream(args.folder, fh, args.recorded or _file_time(args.stream))
     except (PlanError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=out)
         return 1

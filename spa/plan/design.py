@@ -23,9 +23,12 @@ from spa.plan.limits import Limits, PlanError, link_check
 from spa.plan.session import Q15, PlannedRun, Segment, longest_high, run_commands
 
 __all__ = [
+    "NEIGHBOURS",
     "SessionDesign",
+    "default_settings",
     "design_session",
     "identification_sizes",
+    "neighbour_settings",
     "paper_settings_at_scale",
     "switching_rates",
 ]
@@ -79,6 +82,51 @@ def paper_settings_at_scale(prior: ValveParams, dt: float) -> list[Modulator]:
             value = max(ref * scale, 10 * dt)
         out.append(setting(kind, float(f"{value:.3g}"), prior))
     return out
+
+
+#: A recommended setting's neighbours: its swept parameter (frequency or pulse width) times
+#: these, so that a session records the settings around the one it recommends.
+NEIGHBOURS = (0.7, 1.4)
+
+
+def neighbour_settings(
+    mod: Modulator, prior: ValveParams, dt: float, factors: tuple[float, ...] = NEIGHBOURS
+) -> list[Modulator]:
+    """The settings next to ``mod``: its swept parameter times each of ``factors``, three
+    significant digits, kept at 10 steps ``dt`` or more (a frequency at a tenth of ``1/dt``
+    or less); those that come out as ``mod`` itself are left out.
+
+    Examples
+    --------
+    >>> from spa.tuning.cost import setting
+    >>> [m.label for m in neighbour_settings(setting("pwm", 20.0), ValveParams(), 0.001)]
+    ['pwm-14Hz', 'pwm-28Hz']
+    """
+    from spa.tuning.cost import setting
+
+    spec = get_kind(mod.kind)
+    value = float(mod.settings[spec.parameter])
+    out: list[Modulator] = []
+    for f in factors:
+        v = value * f
+        v = min(v, 1.0 / (10 * dt)) if spec.unit == "Hz" else max(v, 10 * dt)
+        near = setting(mod.kind, float(f"{v:.3g}"), prior)
+        if near.label != mod.label and near.label not in {m.label for m in out}:
+            out.append(near)
+    return out
+
+
+def default_settings(
+    prior: ValveParams, dt: float, recommended: Modulator | None
+) -> list[Modulator]:
+    """What a full session records unless told otherwise: the recommended setting and its
+    neighbours (:func:`neighbour_settings`) first, then the paper's four at the valve's scale
+    (:func:`paper_settings_at_scale`), each once."""
+    first = (
+        [] if recommended is None else [recommended, *neighbour_settings(recommended, prior, dt)]
+    )
+    seen = {m.label for m in first}
+    return first + [m for m in paper_settings_at_scale(prior, dt) if m.label not in seen]
 
 
 def switching_rates(mod: Modulator, dt: float, xi: np.ndarray, span: float = 2.0) -> np.ndarray:
@@ -265,8 +313,8 @@ def design_session(
     precondition : int, default 5
         Fill-and-vent cycles before the first run (silicone softens over its first ones).
     settings : list of Modulator, optional
-        The settings to record; the recommended one and the paper's four at the valve's
-        scale by default.
+        The settings to record; by default the recommended one, its neighbours and the
+        paper's four at the valve's scale (:func:`default_settings`).
     recommended : Modulator, optional
         The recommended setting (:func:`spa.tuning.tune` on the prior), listed first.
     margin : float, default 3
@@ -299,7 +347,9 @@ def design_session(
     xi_levels = np.round(np.linspace(0.0, 1.0, levels) * Q15) / Q15
     chosen: list[Modulator] = []
     if not pilot:
-        chosen = list(settings) if settings is not None else paper_settings_at_scale(prior, dt)
+        chosen = (
+            list(settings) if settings is not None else default_settings(prior, dt, recommended)
+        )
         if recommended is not None and recommended.label not in {m.label for m in chosen}:
             chosen.insert(0, recommended)
     numbers: dict[str, dict[str, Any]] = {}
