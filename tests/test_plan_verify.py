@@ -200,3 +200,24 @@ def test_a_recorded_setting_is_not_extrapolated(results, tmp_path):
     assert code == 0, text
     plan = read_plan(tmp_path / "v2")
     assert plan["verify"]["extrapolated"] is False and "extrapolated" not in text
+
+
+def test_the_plan_says_which_drifts_each_prediction_kind_detects(results, tmp_path, monkeypatch):
+    """On the nominal valve a ±50 % drift of any of t_on, t_off, k2, tau2 moves the levels
+    out of their bands; a kind that no drift moves is named as one that cannot fail."""
+    _, out = results
+    code, text = _cli("plan", str(tmp_path / "d1"), "--verify", str(out), "--p-max", "1",
+                      "--levels", "4", "--no-predict")  # fmt: skip
+    assert code == 0, text
+    check = read_plan(tmp_path / "d1")["verify"]["drift_check"]
+    assert set(check) == {"level", "fit", "sine_mean", "sine_amplitude"}
+    assert {"tau2 x0.5", "tau2 x1.5", "k2 x0.5", "k2 x1.5"} <= set(check["level"]["broken_by"])
+    assert "cannot fail" not in text
+    import spa.plan.drift as drift
+
+    monkeypatch.setattr(drift, "drift_check", lambda *a, **k: {
+        "level": {"broken_by": ["k2 x0.5"], "can_fail": True},
+        "fit": {"broken_by": [], "can_fail": False}})  # fmt: skip
+    code, text = _cli("plan", str(tmp_path / "d2"), "--verify", str(out), "--p-max", "1",
+                      "--levels", "4", "--no-predict")  # fmt: skip
+    assert code == 0 and "moves the fit predictions out of their bands: they cannot fail" in text

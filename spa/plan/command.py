@@ -415,6 +415,7 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         if run.kind == "sine"
     }
     verify: dict[str, Any] = {
+        "drift_check": _drift_check(design, valve.params, predictions, sines, noise, cal),
         "results": str(results),
         "setting": setting.to_mapping(),
         "sensor_noise_bar": noise,
@@ -462,6 +463,14 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         ),
         file=out,
     )
+    fixed = [kind for kind, c in verify["drift_check"].items() if not c["can_fail"]]
+    if fixed:
+        print(
+            f"  warning: no ±50 % drift of t_on, t_off, k2 or tau2 moves the {', '.join(fixed)} "
+            "predictions out of their bands: they cannot fail on this bench (plan.yaml: "
+            "verify.drift_check)",
+            file=out,
+        )
     if verify["extrapolated"]:
         print(
             f"  warning: extrapolated: {setting.label} is not among the settings "
@@ -473,6 +482,28 @@ def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         )
     print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
     return 0
+
+
+def _drift_check(
+    design: Any,
+    params: Any,
+    staircases: dict[str, Any],
+    sines: dict[str, Any],
+    noise: float,
+    cal: dict[str, Any],
+) -> dict[str, dict[str, Any]]:
+    """:func:`spa.plan.drift.drift_check` of a verification's staircases and sines."""
+    from spa.plan.drift import drift_check
+    from spa.plan.verify import sine_predictions, staircase_predictions
+
+    runs = {run.id: run for run in design.runs}
+    quantum = cal["bar_per_count"]
+
+    def predict(rid: str, valve: Any) -> dict[str, Any]:
+        make = staircase_predictions if rid in staircases else sine_predictions
+        return make(runs[rid], design.dt, valve, {}, noise, quantum)
+
+    return drift_check({**staircases, **sines}, predict, params)
 
 
 def recorded_settings(folder: Path) -> list[str]:
