@@ -13,7 +13,9 @@ module             holds
 ``record``         the board's stream split into the plan's run files
 ``host``           the player compiled on the host and closed on a plant (physical or model)
 ``precision``      the predicted precision, and the runs resized to meet its targets
+``budget``         a bench-time budget, what a plan gives up for it, a missed target
 ``verify``         a verification session: predictions, bands and verdicts
+``drift``          the drifts each kind of a verification's predictions can detect
 ``roundtrip``      a recorded session's stages and its verification played on a plant
 =================  ===========================================================
 """
