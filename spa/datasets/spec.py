@@ -313,6 +313,7 @@ def _warn_unnamed(parsed: _Parsed, runs: Any) -> None:
     spa_wrote: tuple[str, ...] = ()
     if (Path(parsed.folder) / PLAN_FILE).is_file():  # a planned session: spa's own files
         spa_wrote = PLAN_WRITTEN
+    spa_folders = tuple(w for w in spa_wrote if w.endswith("/"))
     stray = []
     for dirpath, dirnames, filenames in os.walk(parsed.folder):
         dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
@@ -320,7 +321,7 @@ def _warn_unnamed(parsed: _Parsed, runs: Any) -> None:
             if name.startswith((".", "~$")) or name in _JUNK:
                 continue
             rel = (Path(dirpath) / name).relative_to(parsed.folder).as_posix()
-            if rel in spa_wrote or rel.startswith(tuple(w for w in spa_wrote if w[-1] == "/")):
+            if rel in spa_wrote or rel.startswith(spa_folders):
                 continue
             if rel not in named:
                 stray.append(os.fsencode(rel).decode("utf-8", "backslashreplace"))

@@ -153,9 +153,7 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
                 seed=args.seed,
                 levels=levels,
                 replicates=replicates,
-                settings=None
-                if n_settings >= len(settings)
-                else first_settings(settings, n_settings, recommended),
+                settings=first_settings(settings, n_settings, recommended),
                 recommended=recommended,
                 pilot=args.pilot,
                 margin=margin,
