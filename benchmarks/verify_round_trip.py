@@ -189,9 +189,9 @@ def reproduce_all(root: Path, strict: bool = True) -> list[str]:
     return sorted(set(failed))
 
 
-def round_trip_pipeline(name: str, root: Path) -> list[str]:
-    """The full plan of a physical plant through the pipeline and back to its pages."""
-    plant, supply, tau2, sd, slow, _ = plant_of(name)
+def full_plan(supply: float, tau2: float) -> tuple[Limits, object]:
+    """The limits and the full plan a lab gets from its supply and a rough fill time
+    (``5 tau2``): the identification runs and the prior's recommended setting."""
     limits = Limits(p_max=1.25 * supply)
     prior = prior_from_numbers(supply, 5 * tau2)
     rec0 = tune(prior).recommendation.get("recommended") or {}
@@ -199,6 +199,13 @@ def round_trip_pipeline(name: str, root: Path) -> list[str]:
     design = design_session(
         prior, limits, levels=4, settings=[], recommended=mod, pilot=False, precondition=1
     )
+    return limits, design
+
+
+def round_trip_pipeline(name: str, root: Path) -> list[str]:
+    """The full plan of a physical plant through the pipeline and back to its pages."""
+    plant, supply, tau2, sd, slow, _ = plant_of(name)
+    limits, design = full_plan(supply, tau2)
     folder = root / "raw" / name
     write_plan(folder, design)
     record(folder, plant, 2, sd)

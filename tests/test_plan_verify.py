@@ -111,10 +111,13 @@ def test_the_same_valve_keeps_its_predictions(results):
         line for line in page.splitlines() if line.startswith("| level") or line.startswith("| FIT")
     ]
     assert len(rows) == 6 * 5  # 6 staircases, 4 levels and the FIT each
-    assert all(row.endswith("| kept |") for row in rows), page
     sines = [line for line in page.splitlines() if line.startswith("| sine")]
     assert len(sines) == 3 * 2  # 3 sines, their mean and amplitude
-    assert all(row.endswith("| kept |") for row in sines), page
+    # 95 % bands: about one prediction in twenty breaks by chance, so "all kept" is not
+    # what a calibrated band promises; the session verdict (Sidak over its 36) is
+    kept = sum(row.endswith("| kept |") for row in rows + sines)
+    assert kept >= 0.85 * len(rows + sines), page
+    assert "the session is kept" in page, page
 
 
 def test_a_valve_twice_slower_reads_broken(results):

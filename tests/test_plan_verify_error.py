@@ -1,8 +1,11 @@
 """A verification's bands hold the identified model's own error, measured on the
-identification's recordings (spa.plan.verify_error), and the box's corners keep the valve's
-own laws (spa.plan.verify.corners)."""
+identification's recordings (spa.plan.verify_error) as a standard deviation with its
+degrees of freedom, the sensor noise's share taken out and scaled to held out, and the
+identification's draws keep the valve's own laws (spa.plan.bands)."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pandas as pd
@@ -52,9 +55,13 @@ def _levels_kept(table):
     return (rows["verdict"] == "kept").to_numpy()
 
 
+def _error(kind, sd, dof=math.inf):
+    return {kind: {"sd": sd, "dof": dof}}
+
+
 def test_a_level_shifted_by_less_than_the_model_error_is_kept(session):
     dt, stair, _ = session
-    error = {"level_bar": 0.02, "fit_points": 0.0}
+    error = _error("level", 0.01)  # a 95 % band of about 19.6 mbar
     pred = staircase_predictions(stair, dt, NOMINAL, {}, NOISE, QUANTUM, error)
     bare = staircase_predictions(stair, dt, NOMINAL, {}, NOISE, QUANTUM)
     within = _recorded(stair, dt, 0.015)
@@ -65,7 +72,7 @@ def test_a_level_shifted_by_less_than_the_model_error_is_kept(session):
 
 def test_a_level_shifted_by_clearly_more_than_the_model_error_is_broken(session):
     dt, stair, _ = session
-    error = {"level_bar": 0.02, "fit_points": 0.0}
+    error = _error("level", 0.01)
     pred = staircase_predictions(stair, dt, NOMINAL, {}, NOISE, QUANTUM, error)
     table = compare(pred, _recorded(stair, dt, 0.04))
     assert not _levels_kept(table).any()
@@ -75,7 +82,7 @@ def test_a_level_shifted_by_clearly_more_than_the_model_error_is_broken(session)
 
 def test_the_sines_bands_hold_their_model_error(session):
     dt, _, sine = session
-    error = {"sine_mean_bar": 0.02, "sine_amplitude_bar": 0.0}
+    error = _error("sine_mean", 0.01)
     pred = sine_predictions(sine, dt, NOMINAL, {}, NOISE, QUANTUM, error)
     kept = compare_sine(pred, _recorded(sine, dt, 0.015))
     broken = compare_sine(pred, _recorded(sine, dt, 0.04))
@@ -88,14 +95,50 @@ def test_the_error_is_measured_on_the_recorded_runs(session):
     runs = {"st": _recorded(stair, dt, 0.012), "si": _recorded(sine, dt, -0.007)}
     metas = {"st": {"kind": "staircase"}, "si": {"kind": "sine"}}
     err = recorded_model_error(runs, metas, NOMINAL)
-    assert err["level_bar"] == pytest.approx(0.012, abs=1e-4)
-    assert err["sine_mean_bar"] == pytest.approx(0.007, abs=1e-4)
-    assert err["sine_amplitude_bar"] < 1e-3  # a shift leaves the fundamental alone
-    assert err["fit_points"] < 0.05  # and the levels' straightness
+    assert err["level"]["sd"] == pytest.approx(0.012, abs=1e-4)
+    assert err["level"]["largest"] == pytest.approx(0.012, abs=1e-4)
+    assert err["sine_mean"]["sd"] == pytest.approx(0.007, abs=1e-4)
+    assert err["sine_amplitude"]["sd"] < 1e-3  # a shift leaves the fundamental alone
+    assert err["fit"]["sd"] < 0.05  # and the levels' straightness
     assert "1 staircase(s) and 1 sine(s)" in err["measured_on"]
+    # one staircase's levels share one bias: its four levels count as one, dof floored at 1
+    assert err["level"]["n"] == 4 and err["level"]["dof"] == pytest.approx(3.0)
     # the valve that made them has no error on them
     exact = recorded_model_error({"st": _recorded(stair, dt, 0.0)}, metas, NOMINAL)
-    assert exact["level_bar"] < 1e-9
+    assert exact["level"]["sd"] < 1e-9
+    # held out, the error is the factor times larger
+    scaled = recorded_model_error(runs, metas, NOMINAL, factor=1.5)
+    assert scaled["level"]["sd"] == pytest.approx(1.5 * err["level"]["sd"], rel=1e-9)
+
+
+def test_the_noises_share_of_the_recorded_error_is_taken_out(session):
+    dt, stair, _ = session
+    rng = np.random.default_rng(3)
+    noisy = _recorded(stair, dt, 0.0)
+    noisy["p"] += rng.normal(0.0, 0.05, len(noisy))  # 50 mbar noise, no model error
+    metas = {"st": {"kind": "staircase"}}
+    naive = recorded_model_error({"st": noisy}, metas, NOMINAL)
+    told = recorded_model_error({"st": noisy}, metas, NOMINAL, noise=0.05)
+    # each level's mean carries 50/sqrt(1400) = 1.3 mbar of noise: the naive sd holds it,
+    # the told one takes it out (to well under the noise's own share)
+    assert naive["level"]["sd"] > 5e-4
+    assert told["level"]["sd"] < 0.6 * naive["level"]["sd"]
+
+
+def test_the_verified_settings_own_runs_measure_its_error(session):
+    dt, stair, _ = session
+    runs = {"a": _recorded(stair, dt, 0.012), "b": _recorded(stair, dt, 0.003)}
+    metas = {
+        "a": {"kind": "staircase", "modulator": {"type": "pwm", "f_w": 20.0}},
+        "b": {"kind": "staircase", "modulator": {"type": "pwm", "f_w": 40.0}},
+    }
+    label_b = Modulator.from_mapping({"type": "pwm", "f_w": 40.0}).label
+    own = recorded_model_error(runs, metas, NOMINAL, setting=label_b)
+    assert own["level"]["sd"] == pytest.approx(0.003, abs=1e-4) and not own["extrapolated"]
+    # a setting nobody recorded takes the worst recorded setting's error, and says so
+    far = recorded_model_error(runs, metas, NOMINAL, setting="pwm-90Hz")
+    assert far["extrapolated"] and far["level"]["sd"] == pytest.approx(0.012, abs=1e-4)
+    assert "pwm-90Hz was not recorded" in far["measured_on"]
 
 
 def test_a_run_without_the_command_is_named():
@@ -108,7 +151,7 @@ def test_a_run_without_the_command_is_named():
 
 def test_no_runs_means_no_error_and_says_so():
     err = no_model_error("no run tables in results/x/runs")
-    assert err["level_bar"] == 0.0 and err["measured_on"].startswith("not measured")
+    assert err["level"]["sd"] == 0.0 and err["measured_on"].startswith("not measured")
 
 
 def test_sine_omega_finds_the_frequency():
@@ -131,12 +174,12 @@ def test_the_box_corners_keep_the_valves_laws(session):
 
 def test_the_plan_measures_the_error_on_results_runs(session, tmp_path):
     from spa.datasets.runtable import write_run_table
-    from spa.plan.command import _model_error
+    from spa.plan.verify_command import _model_error
 
     dt, stair, _ = session
     results = tmp_path / "results" / "bench"
     said = _model_error(results, NOMINAL)
-    assert said["level_bar"] == 0.0 and "not measured: no run tables" in said["measured_on"]
+    assert said["level"]["sd"] == 0.0 and "not measured: no run tables" in said["measured_on"]
     (results / "runs").mkdir(parents=True)
     assert "not measured: no run tables" in _model_error(results, NOMINAL)["measured_on"]
     meta = {
@@ -148,5 +191,5 @@ def test_the_plan_measures_the_error_on_results_runs(session, tmp_path):
     }
     write_run_table(results / "runs" / "st.parquet", _recorded(stair, dt, 0.009), meta)
     err = _model_error(results, NOMINAL)
-    assert err["level_bar"] == pytest.approx(0.009, abs=1e-4)
+    assert err["level"]["sd"] == pytest.approx(0.009, abs=1e-4)
     assert str(results / "runs") in err["measured_on"]

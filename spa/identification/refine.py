@@ -330,6 +330,10 @@ class RefineFit:
         Where the fit started (today's estimates) and where it ended.
     se : dict
         Standard error of each parameter (sandwich/jackknife, before the logging-step term).
+    correlation : tuple of tuple of float
+        The parameters' correlation matrix (in :data:`NAMES`' order) from the sandwich
+        covariance: the joint uncertainty the verification's draws keep
+        (:func:`spa.plan.bands.parameter_draws`); empty when it was not computed.
     se_difference : float
         Standard error of ``t_off - t_on`` (the same, with the two delays' covariance): the
         delays move together with a lag the data cannot tell from a delay, their difference
@@ -363,6 +367,7 @@ class RefineFit:
     converged: bool
     runs: tuple[RefineRun, ...] = field(repr=False, default=())
     se_difference: float = math.nan
+    correlation: tuple[tuple[float, ...], ...] = ()
 
     def final_models(self) -> list[FloatArray]:
         """Each run's model block means at the fitted parameters (residuals: ``y - model``)."""
@@ -372,6 +377,23 @@ class RefineFit:
         """Median held-out FIT over the runs (NaN when none is finite)."""
         vals = [v for v in self.fit_heldout.values() if math.isfinite(v)]
         return float(np.median(vals)) if vals else math.nan
+
+
+def _correlation(cov: FloatArray) -> tuple[tuple[float, ...], ...]:
+    """The correlation matrix of a covariance (a variance of 0 correlates with nothing).
+
+    Examples
+    --------
+    >>> _correlation(np.array([[4.0, 2.0], [2.0, 4.0]]))
+    ((1.0, 0.5), (0.5, 1.0))
+    """
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    scale = np.where(sd > 0, sd, 1.0)
+    corr = np.clip(cov / np.outer(scale, scale), -1.0, 1.0)
+    corr[sd == 0, :] = 0.0
+    corr[:, sd == 0] = 0.0
+    np.fill_diagonal(corr, 1.0)
+    return tuple(tuple(round(float(v), 6) for v in row) for row in corr)
 
 
 def _to_x(prm: ValveParams) -> FloatArray:
@@ -572,6 +594,7 @@ def refine(
         converged=bool(sol.status > 0),
         runs=tuple(runs),
         se_difference=math.sqrt(var_diff),
+        correlation=_correlation(cov),
     )
 
 

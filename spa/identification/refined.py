@@ -318,6 +318,12 @@ def refine_result(
         "fit_after": clean(ref.fit_after),
         "fit_heldout": clean(ref.fit_heldout),
         "noise_ceiling": clean(ref.noise_ceiling),
+        "se": {n: float(ref.se[n]) for n in NAMES if math.isfinite(ref.se.get(n, math.nan))},
+        **(
+            {"correlation": {"names": list(NAMES), "matrix": [list(r) for r in ref.correlation]}}
+            if ref.correlation
+            else {}
+        ),
         "bandwidth_blocks": {k: int(v) for k, v in ref.bandwidth.items()},
         "block_samples": {r.rid: int(r.block * r.stride) for r in prepared},
         "n_edges_on": int(n_edges["t_on"]),

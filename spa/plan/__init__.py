@@ -14,7 +14,12 @@ module             holds
 ``host``           the player compiled on the host and closed on a plant (physical or model)
 ``precision``      the predicted precision, and the runs resized to meet its targets
 ``budget``         a bench-time budget, what a plan gives up for it, a missed target
-``verify``         a verification session: predictions, bands and verdicts
+``verify``         a verification session: its runs and predictions
+``bands``          a prediction's 95 % band: the identification's draws, model error, noise
+``verify_error``   the model's held-out error, measured on the dataset's own runs
+``loop_bands``     the closed loop's measures predicted on draws, with two-ended bands
+``verdicts``       a recording measured, each prediction kept or broken, the session's verdict
+``verify_command`` ``spa plan --verify``: the plan.yaml predictions; the recorded comparison
 ``drift``          the drifts each kind of a verification's predictions can detect
 ``roundtrip``      a recorded session's stages and its verification played on a plant
 =================  ===========================================================

@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 from typing import Any, TextIO
 
+from spa.plan.verify_command import recorded_settings, verification_tables, verify_plan
+
 __all__ = [
     "plan_arguments",
     "record_arguments",
@@ -132,7 +134,7 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
         )
         recommended = None
         if args.verify:
-            return _verify_plan(args, limits, out)
+            return verify_plan(args, limits, out)
         if not args.pilot:
             from spa.tuning import tune
 
@@ -246,291 +248,6 @@ def run_plan(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
-#: The sensor noise a verification's bands assume, bar (stated in plan.yaml).
-VERIFY_NOISE = 0.005
-
-
-def _verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
-    """``spa plan FOLDER --verify RESULTS``: the recommended setting's runs on the identified
-    valve, with each staircase's predicted levels and FIT in plan.yaml; and, when the
-    closed_loop stage made a promise, the chosen controller's staircase played through its
-    ``controller.h`` (the plan's tick is the header's step), with the promise's bands."""
-    import yaml
-
-    from spa.identification.identified import read_identified
-    from spa.model.modulators import Modulator
-    from spa.plan.folder import calibration_for, write_plan
-    from spa.plan.verify import (
-        design_verification,
-        promise_predictions,
-        sine_predictions,
-        staircase_predictions,
-    )
-
-    results = Path(args.verify)
-    params_path = results / "identification" / "params.yaml"
-    valve = read_identified(str(params_path))
-    identified = yaml.safe_load(params_path.read_text(encoding="utf-8"))
-    rec_path = results / "tuning" / "recommendation.yaml"
-    rec = yaml.safe_load(rec_path.read_text(encoding="utf-8")) if rec_path.is_file() else None
-    if not rec or not (rec.get("recommended") or {}).get("setting"):
-        from spa.tuning import tune
-
-        rec = dict(tune(valve).recommendation)
-    setting = Modulator.from_mapping(rec["recommended"]["setting"])
-    noise = _sensor_noise(identified)
-    promise, header, dt, said = _promise_of(results, args.tick)
-    design = design_verification(
-        valve.params,
-        setting,
-        limits,
-        dt=dt,
-        levels=args.levels,
-        replicates=args.replicates,
-        seed=args.seed,
-        promise=promise,
-    )
-    cal = calibration_for(limits.p_max)
-    error = _model_error(results, valve.params)
-    box = dict(valve.intervals)
-    predictions = {
-        run.id: staircase_predictions(
-            run, design.dt, valve.params, box, noise, cal["bar_per_count"], error
-        )
-        for run in design.runs
-        if run.kind == "staircase"
-    }
-    sines = {
-        run.id: sine_predictions(
-            run, design.dt, valve.params, box, noise, cal["bar_per_count"], error
-        )
-        for run in design.runs
-        if run.kind == "sine"
-    }
-    verify: dict[str, Any] = {
-        "drift_check": _drift_check(design, valve.params, predictions, sines, noise, cal),
-        "results": str(results),
-        "setting": setting.to_mapping(),
-        "sensor_noise_bar": noise,
-        "model_error": error,
-        "predictions": predictions,
-        "sines": sines,
-    }
-    closed = [run for run in design.runs if run.closed]
-    if closed and promise is not None:
-        loop_setting = _header_setting(header or "")
-        hold = float(closed[0].meta["hold"])
-        allowance = _settling_allowance(
-            valve.params, loop_setting, promise, hold, design.dt, noise, cal["bar_per_count"]
-        )
-        verify["promise"] = {
-            "runs": [run.id for run in closed],
-            "lead": float(closed[0].meta["lead"]),
-            "setting": loop_setting,
-            "levels": [float(v) for v in promise["levels"]],
-            "hold": hold,
-            "made": bool(promise.get("kept")),
-            "settling_noise_allowance_s": allowance,
-            "bands": promise_predictions(promise, noise, cal["bar_per_count"], allowance),
-        }
-    recorded = recorded_settings(results / "runs")
-    verify["recorded_settings"] = recorded
-    verify["extrapolated"] = setting.label not in recorded
-    extra = {"prior_source": f"identified ({results})", "verify": verify}
-    write_plan(args.folder, design, extra=extra, controller=header)
-    print(
-        f"{args.folder}: verification of {results} ({setting.label}), {len(design.runs)} "
-        f"runs, {design.duration / 60:.0f} min; {len(predictions)} staircases and {len(sines)} "
-        "sines predicted; "
-        f"{said}",
-        file=out,
-    )
-    print(
-        "  model error in the bands: levels {:.3g} mbar, FIT {:.3g} points, sine mean {:.3g} "
-        "and amplitude {:.3g} mbar ({})".format(
-            1e3 * error["level_bar"],
-            error["fit_points"],
-            1e3 * error["sine_mean_bar"],
-            1e3 * error["sine_amplitude_bar"],
-            error["measured_on"],
-        ),
-        file=out,
-    )
-    fixed = [kind for kind, c in verify["drift_check"].items() if not c["can_fail"]]
-    if fixed:
-        print(
-            f"  warning: no ±50 % drift of t_on, t_off, k2 or tau2 moves the {', '.join(fixed)} "
-            "predictions out of their bands: they cannot fail on this bench (plan.yaml: "
-            "verify.drift_check)",
-            file=out,
-        )
-    if verify["extrapolated"]:
-        print(
-            f"  warning: extrapolated: {setting.label} is not among the settings "
-            f"{results.name} recorded ({', '.join(recorded) or 'none'}); its predictions "
-            "extrapolate the model, whose error was measured on those only. Record it and its "
-            f"neighbours first: spa plan raw/<next> --params {params_path} --p-max "
-            f"{limits.p_max:g}",
-            file=out,
-        )
-    print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
-    return 0
-
-
-def _drift_check(
-    design: Any,
-    params: Any,
-    staircases: dict[str, Any],
-    sines: dict[str, Any],
-    noise: float,
-    cal: dict[str, Any],
-) -> dict[str, dict[str, Any]]:
-    """:func:`spa.plan.drift.drift_check` of a verification's staircases and sines."""
-    from spa.plan.drift import drift_check
-    from spa.plan.verify import sine_predictions, staircase_predictions
-
-    runs = {run.id: run for run in design.runs}
-    quantum = cal["bar_per_count"]
-
-    def predict(rid: str, valve: Any) -> dict[str, Any]:
-        make = staircase_predictions if rid in staircases else sine_predictions
-        return make(runs[rid], design.dt, valve, {}, noise, quantum)
-
-    return drift_check({**staircases, **sines}, predict, params)
-
-
-def recorded_settings(folder: Path) -> list[str]:
-    """The labels of the modulator settings of a dataset's modulated runs (its run tables'
-    metadata, ``results/<name>/runs``), sorted; none without run tables.
-
-    Examples
-    --------
-    >>> recorded_settings(Path("no-such-folder"))
-    []
-    """
-    from spa.datasets import read_run_meta
-    from spa.model.modulators import Modulator
-
-    labels = set()
-    for path in sorted(folder.glob("*.parquet")) if folder.is_dir() else []:
-        meta = read_run_meta(path)
-        if isinstance(meta.get("modulator"), dict):
-            labels.add(Modulator.from_mapping(meta["modulator"]).label)
-    return sorted(labels)
-
-
-def _model_error(results: Path, params: Any) -> dict[str, Any]:
-    """The identified valve's error on the dataset's own staircases and sines
-    (``results/runs``, the pipeline's run tables), for the verification's bands
-    (:func:`spa.plan.verify_error.recorded_model_error`); every term 0, said so, without
-    them."""
-    from spa.datasets import read_runs
-    from spa.plan.verify_error import no_model_error, recorded_model_error
-
-    folder = results / "runs"
-    if not folder.is_dir() or not any(folder.glob("*.parquet")):
-        return no_model_error(f"no run tables in {folder}")
-    runs, metas = read_runs(folder)
-    return recorded_model_error(runs, metas, params, where=str(folder))
-
-
-def _sensor_noise(identified: Any) -> float:
-    """The identification's sensor noise (bar), else :data:`VERIFY_NOISE`."""
-    try:
-        value = float(identified["noise"]["sensor"])
-    except (KeyError, TypeError, ValueError):
-        return VERIFY_NOISE
-    return value if value > 0 else VERIFY_NOISE
-
-
-def _settling_allowance(
-    params: Any,
-    setting: dict[str, Any],
-    promise: dict[str, Any],
-    hold: float,
-    dt: float,
-    noise: float,
-    quantum: float,
-) -> float:
-    """:func:`spa.plan.settling.settling_allowance` for the promise's controller, or 0 when
-    the promise names none (a promise written before it carried its controller)."""
-    from spa.closedloop.controller import PIController
-    from spa.plan.settling import settling_allowance
-
-    if not isinstance(promise.get("controller"), dict) or promise.get("settling_time") is None:
-        return 0.0
-    ctrl = PIController.from_mapping(promise["controller"])
-    levels = [float(v) for v in promise["levels"]]
-    return settling_allowance(params, setting, ctrl, levels, hold, dt, noise, quantum)
-
-
-def _header_setting(text: str) -> dict[str, Any]:
-    """The modulator setting a controller header's ``Setting:`` comment line records."""
-    import ast
-    import re
-
-    m = re.search(r"^\s*\*\s*Setting:\s*(\{.*\})\s*$", text, flags=re.MULTILINE)
-    if m is None:
-        raise ValueError("controller.h: no 'Setting: {...}' line in its comment")
-    return dict(ast.literal_eval(m.group(1)))
-
-
-def _promise_of(results: Path, tick: float) -> tuple[Any, str | None, float, str]:
-    """The closed_loop stage's promise (``controllers.yaml: bench.promise``) and header of
-    ``results``, the plan's tick (the header's step when there is one), and a sentence
-    saying which."""
-    import yaml
-
-    from spa.plan.verify import header_step
-
-    path = results / "closed_loop" / "controllers.yaml"
-    header = results / "closed_loop" / "controller.h"
-    if not path.is_file() or not header.is_file():
-        return None, None, tick, f"no closed loop ({path} or {header.name} missing)"
-    bench = (yaml.safe_load(path.read_text(encoding="utf-8")) or {}).get("bench")
-    promise = bench.get("promise") if isinstance(bench, dict) else None
-    if not isinstance(promise, dict) or not promise.get("levels"):
-        return None, None, tick, f"no closed loop: {path} holds no bench.promise"
-    text = header.read_text(encoding="utf-8")
-    _, dt = header_step(text)
-    kept = "promise" if promise.get("kept") else "no promise: its runs are recorded, unjudged"
-    return promise, text, dt, f"closed loop through {header} at its step {dt * 1e3:g} ms ({kept})"
-
-
-def verification_tables(folder: Path, plan: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """Each predicted staircase of a verification plan against its recording
-    (``recommendation``), and each closed-loop staircase against the promise (``promise``)."""
-    import pandas as pd
-
-    from spa.identification.identified import read_identified
-    from spa.plan.verify import compare, compare_promise, compare_sine
-
-    verify = plan["verify"]
-    files = {r["id"]: folder / r["file"] for r in plan["runs"]}
-    tables: dict[str, dict[str, Any]] = {"recommendation": {}, "promise": {}}
-    for run_id, pred in verify["predictions"].items():
-        if files[run_id].is_file():
-            tables["recommendation"][run_id] = compare(pred, pd.read_csv(files[run_id]))
-    for run_id, pred in (verify.get("sines") or {}).items():
-        if files[run_id].is_file():
-            tables["recommendation"][run_id] = compare_sine(pred, pd.read_csv(files[run_id]))
-    promise = verify.get("promise") or {}
-    if promise.get("bands"):
-        params_path = Path(verify["results"]) / "identification" / "params.yaml"
-        params = read_identified(str(params_path)).params
-        for run_id in promise["runs"]:
-            if files[run_id].is_file():
-                tables["promise"][run_id] = compare_promise(
-                    promise["bands"],
-                    pd.read_csv(files[run_id]),
-                    promise["setting"],
-                    params,
-                    float(promise["lead"]),
-                    bool(promise.get("made", True)),
-                )
-    return tables
-
-
 def _file_time(path: str) -> str | None:
     """When a saved stream was last written (UTC, to the minute); None for a serial port's
     device or a pipe (the session is being recorded now)."""
@@ -569,7 +286,8 @@ def run_record(args: argparse.Namespace, out: TextIO) -> int:
         frame = verification_frame(verification_tables(Path(args.folder), plan))
         csv = Path(args.folder) / "verification.csv"
         frame.to_csv(csv, index=False, float_format="%.6g")
-        page = verification_page(plan["name"], frame)
+        level = (plan["verify"].get("session") or {}).get("level")
+        page = verification_page(plan["name"], frame, level)
         print(page, file=out)
         print(f"wrote {csv} (the dataset's report page shows it)", file=out)
         if args.page:

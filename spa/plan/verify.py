@@ -9,9 +9,11 @@ levels and hold), played by the player through the exported ``controller.h``.
 a recorded closed-loop staircase against them.
 :func:`staircase_predictions` predicts each level's pressure and the staircase's FIT with a
 95 % band: the planned command (open loop: the same on any plant) simulated on the
-identified valve and at every corner of the identification's 95 % box (:func:`corners`),
-widened by the model's error measured on the identification's own recordings
-(:mod:`spa.plan.verify_error`) and by the sensor noise on the level's mean.
+identified valve and on valves drawn from the identification's uncertainty, with the
+model's held-out error measured on the identification's own recordings
+(:mod:`spa.plan.verify_error`) and the sensor's noise on the level's mean, combined as
+:mod:`spa.plan.bands` says (a band calibrated to hold 95 % of measurements on an unchanged
+plant, not the worst corner of the box).
 :func:`compare` measures a recorded staircase the same way and says, for each prediction,
 "kept" (inside its band) or "broken by ..." with the amount.
 """
@@ -24,14 +26,25 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
-import pandas as pd
 
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 from spa.plan.design import SessionDesign, design_session
 from spa.plan.limits import Limits
 from spa.plan.session import PlannedRun, Segment, run_commands, run_xi
+from spa.plan.verdicts import (
+    PARTS,
+    _fit,
+    compare,
+    compare_promise,
+    compare_sine,
+    level_means,
+    session_verdict,
+    sine_fit,
+    verdict,
+    verification_frame,
+    verification_page,
+)
 
 __all__ = [
     "PARTS",
@@ -44,6 +57,7 @@ __all__ = [
     "header_step",
     "level_means",
     "promise_predictions",
+    "session_verdict",
     "sine_fit",
     "sine_predictions",
     "staircase_predictions",
@@ -177,67 +191,6 @@ def promise_predictions(
     return out
 
 
-def compare_promise(
-    prediction: Mapping[str, Any],
-    run: pd.DataFrame,
-    setting: Mapping[str, Any],
-    params: ValveParams,
-    lead: float,
-    made: bool = True,
-) -> pd.DataFrame:
-    """A recorded closed-loop staircase (``t``, ``p``, ``r``, ``valve``) against the promise:
-    its worst overshoot, settling time and ripple, measured as spa measures its own
-    (:func:`spa.synthetic.physical.measure_staircase`), the settling time each step on its
-    own samples and past what the sensor adds (:func:`spa.plan.settling.settling_times`),
-    each ``kept`` or ``broken by ...``.
-
-    ``prediction``: :func:`promise_predictions`'s; ``setting``: the controller's modulator
-    (the cycle-mean's window); ``lead``: the seconds at the first level left out; ``made``:
-    whether the stage made the promise (else the rows say "no promise made": the bands are
-    its worst case over the box).
-    """
-    from spa.closedloop.experiments import step_periods
-    from spa.model.modulators import Modulator
-    from spa.plan.settling import settling_times
-    from spa.synthetic.physical import measure_staircase
-
-    levels = sorted({float(v) for v in run["r"]})
-    dt = float(run["t"].iloc[1] - run["t"].iloc[0])
-    periods = step_periods(Modulator.from_mapping(dict(setting)), params, levels, dt)
-    first = float(run["r"].iloc[0])
-    _, summary = measure_staircase(run, periods, r_initial=first, skip=lead)
-    # each step on its own samples, its band widened by what the sensor adds to the
-    # cycle-mean (spa.plan.settling); an unsettled step has no settling time (inf): the
-    # promise's is broken outright
-    settle = max(settling_times(run, periods, first, lead), default=0.0)
-    measured = {
-        "overshoot": summary["worst_overshoot"],
-        "settling_time": settle,
-        "ripple_pp": summary["worst_ripple_pp"],
-    }
-    names = {
-        "overshoot": ("worst overshoot %", "points", 1.0),
-        "settling_time": ("worst settling time s", "s", 1.0),
-        "ripple_pp": ("worst ripple bar pp", "mbar", 1e3),
-    }
-    rows = []
-    for key, band in prediction.items():
-        label, unit, scale = names[key]
-        value = float(measured[key])
-        rows.append(
-            {
-                "prediction": label if made else f"{label} (no promise made)",
-                "predicted": float(band["value"]),
-                "band": f"{band['lo']:.4g} to {band['hi']:.4g} {band['unit']}",
-                "measured": value,
-                "verdict": "broken: not settled within 2 % by the end of a level"
-                if key == "settling_time" and math.isinf(value)
-                else verdict(value, float(band["lo"]), float(band["hi"]), unit, scale),
-            }
-        )
-    return pd.DataFrame(rows)
-
-
 def header_step(text: str) -> tuple[str, float]:
     """The prefix and step (s) of an exported ``controller.h``.
 
@@ -276,25 +229,20 @@ def corners(params: ValveParams, intervals: Mapping[str, tuple[float, float]]) -
     return box_corners(params, intervals) or [params]
 
 
-def level_means(
-    t: npt.ArrayLike, p: npt.ArrayLike, hold: float, n_levels: int
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """The mean pressure over the second half of each level (``hold`` s each), and the
-    samples each mean is over."""
-    t = np.asarray(t, dtype=np.float64)
-    p = np.asarray(p, dtype=np.float64)
-    means, counts = [], []
-    for i in range(n_levels):
-        inside = (t >= (i + 0.5) * hold - 1e-9) & (t < (i + 1) * hold - 1e-9)
-        counts.append(int(inside.sum()))
-        means.append(float(p[inside].mean()) if inside.any() else math.nan)
-    return np.asarray(means), np.asarray(counts)
+def _spread(rows: np.ndarray) -> np.ndarray:
+    """The standard deviation over the draws (axis 0); 0 with fewer than two."""
+    if rows.shape[0] < 2:
+        return np.zeros(rows.shape[1:])
+    return np.asarray(rows.std(axis=0, ddof=1), dtype=np.float64)
 
 
-def _fit(xi: np.ndarray, p: np.ndarray) -> float:
-    from spa.openloop.levels import linear_fit_metrics
-
-    return float(linear_fit_metrics(xi, p)["fit"])
+def _error_term(error: Mapping[str, Any] | None, kind: str) -> tuple[float, float]:
+    """The model error's standard deviation and degrees of freedom of ``kind``
+    (:func:`spa.plan.verify_error.recorded_model_error`); none without it."""
+    term = (error or {}).get(kind)
+    if not isinstance(term, Mapping):
+        return 0.0, math.inf
+    return float(term.get("sd", 0.0)), float(term.get("dof", math.inf))
 
 
 def staircase_predictions(
@@ -305,23 +253,30 @@ def staircase_predictions(
     noise: float,
     quantum: float,
     error: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    correlation: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Each level's predicted pressure and the FIT, with 95 % bands.
+    """Each level's predicted pressure and the staircase's FIT, with 95 % bands
+    (:mod:`spa.plan.bands`).
 
-    ``error``: the model's error measured on the identification's own recordings
-    (:func:`spa.plan.verify_error.recorded_model_error`; ``level_bar`` and ``fit_points``),
-    added to each band (none when not given).
+    The planned command is simulated on the identified valve and on
+    :data:`spa.plan.bands.DRAWS` valves drawn from the identification's ``intervals``
+    (:func:`spa.plan.bands.parameter_draws`, seeded by ``seed``, correlated as the fit's
+    ``correlation`` record says): their spread is the identification's term. ``error``
+    (:func:`spa.plan.verify_error.recorded_model_error`, its ``level`` and ``fit``) is the
+    model's; ``noise`` and ``quantum`` (bar) the sensor's on each level's mean.
 
     Returns
     -------
     dict
         ``xi`` (levels), ``hold`` (s), ``p`` (predicted on the identified valve),
-        ``lo``/``hi`` (the band: over the estimate and the box's corners, widened by the
-        model error, ``1.96 noise/sqrt(n)`` and half the ADC step), and ``fit`` with
-        ``fit_lo``/``fit_hi`` (over the same valves, widened by the FIT's model error and
-        half a point).
+        ``sd`` and ``dof`` (each level's prediction standard deviation and degrees of
+        freedom, :func:`spa.plan.bands.combine`), ``lo``/``hi`` (the 95 % band); ``fit`` (the
+        FIT a recording is expected to measure: the noise lowers it), ``fit_sd``,
+        ``fit_dof``, ``fit_lo`` and ``fit_hi`` (at most 100).
     """
     from spa import simulate
+    from spa.plan.bands import DRAWS, combine, half_width, parameter_draws
 
     seg = run.segments[0]
     hold_ticks = int(seg.c)
@@ -333,59 +288,35 @@ def staircase_predictions(
     t = np.arange(u.size) * dt
     hold = hold_ticks * dt
     nominal, count = level_means(t, simulate(u, dt, params), hold, n)
-    box = np.array(
-        [nominal]
-        + [level_means(t, simulate(u, dt, c), hold, n)[0] for c in corners(params, intervals)]
-    )
-    err = error or {}
-    widen = (
-        float(err.get("level_bar", 0.0))
-        + 1.96 * noise / np.sqrt(np.maximum(count, 1))
-        + 0.5 * quantum
-    )
-    fits = [_fit(levels, row) for row in box]
-    fit_widen = float(err.get("fit_points", 0.0)) + 0.5
+    draws = parameter_draws(params, intervals, seed=seed, correlation=correlation)
+    sims = np.array([level_means(t, simulate(u, dt, d), hold, n)[0] for d in draws])
+    sims = sims.reshape(len(draws), n)
+    sd_noise = np.sqrt((noise**2 + quantum**2 / 12.0) / np.maximum(count, 1))
+    sd_model, dof_model = _error_term(error, "level")
+    sd, dof = combine(_spread(sims), sd_model, dof_model, sd_noise)
+    half = half_width(sd, dof)
+    # the FIT a recording measures: each draw's levels with the noise of their means
+    base = sims if len(draws) >= 2 else np.repeat(nominal[None, :], DRAWS, axis=0)
+    noisy = base + np.random.default_rng(seed + 1).standard_normal(base.shape) * sd_noise
+    fits = np.array([_fit(levels, row) for row in noisy])
+    fit_model, fit_dof_model = _error_term(error, "fit")
+    fit_sd, fit_dof = combine(float(np.std(fits, ddof=1)), fit_model, fit_dof_model, 0.0)
+    fit_half = float(half_width(fit_sd, fit_dof))
+    fit = float(np.mean(fits))
     return {
         "xi": levels.tolist(),
         "hold": hold,
         "p": nominal.tolist(),
-        "lo": (box.min(axis=0) - widen).tolist(),
-        "hi": (box.max(axis=0) + widen).tolist(),
-        "fit": _fit(levels, nominal),
-        "fit_lo": min(fits) - fit_widen,
-        "fit_hi": max(fits) + fit_widen,
+        "sd": sd.tolist(),
+        "dof": dof.tolist(),
+        "lo": (nominal - half).tolist(),
+        "hi": (nominal + half).tolist(),
+        "fit": fit,
+        "fit_sd": float(fit_sd),
+        "fit_dof": float(fit_dof),
+        "fit_lo": fit - fit_half,
+        "fit_hi": min(fit + fit_half, 100.0),
     }
-
-
-def verdict(measured: float, lo: float, hi: float, unit: str, scale: float = 1.0) -> str:
-    """``kept`` when ``measured`` lies in ``[lo, hi]``, else ``broken by <amount> <unit>``.
-
-    Examples
-    --------
-    >>> verdict(0.5, 0.4, 0.6, "bar"), verdict(0.7, 0.4, 0.6, "mbar", 1e3)
-    ('kept', 'broken by +100 mbar')
-    """
-    if not math.isfinite(measured):
-        return "not measured"
-    if lo <= measured <= hi:
-        return "kept"
-    off = measured - hi if measured > hi else measured - lo
-    return f"broken by {off * scale:+.3g} {unit}"
-
-
-def sine_fit(
-    t: npt.ArrayLike, p: npt.ArrayLike, omega: float, start: float
-) -> tuple[float, float, int]:
-    """The mean and the amplitude of the fundamental at ``omega`` (rad/s) of ``p`` from
-    ``start`` s on (least squares on ``1, sin, cos``), and the samples used."""
-    t = np.asarray(t, dtype=np.float64)
-    p = np.asarray(p, dtype=np.float64)
-    keep = t >= start - 1e-9
-    a = np.column_stack(
-        [np.ones(int(keep.sum())), np.sin(omega * t[keep]), np.cos(omega * t[keep])]
-    )
-    coef, *_ = np.linalg.lstsq(a, p[keep], rcond=None)
-    return float(coef[0]), float(math.hypot(coef[1], coef[2])), int(keep.sum())
 
 
 def sine_predictions(
@@ -396,14 +327,22 @@ def sine_predictions(
     noise: float,
     quantum: float,
     error: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    correlation: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The sine's mean pressure and amplitude over its second half, predicted with 95 %
-    bands (over the estimate and the box's corners, widened by the model error measured on
-    the identification's own sines, ``error``'s ``sine_mean_bar`` and
-    ``sine_amplitude_bar``, by the noise on a least-squares fit of ``n`` samples,
-    ``1.96 noise sqrt(2/n)`` on the amplitude and ``1.96 noise/sqrt(n)`` on the mean, and by
-    half the ADC step)."""
+    bands as :func:`staircase_predictions`'s: the identification's draws, the model error
+    (``error``'s ``sine_mean`` and ``sine_amplitude``) and the noise on a least-squares fit
+    of ``n`` samples (``noise/sqrt(n)`` on the mean, ``noise sqrt(2/n)`` on the amplitude).
+
+    Returns
+    -------
+    dict
+        ``omega`` (rad/s), ``start`` (s), and for ``mean`` and ``amplitude`` (bar): the
+        value, ``_sd``, ``_dof``, ``_lo`` and ``_hi``.
+    """
     from spa import simulate
+    from spa.plan.bands import combine, half_width, parameter_draws
 
     seg = run.segments[0]
     omega = float(seg.c) / dt
@@ -411,124 +350,20 @@ def sine_predictions(
     t = np.arange(u.size) * dt
     start = 0.5 * u.size * dt
     nominal = sine_fit(t, simulate(u, dt, params), omega, start)
-    box = np.array(
-        [nominal[:2]]
-        + [sine_fit(t, simulate(u, dt, c), omega, start)[:2] for c in corners(params, intervals)]
-    )
-    n = max(nominal[2], 1)
-    err = error or {}
-    wide_mean = float(err.get("sine_mean_bar", 0.0)) + 1.96 * noise / math.sqrt(n) + 0.5 * quantum
-    wide_amp = (
-        float(err.get("sine_amplitude_bar", 0.0))
-        + 1.96 * noise * math.sqrt(2.0 / n)
-        + 0.5 * quantum
-    )
-    return {
-        "omega": omega,
-        "start": start,
-        "mean": nominal[0],
-        "mean_lo": float(box[:, 0].min()) - wide_mean,
-        "mean_hi": float(box[:, 0].max()) + wide_mean,
-        "amplitude": nominal[1],
-        "amplitude_lo": float(box[:, 1].min()) - wide_amp,
-        "amplitude_hi": float(box[:, 1].max()) + wide_amp,
-    }
-
-
-def compare_sine(prediction: Mapping[str, Any], run: pd.DataFrame) -> pd.DataFrame:
-    """A recorded sine (``t`` s, ``p`` bar) against :func:`sine_predictions`: its mean and
-    amplitude, each ``kept`` or ``broken by ...``."""
-    mean, amp, _ = sine_fit(
-        run["t"], run["p"], float(prediction["omega"]), float(prediction["start"])
-    )
-    rows = []
-    for key, label, value in (
-        ("mean", "sine mean bar", mean),
-        ("amplitude", "sine amplitude bar", amp),
-    ):
-        lo, hi = float(prediction[f"{key}_lo"]), float(prediction[f"{key}_hi"])
-        rows.append(
-            {
-                "prediction": label,
-                "predicted": float(prediction[key]),
-                "band": f"{lo:.4g} to {hi:.4g} bar",
-                "measured": value,
-                "verdict": verdict(value, lo, hi, "mbar", 1e3),
-            }
-        )
-    return pd.DataFrame(rows)
-
-
-def compare(prediction: Mapping[str, Any], run: pd.DataFrame) -> pd.DataFrame:
-    """A recorded staircase (``t`` s, ``p`` bar) against its prediction: one row per level
-    and one for the FIT, each ``kept`` or ``broken by ...``."""
-    xi = np.asarray(prediction["xi"])
-    means, _ = level_means(run["t"], run["p"], float(prediction["hold"]), xi.size)
-    rows = []
-    for i, x in enumerate(xi):
-        lo, hi = prediction["lo"][i], prediction["hi"][i]
-        rows.append(
-            {
-                "prediction": f"level xi = {x:.2f}",
-                "predicted": prediction["p"][i],
-                "band": f"{lo:.4g} to {hi:.4g} bar",
-                "measured": means[i],
-                "verdict": verdict(means[i], lo, hi, "mbar", 1e3),
-            }
-        )
-    fit = _fit(xi, means) if np.isfinite(means).all() else math.nan
-    rows.append(
-        {
-            "prediction": "FIT %",
-            "predicted": prediction["fit"],
-            "band": f"{prediction['fit_lo']:.3g} to {prediction['fit_hi']:.3g} %",
-            "measured": fit,
-            "verdict": verdict(fit, prediction["fit_lo"], prediction["fit_hi"], "points"),
+    draws = parameter_draws(params, intervals, seed=seed, correlation=correlation)
+    sims = np.array([sine_fit(t, simulate(u, dt, d), omega, start)[:2] for d in draws])
+    spread = _spread(sims.reshape(len(draws), 2))
+    per_sample = (noise**2 + quantum**2 / 12.0) / max(nominal[2], 1)
+    out: dict[str, Any] = {"omega": omega, "start": start}
+    for i, (key, var) in enumerate((("mean", per_sample), ("amplitude", 2.0 * per_sample))):
+        sd_model, dof_model = _error_term(error, f"sine_{key}")
+        sd, dof = combine(spread[i], sd_model, dof_model, math.sqrt(var))
+        half = float(half_width(sd, dof))
+        out |= {
+            key: nominal[i],
+            f"{key}_sd": float(sd),
+            f"{key}_dof": float(dof),
+            f"{key}_lo": nominal[i] - half,
+            f"{key}_hi": nominal[i] + half,
         }
-    )
-    return pd.DataFrame(rows)
-
-
-#: The page's parts: what each compares.
-PARTS = {
-    "recommendation": "Recommendation: the recommended setting's levels and FIT",
-    "promise": "Promise: the closed loop's overshoot, settling and ripple",
-}
-
-
-def verification_frame(tables: Mapping[str, Mapping[str, pd.DataFrame]]) -> pd.DataFrame:
-    """Every comparison in one table, ``part``, ``run`` and :func:`compare`'s columns
-    (``spa record`` writes it as the plan folder's ``verification.csv``)."""
-    frames = [
-        table.assign(part=part, run=run_id)
-        for part, by_run in tables.items()
-        for run_id, table in by_run.items()
-    ]
-    columns = ["part", "run", "prediction", "predicted", "band", "measured", "verdict"]
-    if not frames:
-        return pd.DataFrame(columns=columns)
-    return pd.concat(frames, ignore_index=True)[columns]
-
-
-def verification_page(title: str, frame: pd.DataFrame) -> str:
-    """The comparison (:func:`verification_frame`) as a markdown page: per part, one table
-    per recorded run, and how many of its predictions were kept."""
-    lines = [f"# {title}: predictions against the bench", ""]
-    for part, heading in PARTS.items():
-        rows = frame[frame["part"] == part]
-        kept = int((rows["verdict"] == "kept").sum())
-        lines += [f"## {heading}: {kept} of {len(rows)} kept", ""]
-        if rows.empty:
-            lines += ["No run of this part recorded (or no prediction made).", ""]
-        for run_id, table in rows.groupby("run", sort=False):
-            lines += [
-                f"### {run_id}",
-                "",
-                "| prediction | predicted | 95 % band | measured | verdict |",
-                "|---|---|---|---|---|",
-            ]
-            for r in table.itertuples():
-                cells = [r.prediction, f"{r.predicted:.4g}", r.band, f"{r.measured:.4g}", r.verdict]
-                lines.append("| " + " | ".join(cells) + " |")
-            lines.append("")
-    return "\n".join(lines)
+    return out

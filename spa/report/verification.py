@@ -27,12 +27,14 @@ _PARTS = {
         "The recommended setting's staircases and sines on the bench: each level's mean "
         "pressure over the second half of its hold and the staircase's FIT, each sine's mean "
         "and fundamental's amplitude over its second half, against the prediction on the "
-        "identified valve. The 95 % band is the prediction on the identified valve and at "
-        "every corner of the identification's 95 % box (the design's corners, with the valve's "
-        "own laws), widened by the model error measured on the dataset's own staircases and "
-        "sines (plan.yaml: verify.model_error), by the sensor noise on the level's mean and by "
-        "half an ADC step (the FIT's by its model error and half a point). Kept: the "
-        "measurement lies in its band.",
+        "identified valve. The 95 % band holds one measurement of an unchanged plant 95 times "
+        "in 100: t times the root sum of squares of the prediction's spread over valves drawn "
+        "from the identification's uncertainty, the model's held-out error measured on the "
+        "dataset's own staircases and sines (plan.yaml: verify.model_error; the worst recorded "
+        "setting's when this one was not recorded: extrapolated) and the sensor's noise on the "
+        "measurement. About one prediction in twenty breaks by chance; the session is broken "
+        "when one leaves its band at the session level (column session: outside), which an "
+        "unchanged plant does once in twenty sessions.",
     ),
     "promise": (
         "Verification: the closed loop's promise",
@@ -40,10 +42,10 @@ _PARTS = {
         "the promise's staircase (levels up then down, after one hold at the first): its worst "
         "overshoot and settling time on the cycle-mean pressure (each step's settling on its "
         "own samples, past what the sensor adds to the cycle-mean) and its worst peak-to-peak "
-        "ripple, against the promise (the worst case over the 95 % box and the model error), "
-        "widened by the overshoot margin of spa.closedloop.promise, for the settling time by "
-        "what the sensor's noise in the loop adds to it (simulated), and for the logged ripple "
-        "by the sensor noise and one ADC step. Kept: the measurement lies in its band.",
+        "ripple of the logged pressure, against the prediction: the same staircase simulated "
+        "through the same PI and modulator on valves drawn from the identification's "
+        "uncertainty, each with the sensor's noise, measured the same way (95 % prediction "
+        "interval of the draws; both ends can break). Kept: the measurement lies in its band.",
     ),
 }
 
@@ -69,6 +71,8 @@ def verification_html(
     ValueError
         If the file lacks a column (naming the file and the columns expected).
     """
+    from spa.plan.verify import session_verdict
+
     p = Path(path)
     if not p.is_file():
         return "", []
@@ -82,6 +86,7 @@ def verification_html(
         kept = int((rows["verdict"] == "kept").sum())
         anchor = unique_anchor(f"{prefix}-verification-{part}", taken)
         heading = f"{title}: {kept} of {len(rows)} predictions kept"
+        said = session_verdict(table, None) if part == "recommendation" else ""
         body = (
             html_table(rows.drop(columns="part").reset_index(drop=True))
             if len(rows)
@@ -89,7 +94,8 @@ def verification_html(
         )
         parts.append(
             f'<figure id="{anchor}">\n<h3>{html.escape(heading)}</h3>\n'
-            f'<div class="scroll">{body}</div>\n'
+            + (f"<p>{html.escape(said)}</p>\n" if said else "")
+            + f'<div class="scroll">{body}</div>\n'
             f"<figcaption>{html.escape(caption)}</figcaption>\n</figure>\n"
         )
         toc.append((anchor, heading))

@@ -1,0 +1,189 @@
+"""The closed loop's verification predictions: what the bench will measure when the exported
+controller plays the promise's staircase, with 95 % bands that both ends can break.
+
+The closed_loop stage promises a worst case over the 95 % box (``bench.promise``): an upper
+bound that a bench keeps whenever it does better, however much better. As a verification
+band, ``0`` to that bound plus a margin kept a tripled overshoot and a slower valve's lower
+ripple (issues 61 and 63). A verification instead predicts the measurement: the staircase
+(one hold at the first level, then the levels up and back down,
+:func:`spa.plan.verify.closed_loop_runs`) is simulated through the exported PI and
+modulator (:func:`spa.closedloop.loop.closed_loop_arrays`) on valves drawn from the
+identification's uncertainty (:func:`spa.plan.bands.parameter_draws`), each with its own
+sensor noise in the loop and in the log and the ADC's step, and measured as a recording is
+(:func:`measure_loop_run`). Each measure's band is the draws' mean ± ``t(D - 1) sd
+sqrt(1 + 1/D)`` (a prediction interval for one more draw of the same distribution), its lower
+end no lower than 0.
+
+The model's own error is not in these bands: a closed loop rejects the level errors the
+open-loop bands carry, and what it does not reject (the dynamics) was not measured on the
+identification's recordings. A settling time is predicted only when at most one draw in
+twenty fails to settle within 2 % of its step by the end of a level.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from spa.model.params import ValveParams
+
+__all__ = ["LOOP_DRAWS", "MEASURES", "loop_predictions", "measure_loop_run"]
+
+#: Valves (each with its noise) the closed-loop staircase is simulated on.
+LOOP_DRAWS = 48
+
+#: The closed loop's measures: unit and what they are.
+MEASURES = {
+    "overshoot": ("%", "the worst step's overshoot of the cycle-mean pressure"),
+    "settling_time": ("s", "the worst step's settling time within 2 %, past the sensor's share"),
+    "ripple_pp": ("bar", "the worst step's peak-to-peak logged pressure over its last quarter"),
+}
+
+
+def measure_loop_run(
+    run: pd.DataFrame, setting: Mapping[str, Any], params: ValveParams, lead: float
+) -> dict[str, float]:
+    """A closed-loop staircase (``t``, ``p``, ``r``, ``valve``) measured as spa measures its
+    own (:func:`spa.synthetic.physical.measure_staircase`), the settling time each step on
+    its own samples and past what the sensor adds (:func:`spa.plan.settling.settling_times`;
+    ``inf`` when a step does not settle).
+
+    ``setting``: the controller's modulator (the cycle-mean's window, at ``params``);
+    ``lead``: the seconds at the first level left out.
+    """
+    from spa.closedloop.experiments import step_periods
+    from spa.model.modulators import Modulator
+    from spa.plan.settling import settling_times
+    from spa.synthetic.physical import measure_staircase
+
+    levels = sorted({float(v) for v in run["r"]})
+    dt = float(run["t"].iloc[1] - run["t"].iloc[0])
+    periods = step_periods(Modulator.from_mapping(dict(setting)), params, levels, dt)
+    first = float(run["r"].iloc[0])
+    _, summary = measure_staircase(run, periods, r_initial=first, skip=lead)
+    settle = max(settling_times(run, periods, first, lead), default=0.0)
+    return {
+        "overshoot": float(summary["worst_overshoot"]),
+        "settling_time": float(settle),
+        "ripple_pp": float(summary["worst_ripple_pp"]),
+    }
+
+
+def loop_predictions(
+    params: ValveParams,
+    setting: Mapping[str, Any],
+    controller: Any,
+    levels: Sequence[float],
+    hold: float,
+    dt: float,
+    noise: float,
+    quantum: float,
+    intervals: Mapping[str, tuple[float, float]] | None = None,
+    correlation: Mapping[str, Any] | None = None,
+    *,
+    draws: int = LOOP_DRAWS,
+    seed: int = 0,
+) -> dict[str, dict[str, Any]]:
+    """The closed-loop staircase's measures predicted with 95 % bands.
+
+    Parameters
+    ----------
+    params : ValveParams
+        The identified valve.
+    setting : mapping
+        The controller's modulator setting (``controller.h``'s).
+    controller : PIController
+        The exported PI (``bench.promise.controller``).
+    levels : sequence of float
+        The promise's set-points, bar.
+    hold : float
+        Seconds at each level.
+    dt : float
+        The controller's step, s.
+    noise, quantum : float
+        The sensor's noise (standard deviation) and ADC step, bar.
+    intervals, correlation : mapping, optional
+        The identification's 95 % intervals and how their errors move together
+        (:func:`spa.plan.bands.parameter_draws`); the noise alone without them.
+    draws : int, default :data:`LOOP_DRAWS`
+    seed : int, default 0
+
+    Returns
+    -------
+    dict
+        Each of :data:`MEASURES` predicted: ``value`` (the draws' mean), ``sd``, ``dof``
+        (draws less 1), ``scale`` (``sqrt(1 + 1/draws)``), ``lo``, ``hi`` and ``unit``;
+        ``settling_time`` only when at most one draw in twenty left a step unsettled, else
+        ``unsettled`` (the share that did).
+
+    Examples
+    --------
+    >>> from spa.closedloop.controller import PIController
+    >>> pi = PIController(kp=0.3, ki=2.0)
+    >>> out = loop_predictions(ValveParams(), {"type": "pwm", "f_w": 20.0}, pi, [0.3, 0.5],
+    ...                        4.0, 0.002, 0.003, 0.001, draws=8)
+    >>> out["overshoot"]["lo"] <= out["overshoot"]["value"] <= out["overshoot"]["hi"]
+    True
+    >>> out["ripple_pp"]["lo"] > 0  # the noise alone has a peak-to-peak
+    True
+    """
+    from spa.closedloop.experiments import _settled
+    from spa.closedloop.loop import closed_loop_arrays
+    from spa.model.modulators import Modulator
+    from spa.plan.bands import parameter_draws
+
+    mod = Modulator.from_mapping(dict(setting))
+    lv = [float(v) for v in levels]
+    ticks = max(2, round(float(hold) / dt))
+    stairs = [lv[0], *lv, *lv[-2::-1]]
+    r = np.repeat(stairs, ticks)
+    t = np.arange(r.size) * dt
+    lead = ticks * dt
+    valves = parameter_draws(params, intervals, n=draws, seed=seed, correlation=correlation)
+    valves = valves or [params] * max(int(draws), 2)
+    rng = np.random.default_rng(seed + 7)
+    rows = []
+    for valve in valves:
+        reading = rng.normal(0.0, noise, r.size) if noise > 0 else None
+        p, _, u = closed_loop_arrays(
+            r,
+            dt,
+            mod,
+            controller,
+            valve,
+            lv[0],
+            integral0=_settled(mod, controller, valve, lv[0]),
+            sensor_noise=reading,
+        )
+        logged = p + reading if reading is not None else p
+        if quantum > 0.0:
+            logged = np.round(logged / quantum) * quantum
+        run = pd.DataFrame({"t": t, "p": logged, "r": r, "valve": u})
+        rows.append(measure_loop_run(run, setting, params, lead))
+    table = pd.DataFrame(rows)
+    n = len(table)
+    widen = float(stats.t.ppf(0.975, max(n - 1, 1))) * math.sqrt(1.0 + 1.0 / n)
+    out: dict[str, dict[str, Any]] = {}
+    for key, (unit, _) in MEASURES.items():
+        values = table[key].to_numpy(np.float64)
+        unsettled = float(np.mean(~np.isfinite(values)))
+        if key == "settling_time" and unsettled > 0.05:
+            out[key] = {"unsettled": unsettled, "unit": unit}
+            continue
+        values = values[np.isfinite(values)]
+        mean, sd = float(np.mean(values)), float(np.std(values, ddof=1))
+        out[key] = {
+            "value": mean,
+            "sd": sd,
+            "dof": float(max(n - 1, 1)),
+            "scale": math.sqrt(1.0 + 1.0 / n),
+            "lo": max(mean - widen * sd, 0.0),
+            "hi": mean + widen * sd,
+            "unit": unit,
+        }
+    return out

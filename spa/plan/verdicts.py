@@ -1,0 +1,318 @@
+"""The verification's measurements and verdicts: a recorded run measured as its prediction
+was made (:func:`level_means`, :func:`sine_fit`), each prediction ``kept`` or ``broken by
+...`` (:func:`compare`, :func:`compare_sine`, :func:`compare_promise`), the session's
+verdict (:func:`session_verdict`) and the page and table ``spa record`` writes
+(:func:`verification_page`, :func:`verification_frame`). :mod:`spa.plan.verify` plans the
+verification and makes the predictions."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from spa.model.params import ValveParams
+
+__all__ = [
+    "PARTS",
+    "compare",
+    "compare_promise",
+    "compare_sine",
+    "level_means",
+    "session_verdict",
+    "sine_fit",
+    "verdict",
+    "verification_frame",
+    "verification_page",
+]
+
+
+def compare_promise(
+    prediction: Mapping[str, Any],
+    run: pd.DataFrame,
+    setting: Mapping[str, Any],
+    params: ValveParams,
+    lead: float,
+    made: bool = True,
+    session: float | None = None,
+) -> pd.DataFrame:
+    """A recorded closed-loop staircase (``t``, ``p``, ``r``, ``valve``) against its
+    predictions: its worst overshoot, settling time and ripple, measured as the predictions
+    were (:func:`spa.plan.loop_bands.measure_loop_run`), each ``kept`` or ``broken by ...``.
+
+    ``prediction``: :func:`spa.plan.loop_bands.loop_predictions`'s bands (or
+    :func:`promise_predictions`'s, for a plan written before them); ``setting``: the
+    controller's modulator (the cycle-mean's window); ``lead``: the seconds at the first
+    level left out; ``made``: whether the stage made the promise (else the rows say "no
+    promise made"); ``session``: the session's level, for the ``session`` column (the
+    band's ``sd`` times its ``scale``, with its ``dof``).
+    """
+    from spa.plan.loop_bands import measure_loop_run
+
+    measured = measure_loop_run(run, setting, params, lead)
+    names = {
+        "overshoot": ("worst overshoot %", "points", 1.0),
+        "settling_time": ("worst settling time s", "s", 1.0),
+        "ripple_pp": ("worst ripple bar pp", "mbar", 1e3),
+    }
+    rows = []
+    for key, band in prediction.items():
+        label, unit, scale = names[key]
+        value = float(measured[key])
+        rows.append(
+            {
+                "prediction": label if made else f"{label} (no promise made)",
+                "predicted": float(band["value"]),
+                "band": f"{band['lo']:.4g} to {band['hi']:.4g} {band['unit']}",
+                "measured": value,
+                "verdict": "broken: not settled within 2 % by the end of a level"
+                if key == "settling_time" and math.isinf(value)
+                else verdict(value, float(band["lo"]), float(band["hi"]), unit, scale),
+                "session": "outside"
+                if session is not None and "sd" in band and math.isinf(value)
+                else _session_mark(
+                    value,
+                    float(band["value"]),
+                    float(band["sd"]) * float(band.get("scale", 1.0)) if "sd" in band else None,
+                    band.get("dof"),
+                    session,
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def level_means(
+    t: npt.ArrayLike, p: npt.ArrayLike, hold: float, n_levels: int
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """The mean pressure over the second half of each level (``hold`` s each), and the
+    samples each mean is over."""
+    t = np.asarray(t, dtype=np.float64)
+    p = np.asarray(p, dtype=np.float64)
+    means, counts = [], []
+    for i in range(n_levels):
+        inside = (t >= (i + 0.5) * hold - 1e-9) & (t < (i + 1) * hold - 1e-9)
+        counts.append(int(inside.sum()))
+        means.append(float(p[inside].mean()) if inside.any() else math.nan)
+    return np.asarray(means), np.asarray(counts)
+
+
+def _fit(xi: np.ndarray, p: np.ndarray) -> float:
+    from spa.openloop.levels import linear_fit_metrics
+
+    return float(linear_fit_metrics(xi, p)["fit"])
+
+
+def verdict(measured: float, lo: float, hi: float, unit: str, scale: float = 1.0) -> str:
+    """``kept`` when ``measured`` lies in ``[lo, hi]``, else ``broken by <amount> <unit>``.
+
+    Examples
+    --------
+    >>> verdict(0.5, 0.4, 0.6, "bar"), verdict(0.7, 0.4, 0.6, "mbar", 1e3)
+    ('kept', 'broken by +100 mbar')
+    """
+    if not math.isfinite(measured):
+        return "not measured"
+    if lo <= measured <= hi:
+        return "kept"
+    off = measured - hi if measured > hi else measured - lo
+    return f"broken by {off * scale:+.3g} {unit}"
+
+
+def sine_fit(
+    t: npt.ArrayLike, p: npt.ArrayLike, omega: float, start: float
+) -> tuple[float, float, int]:
+    """The mean and the amplitude of the fundamental at ``omega`` (rad/s) of ``p`` from
+    ``start`` s on (least squares on ``1, sin, cos``), and the samples used."""
+    t = np.asarray(t, dtype=np.float64)
+    p = np.asarray(p, dtype=np.float64)
+    keep = t >= start - 1e-9
+    a = np.column_stack(
+        [np.ones(int(keep.sum())), np.sin(omega * t[keep]), np.cos(omega * t[keep])]
+    )
+    coef, *_ = np.linalg.lstsq(a, p[keep], rcond=None)
+    return float(coef[0]), float(math.hypot(coef[1], coef[2])), int(keep.sum())
+
+
+def _session_mark(measured: float, predicted: float, sd: Any, dof: Any, level: float | None) -> str:
+    """``inside`` or ``outside`` the prediction's band at the session's level
+    (:func:`spa.plan.bands.session_level`); "" when the plan states no session level or the
+    prediction no standard deviation (a plan written before the bands were calibrated)."""
+    from spa.plan.bands import half_width
+
+    if level is None or sd is None or not math.isfinite(measured):
+        return ""
+    half = float(half_width(float(sd), float(dof if dof is not None else math.inf), level))
+    return "inside" if abs(measured - predicted) <= half else "outside"
+
+
+def compare_sine(
+    prediction: Mapping[str, Any], run: pd.DataFrame, session: float | None = None
+) -> pd.DataFrame:
+    """A recorded sine (``t`` s, ``p`` bar) against :func:`sine_predictions`: its mean and
+    amplitude, each ``kept`` or ``broken by ...``, and ``session``: inside or outside its
+    band at the session's level ``session`` (:func:`_session_mark`)."""
+    mean, amp, _ = sine_fit(
+        run["t"], run["p"], float(prediction["omega"]), float(prediction["start"])
+    )
+    rows = []
+    for key, label, value in (
+        ("mean", "sine mean bar", mean),
+        ("amplitude", "sine amplitude bar", amp),
+    ):
+        lo, hi = float(prediction[f"{key}_lo"]), float(prediction[f"{key}_hi"])
+        rows.append(
+            {
+                "prediction": label,
+                "predicted": float(prediction[key]),
+                "band": f"{lo:.4g} to {hi:.4g} bar",
+                "measured": value,
+                "verdict": verdict(value, lo, hi, "mbar", 1e3),
+                "session": _session_mark(
+                    value,
+                    float(prediction[key]),
+                    prediction.get(f"{key}_sd"),
+                    prediction.get(f"{key}_dof"),
+                    session,
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def compare(
+    prediction: Mapping[str, Any], run: pd.DataFrame, session: float | None = None
+) -> pd.DataFrame:
+    """A recorded staircase (``t`` s, ``p`` bar) against its prediction: one row per level
+    and one for the FIT, each ``kept`` or ``broken by ...``, and ``session``: inside or
+    outside its band at the session's level ``session`` (:func:`_session_mark`)."""
+    xi = np.asarray(prediction["xi"])
+    means, _ = level_means(run["t"], run["p"], float(prediction["hold"]), xi.size)
+    sds = prediction.get("sd") or [None] * xi.size
+    dofs = prediction.get("dof") or [None] * xi.size
+    rows = []
+    for i, x in enumerate(xi):
+        lo, hi = prediction["lo"][i], prediction["hi"][i]
+        rows.append(
+            {
+                "prediction": f"level xi = {x:.2f}",
+                "predicted": prediction["p"][i],
+                "band": f"{lo:.4g} to {hi:.4g} bar",
+                "measured": means[i],
+                "verdict": verdict(means[i], lo, hi, "mbar", 1e3),
+                "session": _session_mark(
+                    float(means[i]), float(prediction["p"][i]), sds[i], dofs[i], session
+                ),
+            }
+        )
+    fit = _fit(xi, means) if np.isfinite(means).all() else math.nan
+    rows.append(
+        {
+            "prediction": "FIT %",
+            "predicted": prediction["fit"],
+            "band": f"{prediction['fit_lo']:.3g} to {prediction['fit_hi']:.3g} %",
+            "measured": fit,
+            "verdict": verdict(fit, prediction["fit_lo"], prediction["fit_hi"], "points"),
+            "session": _session_mark(
+                fit,
+                float(prediction["fit"]),
+                prediction.get("fit_sd"),
+                prediction.get("fit_dof"),
+                session,
+            ),
+        }
+    )
+    return pd.DataFrame(rows)
+
+
+def session_verdict(frame: pd.DataFrame, level: float | None = None) -> str:
+    """The session's verdict in one sentence: how many predictions (of every part) left their
+    95 % bands (about one in twenty does on an unchanged plant) and whether any left its band
+    at the session's level ``level`` (:func:`spa.plan.bands.session_level`: an unchanged
+    plant breaks the session once in twenty sessions); "" when no prediction was judged at a
+    session level (a plan written before the bands were calibrated).
+
+    Examples
+    --------
+    >>> rows = pd.DataFrame({"part": ["recommendation"] * 2, "session": ["inside"] * 2,
+    ...                      "verdict": ["kept", "broken by +3 mbar"]})
+    >>> said = session_verdict(rows, 0.975)
+    >>> said[:46], said.endswith("the session is kept (false alarm 5 % per session).")
+    ('Session: 1 of 2 predictions outside their 95 %', True)
+    """
+    rows = frame
+    if rows.empty or "session" not in rows:
+        return ""
+    judged = rows[rows["session"].isin(["inside", "outside"])]
+    if judged.empty:
+        return ""
+    broken = int((judged["verdict"] != "kept").sum())
+    outside = int((judged["session"] == "outside").sum())
+    at = f"the session level {100 * level:.3g} %" if level is not None else "the session level"
+    said = (
+        f"Session: {broken} of {len(judged)} predictions outside their 95 % bands (about "
+        f"{0.05 * len(judged):.2g} expected by chance on the plant identified); "
+    )
+    if outside:
+        return said + (
+            f"{outside} outside their bands at {at}: the "
+            "session is broken (the plant is not the one identified; false alarm 5 % per "
+            "session)."
+        )
+    return said + (
+        f"none outside its band at {at}: the session is kept (false alarm 5 % per session)."
+    )
+
+
+#: The page's parts: what each compares.
+PARTS = {
+    "recommendation": "Recommendation: the recommended setting's levels and FIT",
+    "promise": "Promise: the closed loop's overshoot, settling and ripple",
+}
+
+
+def verification_frame(tables: Mapping[str, Mapping[str, pd.DataFrame]]) -> pd.DataFrame:
+    """Every comparison in one table, ``part``, ``run`` and :func:`compare`'s columns
+    (``spa record`` writes it as the plan folder's ``verification.csv``)."""
+    frames = [
+        table.assign(part=part, run=run_id, **({} if "session" in table else {"session": ""}))
+        for part, by_run in tables.items()
+        for run_id, table in by_run.items()
+    ]
+    columns = ["part", "run", "prediction", "predicted", "band", "measured", "verdict", "session"]
+    if not frames:
+        return pd.DataFrame(columns=columns)
+    return pd.concat(frames, ignore_index=True)[columns]
+
+
+def verification_page(title: str, frame: pd.DataFrame, level: float | None = None) -> str:
+    """The comparison (:func:`verification_frame`) as a markdown page: per part, one table
+    per recorded run, and how many of its predictions were kept; the recommendation's
+    :func:`session_verdict` at the session's ``level``."""
+    lines = [f"# {title}: predictions against the bench", ""]
+    said = session_verdict(frame, level)
+    if said:
+        lines += [said, ""]
+    for part, heading in PARTS.items():
+        rows = frame[frame["part"] == part]
+        kept = int((rows["verdict"] == "kept").sum())
+        lines += [f"## {heading}: {kept} of {len(rows)} kept", ""]
+
+        if rows.empty:
+            lines += ["No run of this part recorded (or no prediction made).", ""]
+        for run_id, table in rows.groupby("run", sort=False):
+            lines += [
+                f"### {run_id}",
+                "",
+                "| prediction | predicted | 95 % band | measured | verdict |",
+                "|---|---|---|---|---|",
+            ]
+            for r in table.itertuples():
+                cells = [r.prediction, f"{r.predicted:.4g}", r.band, f"{r.measured:.4g}", r.verdict]
+                lines.append("| " + " | ".join(cells) + " |")
+            lines.append("")
+    return "\n".join(lines)
