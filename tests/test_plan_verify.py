@@ -110,7 +110,10 @@ def test_the_same_valve_keeps_its_predictions(results):
     rows = [
         line for line in page.splitlines() if line.startswith("| level") or line.startswith("| FIT")
     ]
-    assert len(rows) == 6 * 5  # 6 staircases, 4 levels and the FIT each
+    # 6 staircases, 4 levels and the FIT each, less the level at xi = 0, which no drift
+    # moves (0 bar on any valve) and the plan dropped
+    assert len(rows) == 6 * 4
+    assert not any(row.startswith("| level xi = 0.00") for row in rows)
     sines = [line for line in page.splitlines() if line.startswith("| sine")]
     assert len(sines) == 3 * 2  # 3 sines, their mean and amplitude
     # 95 % bands: about one prediction in twenty breaks by chance, so "all kept" is not
@@ -215,12 +218,25 @@ def test_the_plan_says_which_drifts_each_prediction_kind_detects(results, tmp_pa
     check = read_plan(tmp_path / "d1")["verify"]["drift_check"]
     assert set(check) == {"level", "fit", "sine_mean", "sine_amplitude"}
     assert {"tau2 x0.5", "tau2 x1.5", "k2 x0.5", "k2 x1.5"} <= set(check["level"]["broken_by"])
-    assert "cannot fail" not in text
+    # the level at xi = 0 is 0 bar on any valve: no drift moves it, and the plan drops it
+    assert "dropped: the level at xi = 0.00:" in text and "cannot fail" in text
+    predictions = read_plan(tmp_path / "d1")["verify"]["predictions"]
+    for pred in predictions.values():
+        assert [pred["xi"][i] for i in pred["dropped_levels"]] == [0.0]
+        assert pred["fit_dropped"] is False
     import spa.plan.drift as drift
 
-    monkeypatch.setattr(drift, "drift_check", lambda *a, **k: {
-        "level": {"broken_by": ["k2 x0.5"], "can_fail": True},
-        "fit": {"broken_by": [], "can_fail": False}})  # fmt: skip
+    def nothing_breaks(predictions, *a, **k):  # a bench where no drift moves anything
+        return {
+            rid: {"level": list(range(len(p["p"]))), "fit": True}
+            if "p" in p
+            else {"mean": True, "amplitude": True}
+            for rid, p in predictions.items()
+        }
+
+    monkeypatch.setattr(drift, "unbroken", nothing_breaks)
     code, text = _cli("plan", str(tmp_path / "d2"), "--verify", str(out), "--p-max", "1",
                       "--levels", "4", "--no-predict")  # fmt: skip
-    assert code == 0 and "moves the fit predictions out of their bands: they cannot fail" in text
+    assert code == 0 and "the staircase's FIT, the sine's mean, the sine's amplitude" in text
+    session = read_plan(tmp_path / "d2")["verify"]["session"]
+    assert session["predictions"] == 0  # nothing left that a changed plant could break

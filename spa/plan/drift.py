@@ -21,7 +21,7 @@ from typing import Any
 
 from spa.model.params import ValveParams
 
-__all__ = ["DRIFTS", "drift_check", "drifted"]
+__all__ = ["DRIFTS", "drift_check", "drifted", "unbroken"]
 
 #: The drifts checked: each parameter times each factor, the others as identified.
 DRIFTS: dict[str, tuple[float, ...]] = {
@@ -113,3 +113,52 @@ def drift_check(
                         if _outside(moved[key], pred[lo], pred[hi]):
                             broken[kind].append(label)
     return {k: {"broken_by": v, "can_fail": bool(v)} for k, v in broken.items()}
+
+
+def unbroken(
+    predictions: Mapping[str, Mapping[str, Any]],
+    predict: Callable[[str, ValveParams], Mapping[str, Any]],
+    params: ValveParams,
+    drifts: Mapping[str, tuple[float, ...]] = DRIFTS,
+) -> dict[str, dict[str, Any]]:
+    """The predictions no drift of :data:`DRIFTS` moves out of its band, run by run: a
+    staircase's ``level`` (the indices of its levels) and ``fit`` (True when unbroken), a
+    sine's ``mean`` and ``amplitude``. A verification drops them: their "kept" is no
+    evidence (a level at xi = 0 is 0 bar on any valve).
+
+    Examples
+    --------
+    >>> bands = {"s": {"p": [0.0, 0.5], "lo": [-0.01, 0.4], "hi": [0.01, 0.6], "fit": 99,
+    ...                "fit_lo": 0, "fit_hi": 100}}
+    >>> moved = lambda rid, v: {"p": [0.0, 0.5 * v.tau2 / 0.826], "fit": 99}
+    >>> unbroken(bands, moved, ValveParams(), {"tau2": (0.5, 1.5)})
+    {'s': {'level': [0], 'fit': True}}
+    """
+    flags: dict[str, dict[str, Any]] = {}
+    for rid, pred in predictions.items():
+        if "p" in pred:
+            flags[rid] = {"level": [True] * len(pred["p"]), "fit": True}
+        else:
+            flags[rid] = {"mean": True, "amplitude": True}
+    for name, factors in drifts.items():
+        for factor in factors:
+            valve = drifted(params, name, factor)
+            if valve is None:
+                continue
+            for rid, pred in predictions.items():
+                moved = predict(rid, valve)
+                f = flags[rid]
+                if "level" in f:
+                    for i, (v, a, b) in enumerate(
+                        zip(moved["p"], pred["lo"], pred["hi"], strict=True)
+                    ):
+                        f["level"][i] = f["level"][i] and a <= v <= b
+                    f["fit"] = f["fit"] and pred["fit_lo"] <= moved["fit"] <= pred["fit_hi"]
+                else:
+                    for key in ("mean", "amplitude"):
+                        lo, hi = pred[f"{key}_lo"], pred[f"{key}_hi"]
+                        f[key] = f[key] and lo <= moved[key] <= hi
+    for f in flags.values():
+        if "level" in f:
+            f["level"] = [i for i, ok in enumerate(f["level"]) if ok]
+    return flags

@@ -17,6 +17,9 @@ import pandas as pd
 
 from spa.model.params import ValveParams
 
+#: A comparison's columns, one row per prediction.
+_ROW_COLUMNS = ["prediction", "predicted", "band", "measured", "verdict", "session"]
+
 __all__ = [
     "PARTS",
     "compare",
@@ -83,7 +86,7 @@ def compare_promise(
                 ),
             }
         )
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=_ROW_COLUMNS)
 
 
 def level_means(
@@ -164,6 +167,8 @@ def compare_sine(
         ("mean", "sine mean bar", mean),
         ("amplitude", "sine amplitude bar", amp),
     ):
+        if prediction.get(f"{key}_dropped"):
+            continue  # the plan dropped it: no drift breaks it
         lo, hi = float(prediction[f"{key}_lo"]), float(prediction[f"{key}_hi"])
         rows.append(
             {
@@ -181,7 +186,7 @@ def compare_sine(
                 ),
             }
         )
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=_ROW_COLUMNS)
 
 
 def compare(
@@ -189,13 +194,18 @@ def compare(
 ) -> pd.DataFrame:
     """A recorded staircase (``t`` s, ``p`` bar) against its prediction: one row per level
     and one for the FIT, each ``kept`` or ``broken by ...``, and ``session``: inside or
-    outside its band at the session's level ``session`` (:func:`_session_mark`)."""
+    outside its band at the session's level ``session`` (:func:`_session_mark`). The levels
+    and the FIT the plan dropped (``dropped_levels``, ``fit_dropped``: no drift breaks them)
+    have no row; the FIT is still over every level."""
     xi = np.asarray(prediction["xi"])
+    dropped = set(prediction.get("dropped_levels") or [])
     means, _ = level_means(run["t"], run["p"], float(prediction["hold"]), xi.size)
     sds = prediction.get("sd") or [None] * xi.size
     dofs = prediction.get("dof") or [None] * xi.size
     rows = []
     for i, x in enumerate(xi):
+        if i in dropped:
+            continue
         lo, hi = prediction["lo"][i], prediction["hi"][i]
         rows.append(
             {
@@ -210,6 +220,8 @@ def compare(
             }
         )
     fit = _fit(xi, means) if np.isfinite(means).all() else math.nan
+    if prediction.get("fit_dropped"):
+        return pd.DataFrame(rows, columns=_ROW_COLUMNS)
     rows.append(
         {
             "prediction": "FIT %",
@@ -226,7 +238,7 @@ def compare(
             ),
         }
     )
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=_ROW_COLUMNS)
 
 
 def session_verdict(frame: pd.DataFrame, level: float | None = None) -> str:

@@ -77,9 +77,12 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
 
     predictions = {run.id: predict(run) for run in design.runs if run.kind == "staircase"}
     sines = {run.id: predict(run) for run in design.runs if run.kind == "sine"}
-    count = sum(len(p["p"]) + 1 for p in predictions.values()) + 2 * len(sines)
+    checked, dropped = _drift_check(design, valve.params, predictions, sines, noise, cal)
+    predictions = {rid: _drop(p, dropped[rid]) for rid, p in predictions.items()}
+    sines = {rid: _drop(p, dropped[rid]) for rid, p in sines.items()}
+    count = sum(_judged(p) for p in (*predictions.values(), *sines.values()))
     verify: dict[str, Any] = {
-        "drift_check": _drift_check(design, valve.params, predictions, sines, noise, cal),
+        "drift_check": checked,
         "results": str(results),
         "setting": setting.to_mapping(),
         "sensor_noise_bar": noise,
@@ -129,12 +132,11 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         ),
         file=out,
     )
-    fixed = [kind for kind, c in verify["drift_check"].items() if not c["can_fail"]]
-    if fixed:
+    gone = _dropped_said(predictions, sines)
+    if gone:
         print(
-            f"  warning: no ±50 % drift of t_on, t_off, k2 or tau2 moves the {', '.join(fixed)} "
-            "predictions out of their bands: they cannot fail on this bench (plan.yaml: "
-            "verify.drift_check)",
+            f"  dropped: {gone}: no ±50 % drift of t_on, t_off, k2 or tau2 moves them out of "
+            "their bands, so they cannot fail on this bench (plan.yaml: verify.drift_check)",
             file=out,
         )
     if verify["extrapolated"]:
@@ -157,19 +159,62 @@ def _drift_check(
     sines: dict[str, Any],
     noise: float,
     cal: dict[str, Any],
-) -> dict[str, dict[str, Any]]:
-    """:func:`spa.plan.drift.drift_check` of a verification's staircases and sines."""
-    from spa.plan.drift import drift_check
+) -> tuple[dict[str, dict[str, Any]], dict[str, dict[str, Any]]]:
+    """:func:`spa.plan.drift.drift_check` of a verification's staircases and sines, and
+    the predictions no drift breaks (:func:`spa.plan.drift.unbroken`)."""
+    from spa.plan.drift import drift_check, unbroken
     from spa.plan.verify import sine_predictions, staircase_predictions
 
     runs = {run.id: run for run in design.runs}
     quantum = cal["bar_per_count"]
+    moved: dict[Any, dict[str, Any]] = {}
 
     def predict(rid: str, valve: Any) -> dict[str, Any]:
-        make = staircase_predictions if rid in staircases else sine_predictions
-        return make(runs[rid], design.dt, valve, {}, noise, quantum)
+        key = (runs[rid].kind, runs[rid].segments, valve)
+        if key not in moved:
+            make = staircase_predictions if rid in staircases else sine_predictions
+            moved[key] = make(runs[rid], design.dt, valve, {}, noise, quantum)
+        return moved[key]
 
-    return drift_check({**staircases, **sines}, predict, params)
+    both = {**staircases, **sines}
+    return drift_check(both, predict, params), unbroken(both, predict, params)
+
+
+def _drop(prediction: dict[str, Any], unbroken: dict[str, Any]) -> dict[str, Any]:
+    """``prediction`` with what no drift breaks marked dropped: ``dropped_levels`` (indices),
+    ``fit_dropped``, ``mean_dropped``, ``amplitude_dropped``; the comparison skips them."""
+    out = dict(prediction)
+    if "level" in unbroken:
+        out["dropped_levels"] = list(unbroken["level"])
+        out["fit_dropped"] = bool(unbroken["fit"])
+    else:
+        out["mean_dropped"] = bool(unbroken["mean"])
+        out["amplitude_dropped"] = bool(unbroken["amplitude"])
+    return out
+
+
+def _judged(prediction: dict[str, Any]) -> int:
+    """How many of a run's predictions are compared (those not dropped)."""
+    if "p" in prediction:
+        kept = len(prediction["p"]) - len(prediction.get("dropped_levels") or [])
+        return kept + (0 if prediction.get("fit_dropped") else 1)
+    return sum(not prediction.get(f"{k}_dropped") for k in ("mean", "amplitude"))
+
+
+def _dropped_said(staircases: dict[str, Any], sines: dict[str, Any]) -> str:
+    """The dropped predictions in words, each kind once (e.g. "the level at xi = 0.00, the
+    sine's amplitude"); "" when none."""
+    said: list[str] = []
+    for pred in staircases.values():
+        for i in pred.get("dropped_levels") or []:
+            said.append(f"the level at xi = {pred['xi'][i]:.2f}")
+        if pred.get("fit_dropped"):
+            said.append("the staircase's FIT")
+    for pred in sines.values():
+        for key in ("mean", "amplitude"):
+            if pred.get(f"{key}_dropped"):
+                said.append(f"the sine's {key}")
+    return ", ".join(dict.fromkeys(said))
 
 
 def recorded_settings(folder: Path) -> list[str]:
