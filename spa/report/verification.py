@@ -33,8 +33,9 @@ _PARTS = {
         "dataset's own staircases and sines (plan.yaml: verify.model_error; the worst recorded "
         "setting's when this one was not recorded: extrapolated) and the sensor's noise on the "
         "measurement. About one prediction in twenty breaks by chance; the session is broken "
-        "when one leaves its band at the session level (column session: outside), which an "
-        "unchanged plant does once in twenty sessions.",
+        "when one leaves its band at the session level (column session: outside), designed "
+        "for an unchanged plant to do once in twenty sessions (measured 7-16 % on spa's "
+        "model valves).",
     ),
     "promise": (
         "Verification: the closed loop's promise",
