@@ -10,7 +10,7 @@ import numpy as np
 
 from spa.identification.results import FloatArray
 
-__all__ = ["andrews_bandwidth", "newey_west"]
+__all__ = ["andrews_bandwidth", "block_means", "correlation", "newey_west"]
 
 
 def andrews_bandwidth(e: FloatArray) -> int:
@@ -58,3 +58,40 @@ def newey_west(scores: FloatArray, lag: int) -> FloatArray:
         g = s[k:].T @ s[:-k]
         omega += (1.0 - k / (lag + 1.0)) * (g + g.T)
     return omega
+
+
+def correlation(cov: FloatArray) -> tuple[tuple[float, ...], ...]:
+    """The correlation matrix of a covariance (a variance of 0 correlates with nothing).
+
+    Examples
+    --------
+    >>> correlation(np.array([[4.0, 2.0], [2.0, 4.0]]))
+    ((1.0, 0.5), (0.5, 1.0))
+    """
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    scale = np.where(sd > 0, sd, 1.0)
+    corr = np.clip(cov / np.outer(scale, scale), -1.0, 1.0)
+    corr[sd == 0, :] = 0.0
+    corr[:, sd == 0] = 0.0
+    np.fill_diagonal(corr, 1.0)
+    return tuple(tuple(round(float(v), 6) for v in row) for row in corr)
+
+
+def block_means(x: FloatArray, block: int) -> FloatArray:
+    """Means of ``x`` over consecutive blocks of ``block`` samples (the last may be shorter),
+    along its first axis (a column per derivative, for instance).
+
+    Examples
+    --------
+    >>> block_means(np.arange(5.0), 2).tolist()
+    [0.5, 2.5, 4.0]
+    >>> block_means(np.arange(6.0).reshape(3, 2), 2).tolist()
+    [[1.0, 2.0], [4.0, 5.0]]
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if block <= 1:
+        return x
+    n = x.shape[0]
+    idx = np.arange(0, n, block)
+    sums = np.add.reduceat(x, idx, axis=0)
+    return sums / np.diff(np.append(idx, n)).reshape(-1, *(1,) * (x.ndim - 1))

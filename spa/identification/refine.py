@@ -35,7 +35,7 @@ from scipy.optimize import least_squares
 
 from spa.identification.diagnostics import second_difference_sd
 from spa.identification.edges import EdgeTiming, edge_timing
-from spa.identification.longrun import andrews_bandwidth, newey_west
+from spa.identification.longrun import andrews_bandwidth, block_means, correlation, newey_west
 from spa.identification.rates import _arrays
 from spa.identification.results import FloatArray
 from spa.model.params import ValveParams
@@ -192,26 +192,6 @@ def chain_runs(
         out[j] = p
         p = _segment(level[j], p, active[j], c1, k2, tau2)
     return out
-
-
-def block_means(x: FloatArray, block: int) -> FloatArray:
-    """Means of ``x`` over consecutive blocks of ``block`` samples (the last may be shorter),
-    along its first axis (a column per derivative, for instance).
-
-    Examples
-    --------
-    >>> block_means(np.arange(5.0), 2).tolist()
-    [0.5, 2.5, 4.0]
-    >>> block_means(np.arange(6.0).reshape(3, 2), 2).tolist()
-    [[1.0, 2.0], [4.0, 5.0]]
-    """
-    x = np.asarray(x, dtype=np.float64)
-    if block <= 1:
-        return x
-    n = x.shape[0]
-    idx = np.arange(0, n, block)
-    sums = np.add.reduceat(x, idx, axis=0)
-    return sums / np.diff(np.append(idx, n)).reshape(-1, *(1,) * (x.ndim - 1))
 
 
 def _noise_sd(p: FloatArray) -> float:
@@ -377,23 +357,6 @@ class RefineFit:
         """Median held-out FIT over the runs (NaN when none is finite)."""
         vals = [v for v in self.fit_heldout.values() if math.isfinite(v)]
         return float(np.median(vals)) if vals else math.nan
-
-
-def _correlation(cov: FloatArray) -> tuple[tuple[float, ...], ...]:
-    """The correlation matrix of a covariance (a variance of 0 correlates with nothing).
-
-    Examples
-    --------
-    >>> _correlation(np.array([[4.0, 2.0], [2.0, 4.0]]))
-    ((1.0, 0.5), (0.5, 1.0))
-    """
-    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    scale = np.where(sd > 0, sd, 1.0)
-    corr = np.clip(cov / np.outer(scale, scale), -1.0, 1.0)
-    corr[sd == 0, :] = 0.0
-    corr[:, sd == 0] = 0.0
-    np.fill_diagonal(corr, 1.0)
-    return tuple(tuple(round(float(v), 6) for v in row) for row in corr)
 
 
 def _to_x(prm: ValveParams) -> FloatArray:
@@ -594,7 +557,7 @@ def refine(
         converged=bool(sol.status > 0),
         runs=tuple(runs),
         se_difference=math.sqrt(var_diff),
-        correlation=_correlation(cov),
+        correlation=correlation(cov),
     )
 
 
