@@ -136,14 +136,11 @@ def loop_predictions(
     from spa.closedloop.loop import closed_loop_arrays
     from spa.model.modulators import Modulator
     from spa.plan.bands import parameter_draws
+    from spa.plan.settling import staircase_reference
 
     mod = Modulator.from_mapping(dict(setting))
     lv = [float(v) for v in levels]
-    ticks = max(2, round(float(hold) / dt))
-    stairs = [lv[0], *lv, *lv[-2::-1]]
-    r = np.repeat(stairs, ticks)
-    t = np.arange(r.size) * dt
-    lead = ticks * dt
+    r, t, lead = staircase_reference(lv, hold, dt)
     valves = parameter_draws(params, intervals, n=draws, seed=seed, correlation=correlation)
     valves = valves or [params] * max(int(draws), 2)
     rng = np.random.default_rng(seed + 7)

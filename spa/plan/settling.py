@@ -34,10 +34,30 @@ if TYPE_CHECKING:  # pragma: no cover
     from spa.closedloop.controller import PIController
     from spa.model.params import ValveParams
 
-__all__ = ["BAND", "settling_allowance", "settling_times"]
+__all__ = ["BAND", "settling_allowance", "settling_times", "staircase_reference"]
 
 #: The settling band, a fraction of the step (as :mod:`spa.closedloop.metrics`).
 BAND = 0.02
+
+
+def staircase_reference(
+    levels: Sequence[float], hold: float, dt: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The verification's closed-loop set-point (:func:`spa.plan.verify.closed_loop_runs`):
+    one hold at the first level, then the levels up and back down, each ``hold`` s; its
+    set-point ``r`` (bar) and times ``t`` (s) at every step ``dt``, and the lead (s) at the
+    first level that is not measured.
+
+    Examples
+    --------
+    >>> r, t, lead = staircase_reference([0.2, 0.4], 0.002, 0.001)
+    >>> r.tolist(), lead
+    ([0.2, 0.2, 0.2, 0.2, 0.4, 0.4, 0.2, 0.2], 0.002)
+    """
+    lv = [float(v) for v in levels]
+    ticks = max(2, round(float(hold) / dt))
+    r = np.repeat([lv[0], *lv, *lv[-2::-1]], ticks)
+    return r, np.arange(r.size) * dt, ticks * dt
 
 
 def _fluctuation(y: np.ndarray) -> float:
@@ -178,13 +198,9 @@ def settling_allowance(
 
     mod = Modulator.from_mapping(dict(setting))
     lv = [float(v) for v in levels]
-    ticks = max(2, round(float(hold) / dt))
-    stairs = [lv[0], *lv, *lv[-2::-1]]
-    r = np.repeat(stairs, ticks)
-    t = np.arange(r.size) * dt
+    r, t, lead = staircase_reference(lv, hold, dt)
     integral0 = _settled(mod, controller, params, lv[0])
     periods = step_periods(mod, params, lv, dt)
-    lead = ticks * dt
 
     def worst(reading: np.ndarray | None) -> float:
         p, _, _ = closed_loop_arrays(
