@@ -159,6 +159,32 @@ def test_drift_figure_flags_the_valve_change_at_the_right_session(tmp_path):
     assert "days since the first session (2025-03-01)" in ax.get_xlabel()
 
 
+def test_a_change_is_flagged_only_between_estimates_of_the_same_kind_of_runs(tmp_path):
+    """A pilot's delay (its pulse runs) and a full session's (refined on modulated runs) are
+    different effective delays of one valve: their intervals may disagree on an unchanged
+    valve, and the overview does not call that a change; two sessions on the same kind of
+    runs that disagree are."""
+    from spa.identification.results import with_basis
+
+    kinds = {"p": "pulse", "s": "staircase", "w": "sine"}
+    sessions = [  # name, t_on interval (ms), its runs
+        ("pilot", (14.9, 32.8), ["p"]),
+        ("full", (1.6, 5.7), ["s", "w"]),
+        ("verify", (1.8, 5.0), ["s"]),
+        ("later", (9.0, 12.0), ["s", "w"]),
+    ]
+    rows = []
+    for i, (name, (lo, hi), runs) in enumerate(sessions):
+        doc = {"t_on": {"value": (lo + hi) / 2e3, "lo": lo / 1e3, "hi": hi / 1e3, "runs": runs}}
+        folder = tmp_path / name / "identification"
+        folder.mkdir(parents=True)
+        (folder / "params.yaml").write_text(yaml.safe_dump(with_basis(doc, kinds)))
+        rows.append(overview_row(tmp_path / name, name, f"2025-03-0{i + 1}", "bench"))
+    table = overview_table(rows)
+    assert table["t_on_basis"].tolist() == ["pulse", "modulated", "modulated", "modulated"]
+    assert table["changed_t_on"].tolist() == [False, False, False, True]
+
+
 # --- A failed stage hides nothing ----------------------------------------------------------
 
 

@@ -21,7 +21,9 @@ __all__ = [
     "Estimate",
     "IdentificationError",
     "IdentificationResult",
+    "estimate_basis",
     "load_params",
+    "with_basis",
 ]
 
 Runs = Mapping[str, pd.DataFrame] | Sequence[pd.DataFrame]
@@ -41,6 +43,52 @@ UNITS: Mapping[str, str] = {
 
 
 _Z95 = 1.959963984540054
+
+
+def estimate_basis(runs: Sequence[str], kinds: Mapping[str, str]) -> str:
+    """What kind of runs an estimate stands on: its runs' kinds, every kind driven through a
+    modulator (:data:`spa.datasets.contract.MODULATED_KINDS`) counted as one, ``modulated``;
+    sorted, joined by ``+``; ``""`` when no run of it has a known kind.
+
+    Two sessions' intervals of a parameter are comparable only on the same basis: a delay
+    fitted to the pulse runs' edges and one refined on the modulated runs' cycle means are
+    different effective delays of one valve (issue 61), so that a pilot and a full session
+    of an unchanged plant can disagree without the valve having changed.
+
+    Examples
+    --------
+    >>> estimate_basis(["p1", "s1", "s2"], {"p1": "pulse", "s1": "staircase", "s2": "sine"})
+    'modulated+pulse'
+    >>> estimate_basis(["x"], {})
+    ''
+    """
+    from spa.datasets.contract import MODULATED_KINDS
+
+    found = {kinds[r] for r in runs if r in kinds}
+    return "+".join(sorted({"modulated" if k in MODULATED_KINDS else k for k in found}))
+
+
+def with_basis(doc: Mapping[str, Any], kinds: Mapping[str, str]) -> dict[str, Any]:
+    """``params.yaml``'s content with each parameter's ``basis`` (:func:`estimate_basis` of
+    its ``runs``) written after its ``runs``.
+
+    Examples
+    --------
+    >>> with_basis({"k2": {"value": 1.0, "runs": ["c"]}}, {"c": "charge"})["k2"]
+    {'value': 1.0, 'runs': ['c'], 'basis': 'charge'}
+    """
+    out = dict(doc)
+    for name in UNITS:
+        entry = out.get(name)
+        if not isinstance(entry, Mapping) or "runs" not in entry:
+            continue
+        new: dict[str, Any] = {}
+        for key, value in entry.items():
+            new[key] = value
+            if key == "runs":
+                new["basis"] = estimate_basis(list(value or ()), kinds)
+        out[name] = new
+    return out
 
 
 class IdentificationError(ValueError):

@@ -4,7 +4,8 @@ A dataset's job writes its row (:func:`overview_row`: date, rig, the five identi
 parameters with their 95 % intervals, validation FIT, the recommended setting and its J_exact,
 status) as ``results/<dataset>/report/overview.json``; the overview job puts the rows in
 session order (:func:`overview_table`), flags every parameter whose interval excludes the
-previous session's of the same rig (:func:`interval_changes`) and fits each parameter's trend
+previous session's of the same valve identified from the same kind of runs
+(:func:`interval_changes`) and fits each parameter's trend
 (:func:`trend`). The table is ``results/overview.csv``, also the data of Fig. O1
 (:func:`spa.report.overview_figure.plot_overview`).
 
@@ -182,7 +183,9 @@ def overview_row(
         ``status`` (``ok``
         or ``failed: <stage>``, then ``; no runs: <kinds>`` when stages found no runs of
         their kind), ``<p>``, ``<p>_lo``, ``<p>_hi`` for each parameter (SI units,
-        NaN when missing), ``fit_median``, ``fit_min`` (%), ``recommended``, ``J``, ``J_exact``.
+        NaN when missing), ``<p>_basis`` (the kinds of runs it stands on,
+        :func:`spa.identification.results.estimate_basis`; ``""`` when ``params.yaml``
+        predates it), ``fit_median``, ``fit_min`` (%), ``recommended``, ``J``, ``J_exact``.
     """
     folder = Path(folder)
     row: dict[str, Any] = {
@@ -202,6 +205,7 @@ def overview_row(
         for suffix, key in (("", "value"), ("_lo", "lo"), ("_hi", "hi")):
             value = entry.get(key)
             row[p + suffix] = float(value) if isinstance(value, int | float) else float("nan")
+        row[f"{p}_basis"] = str(entry.get("basis") or "")
     fit_path = folder / "validation" / "fit.csv"
     fit = pd.Series(dtype=float)
     if "validate_model" not in lost and fit_path.is_file():
@@ -335,8 +339,10 @@ def overview_table(rows: Iterable[Mapping[str, Any]]) -> pd.DataFrame:
     pandas.DataFrame
         Dated sessions by date (then name), then the undated ones by name; columns
         ``session`` (1, 2, ...), the row's columns, and ``changed_<p>`` for each parameter
-        (:func:`interval_changes` within each valve: column ``valve``, the rig for rows
-        written without one).
+        (:func:`interval_changes` within each valve, column ``valve``, the rig for rows
+        written without one, and within the same kind of runs, ``<p>_basis``: a delay
+        from a pilot's pulse runs is never compared with one refined on a full session's
+        modulated runs).
     """
     table = pd.DataFrame(list(rows))
     if table.empty:
@@ -353,5 +359,7 @@ def overview_table(rows: Iterable[Mapping[str, Any]]) -> pd.DataFrame:
         table.insert(table.columns.get_loc("rig") + 1, "valve", table["rig"])
     table["valve"] = table["valve"].where(table["valve"].notna(), table["rig"])
     for p in PARAM_NAMES:
-        table[f"changed_{p}"] = interval_changes(table[f"{p}_lo"], table[f"{p}_hi"], table["valve"])
+        basis = table[f"{p}_basis"] if f"{p}_basis" in table else pd.Series("", index=table.index)
+        groups = table["valve"].astype(str) + " | " + basis.fillna("").astype(str)
+        table[f"changed_{p}"] = interval_changes(table[f"{p}_lo"], table[f"{p}_hi"], groups)
     return table

@@ -9,6 +9,7 @@ from typing import Any
 import pandas as pd
 
 from spa.identification import IdentificationResult
+from spa.identification.results import with_basis
 from spa.io import dump_yaml, write_csv
 from spa.plots.identification import fig2a, fig2a_data, fig2b, fig2b_data, fig2c, fig2c_data
 from spa.plots.laws import laws_data, laws_figure
@@ -48,7 +49,7 @@ def write_identification(
         Where the identified parameters are logged.
     """
     with open(out.get("params"), "w") as fh:
-        dump_yaml(result.to_dict(), fh, sort_keys=False)
+        dump_yaml(with_basis(result.to_dict(), kinds), fh, sort_keys=False)
     (log or _LOG).info("identified %s", result.to_valve_params())
     if result.adequacy:
         (log or _LOG).info("%s", result.adequacy["sentence"])
