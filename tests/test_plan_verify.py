@@ -67,6 +67,8 @@ def results(tmp_path_factory):
 
 
 def _verify(root, results, name, plant, seed):
+    from spa.identification.identified import read_identified
+
     folder = root / name
     code, text = _cli(
         "plan",
@@ -85,7 +87,15 @@ def _verify(root, results, name, plant, seed):
     assert set(plan["verify"]["predictions"]) == {
         r["id"] for r in plan["runs"] if r["kind"] == "staircase"
     }
-    from spa.identification.identified import read_identified
+    # the bands' widths against the range and the step, in plan.yaml and in the output
+    widths = plan["verify"]["band_widths"]["levels"]
+    k2 = read_identified(str(results / "identification" / "params.yaml")).params.k2
+    lo = [x for p in plan["verify"]["predictions"].values() for x in p["lo"]]
+    hi = [x for p in plan["verify"]["predictions"].values() for x in p["hi"]]
+    assert widths["largest_bar"] == pytest.approx(max(np.subtract(hi, lo)))
+    assert widths["of_range_percent"] == pytest.approx(100 * widths["median_bar"] / k2)
+    assert 0 < widths["of_step_percent"] < 100  # a band narrower than a step
+    assert "% of a step" in text
     from spa.model.modulators import Modulator
     from spa.plan.verify import design_verification  # the same design, rebuilt
 

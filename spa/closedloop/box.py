@@ -20,7 +20,9 @@ __all__ = ["PromiseBox", "box_hold", "box_levels", "laws_box_above", "promise_le
 def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list[float]:
     """The promise's staircase: ``levels`` (increasing) thinned so that each step is at
     least ``step_fraction * k2``, from the lowest; the highest level is kept (it replaces
-    the last kept one when that is closer than the step).
+    the last kept one when that is closer than the step). Three levels are kept whenever
+    three are given: when the thinning leaves two, the level nearest their midpoint goes
+    back in (a promise of one step up and one down checks too little, issue 61).
 
     A step smaller than the loop's ripple, or than the pressure one step of the modulator's
     duty moves, is within the loop's resolution: its "overshoot" and its 2 % band measure
@@ -34,6 +36,8 @@ def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list
     [0.1, 0.3, 0.6]
     >>> promise_levels([0.1, 0.2, 0.3], 1.0, 0.0)
     [0.1, 0.2, 0.3]
+    >>> promise_levels([0.1, 0.15, 0.2, 0.25], 1.0, 0.2)
+    [0.1, 0.15, 0.25]
     """
     step = float(step_fraction) * float(k2)
     if step <= 0.0 or len(levels) <= 2:
@@ -47,6 +51,10 @@ def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list
         kept[-1] = top
     else:
         kept.append(top)
+    if len(kept) < 3:
+        inner = list(levels[1:-1])
+        mid = 0.5 * (levels[0] + top)
+        kept = [levels[0], min(inner, key=lambda v: abs(v - mid)), top]
     return kept
 
 

@@ -115,9 +115,11 @@ def common_levels(
     ranges : mapping
         Setting label -> ``(lo, hi)`` it holds (:func:`held_range`), or None.
     min_share : float, default 0.5
-        The common set-points must keep at least this share of ``wanted`` (and two); while
-        they do not, the setting holding the fewest of ``wanted`` leaves the common group
-        (it is compared on its own range).
+        The common set-points must keep at least this share of ``wanted``, and three (or
+        as many as are wanted, when fewer): a staircase of two levels is one step up and
+        one down, too little to promise a loop on (issue 61). While they do not, the
+        setting holding the fewest of ``wanted`` leaves the common group (it is compared
+        on its own range).
 
     Returns
     -------
@@ -133,6 +135,8 @@ def common_levels(
     ([1.0, 2.0, 3.0], ['a', 'b'])
     >>> common_levels([0.5, 1.0, 2.0, 3.0], {"a": (0.1, 3.5), "b": (2.5, 3.5)})
     ([0.5, 1.0, 2.0, 3.0], ['a'])
+    >>> common_levels([0.06, 0.12, 0.18], {"a": (0.01, 0.28), "b": (0.01, 0.13)})
+    ([0.06, 0.12, 0.18], ['a'])
     """
     group = [k for k, v in ranges.items() if v is not None]
 
@@ -141,7 +145,7 @@ def common_levels(
         hi = min(ranges[k][1] for k in labels)  # type: ignore[index]
         return [v for v in wanted if lo < v < hi], lo, hi
 
-    need = max(2, math.ceil(min_share * len(wanted)))
+    need = max(min(3, len(wanted)), math.ceil(min_share * len(wanted)))
     while len(group) > 1 and len(inside(group)[0]) < need:
         counts = [(len(inside([k])[0]), -i, k) for i, k in enumerate(group)]
         group.remove(min(counts)[2])

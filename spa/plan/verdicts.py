@@ -8,7 +8,7 @@ verification and makes the predictions."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -22,6 +22,7 @@ _ROW_COLUMNS = ["prediction", "predicted", "band", "measured", "verdict", "sessi
 
 __all__ = [
     "PARTS",
+    "band_widths",
     "compare",
     "compare_promise",
     "compare_sine",
@@ -329,3 +330,89 @@ def verification_page(title: str, frame: pd.DataFrame, level: float | None = Non
                 lines.append("| " + " | ".join(cells) + " |")
             lines.append("")
     return "\n".join(lines)
+
+
+def band_widths(
+    staircases: Mapping[str, Mapping[str, Any]],
+    sines: Mapping[str, Mapping[str, Any]],
+    promise: Mapping[str, Any] | None,
+    k2: float,
+) -> dict[str, Any]:
+    """How wide a verification's 95 % bands are against what they are about: a band as
+    wide as the staircase's step cannot tell one level from the next (issue 61: 75-209 mbar
+    bands, 12 % of the range, that still missed).
+
+    Parameters
+    ----------
+    staircases, sines : mapping
+        ``verify.predictions`` and ``verify.sines`` of a verification plan (``lo``, ``hi``,
+        ``p``, ``fit_lo``, ``fit_hi``, ``amplitude``, ``mean_lo`` ...); dropped ones are left
+        out.
+    promise : mapping or None
+        ``verify.promise`` (its ``bands`` and ``hold``).
+    k2 : float
+        The identified supply, bar: the range a level can take.
+
+    Returns
+    -------
+    dict
+        ``levels``: median and largest width (bar), the median as % of ``k2`` and of the
+        staircases' median step; ``fit``: median width, FIT points; ``sine_mean`` and
+        ``sine_amplitude``: median width (bar) and as % of the sines' median amplitude;
+        ``closed_loop``: each band's width in its unit, the settling time's also as % of the
+        hold and the ripple's as % of its predicted value. Keys without a band are left out.
+
+    Examples
+    --------
+    >>> st = {"a": {"p": [0.1, 0.2, 0.3], "lo": [0.09, 0.19, 0.29], "hi": [0.11, 0.21, 0.31],
+    ...             "fit_lo": 98.0, "fit_hi": 99.0}}
+    >>> w = band_widths(st, {}, None, 1.0)["levels"]
+    >>> round(w["median_bar"], 3), round(w["of_range_percent"], 1), round(w["of_step_percent"])
+    (0.02, 2.0, 20)
+    """
+
+    def median(values: Sequence[float]) -> float:
+        return float(np.median(values)) if len(values) else math.nan
+
+    out: dict[str, Any] = {}
+    widths: list[float] = []
+    steps: list[float] = []
+    fits: list[float] = []
+    for pred in staircases.values():
+        gone = set(pred.get("dropped_levels") or [])
+        lo, hi = pred.get("lo") or [], pred.get("hi") or []
+        pairs = enumerate(zip(lo, hi, strict=True))
+        widths += [float(h - w) for i, (w, h) in pairs if i not in gone]
+        levels = np.asarray(pred.get("p") or [], dtype=np.float64)
+        steps += [float(d) for d in np.abs(np.diff(levels)) if d > 0.0]
+        if "fit_lo" in pred and not pred.get("fit_dropped"):
+            fits.append(float(pred["fit_hi"]) - float(pred["fit_lo"]))
+    if widths:
+        med = median(widths)
+        out["levels"] = {
+            "median_bar": med,
+            "largest_bar": float(max(widths)),
+            "of_range_percent": 100.0 * med / float(k2),
+            "of_step_percent": 100.0 * med / median(steps) if steps else math.nan,
+        }
+    if fits:
+        out["fit"] = {"median_points": median(fits)}
+    amplitude = median([float(s["amplitude"]) for s in sines.values() if "amplitude" in s])
+    for part in ("mean", "amplitude"):
+        kept = [s for s in sines.values() if f"{part}_lo" in s and not s.get(f"{part}_dropped")]
+        if kept:
+            med = median([float(s[f"{part}_hi"]) - float(s[f"{part}_lo"]) for s in kept])
+            out[f"sine_{part}"] = {"median_bar": med, "of_amplitude_percent": 100 * med / amplitude}
+    bands = (promise or {}).get("bands") or {}
+    loop: dict[str, Any] = {}
+    for key, band in bands.items():
+        width = float(band["hi"]) - float(band["lo"])
+        entry: dict[str, Any] = {"width": width, "unit": band.get("unit")}
+        if key == "settling_time" and (promise or {}).get("hold"):
+            entry["of_hold_percent"] = 100.0 * width / float(promise["hold"])  # type: ignore[index]
+        if key == "ripple_pp" and float(band.get("value") or 0.0) > 0.0:
+            entry["of_value_percent"] = 100.0 * width / float(band["value"])
+        loop[key] = entry
+    if loop:
+        out["closed_loop"] = loop
+    return out

@@ -29,6 +29,7 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
     from spa.model.modulators import Modulator
     from spa.plan.bands import LEVEL, session_level
     from spa.plan.folder import calibration_for, write_plan
+    from spa.plan.verdicts import band_widths
     from spa.plan.verify import (
         design_verification,
         sine_predictions,
@@ -105,6 +106,7 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         "on the plant identified); the session is broken when any prediction leaves its band "
         "at the Sidak level 0.95**(1/predictions)",
     }
+    verify["band_widths"] = band_widths(predictions, sines, verify.get("promise"), valve.params.k2)
     recorded = recorded_settings(results / "runs")
     verify["recorded_settings"] = recorded
     verify["extrapolated"] = setting.label not in recorded
@@ -132,6 +134,9 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         ),
         file=out,
     )
+    widths = _widths_said(verify["band_widths"])
+    if widths:
+        print(f"  95 % bands: {widths}", file=out)
     gone = _dropped_said(predictions, sines)
     if gone:
         print(
@@ -150,6 +155,36 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         )
     print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
     return 0
+
+
+def _widths_said(widths: dict[str, Any]) -> str:
+    """:func:`spa.plan.verdicts.band_widths` in words, for the command's output."""
+    said = []
+    lv = widths.get("levels")
+    if lv:
+        said.append(
+            "levels {:.3g} mbar wide (median; {:.2g} % of k2, {:.2g} % of a step)".format(
+                1e3 * lv["median_bar"], lv["of_range_percent"], lv["of_step_percent"]
+            )
+        )
+    if "sine_amplitude" in widths:
+        amp = widths["sine_amplitude"]
+        said.append(
+            "sine amplitude {:.3g} mbar ({:.2g} % of it)".format(
+                1e3 * amp["median_bar"], amp["of_amplitude_percent"]
+            )
+        )
+    loop = widths.get("closed_loop") or {}
+    if "overshoot" in loop:
+        said.append("overshoot {:.3g} points".format(loop["overshoot"]["width"]))
+    if "settling_time" in loop:
+        settle = loop["settling_time"]
+        said.append(
+            "settling {:.3g} s ({:.2g} % of the hold)".format(
+                settle["width"], settle.get("of_hold_percent", math.nan)
+            )
+        )
+    return "; ".join(said)
 
 
 def _drift_check(
