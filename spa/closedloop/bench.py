@@ -303,11 +303,14 @@ def bench_outputs(
     gain = error.pop("gain", None)
     gains = (1.0,) if gain is None else (1.0, float(gain[0]), float(gain[1]))
     box = widen(intervals, error)
-    # Set-points in each plant's own scale: at most the highest fraction of its supply the
-    # stage asks for (levels_fraction), or max_level_fraction when the levels are absolute.
+    # Set-points at most the highest fraction of the estimate's supply the stage asks for
+    # (levels_fraction; a corner of lower supply is asked for the same pressures, within
+    # its own max_level_fraction), or max_level_fraction when the levels are absolute.
     top = float(c["max_level_fraction"])
     if c.get("levels") is None and c.get("levels_fraction"):
-        top = min(top, max(float(v) for v in c["levels_fraction"]))
+        k2_lo = min(float(box.get("k2", (params.k2, params.k2))[0]), params.k2)
+        asked = max(float(v) for v in c["levels_fraction"]) * params.k2 / k2_lo
+        top = min(top, asked * 1.005)  # the levels are rounded to 3 significant digits
     plants = PromiseBox(mod, params, box)
     own = box_levels(plants, own, top)
     stairs = promise_levels(own, params.k2, float(c["promise_step_fraction"]))
