@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from spa import simulate
 from spa.closedloop.controller import PIController
@@ -132,3 +133,24 @@ def test_the_closed_loops_bands_have_two_ends_that_a_slower_valve_breaks():
         if not same[key]["lo"] <= moved[key]["value"] <= same[key]["hi"]
     ]
     assert outside, (same, moved)
+
+
+def test_a_quantised_ripple_band_ends_half_a_step_out():
+    """A logged peak-to-peak is a whole number of ADC steps: the ripple's band is padded by
+    half a step at each end (the continuity correction; a band ending between two steps
+    broke 6 of 9 of an unchanged physical finger's ripples, issue 61)."""
+    pi = PIController(kp=0.3, ki=2.0)
+    setting = {"type": "pwm", "f_w": 20.0}
+    q = 0.0025
+    plain = loop_predictions(TRUTH, setting, pi, [0.3, 0.5, 0.7], 3.0, DT, NOISE, 0.0, draws=16)
+    band = loop_predictions(TRUTH, setting, pi, [0.3, 0.5, 0.7], 3.0, DT, NOISE, q, draws=16)
+    assert "pad" not in plain["ripple_pp"] and band["ripple_pp"]["pad"] == q / 2
+    rip = band["ripple_pp"]
+    t = stats.t.ppf(0.975, 15)
+    assert rip["hi"] - rip["lo"] == pytest.approx(2 * t * rip["sd"] * rip["scale"] + q)
+    # without noise every draw logs the same whole number of steps: the band is that one
+    # step, half a step either way
+    still = loop_predictions(TRUTH, setting, pi, [0.3, 0.5, 0.7], 3.0, DT, 0.0, q, draws=4)
+    rip = still["ripple_pp"]
+    assert rip["sd"] == 0.0 and rip["value"] / q == pytest.approx(round(rip["value"] / q))
+    assert (rip["lo"], rip["hi"]) == pytest.approx((rip["value"] - q / 2, rip["value"] + q / 2))

@@ -12,7 +12,9 @@ identification's uncertainty (:func:`spa.plan.bands.parameter_draws`), each with
 sensor noise in the loop and in the log and the ADC's step, and measured as a recording is
 (:func:`measure_loop_run`). Each measure's band is the draws' mean ± ``t(D - 1) sd
 sqrt(1 + 1/D)`` (a prediction interval for one more draw of the same distribution), its lower
-end no lower than 0.
+end no lower than 0; the ripple's, a whole number of ADC steps, half a step wider at each end
+(the continuity correction: on a 2.4 mbar ADC, 6 of 9 of a physical finger's ripples fell one
+step under a band that ended between two steps).
 
 The model's own error is not in these bands: a closed loop rejects the level errors the
 open-loop bands carry, and what it does not reject (the dynamics) was not measured on the
@@ -118,6 +120,8 @@ def loop_predictions(
     dict
         Each of :data:`MEASURES` predicted: ``value`` (the draws' mean), ``sd``, ``dof``
         (draws less 1), ``scale`` (``sqrt(1 + 1/draws)``), ``lo``, ``hi`` and ``unit``;
+        ``ripple_pp``'s band is wider by ``pad``, half the ADC step, at each end (a logged
+        peak-to-peak is a whole number of steps: the continuity correction);
         ``settling_time`` only when at most one draw in twenty left a step unsettled, else
         ``unsettled`` (the share that did).
 
@@ -174,13 +178,17 @@ def loop_predictions(
             continue
         values = values[np.isfinite(values)]
         mean, sd = float(np.mean(values)), float(np.std(values, ddof=1))
+        # a logged peak-to-peak is a whole number of ADC steps: the band of a discrete
+        # measure takes half a step at each end (the continuity correction)
+        pad = 0.5 * float(quantum) if key == "ripple_pp" else 0.0
         out[key] = {
             "value": mean,
             "sd": sd,
             "dof": float(max(n - 1, 1)),
             "scale": math.sqrt(1.0 + 1.0 / n),
-            "lo": max(mean - widen * sd, 0.0),
-            "hi": mean + widen * sd,
+            "lo": max(mean - widen * sd - pad, 0.0),
+            "hi": mean + widen * sd + pad,
             "unit": unit,
+            **({"pad": pad} if pad else {}),
         }
     return out

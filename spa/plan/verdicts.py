@@ -84,6 +84,7 @@ def compare_promise(
                     float(band["sd"]) * float(band.get("scale", 1.0)) if "sd" in band else None,
                     band.get("dof"),
                     session,
+                    float(band.get("pad", 0.0)),
                 ),
             }
         )
@@ -142,15 +143,18 @@ def sine_fit(
     return float(coef[0]), float(math.hypot(coef[1], coef[2])), int(keep.sum())
 
 
-def _session_mark(measured: float, predicted: float, sd: Any, dof: Any, level: float | None) -> str:
+def _session_mark(
+    measured: float, predicted: float, sd: Any, dof: Any, level: float | None, pad: float = 0.0
+) -> str:
     """``inside`` or ``outside`` the prediction's band at the session's level
-    (:func:`spa.plan.bands.session_level`); "" when the plan states no session level or the
-    prediction no standard deviation (a plan written before the bands were calibrated)."""
+    (:func:`spa.plan.bands.session_level`), ``pad`` wider at each end (a discrete measure's
+    continuity correction); "" when the plan states no session level or the prediction no
+    standard deviation (a plan written before the bands were calibrated)."""
     from spa.plan.bands import half_width
 
     if level is None or sd is None or not math.isfinite(measured):
         return ""
-    half = float(half_width(float(sd), float(dof if dof is not None else math.inf), level))
+    half = float(half_width(float(sd), float(dof if dof is not None else math.inf), level)) + pad
     return "inside" if abs(measured - predicted) <= half else "outside"
 
 
