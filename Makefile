@@ -47,8 +47,9 @@ ccompiler:
 # In CI (CI=true) or with SPA_TEST_SLURM=1, tests/test_slurm.py starts a one-node SLURM
 # (.ci/slurm.sh up: Debian's Slurm 22.05 installed with apt-get when missing) and stops it; the
 # trap stops it too if pytest itself was killed.
+# Two worker processes (pytest-xdist), one per core; a file's tests stay on one worker.
 test: lint browser ccompiler
-	@trap '.ci/slurm.sh down >/dev/null 2>&1 || true' EXIT; $(BIN)/pytest
+	@trap '.ci/slurm.sh down >/dev/null 2>&1 || true' EXIT; $(BIN)/pytest -n 2 --dist loadfile
 
 # The documentation site (Sphinx, numpydoc, MyST, myst-nb, pydata-sphinx-theme): getting
 # started (its tutorial runs the pipeline on the bundled example), how-to guides, explanation

@@ -116,8 +116,8 @@ def test_the_player_plays_on_the_twin_what_it_plays_on_simulate(tmp_path, delay)
 def test_a_model_valve_keeps_its_promise_closed_on_its_twin(tmp_path):
     """small-fast (the full configuration's model-made valve): its pilot played on the model
     in C → the stages → spa plan --verify, its closed-loop staircases through controller.h
-    by the player on the model in C. Every promise row has a verdict, each kept on the same
-    valve; the identified delays lie within their intervals and one tick of the truth."""
+    by the player on the model in C. Every promise row has a verdict, inside the session's
+    band on the same valve (and at most one outside its own 95 % band); the identified delays lie within their intervals and one tick of the truth."""
     from pathlib import Path
 
     import yaml
@@ -154,4 +154,7 @@ def test_a_model_valve_keeps_its_promise_closed_on_its_twin(tmp_path):
         assert pd.read_csv(done.folder / run["file"])["valve"].nunique() == 2, run["id"]
     promise = done.frame[done.frame["part"] == "promise"]
     assert len(promise) == len(loops) * len(plan["verify"]["promise"]["bands"])
-    assert (promise["verdict"] == "kept").all(), promise.to_string()
+    # each 95 % band lets one measurement in twenty out on the valve identified; the
+    # session's verdict (its Sidak level over every prediction) is what must hold
+    assert (promise["session"] == "inside").all(), promise.to_string()
+    assert (promise["verdict"] == "kept").sum() >= len(promise) - 1, promise.to_string()

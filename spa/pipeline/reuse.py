@@ -493,4 +493,5 @@ def run_job(smk: Any, scriptdir: str | Path) -> dict[str, str]:
             )
     finally:
         gc.set_threshold(*previous)
+        use_folder(None)  # the store is this job's: nothing after it memoises into it
     return how
