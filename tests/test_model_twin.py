@@ -117,7 +117,8 @@ def test_a_model_valve_keeps_its_promise_closed_on_its_twin(tmp_path):
     """small-fast (the full configuration's model-made valve): its pilot played on the model
     in C → the stages → spa plan --verify, its closed-loop staircases through controller.h
     by the player on the model in C. Every promise row has a verdict, inside the session's
-    band on the same valve (and at most one outside its own 95 % band); the identified delays lie within their intervals and one tick of the truth."""
+    band on the same valve (and at most one outside its own 95 % band); the identified
+    delays lie within their intervals and one tick of the truth."""
     from pathlib import Path
 
     import yaml
