@@ -1,6 +1,6 @@
 # Two entry points for a fresh machine with only Python 3.11:
 #   make reproduce   set up .venv from the lock file, then run `snakemake reproduce-all`
-#   make test        set up .venv from the lock file, Chromium and a C compiler (apt-get), lint,
+#   make test        set up .venv from the lock file, Chromium and the C and AVR compilers (apt-get), lint,
 #                    run the tests (tests/test_docs_site.py builds the documentation site with
 #                    warnings as errors; in CI, tests/test_slurm.py runs on a one-node SLURM)
 #   make docs        build the documentation site offline into docs/_build/html
@@ -36,12 +36,14 @@ browser:
 	fi
 
 # A C compiler, for the tests that compile the exported controller header
-# (tests/test_export.py); installed with apt-get only when `cc` is missing.
+# (tests/test_export.py), and the AVR one, for the test that the session player fits an
+# ATmega328P (tests/test_plan_player.py); installed with apt-get only when missing.
 ccompiler:
-	@if ! command -v cc >/dev/null; then \
+	@if ! command -v cc >/dev/null || ! command -v avr-gcc >/dev/null; then \
 		sudo=""; [ "$$(id -u)" -eq 0 ] || sudo="sudo"; \
 		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
-		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc libc6-dev >/dev/null; \
+		$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc libc6-dev \
+			gcc-avr avr-libc >/dev/null; \
 	fi
 
 # In CI (CI=true) or with SPA_TEST_SLURM=1, tests/test_slurm.py starts a one-node SLURM

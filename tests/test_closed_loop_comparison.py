@@ -174,21 +174,19 @@ def test_tau_c_is_lengthened_until_a_loop_meets_the_overshoot_limit() -> None:
     res = closed_loop(ValveParams(), SELECTED[:1], None, {**CFG, "max_overshoot": limit})
     tried = res.controllers["tau_c_tried"]
     assert tried[0] == {"tau_c": 0.2, "least_worst_overshoot": least, "met": False}
-    if tried[-1]["met"]:
-        assert res.controllers["tau_c"] == tried[-1]["tau_c"] > 0.2
-        label, name = "pwm-20Hz", res.controllers["controller"]
-        t = res.table
-        over = t[
-            (t.modulator == label)
-            & (t.controller == name)
-            & (t.experiment == "staircase")
-            & (t.metric == "overshoot")
-        ]["max"].iloc[0]
-        assert over <= limit
-        assert f"tau_c was lengthened to {res.controllers['tau_c']:g} s" in res.sentence
-    else:
-        assert "setting" not in res.controllers
-        assert "no designed controller keeps the overshoot within" in res.sentence
+    # half the least overshoot is met by a longer tau_c (that none does is the next tests')
+    assert tried[-1]["met"], res.sentence
+    assert res.controllers["tau_c"] == tried[-1]["tau_c"] > 0.2
+    label, name = "pwm-20Hz", res.controllers["controller"]
+    t = res.table
+    over = t[
+        (t.modulator == label)
+        & (t.controller == name)
+        & (t.experiment == "staircase")
+        & (t.metric == "overshoot")
+    ]["max"].iloc[0]
+    assert over <= limit
+    assert f"tau_c was lengthened to {res.controllers['tau_c']:g} s" in res.sentence
 
 
 def test_no_loop_settling_is_said_with_the_closest_and_no_advice_to_widen_the_overshoot():
@@ -217,6 +215,8 @@ def test_no_loop_within_the_overshoot_names_the_least_among_those_that_settle() 
     tried = res.controllers["tau_c_tried"]
     assert not any(t["met"] for t in tried)
     said = res.sentence
+    assert "setting" not in res.controllers
+    assert "no designed controller keeps the overshoot within -1 %" in said
     assert "of the loops that settle, the least overshoot is" in said
     assert "widen closed_loop.max_overshoot" in said
     over = float(said.split("the least overshoot is ")[1].split(" %")[0])
@@ -226,8 +226,8 @@ def test_no_loop_within_the_overshoot_names_the_least_among_those_that_settle() 
     t = res.table
     stair = t[(t.experiment == "staircase") & (t.modulator == label)]
     settled = stair[(stair.metric == "end_error") & (stair["max"] <= 2.0)]
-    if f"tau_c = {tried[0]['tau_c']:g} s)" in said:
-        assert not settled.empty
-        named = said.split(f"({label}, ")[1].split(" PI")[0]
-        row = stair[(stair.controller == named) & (stair.metric == "overshoot")]
-        assert round(float(row["max"].iloc[0])) == round(over)
+    assert f"tau_c = {tried[0]['tau_c']:g} s)" in said, said  # named at the first tau_c
+    assert not settled.empty
+    named = said.split(f"({label}, ")[1].split(" PI")[0]
+    row = stair[(stair.controller == named) & (stair.metric == "overshoot")]
+    assert round(float(row["max"].iloc[0])) == round(over)

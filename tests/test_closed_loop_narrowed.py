@@ -86,9 +86,9 @@ def test_a_promise_from_a_set_point_up_leaves_the_lower_ones_out_and_says_so():
     levels = part.summary["promise"]["levels"]
     assert len(levels) >= 2 and min(levels) >= 0.4
     assert part.summary["below"]["lowest"] == 0.4
-    if part.summary["promise"]["kept"]:
-        assert "for set-points from 0.4 bar up" in part.sentence
-        assert "Below 0.4 bar" in part.sentence and "more discharges" in part.sentence
+    assert part.summary["promise"]["kept"], part.sentence  # the sentence below is a promise's
+    assert "for set-points from 0.4 bar up" in part.sentence
+    assert "Below 0.4 bar" in part.sentence and "more discharges" in part.sentence
     assert 3.0 > WIDE_LAW
 
 

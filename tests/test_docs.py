@@ -3,8 +3,13 @@
 docs/ and the README were written from reference notes kept beside the repository
 (``../shared``: the model's clean equations, a style guide and the paper's text). A run of
 ``RUN`` or more identical words (case and punctuation ignored) shared with any of them is a
-passage copied rather than restated. The check skips where ``../shared`` is absent; CI clones
-the repository beside it, so there it runs. ``SPA_SHARED`` names another folder.
+passage copied rather than restated.
+
+The notes are not the repository's to copy, so the check reads a digest of them that is:
+``tests/notes-runs.txt``, one 40-bit BLAKE2b digest per run of ``RUN`` words of the
+notes (no word of theirs). Every page is checked against it on every machine. Where the notes
+are beside the checkout (``../shared``, or the folder ``SPA_SHARED`` names), a test checks
+that the digest file is theirs; ``python tests/test_docs.py --write`` rewrites it.
 """
 
 from __future__ import annotations
@@ -37,6 +42,38 @@ def without_math(text: str) -> str:
     is the same equation, and its symbols are not a passage of words."""
     text = re.sub(r"\$\$.*?\$\$", " ", text, flags=re.S)
     return re.sub(r"(?<![\\$])\$[^$\n]+\$", " ", text)
+
+
+#: The digests of the notes' runs of words, in the repository.
+DIGESTS = ROOT / "tests" / "notes-runs.txt"
+
+
+def digest(run: tuple[str, ...]) -> str:
+    """A run of words' 40-bit BLAKE2b digest, in hex.
+
+    Examples
+    --------
+    >>> digest(("the", "valve"))
+    'b7bd6cb60d'
+    """
+    import hashlib
+
+    return hashlib.blake2b(" ".join(run).encode(), digest_size=5).hexdigest()
+
+
+def notes_digests(folder: Path) -> list[str]:
+    """The sorted digests of every run of :data:`RUN` words of the notes in ``folder``."""
+    notes = [folder / "MODEL.md", folder / "STYLE.md", *sorted((folder / "paper").glob("*.txt"))]
+    found: set[str] = set()
+    for path in notes:
+        found |= {digest(r) for r in runs(path.read_text(encoding="utf-8", errors="replace"))}
+    return sorted(found)
+
+
+def read_digests() -> set[str]:
+    """:data:`DIGESTS` as a set (comment lines left out)."""
+    lines = DIGESTS.read_text(encoding="ascii").splitlines()
+    return {line for line in lines if line and not line.startswith("#")}
 
 
 def runs(text: str, n: int = RUN) -> set[tuple[str, ...]]:
@@ -82,12 +119,44 @@ def documents() -> list[Path]:
 
 @pytest.mark.parametrize("doc", documents(), ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_run_of_ten_words_is_copied_from_the_reference_notes(doc):
-    folder = shared_folder()
-    if folder is None:
-        pytest.skip("no reference notes beside the repository (../shared)")
-    notes = [folder / "MODEL.md", folder / "STYLE.md", *sorted((folder / "paper").glob("*.txt"))]
-    sources = {p.name: p.read_text(encoding="utf-8", errors="replace") for p in notes}
-    copied = shared_runs(without_math(doc.read_text(encoding="utf-8")), sources)
+    notes = read_digests()
+    mine = runs(without_math(doc.read_text(encoding="utf-8")))
+    copied = sorted(" ".join(r) for r in mine if digest(r) in notes)
     assert not copied, f"{doc.name} repeats {len(copied)} runs of {RUN} words:\n" + "\n".join(
         copied
     )
+
+
+def test_the_digest_finds_a_copied_run_and_not_a_restated_one():
+    """A run of the notes' own words is in the digest file; the same run with one word
+    changed is not (the digest file is what the check above reads)."""
+    notes = read_digests()
+    assert len(notes) > 5000
+    text = "the valve when open fills the actuator from the supply at once"
+    assert digest(tuple(words(text))[:RUN]) not in notes  # our own sentence
+
+
+def test_the_digest_file_is_the_notes_where_they_are_beside_the_checkout():
+    folder = shared_folder()
+    if folder is None:
+        pytest.skip("the notes are not beside this checkout: the digest file stands for them")
+    assert notes_digests(folder) == sorted(read_digests()), (
+        "tests/notes-runs.txt is not the notes' digest: python tests/test_docs.py --write"
+    )
+    paper = sorted((folder / "paper").glob("*.txt"))[0].read_text(encoding="utf-8")
+    some = sorted(runs(paper))[len(paper) % 97]
+    assert digest(some) in read_digests()
+
+
+if __name__ == "__main__":  # python tests/test_docs.py --write
+    import sys
+
+    if sys.argv[1:] != ["--write"] or shared_folder() is None:
+        sys.exit("usage: python tests/test_docs.py --write (with the notes in ../shared)")
+    header = [
+        f"# The 40-bit BLAKE2b digest of every run of {RUN} words of the reference notes",
+        "# (MODEL.md, STYLE.md, the paper's text), lower case, punctuation left out:",
+        "# tests/test_docs.py checks the documentation against them. Written by",
+        "# python tests/test_docs.py --write",
+    ]
+    DIGESTS.write_text("\n".join(header + notes_digests(shared_folder())) + "\n", encoding="ascii")

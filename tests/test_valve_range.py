@@ -158,11 +158,14 @@ def test_the_exhaust_valve_of_issue_29_gets_a_usable_recommendation() -> None:
     assert best["predicted"]["tau_m"]["max"] <= 1.5
     fits = [r["predicted"]["fit"] for r in result.recommendation["runners_up"] if "predicted" in r]
     assert best["predicted"]["fit"] >= max(fits) - 10.0
-    if best["at_feasible_edge"]:
-        assert "feasible setting of its kind" in result.sentence
+    # at the edge its time-constant bound sets, and the sentence says so
+    assert best["at_feasible_edge"]["bounded_by"] == ["max_time_constant"]
+    assert "feasible setting of its kind" in result.sentence
     res = closed_loop(valve, SETTINGS, result.recommendation, CLOSED)
     assert "t_l > t_off" in res.skipped["iipfm-20ms-G1.15"]
-    assert "setting" in res.controllers or res.sentence.startswith("Closed loop: no ")
+    # no crash; with a 25 ms exhaust delay no loop settles on every level, and it says so
+    assert "setting" not in res.controllers
+    assert res.sentence.startswith("Closed loop: no designed controller ends every level")
 
 
 @pytest.mark.parametrize("t_on", [0.0, 1e-6])
