@@ -82,7 +82,16 @@ def plant_of(name: str) -> tuple[object, float, float, float, object, str]:
     """The configuration's dataset ``name`` as a plant to play on: a physical plant (its C
     twin) or a model-made valve (``params``: spa's model plant in C); its supply, its
     charge's time constant, its sensor's noise (bar), the plant twice slower, and what it is.
-    """
+    ``random:<k>`` is the physical plant :func:`spa.synthetic.draws.random_plant` draws from
+    the seed ``[61, k]``: balloons, leaks, bounce, tube and sensor lags, none in the
+    configuration."""
+    if name.startswith("random:"):  # a plant no configuration holds: spa has not seen it
+        from spa.synthetic.draws import random_plant
+        from spa.synthetic.physical import equivalent_params
+
+        plant = random_plant(np.random.default_rng([61, int(name.split(":")[1])]))
+        equivalent = equivalent_params(plant)
+        return plant, plant.supply, equivalent.tau2, plant.noise, slower(plant, 2.0), "random"
     entry = CONFIG["simulated"][name]
     if "params" in entry:
         truth = ValveParams(**entry["params"])
@@ -117,11 +126,12 @@ def round_trip(name: str, root: Path, full: bool) -> list[str]:
     design = design_session(
         prior, limits, levels=4, settings=[], recommended=mod, pilot=not full, precondition=1
     )
-    folder = root / name
+    safe = name.replace(":", "-")  # a folder's and a dataset's name
+    folder = root / safe
     write_plan(folder, design)
     record(folder, plant, 2, sd)
     t0 = time.perf_counter()
-    results = root / "results" / name
+    results = root / "results" / safe
     stages = stages_in_memory(folder, results, CONFIG["analytic"]["selected"], CLOSED_LOOP)
     t_id = time.perf_counter() - t0
     identified, promise = stages["identified"], stages["promise"]
@@ -145,7 +155,7 @@ def round_trip(name: str, root: Path, full: bool) -> list[str]:
             f"their intervals and one {design.dt * 1e3:g} ms tick: {within}"
         )
     for tag, on in (("same", plant), ("2x slower", slow)):
-        vfolder = root / f"{name}-verify-{tag.replace(' ', '')}"
+        vfolder = root / f"{safe}-verify-{tag.replace(' ', '')}"
         frame = verify_on(vfolder, results, on, limits.p_max, noise_sd=sd).frame
         lines.append(f"  on the {tag} plant: " + "; ".join(kept_parts(frame)))
     return lines

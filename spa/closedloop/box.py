@@ -144,7 +144,8 @@ def box_levels(plants: PromiseBox, levels: list[float], max_fraction: float = 0.
     controller: the promise can only be about the set-points every plant holds
     (:func:`spa.closedloop.levels.held_range` at the estimate and each corner). When fewer
     than two are left, ``levels`` is returned unchanged (the promise then fails on them and
-    says so).
+    says so). When two are left of three or more, a third goes in halfway between them and
+    the end of the range every plant holds, on the side the box cut off.
 
     Parameters
     ----------
@@ -163,7 +164,7 @@ def box_levels(plants: PromiseBox, levels: list[float], max_fraction: float = 0.
     --------
     >>> m = Modulator.from_mapping({"type": "pwm", "f_w": 20.0})
     >>> box_levels(PromiseBox(m, ValveParams(), {"k2": (0.6, 1.0)}), [0.2, 0.4, 0.6, 0.8])
-    [0.2, 0.4]
+    [0.2, 0.4, 0.485]
     """
     from spa.closedloop.levels import held_range
 
@@ -174,7 +175,14 @@ def box_levels(plants: PromiseBox, levels: list[float], max_fraction: float = 0.
             return list(levels)
         lo, hi = max(lo, held[0]), min(hi, held[1])
     kept = [v for v in levels if lo <= v <= hi]
-    return kept if len(kept) >= 2 else list(levels)
+    if len(kept) < 2:
+        return list(levels)
+    if len(kept) < min(3, len(levels)):
+        # a third set-point every plant holds, between the kept ones and the range's end on
+        # the side the box cut off (a promise of one step up and one down checks too little)
+        gap = (lo, kept[0]) if min(levels) < kept[0] else (kept[-1], hi)
+        kept = sorted({*kept, float(f"{0.5 * (gap[0] + gap[1]):.3g}")})
+    return kept
 
 
 def laws_box_above(

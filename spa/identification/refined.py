@@ -251,6 +251,7 @@ def refine_result(
             value, lo, hi, UNITS[name], informed or runs_all, method, spread=old.spread,
             fallback=None if fb is None else f"started from the nominal value ({fb}); refined",
         )  # fmt: skip
+    warnings += bound_warnings(ests, max_delay, dt)
     difference = _difference(ests, ref, chosen, n_edges, prepared)
     law_record, law_valve = laws_record(prepared, ref, chosen, laws)
     if result.delays is not None:
@@ -534,3 +535,36 @@ def _difference(
         "to the leave-one-run-out spread of their difference; logged edges off the log's "
         "ticks uniform within their step",
     )
+
+
+def bound_warnings(
+    estimates: Mapping[str, Estimate], max_delay: float, dt: float | None
+) -> list[str]:
+    """A sentence for each resolved delay whose estimate reaches the searched bound
+    ``max_delay`` (within one logging step ``dt``, or 0.1 ms): the fit pressed against the
+    bound, so the valve's delay may be longer, or the delay stands in for what the model
+    misses (a tube, a sensor's lag, the actuator's laws).
+
+    Examples
+    --------
+    >>> est = {"t_on": Estimate(0.0498, 0.0397, 0.05, "s"),
+    ...        "t_off": Estimate(0.01, 0.009, 0.011, "s")}
+    >>> [w[:44] for w in bound_warnings(est, 0.05, 0.002)]
+    ['t_on = 49.8 ms reaches the search bound max_']
+    """
+    tol = max(float(dt or 0.0), 1e-4)
+    out = []
+    for name in ("t_on", "t_off"):
+        est = estimates.get(name)
+        if est is None or not est.resolved or est.fallback:
+            continue
+        if est.value >= max_delay - tol:
+            out.append(
+                f"{name} = {1e3 * est.value:.3g} ms reaches the search bound max_delay = "
+                f"{1e3 * max_delay:g} ms (95 % interval "
+                f"[{1e3 * (est.lo or 0.0):.3g}, {1e3 * (est.hi or max_delay):.3g}] ms): the "
+                "valve's delay may be longer, or the fit stands in for what the model misses "
+                "(a tube, a sensor's lag, the actuator's laws); raise identification.max_delay "
+                "to see which, and read the designs that use it as unverified"
+            )
+    return out

@@ -69,6 +69,8 @@ def usable(
     spec = get_kind(kind)
     v = np.asarray(value, dtype=np.float64)
     ok = np.asarray(spec.feasible(v, params), dtype=bool)
+    if not ok.any():  # nothing feasible (e.g. LPWM on laws it cannot invert): no thresholds
+        return ok
     s = settings_arrays(kind, {spec.parameter: v, **settings})
     dead, sat = thresholds(kind, params, **s)
     return ok & (np.asarray(dead) < np.asarray(sat))

@@ -433,8 +433,11 @@ def sweep(
     """
     p = valve_params(params)
     values = sweep_grid(start, stop, step)
+    ok = feasible(kind, values, p)
+    if not np.any(ok):  # nothing to cost (e.g. LPWM on laws it cannot invert)
+        return values, np.full(values.shape, np.nan)
     j = np.asarray((cost or linearity_cost)(kind, values, p, n_xi), dtype=np.float64)
-    return values, np.where(feasible(kind, values, p), j, np.nan)
+    return values, np.where(ok, j, np.nan)
 
 
 def optimum(
@@ -493,7 +496,9 @@ def check_sweeps(
     Returns
     -------
     dict
-        The grids, in the order PWM, IPFM, IIPFM, ΔΣM, then the further kinds given.
+        The grids, in the order PWM, IPFM, IIPFM, ΔΣM, then the further kinds given that
+        have a feasible setting on the valve (LPWM has none on laws whose averaged
+        equilibrium it cannot invert: it is left out, not refused).
 
     Raises
     ------
@@ -534,4 +539,10 @@ def check_sweeps(
                 f"{name} = {delay:g} s is not shorter than the longest {what} of the sweep "
                 f"({limit:g} s): no setting is feasible ({rule}); check {name} or widen the sweep"
             )
-    return grids
+    # a further kind none of whose settings works on this valve is not tuned (LPWM on laws
+    # it cannot invert): the paper's four are always, or the valve is refused above
+    return {
+        k: g
+        for k, g in grids.items()
+        if k in _REQUIRED or np.any(feasible(k, sweep_grid(g["start"], g["stop"], g["step"]), p))
+    }

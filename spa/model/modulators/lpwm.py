@@ -79,6 +79,15 @@ def _weights(scale: ValveParams) -> npt.NDArray[np.float64]:
     return w
 
 
+def _invertible(p: ValveParams) -> bool:
+    """Whether LPWM can invert ``p``: the paper's laws, or its own with a monotone weight."""
+    try:
+        law_weights({}, p)
+    except ValueError:
+        return False
+    return True
+
+
 def law_weights(s: Mapping[str, Any], p: ValveParams) -> npt.NDArray[np.float64] | None:
     """The inverted valve's weight table, or None for the paper's laws (the closed form).
 
@@ -207,10 +216,18 @@ class LPWM(PWM):
         return None
 
     def feasible(self, v: npt.NDArray[np.float64], p: ValveParams) -> npt.NDArray[np.bool_]:
-        """A linear range exists: ``1/f_w > t_on + t_off``."""
+        """A linear range exists: ``1/f_w > t_on + t_off``, and the valve's laws, if it has
+        its own, have a monotone inverse (:func:`law_weights`)."""
+        if not _invertible(p):
+            return np.zeros(np.shape(v), dtype=bool)
         return v * (p.on_loss + p.off_loss) < 1.0
 
     def constraint(self, p: ValveParams) -> str:
+        if not _invertible(p):
+            return (
+                "laws whose averaged equilibrium rises with the duty (these laws' exhaust "
+                "weight B/(A + B) falls somewhere in [0, k2]: no inverse)"
+            )
         if p.on_loss + p.off_loss <= 0.0:  # the transport convention: no hold to fit in
             return "f_w > 0 Hz, inverse of the identified valve"
         limit = 1.0 / (p.on_loss + p.off_loss)
