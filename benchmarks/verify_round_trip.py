@@ -13,7 +13,7 @@ verification.csv (``spa.plan.roundtrip.verify_on``). Prints one line per plant a
 verification: the identification's cost and each part's kept count; for a model-made valve,
 whether the identified delays lie within their intervals and one logging step of the truth.
 
-    .venv/bin/python benchmarks/verify_round_trip.py [--full] [phys-finger ...]
+    .venv/bin/python benchmarks/verify_round_trip.py [--full] [--csv FILE] [phys-finger ...]
 
 With ``--pipeline`` (a physical plant, the full plan) the middle is the pipeline itself: the
 recorded folder is a bench dataset of a ``raw_dir`` of its own, ``snakemake reproduce-all``
@@ -113,7 +113,7 @@ def record(folder: Path, plant, seed: int, sd: float) -> None:
         raise RuntimeError(text)
 
 
-def round_trip(name: str, root: Path, full: bool) -> list[str]:
+def round_trip(name: str, root: Path, full: bool, rows: list | None = None) -> list[str]:
     """A plant of the full configuration (physical, or a model-made valve) through the
     round trip: the plan played on its C twin, the stages in memory, and the verification
     (its closed-loop staircases through controller.h) on the same plant and on one twice
@@ -158,7 +158,27 @@ def round_trip(name: str, root: Path, full: bool) -> list[str]:
         vfolder = root / f"{safe}-verify-{tag.replace(' ', '')}"
         frame = verify_on(vfolder, results, on, limits.p_max, noise_sd=sd).frame
         lines.append(f"  on the {tag} plant: " + "; ".join(kept_parts(frame)))
+        if rows is not None:
+            rows.append(summary_row(name, what, identified, promise, tag, frame))
     return lines
+
+
+def summary_row(name, what, identified, promise, tag, frame) -> dict:
+    """One verification of one plant as a row of ``--csv``: the identified delays, each
+    part's kept and total predictions, and whether the session's verdict broke (any
+    prediction outside its band at the session's level)."""
+    row = {"plant": name, "kind": what, "verified_on": tag}
+    for d in ("t_on", "t_off"):
+        row[f"{d}_ms"] = round(1e3 * identified[d]["value"], 3)
+        row[f"{d}_lo_ms"] = round(1e3 * identified[d]["lo"], 3)
+        row[f"{d}_hi_ms"] = round(1e3 * identified[d]["hi"], 3)
+    row["promise_levels"] = len(promise.get("levels") or [])
+    for part in ("recommendation", "promise"):
+        rows = frame[frame["part"] == part]
+        row[f"{part}_kept"] = int((rows["verdict"] == "kept").sum())
+        row[f"{part}_n"] = len(rows)
+    row["session_broken"] = bool((frame["session"] == "outside").any())
+    return row
 
 
 def kept_parts(frame: pd.DataFrame) -> list[str]:
@@ -264,7 +284,9 @@ def run() -> None:
         "--pipeline", action="store_true", help="through snakemake reproduce-all (physical plants)"
     )
     ap.add_argument("--keep", metavar="DIR", help="work in DIR (kept), not a temporary folder")
+    ap.add_argument("--csv", metavar="FILE", help="one row per plant and verification")
     args = ap.parse_args()
+    rows: list = []
     with tempfile.TemporaryDirectory(prefix="spa-verify-") as scratch:
         tmp = args.keep or scratch
         Path(tmp).mkdir(parents=True, exist_ok=True)
@@ -274,11 +296,14 @@ def run() -> None:
                 if args.pipeline:
                     lines = round_trip_pipeline(name, Path(tmp) / name)
                 else:
-                    lines = round_trip(name, Path(tmp), args.full)
+                    lines = round_trip(name, Path(tmp), args.full, rows)
             except (RuntimeError, ValueError, KeyError) as exc:
                 lines = [f"{name}: failed: {exc}"]
+                rows.append({"plant": name, "failed": str(exc)[:200]})
             lines[0] += f" ({time.perf_counter() - t0:.0f} s in all)"
             print("\n".join(lines), flush=True)
+    if args.csv:
+        pd.DataFrame(rows).to_csv(args.csv, index=False)
 
 
 if __name__ == "__main__":

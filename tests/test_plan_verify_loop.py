@@ -152,6 +152,10 @@ def test_the_verification_plays_the_exported_controller(session):
     assert set(frame["part"]) == {"recommendation", "promise"}
     assert frame["verdict"].str.match(r"^(kept|broken (by [-+][0-9.e+-]+ \S+|: .+))$").all()
     assert (frame["part"] == "promise").sum() == 3 * len(plan["verify"]["promise"]["bands"])
+    # the closed loop's own setting was never recorded open loop (these results hold no
+    # run tables), and the plan says so
+    assert plan["verify"]["recorded_settings"] == []
+    assert plan["verify"]["promise"]["extrapolated"] is True
 
 
 def test_a_plant_twice_slower_moves_every_level_and_the_verdicts_say_how_far(session):

@@ -110,6 +110,12 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
     recorded = recorded_settings(results / "runs")
     verify["recorded_settings"] = recorded
     verify["extrapolated"] = setting.label not in recorded
+    loop_label = None
+    if verify.get("promise"):
+        loop_label = Modulator.from_mapping(verify["promise"]["setting"]).label
+        # the closed loop's own setting: its ripple and dynamics were never measured open
+        # loop when the dataset did not record it
+        verify["promise"]["extrapolated"] = loop_label not in recorded
     extra = {"prior_source": f"identified ({results})", "verify": verify}
     write_plan(args.folder, design, extra=extra, controller=header)
     print(
@@ -151,6 +157,14 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
             "extrapolate the model, whose error was measured on those only. Record it and its "
             f"neighbours first: spa plan raw/<next> --params {params_path} --p-max "
             f"{limits.p_max:g}",
+            file=out,
+        )
+    if loop_label is not None and verify["promise"]["extrapolated"]:
+        print(
+            f"  warning: extrapolated: the closed loop's setting {loop_label} is not among the "
+            f"settings {results.name} recorded; its ripple and dynamics on this bench were "
+            "never measured, and its bands hold the identification's uncertainty and the "
+            "noise only",
             file=out,
         )
     print((Path(args.folder) / "checklist.md").read_text(encoding="utf-8"), file=out, end="")
