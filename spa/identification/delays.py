@@ -133,7 +133,7 @@ def _edge_delays(
     """Delay of every edge: 1-D fit of the closed-form response after it, with free delay.
 
     The pressure at the edge is that of the global fit; the segment after the edge (up to
-    ``post`` s, never past the next edge) is fitted with ``P_e`` held for ``d`` then the
+    ``post`` s past the global fit's hold, never past the next edge) is fitted with ``P_e`` held for ``d`` then the
     closed form of the new state. Grid search at ``dt/20`` then parabolic refinement. An edge
     is censored when its segment ends within the hold, or when the response the model expects
     over the window has less energy than a single 3-sigma sample (e.g. exhausting at 0 bar).
@@ -158,7 +158,9 @@ def _edge_delays(
                 "delay": math.nan,
                 "censored": True,
             }
-            stop = int(np.searchsorted(r.t, min(e + post, r.t[k_next]), side="right"))
+            # the response is fitted over ``post`` s after the hold: a window that ended
+            # within a long hold (a delay over ``post``) would censor every edge
+            stop = int(np.searchsorted(r.t, min(e + hold + post, r.t[k_next]), side="right"))
             tt = r.t[k:stop] - e
             pp = r.p[k:stop]
             step = r.dt / 20.0
@@ -214,7 +216,8 @@ def fit_delays(
     min_edges : int, optional
         Rising and falling edges followed by a response needed for each delay.
     post : float, optional
-        Length in s of the response fitted after each edge for the per-edge delays.
+        Length in s of the response fitted after each edge's hold (the global fit's delay) for
+        the per-edge delays.
     hac_lag : float, optional
         Largest lag in s of the residual autocorrelation used to inflate the covariance.
     guard : float, optional
