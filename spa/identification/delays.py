@@ -133,10 +133,11 @@ def _edge_delays(
     """Delay of every edge: 1-D fit of the closed-form response after it, with free delay.
 
     The pressure at the edge is that of the global fit; the segment after the edge (up to
-    ``post`` s past the global fit's hold, never past the next edge) is fitted with ``P_e`` held for ``d`` then the
-    closed form of the new state. Grid search at ``dt/20`` then parabolic refinement. An edge
-    is censored when its segment ends within the hold, or when the response the model expects
-    over the window has less energy than a single 3-sigma sample (e.g. exhausting at 0 bar).
+    ``post`` s past the global fit's hold, never past the next edge) is fitted with ``P_e``
+    held for ``d`` then the closed form of the new state. Grid search at ``dt/20`` then
+    parabolic refinement. An edge is censored when its segment ends within the hold, or when
+    the response the model expects over the window has less energy than a single 3-sigma
+    sample (e.g. exhausting at 0 bar).
     """
     rows = []
     for r, m in zip(runs, models, strict=True):
