@@ -138,7 +138,7 @@ def test_the_closed_loops_bands_have_two_ends_that_a_slower_valve_breaks():
 def test_a_quantised_ripple_band_ends_half_a_step_out():
     """A logged peak-to-peak is a whole number of ADC steps: the ripple's band is padded by
     half a step at each end (the continuity correction; a band ending between two steps
-    broke 6 of 9 of an unchanged physical finger's ripples, issue 61)."""
+    broke all three of an unchanged physical finger's ripples, issue 61)."""
     pi = PIController(kp=0.3, ki=2.0)
     setting = {"type": "pwm", "f_w": 20.0}
     q = 0.0025

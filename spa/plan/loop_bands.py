@@ -13,8 +13,8 @@ sensor noise in the loop and in the log and the ADC's step, and measured as a re
 (:func:`measure_loop_run`). Each measure's band is the draws' mean ± ``t(D - 1) sd
 sqrt(1 + 1/D)`` (a prediction interval for one more draw of the same distribution), its lower
 end no lower than 0; the ripple's, a whole number of ADC steps, half a step wider at each end
-(the continuity correction: on a 2.4 mbar ADC, 6 of 9 of a physical finger's ripples fell one
-step under a band that ended between two steps).
+(the continuity correction: on a 2.4 mbar ADC, all three of an unchanged physical finger's
+ripples fell one step under a band that ended between two steps).
 
 The model's own error is not in these bands: a closed loop rejects the level errors the
 open-loop bands carry, and what it does not reject (the dynamics) was not measured on the
