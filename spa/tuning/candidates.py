@@ -129,8 +129,6 @@ def candidate_frame(
         values = sweep_grid(g["start"], g["stop"], g["step"])
         keep = np.asarray(feasible(kind, values, params), dtype=bool)
         keep &= usable(kind, values, params)
-        if not keep.any():  # no setting of this kind works on this valve: no rows
-            continue
         values = values[keep]
         sets: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None]] = [
             (values, None)

@@ -97,9 +97,7 @@ def sweep_frame(
                 }
             )
         )
-        if exact and not np.isfinite(cost).any():  # nothing feasible: nothing to cost
-            parts[-1]["J_exact"] = np.nan
-        elif exact:  # kept between runs: the grid's exact costs do not depend on the constraints
+        if exact:  # kept between runs: the grid's exact costs do not depend on the constraints
             key = {"kind": kind, "values": values.tolist(), "params": p, "n_xi": n_xi}
             j_exact = memoised(
                 "tuning-exact-sweep",
