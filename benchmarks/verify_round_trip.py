@@ -2,8 +2,9 @@
 "The session to record: the round trip to the verification page").
 
 For each plant: a plan from what a lab knows (its supply and a rough fill time), with the
-recommended setting's runs beside the identification runs (``--full``; else the pilot
-alone) → the C player closed on the plant tick by tick (the physical plant's C twin, or
+settings ``spa plan`` records by default beside the identification runs (``--full``: the
+recommended setting, its neighbours and the paper's four at the valve's scale; else the
+pilot alone) → the C player closed on the plant tick by tick (the physical plant's C twin, or
 spa's model plant in C for a model-made valve: ``spa.plan.host.play_on_plant``) →
 spa record → spa validate → identify, tune and the closed loop's design, promise and
 controller.h, in memory as the pipeline's stages → spa plan --verify → its runs, the
@@ -124,7 +125,7 @@ def round_trip(name: str, root: Path, full: bool, rows: list | None = None) -> l
     rec0 = tune(prior).recommendation.get("recommended") or {}
     mod = Modulator.from_mapping(rec0["setting"]) if full and rec0.get("setting") else None
     design = design_session(
-        prior, limits, levels=4, settings=[], recommended=mod, pilot=not full, precondition=1
+        prior, limits, levels=4, recommended=mod, pilot=not full, precondition=1
     )
     safe = name.replace(":", "-")  # a folder's and a dataset's name
     folder = root / safe
@@ -226,9 +227,7 @@ def full_plan(supply: float, tau2: float) -> tuple[Limits, object]:
     prior = prior_from_numbers(supply, 5 * tau2)
     rec0 = tune(prior).recommendation.get("recommended") or {}
     mod = Modulator.from_mapping(rec0["setting"]) if rec0.get("setting") else None
-    design = design_session(
-        prior, limits, levels=4, settings=[], recommended=mod, pilot=False, precondition=1
-    )
+    design = design_session(prior, limits, levels=4, recommended=mod, pilot=False, precondition=1)
     return limits, design
 
 

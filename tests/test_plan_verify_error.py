@@ -193,3 +193,61 @@ def test_the_plan_measures_the_error_on_results_runs(session, tmp_path):
     err = _model_error(results, NOMINAL)
     assert err["level"]["sd"] == pytest.approx(0.009, abs=1e-4)
     assert str(results / "runs") in err["measured_on"]
+
+
+#: A valve whose levels settle within the first quarter of a 3 s level.
+FAST = ValveParams(tau2=0.2)
+
+
+def _ripple_run(scale: float, shift: float = 0.0, f_w: float = 20.0):
+    from spa.model.plant import simulate
+
+    dt = 0.002
+    u = np.repeat([0.2, 0.35, 0.5, 0.65], 1500)
+    period = round(1.0 / (f_w * dt))
+    valve = (np.arange(u.size) % period < period * u).astype(np.int8)
+    model = simulate(valve, dt, FAST)
+    # the mean over the last period (causal: no level's last quarter sees the next level)
+    mean = np.convolve(model, np.ones(period) / period)[: model.size]
+    p = mean + scale * (model - mean) + shift  # the ripple about the cycle mean scaled
+    run = pd.DataFrame({"t": np.arange(u.size) * dt, "p": p, "valve": valve, "u": u})
+    meta = {"kind": "staircase", "modulator": {"type": "pwm", "f_w": f_w}}
+    return run, meta
+
+
+def test_the_ripple_error_is_the_ratio_of_recorded_to_replayed_ripple():
+    from spa.plan.verify_error import ripple_error
+
+    run, meta = _ripple_run(0.7)
+    err = ripple_error({"s": run}, {"s": meta}, FAST, "pwm-20Hz")
+    assert err["n"] == 4
+    assert err["factor"] == pytest.approx(0.7, rel=0.05)
+    # a level error alone leaves the ripple's ratio at 1
+    run, meta = _ripple_run(1.0, shift=0.02)
+    assert ripple_error({"s": run}, {"s": meta}, FAST, "pwm-20Hz")["factor"] == pytest.approx(
+        1.0, abs=0.01
+    )
+
+
+def test_the_ripple_error_is_measured_on_the_loops_own_setting_only():
+    from spa.plan.verify_error import RIPPLE_MIN_LEVELS, ripple_error
+
+    run, meta = _ripple_run(0.7, f_w=10.0)
+    err = ripple_error({"s": run}, {"s": meta}, FAST, "pwm-20Hz")
+    assert err["n"] == 0 and "factor" not in err
+    short = run.iloc[: 1500 * (RIPPLE_MIN_LEVELS - 1)]
+    err = ripple_error({"s": short}, {"s": meta}, FAST, "pwm-10Hz")
+    assert err["n"] == RIPPLE_MIN_LEVELS - 1 and "factor" not in err
+
+
+def test_the_ripple_band_moves_with_the_factor_and_widens_with_its_spread():
+    from spa.plan.loop_bands import with_ripple_error
+
+    band = {"value": 0.03, "sd": 0.001, "dof": 47.0, "scale": 1.0, "lo": 0.028, "hi": 0.032}
+    exact = with_ripple_error(band, {"n": 12, "factor": 1.0, "log_sd": 0.0, "dof": 11.0})
+    assert exact["value"] == band["value"]
+    assert exact["hi"] - exact["lo"] == pytest.approx(band["hi"] - band["lo"], rel=0.01)
+    spread = with_ripple_error(band, {"n": 12, "factor": 0.7, "log_sd": 0.1, "dof": 11.0})
+    assert spread["value"] == pytest.approx(0.021)
+    assert spread["hi"] - spread["lo"] > 1.5 * 0.7 * (band["hi"] - band["lo"])
+    assert spread["model_error"]["applied"]

@@ -21,7 +21,14 @@ from spa.closedloop.controller import PIController
 from spa.closedloop.pulses import RecordedPulses, loop_pulses, pulse_clause, recorded_settings
 from spa.model.modulators import Modulator
 
-__all__ = ["OVERSHOOT_MARGIN", "RIPPLE_FACTOR", "SETTLE_BAND", "design_for_dataset", "promise_kept"]
+__all__ = [
+    "OVERSHOOT_MARGIN",
+    "RIPPLE_FACTOR",
+    "SETTLE_BAND",
+    "checked_first",
+    "design_for_dataset",
+    "promise_kept",
+]
 
 #: Percentage points by which the overshoot on the plant may exceed the promised one.
 OVERSHOOT_MARGIN = 5.0
@@ -51,7 +58,9 @@ def design_for_dataset(
         Run id -> run table and metadata (``kind``; staircases give the model error; a
         ``modulator`` is designed too). Their valve commands give the pulses the bench
         recorded: a loop whose pulses on the model are shorter is not verified
-        (:mod:`spa.closedloop.pulses`; no runs, no check).
+        (:mod:`spa.closedloop.pulses`; no runs, no check). The promise tries the loops of
+        a setting they recorded open loop before the others (:func:`checked_first`): its
+        ripple and dynamics were measured there before the promise predicts them.
     selected : iterable of mapping
         The settings compared (the config's ``analytic.selected``); the runs' own settings
         are added.
@@ -120,9 +129,11 @@ def design_for_dataset(
             seen.add(choice[0])
             heads.append(choice)
     candidates = list(dict.fromkeys([first, *heads, *ordered]))
-    # loops whose valve pulses on the model lie within the records go first (stable order)
+    # loops whose valve pulses on the model lie within the records go first, and of those
+    # the loops of a setting the bench recorded open loop (its ripple and dynamics were
+    # measured there before the promise predicts them); stable order otherwise
     within = {c: _within_records(ctl, c, valve.params, recorded) for c in candidates}
-    candidates.sort(key=lambda choice: not within[choice])
+    candidates = checked_first(candidates, within, {m.label for m in recorded_settings(metas)})
     benches: list[tuple[tuple[str, str] | None, BenchOutputs]] = []
     errors: dict[bool, dict[str, tuple[float, float]]] = {}  # each staircase replayed once
 
@@ -161,6 +172,29 @@ def design_for_dataset(
         _ship_instead(result, first, choice, checked, valve.params, fraction)
     apply_bench(result, bench)
     return result, bench
+
+
+def checked_first(
+    candidates: list[tuple[str, str] | None],
+    within: Mapping[tuple[str, str] | None, bool],
+    ran: set[str],
+) -> list[tuple[str, str] | None]:
+    """The promise's candidate loops in the order they are checked: those whose valve pulses
+    lie within the records (``within``) first, and of each group those of a setting the
+    bench recorded open loop (``ran``, labels) first; the stage's order otherwise.
+
+    Examples
+    --------
+    >>> loops = [("lpwm-20Hz", "fixed"), ("lpwm-50Hz", "fixed"), ("pwm-9Hz", "fixed")]
+    >>> within = {("lpwm-20Hz", "fixed"): True, ("lpwm-50Hz", "fixed"): True,
+    ...           ("pwm-9Hz", "fixed"): False}
+    >>> [c[0] for c in checked_first(loops, within, {"lpwm-50Hz", "pwm-9Hz"})]
+    ['lpwm-50Hz', 'lpwm-20Hz', 'pwm-9Hz']
+    """
+    return sorted(
+        candidates,
+        key=lambda choice: (not within[choice], choice is None or choice[0] not in ran),
+    )
 
 
 def _within_records(

@@ -16,9 +16,12 @@ end no lower than 0; the ripple's, a whole number of ADC steps, half a step wide
 (the continuity correction: on a 2.4 mbar ADC, all three of an unchanged physical finger's
 ripples fell one step under a band that ended between two steps).
 
-The model's own error is not in these bands: a closed loop rejects the level errors the
-open-loop bands carry, and what it does not reject (the dynamics) was not measured on the
-identification's recordings. A settling time is predicted only when at most one draw in
+The model's level errors are not in these bands: a closed loop rejects them. Its ripple is
+not rejected: where the dataset recorded the loop's setting open loop, the model's error on
+those staircases' ripple (:func:`spa.plan.verify_error.ripple_error`, measured against the
+replay with the same noise and ADC step) scales the ripple's prediction and widens its band
+(:func:`with_ripple_error`); on an unchanged physical plant the ripple had read 10-30 %
+under the model's. A settling time is predicted only when at most one draw in
 twenty fails to settle within 2 % of its step by the end of a level.
 """
 
@@ -34,7 +37,7 @@ from scipy import stats
 
 from spa.model.params import ValveParams
 
-__all__ = ["LOOP_DRAWS", "MEASURES", "loop_predictions", "measure_loop_run"]
+__all__ = ["LOOP_DRAWS", "MEASURES", "loop_predictions", "measure_loop_run", "with_ripple_error"]
 
 #: Valves (each with its noise) the closed-loop staircase is simulated on.
 LOOP_DRAWS = 48
@@ -191,4 +194,54 @@ def loop_predictions(
             "unit": unit,
             **({"pad": pad} if pad else {}),
         }
+    return out
+
+
+def with_ripple_error(band: Mapping[str, Any], error: Mapping[str, Any]) -> dict[str, Any]:
+    """The ripple's band with the model's error on the recorded open-loop ripple of the
+    same setting (:func:`spa.plan.verify_error.ripple_error`): the prediction times its
+    ``factor``, and the band's standard deviation the draws' (times ``factor``) and the log
+    ratios' spread for one more level (``factor * value * log_sd * sqrt(1 + 1/n)``) in
+    quadrature, with Welch–Satterthwaite's degrees of freedom. ``band`` unchanged (but for
+    ``model_error`` saying so) when fewer than three levels measured the error.
+
+    Examples
+    --------
+    >>> band = {"value": 0.03, "sd": 0.001, "dof": 47.0, "scale": 1.0, "lo": 0.028,
+    ...         "hi": 0.032, "unit": "bar", "pad": 0.0}
+    >>> out = with_ripple_error(band, {"n": 12, "factor": 0.8, "log_sd": 0.1, "dof": 11.0})
+    >>> round(out["value"], 4), out["lo"] < 0.024 < out["hi"]
+    (0.024, True)
+    >>> with_ripple_error(band, {"n": 1})["value"]
+    0.03
+    """
+    out = dict(band)
+    if "factor" not in error or "value" not in band:
+        out["model_error"] = {"n": int(error.get("n", 0)), "applied": False}
+        return out
+    f, n = float(error["factor"]), int(error["n"])
+    value = f * float(band["value"])
+    draws = f * float(band["sd"]) * float(band.get("scale", 1.0))
+    model = value * float(error["log_sd"]) * math.sqrt(1.0 + 1.0 / n)
+    sd = math.hypot(draws, model)
+    parts = (draws**4 / float(band["dof"]) if draws > 0 else 0.0) + (
+        model**4 / float(error["dof"]) if model > 0 else 0.0
+    )
+    dof = sd**4 / parts if parts > 0 else math.inf
+    half = float(stats.t.ppf(0.975, dof if math.isfinite(dof) else 1e12)) * sd
+    pad = float(band.get("pad", 0.0))
+    out.update(
+        value=value,
+        sd=sd,
+        dof=dof,
+        scale=1.0,
+        lo=max(value - half - pad, 0.0),
+        hi=value + half + pad,
+        model_error={
+            "n": n,
+            "factor": f,
+            "log_sd": float(error["log_sd"]),
+            "applied": True,
+        },
+    )
     return out

@@ -96,6 +96,7 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         verify["promise"] = _loop_verification(
             closed, promise, header or "", valve.params, design.dt, noise, quantum, box, joint
         )
+        _ripple_model_error(verify["promise"], results, valve.params, noise, quantum, args.seed)
     promise_bands = (verify.get("promise") or {}).get("bands") or {}
     count += len(closed) * sum("sd" in b for b in promise_bands.values())
     verify["session"] = {
@@ -425,6 +426,28 @@ def _loop_verification(
     out["bands"] = promise_predictions(promise, noise, quantum, allowance)
     out["method"] = "the promise's own worst case (no controller in it to simulate)"
     return out
+
+
+def _ripple_model_error(
+    loop: dict[str, Any], results: Path, params: Any, noise: float, quantum: float, seed: int
+) -> None:
+    """The promise's ripple band with the model's error on the dataset's open-loop
+    staircases of the loop's own setting (:func:`spa.plan.loop_bands.with_ripple_error`),
+    in place; nothing without a ripple band or run tables."""
+    from spa.model.modulators import Modulator
+    from spa.plan.loop_bands import with_ripple_error
+    from spa.plan.verify_error import ripple_error
+
+    bands = loop.get("bands") or {}
+    folder = results / "runs"
+    if "ripple_pp" not in bands or not folder.is_dir() or not any(folder.glob("*.parquet")):
+        return
+    from spa.datasets import read_runs
+
+    runs, metas = read_runs(folder)
+    label = Modulator.from_mapping(loop["setting"]).label
+    error = ripple_error(runs, metas, params, label, noise, quantum, seed)
+    bands["ripple_pp"] = with_ripple_error(bands["ripple_pp"], error)
 
 
 def _settling_allowance(

@@ -23,6 +23,7 @@ worst recorded setting's error stands for it, and the band says "extrapolated".
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -32,7 +33,14 @@ import pandas as pd
 
 from spa.model.params import ValveParams
 
-__all__ = ["ERROR_KEYS", "error_spread", "no_model_error", "recorded_model_error", "sine_omega"]
+__all__ = [
+    "ERROR_KEYS",
+    "error_spread",
+    "no_model_error",
+    "recorded_model_error",
+    "ripple_error",
+    "sine_omega",
+]
 
 #: The model-error terms: each prediction kind, and its unit.
 ERROR_KEYS = {
@@ -272,3 +280,101 @@ def recorded_model_error(
         "extrapolated": bool(setting is not None and not recorded),
         "measured_on": said + ", replayed by the identified valve",
     }
+
+
+#: Fewest recorded levels with switching whose ripple the model's error is taken from.
+RIPPLE_MIN_LEVELS = 3
+
+
+def ripple_error(
+    runs: Mapping[str, pd.DataFrame],
+    metas: Mapping[str, Mapping[str, Any]],
+    params: ValveParams,
+    setting: str,
+    noise: float = 0.0,
+    quantum: float = 0.0,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """The identified valve's error on the ripple of the recorded open-loop staircases of one
+    setting: each level's peak-to-peak over its last quarter, measured against the valve's
+    replay of the same valve command with the sensor's noise and ADC step (like with like),
+    as a log ratio.
+
+    Parameters
+    ----------
+    runs, metas : mapping
+        Run id -> canonical run table (``t``, ``p``, ``valve``, ``u``) and metadata; the
+        ``staircase`` runs of ``setting`` are used.
+    params : ValveParams
+        The identified valve (its own laws, if it carries them).
+    setting : str
+        The setting's label (:attr:`spa.model.modulators.Modulator.label`), e.g. the closed
+        loop's.
+    noise, quantum : float, optional
+        The sensor's noise (bar, standard deviation) and ADC step (bar), put on the replay.
+    seed : int, default 0
+        Seed of the replay's noise.
+
+    Returns
+    -------
+    dict
+        ``n`` (levels whose valve switched over their last quarter), and with at least
+        :data:`RIPPLE_MIN_LEVELS` of them ``factor`` (the geometric mean of measured over
+        replayed peak-to-peak), ``log_sd`` (the log ratios' standard deviation) and ``dof``;
+        ``runs``, the runs read.
+
+    Examples
+    --------
+    >>> from spa.model.plant import simulate
+    >>> dt = 0.002
+    >>> u = np.repeat([0.3, 0.5, 0.7], 2000)
+    >>> valve = (np.arange(u.size) % 25 < 25 * u).astype(np.int8)
+    >>> p = 1.2 * simulate(valve, dt, ValveParams())  # ripple (and levels) 20 % larger
+    >>> run = pd.DataFrame({"t": np.arange(u.size) * dt, "p": p, "valve": valve, "u": u})
+    >>> meta = {"kind": "staircase", "modulator": {"type": "pwm", "f_w": 20.0}}
+    >>> err = ripple_error({"s": run}, {"s": meta}, ValveParams(), "pwm-20Hz")
+    >>> err["n"], round(err["factor"], 3)
+    (3, 1.2)
+    """
+    from spa.model.modulators import Modulator
+    from spa.model.plant import simulate
+
+    rng = np.random.default_rng(seed)
+    logs: list[float] = []
+    used: list[str] = []
+    for rid in sorted(runs):
+        meta = metas.get(rid) or {}
+        mod = meta.get("modulator")
+        if meta.get("kind") != "staircase" or not isinstance(mod, Mapping):
+            continue
+        if Modulator.from_mapping(dict(mod)).label != setting:
+            continue
+        run = runs[rid]
+        if not {"t", "p", "valve", "u"} <= set(run.columns) or len(run) < 8:
+            continue
+        t = run["t"].to_numpy(np.float64)
+        p = run["p"].to_numpy(np.float64)
+        valve = run["valve"].to_numpy(np.int8)
+        u = run["u"].to_numpy(np.float64)
+        dt = float(np.median(np.diff(t)))
+        model = simulate(valve, dt, params, p0=max(float(p[0]), 0.0))
+        starts = np.concatenate(([0], np.flatnonzero(u[1:] != u[:-1]) + 1, [u.size]))
+        for a, b in itertools.pairwise(starts):
+            q = slice(b - (b - a) // 4, b)
+            if b - a < 16 or np.all(valve[q] == valve[q][0]):
+                continue  # no switching over the last quarter: no ripple to compare
+            logged = model[q] + (rng.normal(0.0, noise, b - q.start) if noise > 0 else 0.0)
+            if quantum > 0:
+                logged = np.round(logged / quantum) * quantum
+            measured, replayed = float(np.ptp(p[q])), float(np.ptp(logged))
+            if measured > 0 and replayed > 0:
+                logs.append(math.log(measured / replayed))
+        used.append(rid)
+    out: dict[str, Any] = {"n": len(logs), "runs": used}
+    if len(logs) >= RIPPLE_MIN_LEVELS:
+        out.update(
+            factor=float(math.exp(np.mean(logs))),
+            log_sd=float(np.std(logs, ddof=1)),
+            dof=float(len(logs) - 1),
+        )
+    return out
