@@ -171,10 +171,17 @@ def test_a_plant_twice_slower_moves_every_level_and_the_verdicts_say_how_far(ses
     assert len(slow) == len(same) and slow["verdict"].notna().all()
     inner = same["prediction"].str.match(r"level xi = 0\.[1-9]")
     assert inner.any()
-    # each inner level moved by more than the same plant's replicates spread
-    by = same[inner].groupby("prediction")["measured"]
-    moved = (slow[inner].groupby("prediction")["measured"].mean() - by.mean()).abs()
-    assert (moved > by.max() - by.min()).all(), (moved, text)
+
+    # each inner level moved by more than the same plant's replicates spread: the replicates
+    # of one staircase (r1, r2, ...), since a physical plant's level at one input depends on
+    # the direction it is approached from (up and down differ by tens of mbar here)
+    def key(frame):
+        return [frame["run"].str.replace(r"_r\d+$", "", regex=True), frame["prediction"]]
+
+    by = same[inner].groupby(key(same[inner]))["measured"]
+    moved = (slow[inner].groupby(key(slow[inner]))["measured"].mean() - by.mean()).abs()
+    assert moved.size == by.ngroups >= 4
+    assert (moved > by.max() - by.min()).all(), (moved, by.max() - by.min(), text)
     broken = slow[slow["verdict"].str.startswith("broken")]
     assert all(v in text for v in broken["verdict"])
 

@@ -9,6 +9,8 @@ number.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -221,5 +223,9 @@ def test_a_transport_identification_states_the_difference() -> None:
     table = params_table(res.to_dict())
     row = table[table["parameter"] == "t_off - t_on"].iloc[0]
     assert row["95 % lo"] == pytest.approx(d["lo"]) and row["unit"] == "s"
-    width_each = min(res.t_on.hi - res.t_on.lo, res.t_off.hi - res.t_off.lo)
-    assert d["hi"] - d["lo"] <= width_each  # the difference is known at least as well
+    # both delays are read at the command edges, each on its own direction's edges: their
+    # errors are independent and the difference's interval is their intervals' hypotenuse
+    assert res.to_dict()["delay_convention"]["chosen_by"].startswith("the command edges")
+    assert d["method"].startswith("the two delays read at the command edges")
+    widths = (res.t_on.hi - res.t_on.lo, res.t_off.hi - res.t_off.lo)
+    assert d["hi"] - d["lo"] == pytest.approx(math.hypot(*widths), rel=1e-6)

@@ -128,6 +128,7 @@ def fit_laws(
     max_delay: float = 0.05,
     x0: FloatArray | None = None,
     max_nfev: int = 30,
+    held_delays: Mapping[str, tuple[float, float]] | None = None,
 ) -> LawsFit:
     """Fit the charge and discharge laws to the cycle means of every run with the command.
 
@@ -156,6 +157,10 @@ def fit_laws(
         refit); overrides ``start``'s laws.
     max_nfev : int, optional
         Largest number of least-squares iterations.
+    held_delays : mapping, optional
+        ``{"t_on": (value, se), "t_off": (value, se)}``, the delays read at the command
+        edges: held at ``start``'s (the refinement held them too), each with variance
+        ``se**2`` in :attr:`LawsFit.cov`; ``k2`` is still refitted when ``valve``.
 
     Returns
     -------
@@ -203,6 +208,8 @@ def fit_laws(
     x[im] = np.clip(x[im], _M_BOUNDS[0] + 1e-9, _M_BOUNDS[1])
     x[im + 2 :] = np.clip(x[im + 2 :], 0.0, max_delay)
     held = ([] if m is None else [im]) + ([] if valve else [im + 1, im + 2, im + 3])
+    if held_delays is not None:
+        held = sorted({*held, im + 2, im + 3})
     free = np.array([i for i in range(len(names)) if i not in held])
     lo = np.full(len(names), -np.inf)
     hi = np.full(len(names), np.inf)
@@ -328,6 +335,10 @@ def fit_laws(
     g_all = np.sum(g_run, axis=0)
     cov = np.zeros((len(names), len(names)))
     cov[np.ix_(free, free)] = hinv @ omega @ hinv
+    if held_delays is not None:
+        cov[im + 2, im + 2], cov[im + 3, im + 3] = (
+            float(held_delays[n][1]) ** 2 for n in ("t_on", "t_off")
+        )
     full = x.copy()
     full[free] = xf
     full = np.clip(full, lo, hi)
@@ -395,6 +406,7 @@ def choose_laws(
     max_nfev: int = 30,
     refit: bool = True,
     max_nfev_heldout: int = 8,
+    held_delays: Mapping[str, tuple[float, float]] | None = None,
 ) -> LawsChoice:
     """Keep the paper's laws unless the identified ones predict held-out modulated runs
     better by more than 2 standard errors and 2 FIT points.
@@ -423,6 +435,8 @@ def choose_laws(
         step is too far from the refit (gain -3.3 points against +6.8) to be the default.
     max_nfev, max_nfev_heldout : int, optional
         Iterations of the fit on every run and of each leave-one-out refit.
+    held_delays : mapping, optional
+        The delays read at the command edges, held in the fit (:func:`fit_laws`).
 
     Returns
     -------
@@ -453,7 +467,11 @@ def choose_laws(
             f"{len(held)} modulated run(s): too few to compare the laws; the paper's are kept",
         )
     full = (
-        fit if fit is not None else fit_laws(runs, paper, delay=dl, knots=knots, max_nfev=max_nfev)
+        fit
+        if fit is not None
+        else fit_laws(
+            runs, paper, delay=dl, knots=knots, max_nfev=max_nfev, held_delays=held_delays
+        )
     )
     fit_p: dict[str, float] = {}
     fit_i: dict[str, float] = {}
@@ -505,7 +523,11 @@ _LAW_HEADROOM = 2.0
 
 
 def laws_record(
-    prepared: Sequence[RefineRun], ref: Any, chosen: str, setting: str
+    prepared: Sequence[RefineRun],
+    ref: Any,
+    chosen: str,
+    setting: str,
+    held_delays: Mapping[str, tuple[float, float]] | None = None,
 ) -> tuple[dict[str, Any], ValveParams | None]:
     """``params.yaml``'s ``laws:`` record and, when the identified laws are chosen, the
     valve that carries them (None otherwise).
@@ -521,6 +543,9 @@ def laws_record(
         The delay convention.
     setting : {"auto", "paper"}
         ``identification.laws``.
+    held_delays : mapping, optional
+        The delays read at the command edges, which the refinement held: the laws' fit
+        holds them too.
 
     Returns
     -------
@@ -557,7 +582,9 @@ def laws_record(
             f"{_LAW_HEADROOM:g} points, so none were fitted"
         )
         return record, None
-    choice = choose_laws(prepared, ref.params, paper_heldout=ref.fit_heldout, delay=chosen)
+    choice = choose_laws(
+        prepared, ref.params, paper_heldout=ref.fit_heldout, delay=chosen, held_delays=held_delays
+    )
     fit = choice.fit
     from spa.identification.laws_bands import law_bands  # it imports this module
 

@@ -370,12 +370,18 @@ def _to_params(x: FloatArray) -> ValveParams:
 
 
 def _fd_jacobian(
-    runs: Sequence[RefineRun], x: FloatArray, base: list[FloatArray], delay: str, upper: float
+    runs: Sequence[RefineRun],
+    x: FloatArray,
+    base: list[FloatArray],
+    delay: str,
+    upper: float,
+    free: Sequence[int] = range(5),
 ) -> list[FloatArray]:
-    """Per-run forward-difference Jacobian of the block means by parameter (5 simulations)."""
+    """Per-run forward-difference Jacobian of the block means by the ``free`` parameters
+    (one simulation each)."""
     steps = np.array([1e-5, 1e-5, 1e-5, 2e-6, 2e-6])
     cols: list[list[FloatArray]] = [[] for _ in runs]
-    for i in range(5):
+    for i in free:
         h = steps[i]
         if i >= 3 and x[i] + h > upper:
             h = -h
@@ -394,6 +400,7 @@ def refine(
     delay: str = "hold",
     max_delay: float = 0.05,
     max_nfev: int = 30,
+    delay_prior: Mapping[str, tuple[float, float]] | None = None,
 ) -> RefineFit:
     """Fit the exact model's five parameters to the cycle means of ``runs``.
 
@@ -409,6 +416,11 @@ def refine(
         Upper bound of ``t_on`` and ``t_off``, s.
     max_nfev : int, optional
         Largest number of least-squares iterations.
+    delay_prior : mapping, optional
+        ``{"t_on": (value, se), "t_off": (value, se)}``: the delays read at the command
+        edges (:meth:`spa.identification.edge_local.EdgeDelays.prior`). They are held at
+        ``value`` and only ``c1``, ``k2``, ``tau2`` are fitted; each delay's variance is
+        ``se**2``, uncorrelated with the others.
 
     Returns
     -------
@@ -425,6 +437,9 @@ def refine(
         raise ValueError("refine needs at least one run with a 'valve' column")
     x0 = _to_x(start)
     x0[3:] = np.clip(x0[3:], 0.0, max_delay)
+    if delay_prior is not None:
+        x0[3:] = [min(max(float(delay_prior[n][0]), 0.0), max_delay) for n in ("t_on", "t_off")]
+    free = np.arange(3 if delay_prior is not None else 5)
     models0 = [r.model(_to_params(x0), delay) for r in runs]
     weight = np.array(
         [
@@ -441,6 +456,11 @@ def refine(
     offsets = np.concatenate(([0], np.cumsum(sizes)))
     cache: dict[bytes, list[FloatArray]] = {}
 
+    def whole(xf: FloatArray) -> FloatArray:
+        x = x0.copy()
+        x[free] = xf
+        return x
+
     def models(x: FloatArray) -> list[FloatArray]:
         key = x.tobytes()
         if key not in cache:
@@ -449,33 +469,36 @@ def refine(
             cache[key] = [r.model(prm, delay) for r in runs]
         return cache[key]
 
-    def fun(x: FloatArray) -> FloatArray:
+    def fun(xf: FloatArray) -> FloatArray:
         return np.concatenate(
-            [(m - r.y) * w for m, r, w in zip(models(x), runs, weight, strict=True)]
+            [(m - r.y) * w for m, r, w in zip(models(whole(xf)), runs, weight, strict=True)]
         )
 
-    def jac(x: FloatArray) -> FloatArray:
-        blocks = _fd_jacobian(runs, x, models(x), delay, max_delay)
+    def jac(xf: FloatArray) -> FloatArray:
+        x = whole(xf)
+        blocks = _fd_jacobian(runs, x, models(x), delay, max_delay, free)
         return np.vstack([b * w for b, w in zip(blocks, weight, strict=True)])
 
     lb = np.array([-np.inf, -np.inf, -np.inf, 0.0, 0.0])
     ub = np.array([np.inf, np.inf, np.inf, max_delay, max_delay])
     sol = least_squares(
         fun,
-        x0,
+        x0[free],
         jac=jac,
-        bounds=(lb, ub),
-        x_scale=np.array([0.01, 0.01, 0.01, 1e-4, 1e-4]),
+        bounds=(lb[free], ub[free]),
+        x_scale=np.array([0.01, 0.01, 0.01, 1e-4, 1e-4])[free],
         method="trf",
         max_nfev=max_nfev,
         xtol=1e-8,
         ftol=1e-10,
     )
-    x = sol.x
+    x = whole(sol.x)
     prm = _to_params(x)
     final = models(x)
-    jx = jac(x)
-    nfev = int(sol.nfev) + 5 * (int(sol.njev) + 1) + 1
+    jf = jac(sol.x)
+    jx = np.zeros((jf.shape[0], 5))
+    jx[:, free] = jf
+    nfev = int(sol.nfev) + free.size * (int(sol.njev) + 1) + 1
 
     # Per-run pieces of the normal equations at the optimum (in the variables of x).
     blocks = [jx[offsets[j] : offsets[j + 1]] for j in range(len(runs))]
@@ -483,7 +506,7 @@ def refine(
     h_run = [b.T @ b for b in blocks]
     g_run = [b.T @ e for b, e in zip(blocks, resid, strict=True)]
     hess = np.sum(h_run, axis=0)
-    hinv = np.linalg.pinv(hess)
+    hinv = np.linalg.pinv(hess)  # held delays: zero rows and columns, zero steps
     omega = np.zeros((5, 5))
     bandwidth = {}
     for r, b, e in zip(runs, blocks, resid, strict=True):
@@ -491,6 +514,8 @@ def refine(
         bandwidth[r.rid] = lag
         omega += newey_west(b * e[:, None], lag)
     cov = hinv @ omega @ hinv
+    if delay_prior is not None:
+        cov[3, 3], cov[4, 4] = (float(delay_prior[n][1]) ** 2 for n in ("t_on", "t_off"))
 
     # Which runs inform which parameter.
     info = np.array([np.diag(h) for h in h_run])  # (runs, 5)
@@ -499,6 +524,9 @@ def refine(
         name: tuple(r.rid for j, r in enumerate(runs) if share[j, i] >= _INFORM_SHARE)
         for i, name in enumerate(NAMES)
     }
+    if delay_prior is not None:  # read at the edges: the runs that have them
+        informed["t_on"] = tuple(r.rid for r in runs if r.n_on > 0)
+        informed["t_off"] = tuple(r.rid for r in runs if r.n_off > 0)
 
     # Leave one run out: one Gauss-Newton step from the full fit without that run.
     g_all = np.sum(g_run, axis=0)
@@ -510,7 +538,7 @@ def refine(
         loo.append(xj)
     loo_x = np.array(loo)
     var = np.maximum(np.diag(cov), 0.0)
-    for i, name in enumerate(NAMES):
+    for i, name in enumerate(NAMES[: free.size]):
         members = [j for j, r in enumerate(runs) if r.rid in informed[name]]
         # The jackknife needs the parameter informed without each run in turn.
         members = [j for j in members if (info[:, i].sum() - info[j, i]) > 0.1 * info[:, i].sum()]
@@ -529,7 +557,7 @@ def refine(
         and r.rid in informed["t_off"]
         and all((info[:, i].sum() - info[j, i]) > 0.1 * info[:, i].sum() for i in (3, 4))
     ]
-    if len(both) >= 3:
+    if len(both) >= 3 and delay_prior is None:
         v = loo_x[both, 4] - loo_x[both, 3]
         var_diff = max(var_diff, (len(both) - 1) / len(both) * float(np.sum((v - v.mean()) ** 2)))
     # Back to the parameters' own units (delta method for the log-parameters).

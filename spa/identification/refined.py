@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from spa.identification.convention import choose_convention
+from spa.identification.edge_local import FORM_LEVEL, EdgeDelays, edge_delays
 from spa.identification.edges import EdgeTiming, summary
 from spa.identification.history import full_rate_records, history_test
 from spa.identification.model_checks import (
@@ -185,16 +186,23 @@ def refine_result(
         ]
     else:
         warnings_start = []
-    fits = {d: refine(prepared, start, delay=d, max_delay=max_delay) for d in ("hold", "transport")}
+    at_edges = edge_delays(prepared, runs, start, max_delay=max_delay)
+    priors = _edge_priors(at_edges)
+    fits = {
+        d: refine(prepared, start, delay=d, max_delay=max_delay, delay_prior=priors.get(d))
+        for d in ("hold", "transport")
+    }
     held_median = {d: f.heldout_median() for d, f in fits.items()}
     mods_of = {r.rid: r.modulator for r in prepared}
     verdicts = {
         d: assess(f.fit_heldout, f.fit_after, f.noise_ceiling, mods_of, threshold)
         for d, f in fits.items()
     }
-    chosen = choose_convention(
+    by_fit = choose_convention(
         {d: a.heldout_median for d, a in verdicts.items()}, held_median, convention
     )
+    chosen, chosen_by, note = _edges_convention(by_fit, priors, convention, at_edges)
+    warnings_start += note
     ref = fits[chosen]
     dt = float(np.median([r.dt for r in prepared]))
     n_edges = {
@@ -232,10 +240,18 @@ def refine_result(
             se = math.sqrt(se * se + gap * gap)
             method += " and by the gap to the start"
         if name in _DELAY_EDGE:
+            if chosen in priors:
+                used = at_edges.record()["edges_on" if name == "t_on" else "edges_off"]
+                method = (
+                    f"common delay of {used} command edges ({chosen} form: the old state's "
+                    "closed form before the edge, the new state's after the delay; the "
+                    "edges' summed squared residuals); 95% from the larger of that fit's "
+                    "and the runs' own delays' standard errors"
+                )
             est, notes = _delay_estimate(
                 name, value, se, method, informed or runs_all, prepared, start,
                 n_edges[name], dt, max_delay, chosen,
-                name in result.fallback and not search_delays,
+                (name in result.fallback and not search_delays) or chosen in priors,
             )  # fmt: skip
             fb = result.fallback.get(name)
             if fb is not None and not search_delays and est.resolved:
@@ -252,8 +268,8 @@ def refine_result(
             fallback=None if fb is None else f"started from the nominal value ({fb}); refined",
         )  # fmt: skip
     warnings += bound_warnings(ests, max_delay, dt)
-    difference = _difference(ests, ref, chosen, n_edges, prepared)
-    law_record, law_valve = laws_record(prepared, ref, chosen, laws)
+    difference = _difference(ests, ref, chosen, n_edges, prepared, chosen in priors)
+    law_record, law_valve = laws_record(prepared, ref, chosen, laws, held_delays=priors.get(chosen))
     if result.delays is not None:
         pulse = result.delays.summary()
         for key, name, what in (
@@ -346,6 +362,8 @@ def refine_result(
             for d, a in verdicts.items()
         },
         "setting": convention,
+        "chosen_by": chosen_by,
+        "edges": at_edges.record(),
     }
     if n_edges["t_on"] == 0 or n_edges["t_off"] == 0:
         record["note"] = "a delay is unresolved; the conventions differ only in it"
@@ -365,6 +383,44 @@ def refine_result(
         valve_edges=summary({r.rid: r.timing for r in prepared}),
         laws=law_record,
         warnings=tuple(dict.fromkeys(warnings)),
+    )
+
+
+def _edge_priors(at_edges: EdgeDelays) -> dict[str, dict[str, tuple[float, float]]]:
+    """Convention → the delays its refinement holds: the edges' common delays in the edges'
+    own form, when the form test resolves it (p below :data:`FORM_LEVEL`); none otherwise."""
+    p = at_edges.form_p()
+    if not (math.isfinite(p) and p < FORM_LEVEL):
+        return {}
+    form = at_edges.form()
+    prior = at_edges.prior(form)
+    return {} if prior is None else {form: prior}
+
+
+def _edges_convention(
+    by_fit: str,
+    priors: Mapping[str, Any],
+    setting: str,
+    at_edges: EdgeDelays,
+) -> tuple[str, str, list[str]]:
+    """The convention, what chose it, and a warning when the edges overrule the held-out
+    FIT: with ``setting`` auto and the edges' form resolved, the edges' form."""
+    if setting != "auto":
+        return by_fit, "identification.delay_convention", []
+    if not priors:
+        return by_fit, "held-out FIT", []
+    form = next(iter(priors))
+    if form == by_fit:
+        return by_fit, "the command edges and held-out FIT", []
+    p = at_edges.form_p()
+    return (
+        form,
+        "the command edges",
+        [
+            f"the command edges show the {form} convention (Wilcoxon p = {p:.2g} over "
+            f"{len(at_edges.used())} edges) where the cycle means' held-out FIT prefers "
+            f"{by_fit}; the edges' form and delays are used"
+        ],
     )
 
 
@@ -421,7 +477,7 @@ def _delay_estimate(
     dt: float,
     max_delay: float,
     chosen: str,
-    from_fallback: bool,
+    without_gap: bool,
 ) -> tuple[Estimate, list[str]]:
     """One delay's estimate and interval under the edge-timing rule; unresolved when the
     log does not show it."""
@@ -436,7 +492,7 @@ def _delay_estimate(
     shift = float(np.mean(shifts)) if shifts else 0.0
     sampled = [r.edge_width for r in with_edges if r.timing.rule == "sampled"]
     undecided = [r.edge_width for r in with_edges if r.timing.rule == "undecided"]
-    if not from_fallback:
+    if not without_gap:  # a fallback start, or delays read at the edges
         # Within one sample step, the gap to the pulse fit (on the logged edges) is the
         # edges' timing resolution, and counts.
         gap = min(abs(value - float(getattr(start, name)) - shift), dt)
@@ -507,8 +563,12 @@ def _difference(
     chosen: str,
     n_edges: Mapping[str, int],
     prepared: list[Any],
+    from_edges: bool = False,
 ) -> Estimate | None:
     """``t_off - t_on`` of a transport valve with both directions' edges: its own interval.
+
+    With ``from_edges`` the delays were read at the command edges, each direction on its
+    own edges: their errors are independent and the difference's variance is their sum.
 
     The difference is known whenever both directions have edges, even when a delay is not
     resolved on its own: a lag the model does not have (a sensor's, a long line's) moves both
@@ -531,9 +591,13 @@ def _difference(
         d_value + _Z95 * d_se,
         "s",
         tuple(sorted(set(ests["t_on"].runs) | set(ests["t_off"].runs))),
-        "the refinement's sandwich covariance of the two delays (Newey-West), widened "
-        "to the leave-one-run-out spread of their difference; logged edges off the log's "
-        "ticks uniform within their step",
+        (
+            "the two delays read at the command edges, independent (the sum of their variances)"
+            if from_edges
+            else "the refinement's sandwich covariance of the two delays (Newey-West), "
+            "widened to the leave-one-run-out spread of their difference"
+        )
+        + "; logged edges off the log's ticks uniform within their step",
     )
 
 
