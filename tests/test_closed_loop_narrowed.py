@@ -96,8 +96,9 @@ def test_a_promise_from_a_set_point_up_leaves_the_lower_ones_out_and_says_so():
 def loose_discharge():
     """A physical plant with a strong thermal state (heat exchange over 2.9 s) on a 3.8
     bar supply (``random_plant`` of seed (2, 5), the benchmark's): its discharges leave the
-    exhaust law loose below about 1.5 bar (95 % band ×2.5 either way at 0.4 bar), and no loop
-    keeps a promise over the whole box on every set-point."""
+    exhaust law loose below about 1.5 bar (95 % band ×2.5 either way at 0.4 bar). With its
+    delays fitted to the cycle means alone, no loop kept a promise over the whole box on
+    every set-point; read at the command edges, they are known to ±0.7 ms and one does."""
     plant = random_plant(np.random.default_rng([2, 5]))
     assert plant.heat_tau > 1.0 and plant.supply > 3.0
     modulators = [
@@ -120,25 +121,28 @@ def loose_discharge():
     return plant, identified, result, bench
 
 
-def test_its_promise_leaves_out_the_lowest_set_points_and_holds_on_the_plant(
+def test_a_loose_exhaust_law_keeps_its_promise_over_every_set_point_and_holds_on_the_plant(
     loose_discharge, tmp_path
 ):
+    """The narrowing above (a promise from a set-point up) is not needed here: the edges read
+    the plant's dead times plus half its transit and its sensor's lag (18.9 and 15.1 ms) and
+    the promise over the whole box covers the lowest set-point, 0.1 k2. It holds on the
+    plant in C."""
     assert shutil.which("cc"), "no C compiler 'cc' on the PATH (make test installs one)"
     plant, identified, result, bench = loose_discharge
     summary = bench.summary
     assert summary["verified"], bench.sentence
+    assert identified["delay_convention"]["chosen_by"].startswith("the command edges")
+    for name, truth in (
+        ("t_on", plant.t_open + plant.transit / 2 + plant.sensor_lag),
+        ("t_off", plant.t_close + plant.transit / 2 + plant.sensor_lag),
+    ):
+        assert abs(identified[name]["value"] - truth) < 1e-3, name
     promise = summary["promise"]
     levels = [float(v) for v in promise["levels"]]
-    lowest = summary["below"]["lowest"]
     k2 = read_identified(identified).params.k2
-    # set-points below the promise's are left out, and said
-    assert lowest > 0.15 * k2 and min(levels) >= lowest
-    assert f"for set-points from {lowest:.3g} bar up" in bench.sentence
-    assert f"Below {lowest:.3g} bar" in bench.sentence
-    # the box it used is narrower in the exhaust law than the whole one
-    whole = read_identified(identified).intervals["c1"]
-    assert summary["box"]["c1"][0] >= whole[0] and summary["box"]["c1"][1] <= whole[1]
-    assert (summary["box"]["c1"][1] - summary["box"]["c1"][0]) < (whole[1] - whole[0])
+    assert "below" not in summary and min(levels) <= 0.15 * k2
+    assert summary["box"]["c1"] == list(read_identified(identified).intervals["c1"])
     # closed on the plant in C over the promise's own staircase, the promise holds
     header = tmp_path / "controller.h"
     header.write_text(bench.header)
@@ -151,4 +155,3 @@ def test_its_promise_leaves_out_the_lowest_set_points_and_holds_on_the_plant(
     measured = {**measured, "worst_ripple_pp": actual["worst_ripple_pp"]}
     verdict = promise_kept(measured, promise, CONFIG["closed_loop"]["max_overshoot"])
     assert verdict["promised"] and verdict["kept"], (verdict, measured, promise)
-    assert yaml.safe_dump(summary["below"])  # plain values for controllers.yaml

@@ -259,6 +259,7 @@ def _play_compiled(
     find_cc(cc)  # before the program's source is written next to the plan
     player = Path(folder) / "player"
     out = Path(work) if work is not None else Path(folder).parent
+    out.mkdir(parents=True, exist_ok=True)
     source, header = plant_source
     main = out / f"on-plant-{Path(folder).name}.c"
     main.write_text(main_text, encoding="utf-8")
