@@ -42,7 +42,7 @@ from spa.model.params import ValveParams
 from spa.model.plant import edge_indices, segment_pressure_scalar, transport_runs
 from spa.validation import fit_percent, initial_pressure
 
-__all__ = ["RefineFit", "RefineRun", "block_means", "delay_search", "prepare_runs", "refine"]
+__all__ = ["RefineFit", "RefineRun", "block_means", "prepare_runs", "refine"]
 
 #: The five refined parameters, in the order of the fit vector.
 NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
@@ -587,27 +587,3 @@ def refine(
         se_difference=math.sqrt(var_diff),
         correlation=correlation(cov),
     )
-
-
-def delay_search(
-    runs: Sequence[RefineRun], start: ValveParams, max_delay: float, points: int = 11
-) -> ValveParams:
-    """``start`` with ``t_on`` then ``t_off`` set by a coarse search on the runs' cycle means.
-
-    Each delay in turn takes the best of ``points`` values over ``[0, max_delay]`` (the
-    other held), by the summed squared block residual, each run normalised by its own
-    spread: ``2*points`` simulations of the runs.
-    """
-    grid = np.linspace(0.0, max_delay, points)
-    scale = [max(float(np.std(r.y)), _NOISE_FLOOR) for r in runs]
-
-    def cost(prm: ValveParams) -> float:
-        return sum(
-            float(np.sum(((r.model(prm) - r.y) / s) ** 2)) for r, s in zip(runs, scale, strict=True)
-        )
-
-    best = start
-    for name in ("t_on", "t_off"):
-        trials = [ValveParams(**{**best.as_dict(), name: float(g)}) for g in grid]
-        best = min(trials, key=cost)
-    return best

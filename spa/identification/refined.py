@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from spa.identification.convention import choose_convention
-from spa.identification.edge_local import FORM_LEVEL, EdgeDelays, edge_delays
+from spa.identification.edge_local import edge_delays, edge_priors, edges_convention
 from spa.identification.edges import EdgeTiming, summary
 from spa.identification.history import full_rate_records, history_test
 from spa.identification.model_checks import (
@@ -170,8 +170,9 @@ def refine_result(
     and no interval outside ``[0, max_delay]``.
     """
     from spa.identification.adequacy import assess
+    from spa.identification.delay_search import delay_search
     from spa.identification.laws_fit import laws_record
-    from spa.identification.refine import NAMES, delay_search, prepare_runs, refine
+    from spa.identification.refine import NAMES, prepare_runs, refine
 
     prepared = prepare_runs(runs, kinds, modulators, command_dt, edges=edges)
     if not prepared:
@@ -187,7 +188,7 @@ def refine_result(
     else:
         warnings_start = []
     at_edges = edge_delays(prepared, runs, start, max_delay=max_delay)
-    priors = _edge_priors(at_edges)
+    priors = edge_priors(at_edges)
     fits = {
         d: refine(prepared, start, delay=d, max_delay=max_delay, delay_prior=priors.get(d))
         for d in ("hold", "transport")
@@ -201,7 +202,7 @@ def refine_result(
     by_fit = choose_convention(
         {d: a.heldout_median for d, a in verdicts.items()}, held_median, convention
     )
-    chosen, chosen_by, note = _edges_convention(by_fit, priors, convention, at_edges)
+    chosen, chosen_by, note = edges_convention(by_fit, priors, convention, at_edges)
     warnings_start += note
     ref = fits[chosen]
     dt = float(np.median([r.dt for r in prepared]))
@@ -383,50 +384,6 @@ def refine_result(
         valve_edges=summary({r.rid: r.timing for r in prepared}),
         laws=law_record,
         warnings=tuple(dict.fromkeys(warnings)),
-    )
-
-
-def _edge_priors(at_edges: EdgeDelays) -> dict[str, dict[str, tuple[float, float]]]:
-    """Convention → the delays its refinement holds: the edges' common delays in the edges'
-    own form, when the form test resolves it (p below :data:`FORM_LEVEL`) and both delays
-    are at least a logging step; none otherwise."""
-    p = at_edges.form_p()
-    if not (math.isfinite(p) and p < FORM_LEVEL):
-        return {}
-    form = at_edges.form()
-    prior = at_edges.prior(form)
-    if prior is None or min(v for v, _ in prior.values()) < at_edges.dt:
-        # a delay under one logging step shows only in the first sample's amplitude, where
-        # the sample's timing and the closed form's shape at the knee confound it: the cycle
-        # means read it better (measured: 0.69 ms for 0.8 ms at a 2 ms step)
-        return {}
-    return {form: prior}
-
-
-def _edges_convention(
-    by_fit: str,
-    priors: Mapping[str, Any],
-    setting: str,
-    at_edges: EdgeDelays,
-) -> tuple[str, str, list[str]]:
-    """The convention, what chose it, and a warning when the edges overrule the held-out
-    FIT: with ``setting`` auto and the edges' form resolved, the edges' form."""
-    if setting != "auto":
-        return by_fit, "identification.delay_convention", []
-    if not priors:
-        return by_fit, "held-out FIT", []
-    form = next(iter(priors))
-    if form == by_fit:
-        return by_fit, "the command edges and held-out FIT", []
-    p = at_edges.form_p()
-    return (
-        form,
-        "the command edges",
-        [
-            f"the command edges show the {form} convention (Wilcoxon p = {p:.2g} over "
-            f"{len(at_edges.used())} edges) where the cycle means' held-out FIT prefers "
-            f"{by_fit}; the edges' form and delays are used"
-        ],
     )
 
 
