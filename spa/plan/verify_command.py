@@ -423,7 +423,8 @@ def _loop_verification(
         return out
     allowance = _settling_allowance(params, setting, promise, hold, dt, noise, quantum)
     out["settling_noise_allowance_s"] = allowance
-    samples = max(round(hold / 4.0 / dt), 2)  # a step's last quarter
+    step = round(hold / dt)
+    samples = step - 3 * step // 4  # a step's last quarter, as spa.closedloop.metrics takes it
     out["bands"] = promise_predictions(promise, noise, quantum, allowance, samples)
     out["method"] = "the promise's own worst case (no controller in it to simulate)"
     return out
