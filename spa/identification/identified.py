@@ -130,7 +130,7 @@ def laws_intervals(
     ----------
     record : mapping
         ``params.yaml``'s ``laws:`` (chosen ``identified``): its ``bands``, ``visited`` and
-        ``covariance`` (:func:`spa.identification.laws_fit.laws_record`).
+        ``covariance`` (:func:`spa.identification.laws_record.laws_record`).
     params : ValveParams
         The laws valve (its ``c1``, ``tau2``, ``k2`` and delays are the centres).
     clipped : dict, optional

@@ -171,7 +171,7 @@ def refine_result(
     """
     from spa.identification.adequacy import assess
     from spa.identification.delay_search import delay_search
-    from spa.identification.laws_fit import laws_record
+    from spa.identification.laws_record import laws_record
     from spa.identification.refine import NAMES, prepare_runs, refine
 
     prepared = prepare_runs(runs, kinds, modulators, command_dt, edges=edges)

@@ -36,7 +36,7 @@ def laws_data(params: Mapping[str, Any]) -> pd.DataFrame:
     params : mapping
         :meth:`spa.identification.IdentificationResult.to_dict`'s content, whose ``laws:``
         record carries ``bands`` and ``visited``
-        (:func:`spa.identification.laws_fit.laws_record`).
+        (:func:`spa.identification.laws_record.laws_record`).
 
     Returns
     -------
