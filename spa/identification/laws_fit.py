@@ -8,7 +8,7 @@ charges and discharges started from many pressures, and those pin the laws down.
 cycle means of every such run (:class:`~spa.identification.refine.RefineRun`), the valve's
 other parameters and its delays held where the refinement left them; :func:`choose_laws`
 keeps the paper's laws unless the fitted ones predict held-out modulated runs better by
-more than two standard errors and two FIT points.
+more than two FIT points and by a one-sided t-test at the level of two normal standard errors.
 """
 
 from __future__ import annotations
@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.stats import norm
+from scipy.stats import t as student_t
 
 from spa.identification.laws_heldout import LeaveOneOutState
 from spa.identification.laws_model import (
@@ -42,6 +44,7 @@ __all__ = [
     "LawsFit",
     "choose_laws",
     "fit_laws",
+    "gain_quantile",
     "law_model",
     "law_names",
 ]
@@ -52,8 +55,11 @@ _BROYDEN = 4  # Broyden updates of the Jacobian between finite-difference ones
 _M_BOUNDS = (0.5, 1.0)
 #: Bound of the log-rates: rates within a factor e**6 (about 400) of the paper's scales.
 _LOG_BOUND = 6.0
-#: The choice rule: mean held-out gain over this many standard errors and FIT points.
+#: The choice rule: the mean held-out gain over the one-sided ``GAIN_LEVEL`` quantile of
+#: Student's t with n - 1 degrees of freedom times its standard error (2 standard errors of a
+#: normal, kept at the same level on few runs), and over ``GAIN_POINTS`` FIT points.
 GAIN_SE = 2.0
+GAIN_LEVEL = float(norm.cdf(GAIN_SE))
 GAIN_POINTS = 2.0
 
 
@@ -394,6 +400,36 @@ class LawsChoice:
     reason: str
 
 
+def gain_quantile(n: int) -> float:
+    """The standard errors a mean paired gain over ``n`` runs must exceed to choose the laws.
+
+    Parameters
+    ----------
+    n : int
+        Modulated runs held out, at least 2.
+
+    Returns
+    -------
+    float
+        The one-sided :data:`GAIN_LEVEL` quantile of Student's t with ``n - 1`` degrees of
+        freedom: a mean of ``n`` normal gains with no true gain passes it with probability
+        ``1 - GAIN_LEVEL`` (2.3 %), whatever ``n``.
+
+    Raises
+    ------
+    ValueError
+        If ``n < 2``: one run has no spread to test against.
+
+    Examples
+    --------
+    >>> round(gain_quantile(2), 2), round(gain_quantile(6), 2), round(gain_quantile(10), 2)
+    (13.97, 2.65, 2.32)
+    """
+    if n < 2:
+        raise ValueError(f"gain_quantile: n = {n} held-out runs, expected at least 2")
+    return float(student_t.ppf(GAIN_LEVEL, n - 1))
+
+
 def choose_laws(
     runs: Sequence[RefineRun],
     start: ValveParams,
@@ -408,7 +444,7 @@ def choose_laws(
     held_delays: Mapping[str, tuple[float, float]] | None = None,
 ) -> LawsChoice:
     """Keep the paper's laws unless the identified ones predict held-out modulated runs
-    better by more than 2 standard errors and 2 FIT points.
+    better, by a one-sided t-test at the level of 2 normal standard errors and by 2 FIT points.
 
     Parameters
     ----------
@@ -445,7 +481,10 @@ def choose_laws(
     -----
     For each modulated run ``r`` the laws fitted without ``r`` predict it; ``d_r`` is that
     FIT minus the paper's on ``r``. The identified laws are chosen when
-    ``mean(d) > 2*sd(d)/sqrt(n)`` and ``mean(d) > 2`` points. AIC and BIC do not apply:
+    ``mean(d) > q*sd(d)/sqrt(n)`` and ``mean(d) > 2`` points, ``q`` the one-sided 97.7 %
+    (:data:`GAIN_LEVEL`, a normal's 2 standard errors) quantile of Student's t with ``n - 1``
+    degrees of freedom: 13.97 at ``n = 2``, 2.65 at 6, 2.32 at 10, where a fixed 2 would be a
+    15 % test at ``n = 2``. AIC and BIC do not apply:
     output-error residuals are autocorrelated and the degrees of freedom of the log-rate
     polynomials are only effective.
     """
@@ -487,10 +526,11 @@ def choose_laws(
     d = np.array([fit_i[k] - fit_p[k] for k in fit_p])
     gain = float(d.mean())
     se = float(d.std(ddof=1) / math.sqrt(d.size))
-    chosen = gain > GAIN_SE * se and gain > GAIN_POINTS
+    q = gain_quantile(d.size)
+    chosen = gain > q * se and gain > GAIN_POINTS
     why = (
         f"held-out FIT gain {gain:+.1f} points over {d.size} modulated runs "
-        f"(standard error {se:.1f})"
+        f"(standard error {se:.1f}; t({d.size - 1}) threshold {q * se:.1f})"
     )
     if chosen:
         return LawsChoice(
@@ -501,7 +541,7 @@ def choose_laws(
             fit_p,
             fit_i,
             full,
-            f"{why}: above 2 standard errors and 2 points, the identified laws are used",
+            f"{why}: above it and 2 points, the identified laws are used",
         )
     return LawsChoice(
         "paper",
@@ -511,5 +551,5 @@ def choose_laws(
         fit_p,
         fit_i,
         full,
-        f"{why}: not above 2 standard errors and 2 points, the paper's laws are kept",
+        f"{why}: not above it and 2 points, the paper's laws are kept",
     )
