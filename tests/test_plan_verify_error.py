@@ -241,13 +241,73 @@ def test_the_ripple_error_is_measured_on_the_loops_own_setting_only():
 
 
 def test_the_ripple_band_moves_with_the_factor_and_widens_with_its_spread():
-    from spa.plan.loop_bands import with_ripple_error
+    from spa.plan.loop_bands import with_model_error
 
     band = {"value": 0.03, "sd": 0.001, "dof": 47.0, "scale": 1.0, "lo": 0.028, "hi": 0.032}
-    exact = with_ripple_error(band, {"n": 12, "factor": 1.0, "log_sd": 0.0, "dof": 11.0})
+    exact = with_model_error(band, {"n": 12, "factor": 1.0, "log_sd": 0.0, "dof": 11.0})
     assert exact["value"] == band["value"]
     assert exact["hi"] - exact["lo"] == pytest.approx(band["hi"] - band["lo"], rel=0.01)
-    spread = with_ripple_error(band, {"n": 12, "factor": 0.7, "log_sd": 0.1, "dof": 11.0})
+    spread = with_model_error(band, {"n": 12, "factor": 0.7, "log_sd": 0.1, "dof": 11.0})
     assert spread["value"] == pytest.approx(0.021)
     assert spread["hi"] - spread["lo"] > 1.5 * 0.7 * (band["hi"] - band["lo"])
     assert spread["model_error"]["applied"]
+
+
+def _settling_run(slower: float, f_w: float = 20.0):
+    """An open-loop PWM staircase up and down, 8 s a level, on a valve whose charge and
+    discharge are ``slower`` times the nominal's."""
+    import dataclasses
+
+    from spa.model.plant import simulate
+
+    dt = 0.002
+    u = np.repeat([0.2, 0.4, 0.6, 0.8, 0.6, 0.4, 0.2], 4000)
+    period = round(1.0 / (f_w * dt))
+    valve = (np.arange(u.size) % period < period * u).astype(np.int8)
+    plant = dataclasses.replace(NOMINAL, c1=NOMINAL.c1 * slower, tau2=NOMINAL.tau2 * slower)
+    run = pd.DataFrame({"t": np.arange(u.size) * dt, "p": simulate(valve, dt, plant)})
+    run["valve"], run["u"] = valve, u
+    return run, {"kind": "staircase", "modulator": {"type": "pwm", "f_w": f_w}}
+
+
+def test_the_settling_error_is_the_ratio_of_recorded_to_replayed_settling():
+    from spa.plan.verify_error import settling_error
+
+    run, meta = _settling_run(1.0)
+    same = settling_error({"s": run}, {"s": meta}, NOMINAL, "pwm-20Hz", noise=0.003, seed=1)
+    assert same["n"] == 6
+    assert same["factor"] == pytest.approx(1.0, abs=0.05)
+    run, meta = _settling_run(1.4)
+    slow = settling_error({"s": run}, {"s": meta}, NOMINAL, "pwm-20Hz", noise=0.003, seed=1)
+    assert slow["n"] == 6
+    assert 1.25 < slow["factor"] < 1.5  # a plant 40 % slower settles about that much later
+    # another setting's staircases do not count
+    assert settling_error({"s": run}, {"s": meta}, NOMINAL, "pwm-10Hz")["n"] == 0
+
+
+def test_a_step_within_the_noise_or_unsettled_is_not_compared():
+    from spa.plan.verify_error import settling_error
+
+    run, meta = _settling_run(1.0)
+    # levels that barely move: every step under min_step of the range but the largest
+    err = settling_error({"s": run}, {"s": meta}, NOMINAL, "pwm-20Hz", min_step=0.9)
+    assert err["n"] == 0 and "factor" not in err
+    # 1 s levels: no step settles before its last quarter
+    short = run.iloc[::8].reset_index(drop=True)
+    short["t"] = np.arange(len(short)) * 0.002
+    assert settling_error({"s": short}, {"s": meta}, NOMINAL, "pwm-20Hz")["n"] == 0
+
+
+def test_the_settling_band_takes_the_model_error_and_a_promise_band_does_not():
+    from spa.plan.loop_bands import with_model_error
+
+    band = {"value": 0.9, "sd": 0.04, "dof": 47.0, "scale": 1.0, "lo": 0.82, "hi": 0.98}
+    error = {"n": 18, "factor": 1.05, "log_sd": 0.17, "dof": 17.0}
+    out = with_model_error(band, error)
+    assert out["value"] == pytest.approx(0.945)
+    # the open loop's 17 % log spread is the band's larger term: over 3x the draws' width
+    assert out["hi"] - out["lo"] > 3 * (band["hi"] - band["lo"])
+    assert out["lo"] < 0.945 * math.exp(-0.17) and out["hi"] > 0.945 * math.exp(0.17)
+    promised = {"value": 0.9, "lo": 0.0, "hi": 1.1, "unit": "s"}  # a promise's worst case
+    kept = with_model_error(promised, error)
+    assert (kept["lo"], kept["hi"]) == (0.0, 1.1) and not kept["model_error"]["applied"]

@@ -433,23 +433,28 @@ def _loop_verification(
 def _ripple_model_error(
     loop: dict[str, Any], results: Path, params: Any, noise: float, quantum: float, seed: int
 ) -> None:
-    """The promise's ripple band with the model's error on the dataset's open-loop
-    staircases of the loop's own setting (:func:`spa.plan.loop_bands.with_ripple_error`),
-    in place; nothing without a ripple band or run tables."""
+    """The promise's ripple and settling-time bands with the model's error on the dataset's
+    open-loop staircases of the loop's own setting (:func:`spa.plan.loop_bands.with_model_error`
+    of :func:`spa.plan.verify_error.ripple_error` and of
+    :func:`spa.plan.verify_error.settling_error`), in place; nothing without those bands or
+    run tables."""
     from spa.model.modulators import Modulator
-    from spa.plan.loop_bands import with_ripple_error
-    from spa.plan.verify_error import ripple_error
+    from spa.plan.loop_bands import with_model_error
+    from spa.plan.verify_error import ripple_error, settling_error
 
     bands = loop.get("bands") or {}
     folder = results / "runs"
-    if "ripple_pp" not in bands or not folder.is_dir() or not any(folder.glob("*.parquet")):
+    measures = {"ripple_pp": ripple_error, "settling_time": settling_error}
+    if not set(measures) & set(bands) or not folder.is_dir() or not any(folder.glob("*.parquet")):
         return
     from spa.datasets import read_runs
 
     runs, metas = read_runs(folder)
     label = Modulator.from_mapping(loop["setting"]).label
-    error = ripple_error(runs, metas, params, label, noise, quantum, seed)
-    bands["ripple_pp"] = with_ripple_error(bands["ripple_pp"], error)
+    for name, measure in measures.items():
+        if name in bands:
+            error = measure(runs, metas, params, label, noise, quantum, seed)
+            bands[name] = with_model_error(bands[name], error)
 
 
 def _settling_allowance(

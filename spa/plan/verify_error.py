@@ -39,6 +39,7 @@ __all__ = [
     "no_model_error",
     "recorded_model_error",
     "ripple_error",
+    "settling_error",
     "sine_omega",
 ]
 
@@ -368,6 +369,138 @@ def ripple_error(
                 logged = np.round(logged / quantum) * quantum
             measured, replayed = float(np.ptp(p[q])), float(np.ptp(logged))
             if measured > 0 and replayed > 0:
+                logs.append(math.log(measured / replayed))
+        used.append(rid)
+    out: dict[str, Any] = {"n": len(logs), "runs": used}
+    if len(logs) >= RIPPLE_MIN_LEVELS:
+        out.update(
+            factor=float(math.exp(np.mean(logs))),
+            log_sd=float(np.std(logs, ddof=1)),
+            dof=float(len(logs) - 1),
+        )
+    return out
+
+
+def _open_settling(y: np.ndarray, a0: int, a: int, b: int, window: int, dt: float) -> float:
+    """An open-loop staircase level's settling time (s) within 2 % of its step, as
+    :func:`spa.plan.settling.settling_times` measures a closed loop's: the cycle-mean of the
+    level's own samples, from the previous level's last quarter's mean to its own's, a sample
+    outside only beyond the 2 % band widened by ``1.96`` times the fluctuation over its last
+    quarter. NaN for a step under ten noise-free samples or one still outside at the end."""
+    from spa.closedloop.metrics import cycle_mean
+    from spa.plan.settling import BAND, _fluctuation
+
+    before, level = cycle_mean(y[a0:a], window), cycle_mean(y[a:b], window)
+    r0 = float(np.mean(before[3 * before.size // 4 :]))
+    r1 = float(np.mean(level[3 * level.size // 4 :]))
+    if r1 == r0:
+        return math.nan
+    z = (level - r0) / (r1 - r0)
+    band = BAND + 1.96 * _fluctuation(z[3 * z.size // 4 :])
+    outside = np.flatnonzero(np.abs(z - 1.0) > band)
+    if outside.size and outside[-1] >= 3 * z.size // 4:
+        return math.nan  # not settled before its last quarter: no time to compare
+    return float((outside[-1] + 1) * dt) if outside.size else 0.0
+
+
+def settling_error(
+    runs: Mapping[str, pd.DataFrame],
+    metas: Mapping[str, Mapping[str, Any]],
+    params: ValveParams,
+    setting: str,
+    noise: float = 0.0,
+    quantum: float = 0.0,
+    seed: int = 0,
+    min_step: float = 0.05,
+) -> dict[str, Any]:
+    """The identified valve's error on the settling time of the recorded open-loop staircases
+    of one setting: each level step's time to settle within 2 % of the step, measured against
+    the valve's replay of the same valve command with the sensor's noise and ADC step, as a
+    log ratio (as :func:`ripple_error` measures the ripple's).
+
+    A closed loop's settling time is the plant's response time through the controller: a plant
+    whose steps settle 20 % later open loop than the model's settles later closed loop too,
+    and no draw from the identification's intervals holds that error (a lag or a slow second
+    state the model lacks). The ratios' geometric mean and spread carry it to the closed
+    loop's prediction (:func:`spa.plan.loop_bands.with_model_error`).
+
+    Parameters
+    ----------
+    runs, metas, params, setting, noise, quantum, seed
+        As :func:`ripple_error`.
+    min_step : float, default 0.05
+        Smallest step between levels, as a fraction of the recorded range of level means,
+        whose settling time is compared: a smaller step's 2 % band is within the sensor's
+        noise.
+
+    Returns
+    -------
+    dict
+        ``n`` (level steps compared), and with at least :data:`RIPPLE_MIN_LEVELS` of them
+        ``factor`` (the geometric mean of measured over replayed settling time), ``log_sd``
+        and ``dof``; ``runs``, the runs read.
+
+    Examples
+    --------
+    >>> from spa.model.plant import simulate
+    >>> import dataclasses
+    >>> dt = 0.002
+    >>> u = np.repeat([0.2, 0.5, 0.8, 0.5, 0.2], 4000)  # 8 s a level
+    >>> valve = (np.arange(u.size) % 25 < 25 * u).astype(np.int8)
+    >>> slow = dataclasses.replace(ValveParams(), c1=ValveParams().c1 * 1.3,
+    ...                            tau2=ValveParams().tau2 * 1.3)  # 30 % slower both ways
+    >>> run = pd.DataFrame({"t": np.arange(u.size) * dt, "p": simulate(valve, dt, slow),
+    ...                     "valve": valve, "u": u})
+    >>> meta = {"kind": "staircase", "modulator": {"type": "pwm", "f_w": 20.0}}
+    >>> err = settling_error({"s": run}, {"s": meta}, ValveParams(), "pwm-20Hz")
+    >>> err["n"], 1.2 < err["factor"] < 1.4
+    (4, True)
+    """
+    from spa.closedloop.design import MAX_PERIOD
+    from spa.model.modulators import Modulator, get_kind
+    from spa.model.modulators.core import settings_arrays
+    from spa.model.plant import simulate
+
+    rng = np.random.default_rng(seed)
+    logs: list[float] = []
+    used: list[str] = []
+    for rid in sorted(runs):
+        meta = metas.get(rid) or {}
+        mod = meta.get("modulator")
+        if meta.get("kind") != "staircase" or not isinstance(mod, Mapping):
+            continue
+        modulator = Modulator.from_mapping(dict(mod))
+        if modulator.label != setting:
+            continue
+        run = runs[rid]
+        if not {"t", "p", "valve", "u"} <= set(run.columns) or len(run) < 8:
+            continue
+        t = run["t"].to_numpy(np.float64)
+        p = run["p"].to_numpy(np.float64)
+        valve = run["valve"].to_numpy(np.int8)
+        u = run["u"].to_numpy(np.float64)
+        dt = float(np.median(np.diff(t)))
+        model = simulate(valve, dt, params, p0=max(float(p[0]), 0.0))
+        if noise > 0:
+            model = model + rng.normal(0.0, noise, model.size)
+        if quantum > 0:
+            model = np.round(model / quantum) * quantum
+        starts = np.concatenate(([0], np.flatnonzero(u[1:] != u[:-1]) + 1, [u.size]))
+        means = [float(np.mean(p[b - (b - a) // 4 : b])) for a, b in itertools.pairwise(starts)]
+        span = max(np.ptp(means), 1e-12) if len(means) > 1 else 1e-12
+        kind, settings = (
+            get_kind(modulator.kind),
+            settings_arrays(modulator.kind, dict(modulator.settings)),
+        )
+        for k in range(1, starts.size - 1):
+            a0, a, b = int(starts[k - 1]), int(starts[k]), int(starts[k + 1])
+            if b - a < 16 or a - a0 < 16 or abs(means[k] - means[k - 1]) < min_step * span:
+                continue
+            period = float(np.asarray(kind.cycle(np.float64(u[a]), settings, params)))
+            window = max(round(float(np.clip(period, 2.0 * dt, MAX_PERIOD)) / dt), 1)
+            measured = _open_settling(p, a0, a, b, window, dt)
+            replayed = _open_settling(model, a0, a, b, window, dt)
+            if measured > 0 and replayed > 0:  # NaN fails both
                 logs.append(math.log(measured / replayed))
         used.append(rid)
     out: dict[str, Any] = {"n": len(logs), "runs": used}
