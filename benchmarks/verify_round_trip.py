@@ -10,11 +10,14 @@ spa record → spa validate → identify, tune and the closed loop's design, pro
 controller.h, in memory as the pipeline's stages → spa plan --verify → its runs, the
 closed-loop staircases through controller.h, on the same plant and on one twice slower
 (chamber, dead times and spool transit; a model-made valve ``spa.plan.prior.scaled``) →
-verification.csv (``spa.plan.roundtrip.verify_on``). Prints one line per plant and
-verification: the identification's cost and each part's kept count; for a model-made valve,
-whether the identified delays lie within their intervals and one logging step of the truth.
+verification.csv (``spa.plan.roundtrip.verify_on``); ``--drifts`` adds a plant with its
+exhaust's conductance halved or its supply 20 % lower (:data:`DRIFTS`). Prints one line per
+plant and verification: the identification's cost and each part's kept count; for a
+model-made valve, whether the identified delays lie within their intervals and one logging
+step of the truth.
 
-    .venv/bin/python benchmarks/verify_round_trip.py [--full] [--csv FILE] [phys-finger ...]
+    .venv/bin/python benchmarks/verify_round_trip.py [--full] [--csv FILE] [--drifts D,...]
+        [phys-finger ...]
 
 With ``--pipeline`` (a physical plant, the full plan) the middle is the pipeline itself: the
 recorded folder is a bench dataset of a ``raw_dir`` of its own, ``snakemake reproduce-all``
@@ -79,6 +82,29 @@ def slower(plant, factor: float):
     )
 
 
+#: The drifts a verification is played on besides the same plant (``--drifts``).
+DRIFTS = ("2x slower", "exhaust halved", "supply -20%")
+
+
+def drifted(plant, tag: str):
+    """The plant after a drift: ``2x slower`` (:func:`slower`; a model-made valve
+    ``spa.plan.prior.scaled``), ``exhaust halved`` (the exhaust's conductance halved; a
+    model-made valve's ``tau2`` doubled) or ``supply -20%`` (the supply, or ``k2``, times
+    0.8)."""
+    model = isinstance(plant, ValveParams)
+    if tag == "2x slower":
+        return scaled(plant, 2.0) if model else slower(plant, 2.0)
+    if tag == "exhaust halved":
+        if model:
+            return dataclasses.replace(plant, tau2=2.0 * plant.tau2)
+        return dataclasses.replace(plant, c_exhaust=0.5 * plant.c_exhaust)
+    if tag == "supply -20%":
+        if model:
+            return dataclasses.replace(plant, k2=0.8 * plant.k2)
+        return dataclasses.replace(plant, supply=0.8 * plant.supply)
+    raise ValueError(f"drift {tag!r}: expected one of {', '.join(DRIFTS)}")
+
+
 def plant_of(name: str) -> tuple[object, float, float, float, object, str]:
     """The configuration's dataset ``name`` as a plant to play on: a physical plant (its C
     twin) or a model-made valve (``params``: spa's model plant in C); its supply, its
@@ -114,12 +140,18 @@ def record(folder: Path, plant, seed: int, sd: float) -> None:
         raise RuntimeError(text)
 
 
-def round_trip(name: str, root: Path, full: bool, rows: list | None = None) -> list[str]:
+def round_trip(
+    name: str,
+    root: Path,
+    full: bool,
+    rows: list | None = None,
+    drifts: tuple[str, ...] = DRIFTS[:1],
+) -> list[str]:
     """A plant of the full configuration (physical, or a model-made valve) through the
     round trip: the plan played on its C twin, the stages in memory, and the verification
-    (its closed-loop staircases through controller.h) on the same plant and on one twice
-    slower."""
-    plant, supply, tau2, sd, slow, what = plant_of(name)
+    (its closed-loop staircases through controller.h) on the same plant and after each of
+    ``drifts`` (:func:`drifted`)."""
+    plant, supply, tau2, sd, _, what = plant_of(name)
     limits = Limits(p_max=1.25 * supply)
     prior = prior_from_numbers(supply, 5 * tau2)
     rec0 = tune(prior).recommendation.get("recommended") or {}
@@ -155,8 +187,8 @@ def round_trip(name: str, root: Path, full: bool, rows: list | None = None) -> l
             f"  truth t_on {plant.t_on * 1e3:g} ms, t_off {plant.t_off * 1e3:g} ms; within "
             f"their intervals and one {design.dt * 1e3:g} ms tick: {within}"
         )
-    for tag, on in (("same", plant), ("2x slower", slow)):
-        vfolder = root / f"{safe}-verify-{tag.replace(' ', '')}"
+    for tag, on in (("same", plant), *((d, drifted(plant, d)) for d in drifts)):
+        vfolder = root / f"{safe}-verify-{tag.replace(' ', '').replace('%', '')}"
         frame = verify_on(vfolder, results, on, limits.p_max, noise_sd=sd).frame
         lines.append(f"  on the {tag} plant: " + "; ".join(kept_parts(frame)))
         if rows is not None:
@@ -284,6 +316,11 @@ def run() -> None:
     )
     ap.add_argument("--keep", metavar="DIR", help="work in DIR (kept), not a temporary folder")
     ap.add_argument("--csv", metavar="FILE", help="one row per plant and verification")
+    ap.add_argument(
+        "--drifts",
+        default=DRIFTS[0],
+        help=f"comma-separated drifts verified besides the same plant, of: {', '.join(DRIFTS)}",
+    )
     args = ap.parse_args()
     rows: list = []
     with tempfile.TemporaryDirectory(prefix="spa-verify-") as scratch:
@@ -295,7 +332,8 @@ def run() -> None:
                 if args.pipeline:
                     lines = round_trip_pipeline(name, Path(tmp) / name)
                 else:
-                    lines = round_trip(name, Path(tmp), args.full, rows)
+                    drifts = tuple(d.strip() for d in args.drifts.split(",") if d.strip())
+                    lines = round_trip(name, Path(tmp), args.full, rows, drifts)
             except (RuntimeError, ValueError, KeyError) as exc:
                 lines = [f"{name}: failed: {exc}"]
                 rows.append({"plant": name, "failed": str(exc)[:200]})
