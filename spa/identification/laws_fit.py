@@ -21,8 +21,6 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.stats import norm
-from scipy.stats import t as student_t
 
 from spa.identification.laws_heldout import LeaveOneOutState
 from spa.identification.laws_model import (
@@ -59,7 +57,7 @@ _LOG_BOUND = 6.0
 #: Student's t with n - 1 degrees of freedom times its standard error (2 standard errors of a
 #: normal, kept at the same level on few runs), and over ``GAIN_POINTS`` FIT points.
 GAIN_SE = 2.0
-GAIN_LEVEL = float(norm.cdf(GAIN_SE))
+GAIN_LEVEL = 0.5 * (1.0 + math.erf(GAIN_SE / math.sqrt(2.0)))  # the normal's cdf at 2
 GAIN_POINTS = 2.0
 
 
@@ -425,6 +423,8 @@ def gain_quantile(n: int) -> float:
     >>> round(gain_quantile(2), 2), round(gain_quantile(6), 2), round(gain_quantile(10), 2)
     (13.97, 2.65, 2.32)
     """
+    from scipy.stats import t as student_t  # scipy.stats stays out of the stages' imports
+
     if n < 2:
         raise ValueError(f"gain_quantile: n = {n} held-out runs, expected at least 2")
     return float(student_t.ppf(GAIN_LEVEL, n - 1))
