@@ -190,9 +190,10 @@ def test_ideal_valve_limit_gives_one_curve_for_every_modulator():
     """With t_on, t_off -> 0 all modulators share alpha1 = 1 - xi, alpha2 = xi (Section 4.2)."""
     fast = ValveParams(t_on=1e-12, t_off=1e-12)
     ideal = equilibrium_pressure(1 - XI, XI, fast)
-    for kind, s in SELECTED:
-        if s.get("gain", 1.0) == 1.0:
-            np.testing.assert_allclose(equilibrium(kind, XI, fast, **s), ideal, atol=1e-9)
+    unit_gain = [(kind, s) for kind, s in SELECTED if s.get("gain", 1.0) == 1.0]
+    assert len(unit_gain) == 4, "all selected settings but iipfm with gain 1.15 have unit gain"
+    for kind, s in unit_gain:
+        np.testing.assert_allclose(equilibrium(kind, XI, fast, **s), ideal, atol=1e-9)
 
 
 # ---- time constant (Eq. 9) and chattering (Eq. 10) -------------------------------------

@@ -259,10 +259,11 @@ def test_a_declared_rule_wins_and_an_undecided_one_is_one_sided() -> None:
 def test_no_estimate_lies_outside_its_own_bounds(arduino) -> None:
     runs = {rid: t.assign(valve=int(rid.startswith("charge"))) for rid, t in arduino.items()}
     res = identify_with_config(runs, _kinds(runs), {"identification": {"max_delay": 0.05}})
-    for name in ("c1", "k2", "tau2", "t_on", "t_off"):
+    bounded = [n for n in ("c1", "k2", "tau2", "t_on", "t_off") if getattr(res, n).lo is not None]
+    assert bounded == ["c1", "k2", "tau2", "t_on", "t_off"], "every estimate has its bounds"
+    for name in bounded:
         est = getattr(res, name)
-        if est.lo is not None:
-            assert est.lo <= est.value <= est.hi, (name, est)
+        assert est.lo <= est.value <= est.hi, (name, est)
     assert res.t_on.hi <= 0.05 and res.t_off.hi <= 0.05
     assert not math.isnan(res.k2.value)
 

@@ -149,7 +149,9 @@ def test_pressure_unit_limits_and_a_spike() -> None:
 
 
 def test_kind_of_the_identification_runs() -> None:
-    for spec in identification_runs(EXAMPLE_PARAMS, DT, repeats=1):
+    specs = identification_runs(EXAMPLE_PARAMS, DT, repeats=1)
+    assert {s.kind for s in specs} > {"pulse"}, "runs other than pulses are checked without valve"
+    for spec in specs:
         run = _simulated(spec)
         g = guess_kind(run["t"], run["p"], run["valve"])
         assert g.value == spec.kind, g.reason

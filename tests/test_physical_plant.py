@@ -243,12 +243,17 @@ def test_random_plants_draw_balloons_and_every_effect():
         share = np.mean([getattr(p, name) > 0 for p in plants])
         assert share == pytest.approx(0.35, abs=0.08), name
     assert all(p.polytropic == 1.4 for p in plants if p.heat_tau > 0)
-    # the base draw is kept: the same generator state gives the same base plant
-    a, b = np.random.default_rng(5), np.random.default_rng(5)
-    base = random_plant(a, full=False)
-    full = random_plant(b)
-    if full.supply >= 0.5:
-        assert full.c_supply == base.c_supply and full.t_open == base.t_open
+    # the base draw is kept: the same generator state gives the same base plant, unless
+    # the draw made it a balloon (no sag, no hum)
+    kept = 0
+    for seed in range(10):
+        base = random_plant(np.random.default_rng(seed), full=False)
+        full = random_plant(np.random.default_rng(seed))
+        if full.droop == 0.0 and full.mains == 0.0:
+            continue
+        assert full.c_supply == base.c_supply and full.t_open == base.t_open, seed
+        kept += 1
+    assert kept >= 5, "most of ten draws are not balloons"
 
 
 EFFECTS = PhysicalPlant(

@@ -315,10 +315,11 @@ def test_setting_styles_take_each_kinds_colour_and_tell_its_settings_apart():
     labels = ["lpwm-49Hz", "iipfm-20ms-G1.15", "pwm-20Hz", "iipfm-20ms", "lpwm-20Hz", "dsm-20ms"]
     styles = setting_styles(labels)
     assert list(styles) == ordered_settings(labels)
-    for kind in MODULATOR_ORDER:  # the first setting of a kind: the colour its module declares
-        first = next((s for lab, s in styles.items() if lab.startswith(f"{kind}-")), None)
-        if first is not None:
-            assert first["color"] == get_kind(kind).colour.lower()
+    kinds = [k for k in MODULATOR_ORDER if any(lab.startswith(f"{k}-") for lab in labels)]
+    assert kinds == ["pwm", "iipfm", "dsm", "lpwm"], "the labels take four kinds of the order"
+    for kind in kinds:  # the first setting of a kind: the colour its module declares
+        first = next(s for lab, s in styles.items() if lab.startswith(f"{kind}-"))
+        assert first["color"] == get_kind(kind).colour.lower()
     pairs = [(s["color"], s["marker"]) for s in styles.values()]
     assert len(set(pairs)) == len(pairs)
     assert styles["iipfm-20ms"]["marker"] != styles["iipfm-20ms-G1.15"]["marker"]

@@ -46,6 +46,9 @@ def test_the_jobs_run_their_stages_in_the_tables_order() -> None:
 
 def test_every_declared_function_script_and_config_section_exists() -> None:
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text(encoding="utf-8"))
+    assert all(any(getattr(s, a) for s in STAGES) for a in ("function", "job", "config")), (
+        "some stages declare a function, a job and a config section"
+    )
     for stage in STAGES:
         if stage.function:
             module, _, name = stage.function.rpartition(".")

@@ -156,9 +156,10 @@ def test_shipped_example_is_what_the_documented_command_makes(tmp_path):
     shipped = Path(__file__).resolve().parents[1] / "raw" / "example"
     names = sorted(p.name for p in shipped.iterdir())
     assert names == sorted(p.name for p in (tmp_path / "example").iterdir())
-    for name in names:
-        if name.endswith((".csv", ".yaml")):  # text: exact; binary formats carry writer versions
-            assert (shipped / name).read_bytes() == (tmp_path / "example" / name).read_bytes(), name
+    text = [name for name in names if name.endswith((".csv", ".yaml"))]
+    assert "dataset.yaml" in text and any(n.endswith(".csv") for n in text), text
+    for name in text:  # text: exact; binary formats carry writer versions
+        assert (shipped / name).read_bytes() == (tmp_path / "example" / name).read_bytes(), name
 
 
 @pytest.mark.parametrize(

@@ -366,13 +366,16 @@ def test_nominal_table2_done_when(table2):
 
 
 def test_j_exact_column_is_the_exact_cost_at_the_optimum(example_table2):
+    usable = 0
     for kind, row in example_table2.iterrows():
         value = row["optimum"] * (1.0 if kind == "pwm" else 1e-3)
         assert row["J_exact"] == pytest.approx(
             float(linearity_cost(kind, value, EXAMPLE, exact=True)), rel=1e-12
         )
         if setting_metrics(kind, value, EXAMPLE)["chattering"] <= 0.05:  # J's optimum is usable
+            usable += 1
             assert row["J_exact_min"] <= row["J_exact"]
+    assert usable > 0, "J's optimum is usable for some kinds of the example"
 
 
 def _seconds(kind: str, shown: float) -> float:

@@ -410,6 +410,8 @@ def test_figures_setting_draws_for_the_named_datasets_only(small_run, isolated_c
     pattern = r"^rule (\w+):\n(?:    .*\n)*?    wildcards: dataset=(\w+)"
     assert re.findall(pattern, plan.stdout, re.M) == [("analyse", "example")], plan.stdout
     assert run(*args, "figures=[example]").returncode == 0
+    drawn = [rel for rel in with_figures if rel.startswith("example/") and rel.endswith(".png")]
+    assert drawn, "the full run drew example's figures"
     for rel, data in with_figures.items():
         if rel.startswith("example/") and rel.endswith((".png", ".svg")):
             assert (out / rel).read_bytes() == data, rel  # the same figures as a full run
