@@ -68,6 +68,11 @@ def _unseen_kept(arm: str, part: str) -> str:
     return f"{int(g[f'{part}_kept'].sum())} of {int(g[f'{part}_n'].sum())}"
 
 
+def _unseen_overlap(name: str) -> str:
+    g = _unseen("same")
+    return f"{int(g[f'{name}_overlap'].sum())} of {len(g)}"
+
+
 def _unseen_levels() -> str:
     g = _unseen("same")
     return f"{int((g['promise_levels'] >= 3).sum())} of {len(g)}"
@@ -103,6 +108,10 @@ FIGURES: dict[str, Callable[[], str]] = {
         for part in ("recommendation", "promise")
     },
     "unseen.promise_three_levels": _unseen_levels,
+    **{
+        f"unseen.{n}_overlap": (lambda n=n: _unseen_overlap(n))
+        for n in ("c1", "k2", "tau2", "t_on", "t_off")
+    },
 }
 
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import io
+import json
 import subprocess
 import tempfile
 import time
@@ -191,9 +192,34 @@ def round_trip(
         vfolder = root / f"{safe}-verify-{tag.replace(' ', '').replace('%', '')}"
         frame = verify_on(vfolder, results, on, limits.p_max, noise_sd=sd).frame
         lines.append(f"  on the {tag} plant: " + "; ".join(kept_parts(frame)))
+        again = session_agreement(vfolder, identified) if tag == "same" else {}
+        if again:
+            said = [f"{n} {'overlaps' if again[n + '_overlap'] else 'DISJOINT'}" for n in NAMES]
+            lines.append("  the verification session's own intervals: " + ", ".join(said))
         if rows is not None:
-            rows.append(summary_row(name, what, identified, promise, tag, frame))
+            rows.append({**summary_row(name, what, identified, promise, tag, frame), **again})
     return lines
+
+
+#: The identified parameters whose intervals two sessions of one plant should share.
+NAMES = ("c1", "k2", "tau2", "t_on", "t_off")
+
+
+def session_agreement(folder: Path, identified: dict) -> dict:
+    """The verification session ``folder`` identified on its own (``spa identify --json``,
+    the full configuration) against the full session's ``identified``: each parameter's
+    interval and whether the two overlap (the overview flags a change where they do not,
+    ``spa.report.overview.interval_changes``); empty when it does not identify."""
+    code, text = _cli("identify", folder, "--config", ROOT / "config" / "config.yaml", "--json")
+    if code != 0:
+        return {}
+    again = json.loads(text)
+    out: dict = {}
+    for n in NAMES:
+        a, b = identified[n], again[n]
+        out[f"verify_{n}_lo"], out[f"verify_{n}_hi"] = float(b["lo"]), float(b["hi"])
+        out[f"{n}_overlap"] = bool(b["lo"] <= a["hi"] and a["lo"] <= b["hi"])
+    return out
 
 
 def summary_row(name, what, identified, promise, tag, frame) -> dict:
