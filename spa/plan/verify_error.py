@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -287,6 +287,39 @@ def recorded_model_error(
 RIPPLE_MIN_LEVELS = 3
 
 
+def _setting_staircases(
+    runs: Mapping[str, pd.DataFrame],
+    metas: Mapping[str, Mapping[str, Any]],
+    params: ValveParams,
+    setting: str,
+) -> Iterator[tuple[str, Any, tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]]]:
+    """The recorded open-loop staircases of ``setting``, in run order: each run's id, its
+    modulator, and its pressure, valve command, input fraction, logging step and the
+    identified valve's replay of that command (runs without ``t``, ``p``, ``valve`` and ``u``,
+    or under 8 samples, are passed over)."""
+    from spa.model.modulators import Modulator
+    from spa.model.plant import simulate
+
+    for rid in sorted(runs):
+        meta = metas.get(rid) or {}
+        mod = meta.get("modulator")
+        if meta.get("kind") != "staircase" or not isinstance(mod, Mapping):
+            continue
+        modulator = Modulator.from_mapping(dict(mod))
+        if modulator.label != setting:
+            continue
+        run = runs[rid]
+        if not {"t", "p", "valve", "u"} <= set(run.columns) or len(run) < 8:
+            continue
+        t = run["t"].to_numpy(np.float64)
+        p = run["p"].to_numpy(np.float64)
+        valve = run["valve"].to_numpy(np.int8)
+        u = run["u"].to_numpy(np.float64)
+        dt = float(np.median(np.diff(t)))
+        model = simulate(valve, dt, params, p0=max(float(p[0]), 0.0))
+        yield rid, modulator, (p, valve, u, dt, model)
+
+
 def ripple_error(
     runs: Mapping[str, pd.DataFrame],
     metas: Mapping[str, Mapping[str, Any]],
@@ -337,28 +370,11 @@ def ripple_error(
     >>> err["n"], round(err["factor"], 3)
     (3, 1.2)
     """
-    from spa.model.modulators import Modulator
-    from spa.model.plant import simulate
 
     rng = np.random.default_rng(seed)
     logs: list[float] = []
     used: list[str] = []
-    for rid in sorted(runs):
-        meta = metas.get(rid) or {}
-        mod = meta.get("modulator")
-        if meta.get("kind") != "staircase" or not isinstance(mod, Mapping):
-            continue
-        if Modulator.from_mapping(dict(mod)).label != setting:
-            continue
-        run = runs[rid]
-        if not {"t", "p", "valve", "u"} <= set(run.columns) or len(run) < 8:
-            continue
-        t = run["t"].to_numpy(np.float64)
-        p = run["p"].to_numpy(np.float64)
-        valve = run["valve"].to_numpy(np.int8)
-        u = run["u"].to_numpy(np.float64)
-        dt = float(np.median(np.diff(t)))
-        model = simulate(valve, dt, params, p0=max(float(p[0]), 0.0))
+    for rid, _, (p, valve, u, _, model) in _setting_staircases(runs, metas, params, setting):
         starts = np.concatenate(([0], np.flatnonzero(u[1:] != u[:-1]) + 1, [u.size]))
         for a, b in itertools.pairwise(starts):
             q = slice(b - (b - a) // 4, b)
@@ -457,30 +473,13 @@ def settling_error(
     (4, True)
     """
     from spa.closedloop.design import MAX_PERIOD
-    from spa.model.modulators import Modulator, get_kind
+    from spa.model.modulators import get_kind
     from spa.model.modulators.core import settings_arrays
-    from spa.model.plant import simulate
 
     rng = np.random.default_rng(seed)
     logs: list[float] = []
     used: list[str] = []
-    for rid in sorted(runs):
-        meta = metas.get(rid) or {}
-        mod = meta.get("modulator")
-        if meta.get("kind") != "staircase" or not isinstance(mod, Mapping):
-            continue
-        modulator = Modulator.from_mapping(dict(mod))
-        if modulator.label != setting:
-            continue
-        run = runs[rid]
-        if not {"t", "p", "valve", "u"} <= set(run.columns) or len(run) < 8:
-            continue
-        t = run["t"].to_numpy(np.float64)
-        p = run["p"].to_numpy(np.float64)
-        valve = run["valve"].to_numpy(np.int8)
-        u = run["u"].to_numpy(np.float64)
-        dt = float(np.median(np.diff(t)))
-        model = simulate(valve, dt, params, p0=max(float(p[0]), 0.0))
+    for rid, modulator, (p, _, u, dt, model) in _setting_staircases(runs, metas, params, setting):
         if noise > 0:
             model = model + rng.normal(0.0, noise, model.size)
         if quantum > 0:
