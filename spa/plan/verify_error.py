@@ -320,6 +320,20 @@ def _setting_staircases(
         yield rid, modulator, (p, valve, u, dt, model)
 
 
+def _log_ratios(logs: Sequence[float], used: Sequence[str]) -> dict[str, Any]:
+    """A measure's model error as :func:`spa.plan.loop_bands.with_model_error` takes it:
+    ``n`` and ``runs``, and with at least :data:`RIPPLE_MIN_LEVELS` log ratios their
+    geometric mean ``factor``, ``log_sd`` and ``dof``."""
+    out: dict[str, Any] = {"n": len(logs), "runs": list(used)}
+    if len(logs) >= RIPPLE_MIN_LEVELS:
+        out.update(
+            factor=float(math.exp(np.mean(logs))),
+            log_sd=float(np.std(logs, ddof=1)),
+            dof=float(len(logs) - 1),
+        )
+    return out
+
+
 def ripple_error(
     runs: Mapping[str, pd.DataFrame],
     metas: Mapping[str, Mapping[str, Any]],
@@ -387,14 +401,7 @@ def ripple_error(
             if measured > 0 and replayed > 0:
                 logs.append(math.log(measured / replayed))
         used.append(rid)
-    out: dict[str, Any] = {"n": len(logs), "runs": used}
-    if len(logs) >= RIPPLE_MIN_LEVELS:
-        out.update(
-            factor=float(math.exp(np.mean(logs))),
-            log_sd=float(np.std(logs, ddof=1)),
-            dof=float(len(logs) - 1),
-        )
-    return out
+    return _log_ratios(logs, used)
 
 
 def _open_settling(y: np.ndarray, a0: int, a: int, b: int, window: int, dt: float) -> float:
@@ -502,11 +509,4 @@ def settling_error(
             if measured > 0 and replayed > 0:  # NaN fails both
                 logs.append(math.log(measured / replayed))
         used.append(rid)
-    out: dict[str, Any] = {"n": len(logs), "runs": used}
-    if len(logs) >= RIPPLE_MIN_LEVELS:
-        out.update(
-            factor=float(math.exp(np.mean(logs))),
-            log_sd=float(np.std(logs, ddof=1)),
-            dof=float(len(logs) - 1),
-        )
-    return out
+    return _log_ratios(logs, used)
