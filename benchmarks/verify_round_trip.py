@@ -345,7 +345,8 @@ def run() -> None:
     ap.add_argument(
         "--drifts",
         default=DRIFTS[0],
-        help=f"comma-separated drifts verified besides the same plant, of: {', '.join(DRIFTS)}",
+        help="comma-separated drifts verified besides the same plant, of: "
+        + ", ".join(DRIFTS).replace("%", "%%"),
     )
     args = ap.parse_args()
     rows: list = []

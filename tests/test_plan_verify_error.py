@@ -216,7 +216,7 @@ def _ripple_run(scale: float, shift: float = 0.0, f_w: float = 20.0):
 
 
 def test_the_ripple_error_is_the_ratio_of_recorded_to_replayed_ripple():
-    from spa.plan.verify_error import ripple_error
+    from spa.plan.loop_error import ripple_error
 
     run, meta = _ripple_run(0.7)
     err = ripple_error({"s": run}, {"s": meta}, FAST, "pwm-20Hz")
@@ -230,7 +230,7 @@ def test_the_ripple_error_is_the_ratio_of_recorded_to_replayed_ripple():
 
 
 def test_the_ripple_error_is_measured_on_the_loops_own_setting_only():
-    from spa.plan.verify_error import RIPPLE_MIN_LEVELS, ripple_error
+    from spa.plan.loop_error import RIPPLE_MIN_LEVELS, ripple_error
 
     run, meta = _ripple_run(0.7, f_w=10.0)
     err = ripple_error({"s": run}, {"s": meta}, FAST, "pwm-20Hz")
@@ -271,7 +271,7 @@ def _settling_run(slower: float, f_w: float = 20.0):
 
 
 def test_the_settling_error_is_the_ratio_of_recorded_to_replayed_settling():
-    from spa.plan.verify_error import settling_error
+    from spa.plan.loop_error import settling_error
 
     run, meta = _settling_run(1.0)
     same = settling_error({"s": run}, {"s": meta}, NOMINAL, "pwm-20Hz", noise=0.003, seed=1)
@@ -286,7 +286,7 @@ def test_the_settling_error_is_the_ratio_of_recorded_to_replayed_settling():
 
 
 def test_a_step_within_the_noise_or_unsettled_is_not_compared():
-    from spa.plan.verify_error import settling_error
+    from spa.plan.loop_error import settling_error
 
     run, meta = _settling_run(1.0)
     # levels that barely move: every step under min_step of the range but the largest

@@ -18,19 +18,27 @@ ripples fell one step under a band that ended between two steps).
 
 The model's level errors are not in these bands: a closed loop rejects them. Its ripple is
 not rejected: where the dataset recorded the loop's setting open loop, the model's error on
-those staircases' ripple (:func:`spa.plan.verify_error.ripple_error`, measured against the
+those staircases' ripple (:func:`spa.plan.loop_error.ripple_error`, measured against the
 replay with the same noise and ADC step) scales the ripple's prediction and widens its band
 (:func:`with_model_error`); on an unchanged physical plant the ripple had read 10-30 %
 under the model's. Nor is its response time: the model's error on the time those open-loop
-steps take to settle within 2 % (:func:`spa.plan.verify_error.settling_error`) scales and
+steps take to settle within 2 % (:func:`spa.plan.loop_error.settling_error`) scales and
 widens the settling time's band alike (an unchanged physical finger settled 1.06-1.19 s
 closed loop against a band of 0.82-0.98 s from the draws alone). A settling time is
 predicted only when at most one draw in twenty fails to settle within 2 % of its step by
 the end of a level.
+
+Nor is the command that holds a level: a closed loop's integral finds the duty that holds
+its set-point on the plant it runs on, so a supply 20 % lower keeps the loop's levels and
+moves its command. The duty over the highest and the lowest level's last quarter
+(:func:`level_duties`) is predicted on the identified valve and moved by the model's error
+on the duty that holds a pressure on the recorded open-loop staircases of the loop's
+setting, on the log-odds scale (:func:`spa.plan.loop_error.duty_error`).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -41,7 +49,15 @@ from scipy import stats
 
 from spa.model.params import ValveParams
 
-__all__ = ["LOOP_DRAWS", "MEASURES", "loop_predictions", "measure_loop_run", "with_model_error"]
+__all__ = [
+    "DUTIES",
+    "LOOP_DRAWS",
+    "MEASURES",
+    "level_duties",
+    "loop_predictions",
+    "measure_loop_run",
+    "with_model_error",
+]
 
 #: Valves (each with its noise) the closed-loop staircase is simulated on.
 LOOP_DRAWS = 48
@@ -51,7 +67,48 @@ MEASURES = {
     "overshoot": ("%", "the worst step's overshoot of the cycle-mean pressure"),
     "settling_time": ("s", "the worst step's settling time within 2 %, past the sensor's share"),
     "ripple_pp": ("bar", "the worst step's peak-to-peak logged pressure over its last quarter"),
+    "duty_top": ("fraction", "the valve command's mean over the highest level's last quarter"),
+    "duty_bottom": ("fraction", "the valve command's mean over the lowest level's last quarter"),
 }
+
+#: The measures that are the command holding a level: predicted only with the model's error
+#: on it measured (:func:`spa.plan.loop_error.duty_error`).
+DUTIES = ("duty_top", "duty_bottom")
+
+
+def level_duties(run: pd.DataFrame, lead: float) -> tuple[float, float]:
+    """The valve command's mean (``valve``, 0/1) over the last quarter of the highest and of
+    the lowest set-point's steps (``r``) of a closed-loop staircase, a quarter of the lead's
+    length (one hold), past the ``lead`` s at the first level; NaN without a ``valve``
+    column.
+
+    Examples
+    --------
+    >>> r = np.repeat([0.2, 0.2, 0.4, 0.2], 16)  # a lead of 16 samples, then 0.2, 0.4, 0.2
+    >>> valve = np.where(r > 0.3, np.tile([1, 1, 1, 0], 16), np.tile([1, 0, 0, 0], 16))
+    >>> run = pd.DataFrame({"t": np.arange(64) * 0.1, "r": r, "valve": valve})
+    >>> level_duties(run, 1.6)
+    (0.75, 0.25)
+    """
+    if "valve" not in run:
+        return math.nan, math.nan
+    r = run["r"].to_numpy(np.float64)
+    valve = run["valve"].to_numpy(np.float64)
+    t = run["t"].to_numpy(np.float64)
+    dt = float(t[1] - t[0]) if t.size > 1 else 1.0
+    quarter = max(round(float(lead) / dt) // 4, 1)
+    starts = np.concatenate(([0], np.flatnonzero(r[1:] != r[:-1]) + 1, [r.size]))
+    start = int(np.searchsorted(t, float(lead) - 1e-9 * dt))
+    out = []
+    for level in (float(np.max(r)), float(np.min(r))):
+        picked = [
+            valve[max(b - quarter, a, start) : b]
+            for a, b in itertools.pairwise(starts)
+            if r[a] == level and b > start
+        ]
+        picked = [x for x in picked if x.size]
+        out.append(float(np.mean(np.concatenate(picked))) if picked else math.nan)
+    return out[0], out[1]
 
 
 def measure_loop_run(
@@ -76,10 +133,13 @@ def measure_loop_run(
     first = float(run["r"].iloc[0])
     _, summary = measure_staircase(run, periods, r_initial=first, skip=lead)
     settle = max(settling_times(run, periods, first, lead), default=0.0)
+    top, bottom = level_duties(run, lead)
     return {
         "overshoot": float(summary["worst_overshoot"]),
         "settling_time": float(settle),
         "ripple_pp": float(summary["worst_ripple_pp"]),
+        "duty_top": top,
+        "duty_bottom": bottom,
     }
 
 
@@ -130,7 +190,12 @@ def loop_predictions(
         ``ripple_pp``'s band is wider by ``pad``, half the ADC step, at each end (a logged
         peak-to-peak is a whole number of steps: the continuity correction);
         ``settling_time`` only when at most one draw in twenty left a step unsettled, else
-        ``unsettled`` (the share that did).
+        ``unsettled`` (the share that did). The duties (:data:`DUTIES`) are predicted on the
+        identified valve itself, ``draws // 3`` runs each with its own noise (``draws`` says
+        so): the parameters' uncertainty moves them by what the dataset's recorded levels
+        measure directly (:func:`spa.plan.loop_error.duty_error`, added by
+        :func:`with_model_error`), and the box's draws would count it twice (on an unseen
+        physical plant their spread was 0.047 of duty against a recorded error of 0.004).
 
     Examples
     --------
@@ -155,8 +220,8 @@ def loop_predictions(
     valves = parameter_draws(params, intervals, n=draws, seed=seed, correlation=correlation)
     valves = valves or [params] * max(int(draws), 2)
     rng = np.random.default_rng(seed + 7)
-    rows = []
-    for valve in valves:
+
+    def measured(valve: ValveParams) -> dict[str, float]:
         reading = rng.normal(0.0, noise, r.size) if noise > 0 else None
         p, _, u = closed_loop_arrays(
             r,
@@ -172,18 +237,25 @@ def loop_predictions(
         if quantum > 0.0:
             logged = np.round(logged / quantum) * quantum
         run = pd.DataFrame({"t": t, "p": logged, "r": r, "valve": u})
-        rows.append(measure_loop_run(run, setting, params, lead))
-    table = pd.DataFrame(rows)
-    n = len(table)
-    widen = float(stats.t.ppf(0.975, max(n - 1, 1))) * math.sqrt(1.0 + 1.0 / n)
+        return measure_loop_run(run, setting, params, lead)
+
+    table = pd.DataFrame([measured(valve) for valve in valves])
+    # the duties on the identified valve itself, each run with its own noise: the recorded
+    # levels measure what the parameters' uncertainty moves them by (loop_error.duty_error)
+    nominal = pd.DataFrame([measured(params) for _ in range(max(int(draws) // 3, 2))])
     out: dict[str, dict[str, Any]] = {}
     for key, (unit, _) in MEASURES.items():
-        values = table[key].to_numpy(np.float64)
+        values = (nominal if key in DUTIES else table)[key].to_numpy(np.float64)
         unsettled = float(np.mean(~np.isfinite(values)))
         if key == "settling_time" and unsettled > 0.05:
             out[key] = {"unsettled": unsettled, "unit": unit}
             continue
         values = values[np.isfinite(values)]
+        n = values.size
+        if n < 2:
+            out[key] = {"unmeasured": True, "unit": unit}
+            continue
+        widen = float(stats.t.ppf(0.975, n - 1)) * math.sqrt(1.0 + 1.0 / n)
         mean, sd = float(np.mean(values)), float(np.std(values, ddof=1))
         # a logged peak-to-peak is a whole number of ADC steps: the band of a discrete
         # measure takes half a step at each end (the continuity correction)
@@ -191,24 +263,28 @@ def loop_predictions(
         out[key] = {
             "value": mean,
             "sd": sd,
-            "dof": float(max(n - 1, 1)),
+            "dof": float(n - 1),
             "scale": math.sqrt(1.0 + 1.0 / n),
             "lo": max(mean - widen * sd - pad, 0.0),
             "hi": mean + widen * sd + pad,
             "unit": unit,
             **({"pad": pad} if pad else {}),
+            **({"draws": "the identified valve, noise only"} if key in DUTIES else {}),
         }
     return out
 
 
 def with_model_error(band: Mapping[str, Any], error: Mapping[str, Any]) -> dict[str, Any]:
     """A loop measure's band with the model's error on the same measure of the recorded
-    open-loop staircases of the same setting, a log ratio (the ripple's,
-    :func:`spa.plan.verify_error.ripple_error`; the settling time's,
-    :func:`spa.plan.verify_error.settling_error`): the prediction times its
-    ``factor``, and the band's standard deviation the draws' (times ``factor``) and the log
-    ratios' spread for one more level (``factor * value * log_sd * sqrt(1 + 1/n)``) in
-    quadrature, with Welch–Satterthwaite's degrees of freedom. ``band`` unchanged (but for
+    open-loop staircases of the same setting (:mod:`spa.plan.loop_error`).
+
+    The error is a log ratio (the ripple's and the settling time's: ``factor`` and
+    ``log_sd``) or, for a duty, a log-odds difference (``shift`` and ``logit_sd``). The
+    prediction moves by its mean on that scale (times ``factor``; the duty's log-odds plus
+    ``shift``), and the band's standard deviation is the draws' (carried to the moved value
+    on the same scale) and the errors' spread for one more level (``spread * sqrt(1 + 1/n)``
+    on that scale, carried back by its slope) in quadrature, with Welch–Satterthwaite's
+    degrees of freedom; a duty's band ends within 0 and 1. ``band`` unchanged (but for
     ``model_error`` saying so) when fewer than three levels measured the error, or when it
     has no standard deviation (a promise's own worst case, not a prediction).
 
@@ -221,16 +297,32 @@ def with_model_error(band: Mapping[str, Any], error: Mapping[str, Any]) -> dict[
     (0.024, True)
     >>> with_model_error(band, {"n": 1})["value"]
     0.03
+    >>> duty = {"value": 0.5, "sd": 0.01, "dof": 47.0, "scale": 1.0, "lo": 0.48, "hi": 0.52,
+    ...         "unit": "fraction"}
+    >>> out = with_model_error(duty, {"n": 8, "shift": math.log(3.0), "logit_sd": 0.05,
+    ...                               "dof": 7.0})
+    >>> round(out["value"], 4), out["lo"] < 0.75 < out["hi"] <= 1.0
+    (0.75, True)
     """
     out = dict(band)
-    if "factor" not in error or "value" not in band or "sd" not in band:
+    odds = "shift" in error
+    if not ("factor" in error or odds) or "value" not in band or "sd" not in band:
         # too few levels measured the error, or a promise's own number (no draws to widen)
         out["model_error"] = {"n": int(error.get("n", 0)), "applied": False}
         return out
-    f, n = float(error["factor"]), int(error["n"])
-    value = f * float(band["value"])
-    draws = f * float(band["sd"]) * float(band.get("scale", 1.0))
-    model = value * float(error["log_sd"]) * math.sqrt(1.0 + 1.0 / n)
+    n, v = int(error["n"]), float(band["value"])
+    draws = float(band["sd"]) * float(band.get("scale", 1.0))
+    if odds:
+        v = min(max(v, 1e-6), 1.0 - 1e-6)
+        value = 1.0 / (1.0 + math.exp(-(math.log(v / (1.0 - v)) + float(error["shift"]))))
+        slope = value * (1.0 - value)  # d value / d log-odds
+        draws *= slope / (v * (1.0 - v))
+        spread, noted = float(error["logit_sd"]), {"shift": float(error["shift"])}
+    else:
+        f = float(error["factor"])
+        value, slope, draws = f * v, f * v, f * draws
+        spread, noted = float(error["log_sd"]), {"factor": f}
+    model = slope * spread * math.sqrt(1.0 + 1.0 / n)
     sd = math.hypot(draws, model)
     parts = (draws**4 / float(band["dof"]) if draws > 0 else 0.0) + (
         model**4 / float(error["dof"]) if model > 0 else 0.0
@@ -244,11 +336,11 @@ def with_model_error(band: Mapping[str, Any], error: Mapping[str, Any]) -> dict[
         dof=dof,
         scale=1.0,
         lo=max(value - half - pad, 0.0),
-        hi=value + half + pad,
+        hi=min(value + half + pad, 1.0) if odds else value + half + pad,
         model_error={
             "n": n,
-            "factor": f,
-            "log_sd": float(error["log_sd"]),
+            **noted,
+            ("logit_sd" if odds else "log_sd"): spread,
             "applied": True,
         },
     )

@@ -62,6 +62,8 @@ def compare_promise(
         "overshoot": ("worst overshoot %", "points", 1.0),
         "settling_time": ("worst settling time s", "s", 1.0),
         "ripple_pp": ("worst ripple bar pp", "mbar", 1e3),
+        "duty_top": ("command holding the top level (open fraction)", "points", 1e2),
+        "duty_bottom": ("command holding the bottom level (open fraction)", "points", 1e2),
     }
     rows = []
     for key, band in prediction.items():
@@ -289,7 +291,8 @@ def session_verdict(frame: pd.DataFrame, level: float | None = None) -> str:
 #: The page's parts: what each compares.
 PARTS = {
     "recommendation": "Recommendation: the recommended setting's levels and FIT",
-    "promise": "Promise: the closed loop's overshoot, settling and ripple",
+    "promise": "Promise: the closed loop's overshoot, settling, ripple and the command holding "
+    "its levels",
 }
 
 

@@ -433,28 +433,45 @@ def _loop_verification(
 def _ripple_model_error(
     loop: dict[str, Any], results: Path, params: Any, noise: float, quantum: float, seed: int
 ) -> None:
-    """The promise's ripple and settling-time bands with the model's error on the dataset's
-    open-loop staircases of the loop's own setting (:func:`spa.plan.loop_bands.with_model_error`
-    of :func:`spa.plan.verify_error.ripple_error` and of
-    :func:`spa.plan.verify_error.settling_error`), in place; nothing without those bands or
-    run tables."""
+    """The promise's ripple, settling-time and duty bands with the model's error on the
+    dataset's open-loop staircases of the loop's own setting
+    (:func:`spa.plan.loop_bands.with_model_error` of :mod:`spa.plan.loop_error`'s
+    measures), in place. A duty is predicted only with its error measured, and within
+    :data:`spa.plan.loop_error.DUTY_RANGE`: the bands alone hold the identification's
+    uncertainty, not the plant's own conductances, which a closed loop's command shows and
+    its levels hide. Nothing else changes without those bands or run tables."""
     from spa.model.modulators import Modulator
-    from spa.plan.loop_bands import with_model_error
-    from spa.plan.verify_error import ripple_error, settling_error
+    from spa.plan.loop_bands import DUTIES, with_model_error
+    from spa.plan.loop_error import DUTY_RANGE, duty_error, ripple_error, settling_error
 
     bands = loop.get("bands") or {}
     folder = results / "runs"
     measures = {"ripple_pp": ripple_error, "settling_time": settling_error}
-    if not set(measures) & set(bands) or not folder.is_dir() or not any(folder.glob("*.parquet")):
-        return
-    from spa.datasets import read_runs
+    measures.update({name: duty_error for name in DUTIES})
+    errors: dict[str, Any] = {}
+    if set(measures) & set(bands) and folder.is_dir() and any(folder.glob("*.parquet")):
+        from spa.datasets import read_runs
 
-    runs, metas = read_runs(folder)
-    label = Modulator.from_mapping(loop["setting"]).label
-    for name, measure in measures.items():
-        if name in bands:
-            error = measure(runs, metas, params, label, noise, quantum, seed)
-            bands[name] = with_model_error(bands[name], error)
+        runs, metas = read_runs(folder)
+        label = Modulator.from_mapping(loop["setting"]).label
+        for name, measure in measures.items():
+            if name in bands:
+                if measure not in errors:
+                    errors[measure] = measure(runs, metas, params, label, noise, quantum, seed)
+                bands[name] = with_model_error(bands[name], errors[measure])
+    lo, hi = DUTY_RANGE
+    for name in DUTIES:
+        band = bands.get(name)
+        if band is None:
+            continue
+        if not (band.get("model_error") or {}).get("applied"):
+            why = "the model's error on the command was not measured on 3 recorded levels"
+        elif not lo < float(band["value"]) < hi:
+            why = f"the level is held with the valve's command outside {lo:g}-{hi:g}"
+        else:
+            continue
+        loop.setdefault("unpredicted", {})[name] = {"why": why, "unit": band.get("unit")}
+        del bands[name]
 
 
 def _settling_allowance(
