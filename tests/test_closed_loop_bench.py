@@ -179,7 +179,7 @@ def test_table_csv_holds_the_box_worst_case_and_the_disturbances(staged):
 
 
 ONE = {
-    "levels": [0.2, 0.5],
+    "levels": [0.2, 0.4, 0.6],
     "step_hold": 1.0,
     "sine": {"offset": 0.35, "amplitude": 0.1, "frequency": 0.5, "duration": 3.0, "skip": 1.0},
 }

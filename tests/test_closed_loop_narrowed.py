@@ -71,7 +71,8 @@ def test_without_bands_the_box_is_unchanged():
 
 
 CFG = {
-    "levels": [0.1, 0.4, 0.7],
+    # from 0.4 bar up, two of them: the promise puts their midpoint between (three levels)
+    "levels": [0.1, 0.2, 0.4, 0.6],
     "step_hold": 1.0,
     "sine": {"offset": 0.4, "amplitude": 0.1, "frequency": 0.5, "duration": 4.0, "skip": 1.0},
 }
@@ -84,7 +85,7 @@ def test_a_promise_from_a_set_point_up_leaves_the_lower_ones_out_and_says_so():
     below = {"lowest": 0.4, "laws_envelope": {"charge": 1.2, "exhaust": 3.0}}
     part = bench_outputs(result, ValveParams(), None, CFG, 0.004, below=below)
     levels = part.summary["promise"]["levels"]
-    assert len(levels) >= 2 and min(levels) >= 0.4
+    assert levels == [0.4, 0.5, 0.6]
     assert part.summary["below"]["lowest"] == 0.4
     assert part.summary["promise"]["kept"], part.sentence  # the sentence below is a promise's
     assert "for set-points from 0.4 bar up" in part.sentence

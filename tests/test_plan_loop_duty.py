@@ -103,8 +103,11 @@ def test_level_duties_skip_the_lead_and_read_nan_without_a_valve_column():
     valve = np.where(r > 0.3, 1, np.tile([1, 1, 0, 0], 16))
     valve[:16] = 0  # the lead: not read
     run = pd.DataFrame({"t": np.arange(64) * 0.1, "r": r, "valve": valve})
-    assert level_duties(run, 1.6) == (1.0, 0.5)
-    assert all(math.isnan(x) for x in level_duties(run.drop(columns="valve"), 1.6))
+    got = level_duties(run, 1.6)
+    assert (got["duty_top"], got["duty_bottom"]) == (1.0, 0.5)
+    # the top level's one pulse fills its window; the bottom's pulses are 2 of 4 samples
+    assert (got["duty_top_step"], got["duty_bottom_step"]) == (1.0, 0.5)
+    assert all(math.isnan(x) for x in level_duties(run.drop(columns="valve"), 1.6).values())
 
 
 def test_a_duty_is_not_predicted_without_its_model_error(tmp_path: Path):

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from spa.closedloop.bench_text import bench_sentence, laws_envelope
-from spa.closedloop.box import PromiseBox, box_hold, box_levels, promise_levels
+from spa.closedloop.box import PromiseBox, box_hold, box_levels, promise_levels, three_levels
 from spa.closedloop.choice import MAX_OVERSHOOT
 from spa.closedloop.comparison import DEFAULTS, ClosedLoopResult
 from spa.closedloop.controller import PIController
@@ -315,7 +315,7 @@ def bench_outputs(
     own = box_levels(plants, own, top)
     stairs = promise_levels(own, params.k2, float(c["promise_step_fraction"]))
     if below is not None:
-        stairs = [v for v in stairs if v >= float(below["lowest"]) * (1.0 - 1e-9)]
+        stairs = three_levels([v for v in stairs if v >= float(below["lowest"]) * (1.0 - 1e-9)])
     rd = robust_design(
         mod,
         name,

@@ -14,7 +14,30 @@ from spa.identification.identified import corners
 from spa.model.modulators import Modulator
 from spa.model.params import ValveParams
 
-__all__ = ["PromiseBox", "box_hold", "box_levels", "laws_box_above", "promise_levels"]
+__all__ = [
+    "PromiseBox",
+    "box_hold",
+    "box_levels",
+    "laws_box_above",
+    "promise_levels",
+    "three_levels",
+]
+
+
+def three_levels(levels: list[float]) -> list[float]:
+    """``levels`` with their midpoint (3 significant digits) between them when there are two
+    (the box's reach can leave two of the levels asked for: one step up and one down checks
+    too little, issue 61); else unchanged.
+
+    Examples
+    --------
+    >>> three_levels([0.222, 0.444]), three_levels([0.2, 0.4, 0.6])
+    ([0.222, 0.333, 0.444], [0.2, 0.4, 0.6])
+    """
+    if len(levels) != 2:
+        return list(levels)
+    lo, hi = float(levels[0]), float(levels[1])
+    return [lo, float(f"{0.5 * (lo + hi):.3g}"), hi]
 
 
 def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list[float]:
@@ -22,7 +45,8 @@ def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list
     least ``step_fraction * k2``, from the lowest; the highest level is kept (it replaces
     the last kept one when that is closer than the step). Three levels are kept whenever
     three are given: when the thinning leaves two, the level nearest their midpoint goes
-    back in (a promise of one step up and one down checks too little, issue 61).
+    back in (a promise of one step up and one down checks too little, issue 61), and two
+    levels given take their midpoint between them (:func:`three_levels`).
 
     A step smaller than the loop's ripple, or than the pressure one step of the modulator's
     duty moves, is within the loop's resolution: its "overshoot" and its 2 % band measure
@@ -38,9 +62,13 @@ def promise_levels(levels: list[float], k2: float, step_fraction: float) -> list
     [0.1, 0.2, 0.3]
     >>> promise_levels([0.1, 0.15, 0.2, 0.25], 1.0, 0.2)
     [0.1, 0.15, 0.25]
+    >>> promise_levels([0.222, 0.444], 1.11, 0.2)
+    [0.222, 0.333, 0.444]
     """
     step = float(step_fraction) * float(k2)
-    if step <= 0.0 or len(levels) <= 2:
+    if len(levels) == 2:
+        return three_levels(levels)
+    if step <= 0.0 or len(levels) < 2:
         return list(levels)
     kept = [levels[0]]
     for v in levels[1:-1]:

@@ -76,11 +76,12 @@ MEASURES = {
 DUTIES = ("duty_top", "duty_bottom")
 
 
-def level_duties(run: pd.DataFrame, lead: float) -> tuple[float, float]:
+def level_duties(run: pd.DataFrame, lead: float) -> dict[str, float]:
     """The valve command's mean (``valve``, 0/1) over the last quarter of the highest and of
     the lowest set-point's steps (``r``) of a closed-loop staircase, a quarter of the lead's
-    length (one hold), past the ``lead`` s at the first level; NaN without a ``valve``
-    column.
+    length (one hold), past the ``lead`` s at the first level, and each one's step: the
+    share of that window one pulse holds (its mean on-time over the window's length; where
+    the window cuts the pulses moves the mean by up to one). NaN without a ``valve`` column.
 
     Examples
     --------
@@ -88,10 +89,14 @@ def level_duties(run: pd.DataFrame, lead: float) -> tuple[float, float]:
     >>> valve = np.where(r > 0.3, np.tile([1, 1, 1, 0], 16), np.tile([1, 0, 0, 0], 16))
     >>> run = pd.DataFrame({"t": np.arange(64) * 0.1, "r": r, "valve": valve})
     >>> level_duties(run, 1.6)
-    (0.75, 0.25)
+    {'duty_top': 0.75, 'duty_bottom': 0.25, 'duty_top_step': 0.75, 'duty_bottom_step': 0.25}
     """
+    names = ("duty_top", "duty_bottom")
     if "valve" not in run:
-        return math.nan, math.nan
+        return {
+            **dict.fromkeys(names, math.nan),
+            **dict.fromkeys((n + "_step" for n in names), math.nan),
+        }
     r = run["r"].to_numpy(np.float64)
     valve = run["valve"].to_numpy(np.float64)
     t = run["t"].to_numpy(np.float64)
@@ -99,16 +104,23 @@ def level_duties(run: pd.DataFrame, lead: float) -> tuple[float, float]:
     quarter = max(round(float(lead) / dt) // 4, 1)
     starts = np.concatenate(([0], np.flatnonzero(r[1:] != r[:-1]) + 1, [r.size]))
     start = int(np.searchsorted(t, float(lead) - 1e-9 * dt))
-    out = []
-    for level in (float(np.max(r)), float(np.min(r))):
+    out: dict[str, float] = {}
+    for name, level in zip(names, (float(np.max(r)), float(np.min(r))), strict=True):
         picked = [
             valve[max(b - quarter, a, start) : b]
             for a, b in itertools.pairwise(starts)
             if r[a] == level and b > start
         ]
         picked = [x for x in picked if x.size]
-        out.append(float(np.mean(np.concatenate(picked))) if picked else math.nan)
-    return out[0], out[1]
+        if not picked:
+            out[name], out[name + "_step"] = math.nan, math.nan
+            continue
+        on = np.concatenate(picked)
+        pulses = sum(int(np.count_nonzero(np.diff(np.r_[0.0, x]) > 0)) for x in picked)
+        out[name] = float(np.mean(on))
+        window = float(np.mean([x.size for x in picked]))
+        out[name + "_step"] = float(on.sum() / pulses / window) if pulses else 0.0
+    return {k: out[k] for k in (*names, *(n + "_step" for n in names))}
 
 
 def measure_loop_run(
@@ -133,13 +145,11 @@ def measure_loop_run(
     first = float(run["r"].iloc[0])
     _, summary = measure_staircase(run, periods, r_initial=first, skip=lead)
     settle = max(settling_times(run, periods, first, lead), default=0.0)
-    top, bottom = level_duties(run, lead)
     return {
         "overshoot": float(summary["worst_overshoot"]),
         "settling_time": float(settle),
         "ripple_pp": float(summary["worst_ripple_pp"]),
-        "duty_top": top,
-        "duty_bottom": bottom,
+        **level_duties(run, lead),
     }
 
 
@@ -192,10 +202,12 @@ def loop_predictions(
         ``settling_time`` only when at most one draw in twenty left a step unsettled, else
         ``unsettled`` (the share that did). The duties (:data:`DUTIES`) are predicted on the
         identified valve itself, ``draws // 3`` runs each with its own noise (``draws`` says
-        so): the parameters' uncertainty moves them by what the dataset's recorded levels
-        measure directly (:func:`spa.plan.loop_error.duty_error`, added by
-        :func:`with_model_error`), and the box's draws would count it twice (on an unseen
-        physical plant their spread was 0.047 of duty against a recorded error of 0.004).
+        so), their band wider at each end by ``pad``, the share of the window one pulse holds
+        (where the window cuts the pulses moves a duty by up to that). The parameters'
+        uncertainty moves them by what the dataset's recorded levels measure directly
+        (:func:`spa.plan.loop_error.duty_error`, added by :func:`with_model_error`), and the
+        box's draws would count it twice (on an unseen physical plant their spread was
+        0.047 of duty against a recorded error of 0.004).
 
     Examples
     --------
@@ -258,8 +270,12 @@ def loop_predictions(
         widen = float(stats.t.ppf(0.975, n - 1)) * math.sqrt(1.0 + 1.0 / n)
         mean, sd = float(np.mean(values)), float(np.std(values, ddof=1))
         # a logged peak-to-peak is a whole number of ADC steps: the band of a discrete
-        # measure takes half a step at each end (the continuity correction)
+        # measure takes half a step at each end (the continuity correction); a duty over a
+        # window moves by up to one pulse's share with where the window cuts the pulses
         pad = 0.5 * float(quantum) if key == "ripple_pp" else 0.0
+        if key in DUTIES:
+            step = nominal[key + "_step"].to_numpy(np.float64)
+            pad = float(np.mean(step[np.isfinite(step)])) if np.isfinite(step).any() else 0.0
         out[key] = {
             "value": mean,
             "sd": sd,
