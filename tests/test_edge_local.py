@@ -91,3 +91,46 @@ def test_the_refinement_holds_the_edges_delays_with_their_variance() -> None:
     assert fit.informed["t_on"] == ("train",)
     free = refine(prepared, TRUTH, delay="transport")
     assert free.params.t_on != 0.0085  # without the prior the delays move
+
+
+def _edges_of_runs(centres, per_run=(10,), own_se=2e-4, seed=0):
+    """An :class:`EdgeDelays` of rising and falling edges, ``per_run`` a run (the last
+    count for the runs past the list), each edge's
+    squared residual a parabola in the delay about its own delay (its run's centre plus
+    ``own_se`` of scatter) with that standard error."""
+    rng = np.random.default_rng(seed)
+    dt, grid = 1e-3, np.arange(0.0, 0.03 + 1e-12, 2.5e-4)
+    rows, profiles = [], []
+    for r, centre in enumerate(centres):
+        for direction in ("on", "off"):
+            for k in range(per_run[min(r, len(per_run) - 1)]):
+                own = centre + rng.normal(0.0, own_se)
+                samples = 40.0
+                rows.append(
+                    {"run": f"r{r}", "t": 0.1 * k, "direction": direction, "p_edge": 0.3,
+                     "noise": 1.0, "samples": samples, "censored": False,
+                     "delay_hold": own, "sse_hold": samples,
+                     "delay_transport": own, "sse_transport": samples}
+                )  # fmt: skip
+                profiles.append(samples + ((grid - own) / own_se) ** 2)
+    table = pd.DataFrame(rows)
+    stack = np.asarray(profiles)
+    return EdgeDelays(table, dt, grid, {"hold": stack, "transport": stack})
+
+
+def test_runs_whose_delays_spread_beyond_their_errors_widen_and_centre_the_interval():
+    """One delay stands for runs whose effective delays differ (a bounce or a lag that
+    moves with the pulses): its interval holds their spread, and its centre is the runs'
+    random-effects mean; runs that agree keep the pooled fit's interval."""
+    same = _edges_of_runs([5e-3] * 6).prior("transport")
+    value, se = same["t_on"]
+    assert value == pytest.approx(5e-3, abs=2e-4)
+    assert se < 2e-4  # the edges' pooled error, about 2e-4/sqrt(60) over the runs' spread
+    centres = [8e-3, 4e-3, 4.5e-3, 5e-3, 5.5e-3, 6e-3]
+    # the first run has 60 edges a direction, the others 8: the edges' pooled minimum leans
+    # to the first run's setting
+    spread = _edges_of_runs(centres, per_run=(60, 8)).prior("transport")
+    value, se = spread["t_on"]
+    assert value == pytest.approx(np.mean(centres), abs=1e-4)  # every run weighs alike
+    # the 95 % interval holds a run of another setting: about t(5) sd sqrt(1 + 1/6) wide
+    assert 1.96 * se > 2.0 * np.std(centres, ddof=1)
