@@ -38,7 +38,6 @@ setting, on the log-odds scale (:func:`spa.plan.loop_error.duty_error`).
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -47,6 +46,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from spa.closedloop.metrics import steps
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -102,13 +102,12 @@ def level_duties(run: pd.DataFrame, lead: float) -> dict[str, float]:
     t = run["t"].to_numpy(np.float64)
     dt = float(t[1] - t[0]) if t.size > 1 else 1.0
     quarter = max(round(float(lead) / dt) // 4, 1)
-    starts = np.concatenate(([0], np.flatnonzero(r[1:] != r[:-1]) + 1, [r.size]))
     start = int(np.searchsorted(t, float(lead) - 1e-9 * dt))
     out: dict[str, float] = {}
     for name, level in zip(names, (float(np.max(r)), float(np.min(r))), strict=True):
         picked = [
             valve[max(b - quarter, a, start) : b]
-            for a, b in itertools.pairwise(starts)
+            for a, b in steps(r)
             if r[a] == level and b > start
         ]
         picked = [x for x in picked if x.size]

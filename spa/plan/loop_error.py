@@ -12,7 +12,6 @@ valve command, level by level, as a log ratio (the ripple's peak-to-peak,
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from spa.closedloop.metrics import steps
 from spa.model.params import ValveParams
 
 __all__ = [
@@ -142,8 +142,7 @@ def ripple_error(
     logs: list[float] = []
     used: list[str] = []
     for rid, _, (p, valve, u, _, model) in _setting_staircases(runs, metas, params, setting):
-        starts = np.concatenate(([0], np.flatnonzero(u[1:] != u[:-1]) + 1, [u.size]))
-        for a, b in itertools.pairwise(starts):
+        for a, b in steps(u):
             q = slice(b - (b - a) // 4, b)
             if b - a < 16 or np.all(valve[q] == valve[q][0]):
                 continue  # no switching over the last quarter: no ripple to compare
@@ -244,15 +243,15 @@ def settling_error(
             model = model + rng.normal(0.0, noise, model.size)
         if quantum > 0:
             model = np.round(model / quantum) * quantum
-        starts = np.concatenate(([0], np.flatnonzero(u[1:] != u[:-1]) + 1, [u.size]))
-        means = [float(np.mean(p[b - (b - a) // 4 : b])) for a, b in itertools.pairwise(starts)]
+        levels = steps(u)
+        means = [float(np.mean(p[b - (b - a) // 4 : b])) for a, b in levels]
         span = max(np.ptp(means), 1e-12) if len(means) > 1 else 1e-12
         kind, settings = (
             get_kind(modulator.kind),
             settings_arrays(modulator.kind, dict(modulator.settings)),
         )
-        for k in range(1, starts.size - 1):
-            a0, a, b = int(starts[k - 1]), int(starts[k]), int(starts[k + 1])
+        for k in range(1, len(levels)):
+            (a0, _), (a, b) = levels[k - 1], levels[k]
             if b - a < 16 or a - a0 < 16 or abs(means[k] - means[k - 1]) < min_step * span:
                 continue
             period = float(np.asarray(kind.cycle(np.float64(u[a]), settings, params)))
@@ -299,9 +298,8 @@ def _level_means(
     its last quarter: the duty, the recorded and the replayed pressure's means, how much each
     moved from the quarter's first half to its second, and the valve's rising edges per
     second; rows of six."""
-    starts = np.concatenate(([0], np.flatnonzero(u[1:] != u[:-1]) + 1, [u.size]))
     rows = []
-    for a, b in itertools.pairwise(starts):
+    for a, b in steps(u):
         if b - a < 16:
             continue
         q = b - (b - a) // 4
