@@ -111,11 +111,11 @@ def test_level_duties_skip_the_lead_and_read_nan_without_a_valve_column():
 
 
 def test_a_duty_is_not_predicted_without_its_model_error(tmp_path: Path):
-    from spa.plan.verify_command import _ripple_model_error
+    from spa.plan.verify_command import _loop_model_error
 
     band = {"value": 0.4, "sd": 0.01, "dof": 47.0, "scale": 1.0, "lo": 0.38, "hi": 0.42}
     loop = {"setting": SETTING, "bands": {"duty_top": dict(band), "duty_bottom": dict(band)}}
-    _ripple_model_error(loop, tmp_path, TRUTH, 0.003, 0.0, 0)  # no runs recorded
+    _loop_model_error(loop, tmp_path, TRUTH, 0.003, 0.0, 0)  # no runs recorded
     assert loop["bands"] == {}
     assert set(loop["unpredicted"]) == {"duty_top", "duty_bottom"}
     assert "not measured" in loop["unpredicted"]["duty_top"]["why"]

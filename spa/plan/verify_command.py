@@ -96,7 +96,7 @@ def verify_plan(args: argparse.Namespace, limits: Any, out: TextIO) -> int:
         verify["promise"] = _loop_verification(
             closed, promise, header or "", valve.params, design.dt, noise, quantum, box, joint
         )
-        _ripple_model_error(verify["promise"], results, valve.params, noise, quantum, args.seed)
+        _loop_model_error(verify["promise"], results, valve.params, noise, quantum, args.seed)
     promise_bands = (verify.get("promise") or {}).get("bands") or {}
     count += len(closed) * sum("sd" in b for b in promise_bands.values())
     verify["session"] = {
@@ -430,7 +430,7 @@ def _loop_verification(
     return out
 
 
-def _ripple_model_error(
+def _loop_model_error(
     loop: dict[str, Any], results: Path, params: Any, noise: float, quantum: float, seed: int
 ) -> None:
     """The promise's ripple, settling-time and duty bands with the model's error on the
