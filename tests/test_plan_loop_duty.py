@@ -11,12 +11,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.special import logit
 
 from spa.closedloop.controller import PIController
 from spa.model.params import ValveParams
 from spa.model.plant import simulate
 from spa.plan.loop_bands import level_duties, loop_predictions, with_model_error
-from spa.plan.loop_error import duty_error, logit
+from spa.plan.loop_error import duty_error
 
 TRUTH = ValveParams()
 DT = 0.002

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from scipy import stats
+from scipy.special import expit, logit
 
 from spa.closedloop.metrics import steps
 from spa.model.params import ValveParams
@@ -91,12 +92,9 @@ def level_duties(run: pd.DataFrame, lead: float) -> dict[str, float]:
     >>> level_duties(run, 1.6)
     {'duty_top': 0.75, 'duty_bottom': 0.25, 'duty_top_step': 0.75, 'duty_bottom_step': 0.25}
     """
-    names = ("duty_top", "duty_bottom")
+    keys = (*DUTIES, *(n + "_step" for n in DUTIES))
     if "valve" not in run:
-        return {
-            **dict.fromkeys(names, math.nan),
-            **dict.fromkeys((n + "_step" for n in names), math.nan),
-        }
+        return dict.fromkeys(keys, math.nan)
     r = run["r"].to_numpy(np.float64)
     valve = run["valve"].to_numpy(np.float64)
     t = run["t"].to_numpy(np.float64)
@@ -104,7 +102,7 @@ def level_duties(run: pd.DataFrame, lead: float) -> dict[str, float]:
     quarter = max(round(float(lead) / dt) // 4, 1)
     start = int(np.searchsorted(t, float(lead) - 1e-9 * dt))
     out: dict[str, float] = {}
-    for name, level in zip(names, (float(np.max(r)), float(np.min(r))), strict=True):
+    for name, level in zip(DUTIES, (float(np.max(r)), float(np.min(r))), strict=True):
         picked = [
             valve[max(b - quarter, a, start) : b]
             for a, b in steps(r)
@@ -119,7 +117,7 @@ def level_duties(run: pd.DataFrame, lead: float) -> dict[str, float]:
         out[name] = float(np.mean(on))
         window = float(np.mean([x.size for x in picked]))
         out[name + "_step"] = float(on.sum() / pulses / window) if pulses else 0.0
-    return {k: out[k] for k in (*names, *(n + "_step" for n in names))}
+    return {k: out[k] for k in keys}
 
 
 def measure_loop_run(
@@ -329,7 +327,7 @@ def with_model_error(band: Mapping[str, Any], error: Mapping[str, Any]) -> dict[
     draws = float(band["sd"]) * float(band.get("scale", 1.0))
     if odds:
         v = min(max(v, 1e-6), 1.0 - 1e-6)
-        value = 1.0 / (1.0 + math.exp(-(math.log(v / (1.0 - v)) + float(error["shift"]))))
+        value = float(expit(logit(v) + float(error["shift"])))
         slope = value * (1.0 - value)  # d value / d log-odds
         draws *= slope / (v * (1.0 - v))
         spread, noted = float(error["logit_sd"]), {"shift": float(error["shift"])}

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy.special import expit, logit
 
 from spa.closedloop.metrics import steps
 from spa.model.params import ValveParams
@@ -29,7 +30,6 @@ __all__ = [
     "SETTLED",
     "duty_error",
     "hold_odds",
-    "logit",
     "ripple_error",
     "settling_error",
 ]
@@ -269,17 +269,6 @@ def settling_error(
 DUTY_RANGE = (0.02, 0.98)
 
 
-def logit(x: Any) -> Any:
-    """The log-odds ``log(x / (1 - x))``.
-
-    Examples
-    --------
-    >>> logit(0.5), round(float(logit(0.75)), 4)
-    (0.0, 1.0986)
-    """
-    return np.log(x) - np.log1p(-np.asarray(x)) if np.ndim(x) else math.log(x / (1.0 - x))
-
-
 #: A level is compared only when it has settled: its mean over the second half of its last
 #: quarter within this share of ``k2`` of its mean over the first half, recorded and replayed.
 SETTLED = 0.01
@@ -422,7 +411,7 @@ def duty_error(
         # the open share the identified valve needs for the recorded pressure, then its duty
         a = alpha[keep]
         need = logit(a) + hold_odds(p_bench[keep], params) - hold_odds(p_model[keep], params)
-        d_need = 1.0 / (1.0 + np.exp(-need)) - rises[keep] * lag
+        d_need = expit(need) - rises[keep] * lag
         with np.errstate(invalid="ignore", divide="ignore"):
             err = logit(duty[keep]) - logit(np.clip(d_need, 1e-9, 1.0 - 1e-9))
         logs.extend(float(e) for e in err if math.isfinite(e))

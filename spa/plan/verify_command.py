@@ -442,13 +442,19 @@ def _loop_model_error(
     its levels hide. Nothing else changes without those bands or run tables."""
     from spa.model.modulators import Modulator
     from spa.plan.loop_bands import DUTIES, with_model_error
-    from spa.plan.loop_error import DUTY_RANGE, duty_error, ripple_error, settling_error
+    from spa.plan.loop_error import (
+        DUTY_RANGE,
+        RIPPLE_MIN_LEVELS,
+        duty_error,
+        ripple_error,
+        settling_error,
+    )
 
     bands = loop.get("bands") or {}
     folder = results / "runs"
     measures = {"ripple_pp": ripple_error, "settling_time": settling_error}
     measures.update({name: duty_error for name in DUTIES})
-    errors: dict[str, Any] = {}
+    errors: dict[Any, dict[str, Any]] = {}  # measure -> its error, once for both duties
     if set(measures) & set(bands) and folder.is_dir() and any(folder.glob("*.parquet")):
         from spa.datasets import read_runs
 
@@ -465,7 +471,10 @@ def _loop_model_error(
         if band is None:
             continue
         if not (band.get("model_error") or {}).get("applied"):
-            why = "the model's error on the command was not measured on 3 recorded levels"
+            why = (
+                "the model's error on the command was not measured on "
+                f"{RIPPLE_MIN_LEVELS} recorded levels"
+            )
         elif not lo < float(band["value"]) < hi:
             why = f"the level is held with the valve's command outside {lo:g}-{hi:g}"
         else:
